@@ -1,0 +1,387 @@
+"""Typed scenario files: the cell, the controller configuration and the operators.
+
+Loaded strictly with ``pydrake.common.yaml.yaml_load_typed`` (unknown keys and wrong
+types are errors) and then range-checked by :func:`validate_scenario`; every problem
+is raised as :class:`ScenarioError` naming the field, the value and what is allowed.
+This module must not use ``from __future__ import annotations`` (it breaks the loader).
+"""
+
+import dataclasses as dc
+import math
+import typing
+from pathlib import Path
+
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+
+from safety_systems.ssm import HUMAN_SPEED_MODES
+
+
+class ScenarioError(ValueError):
+    """A bad value in a scenario or configuration file (one line: field, value, allowed)."""
+
+    def __init__(self, field: str, value: typing.Any, allowed: str):
+        self.field, self.value, self.allowed = field, value, allowed
+        super().__init__(f"{field}: got {value!r}; allowed: {allowed}")
+
+
+@dc.dataclass
+class Interval:
+    """A time interval [start, end) in seconds."""
+
+    start: float = 0.0
+    end: float = 0.0
+
+
+@dc.dataclass
+class Occlusion:
+    """The named body is invisible to the sensor over [start, end)."""
+
+    body: str = ""
+    start: float = 0.0
+    end: float = 0.0
+
+
+@dc.dataclass
+class SensorConfig:
+    """Motion-capture sensor (seed Section 4: OptiTrack streamed at 20 Hz, 0.2 mm)."""
+
+    rate_hz: float = 20.0
+    noise_std: float = 0.0002
+    latency: float = 0.0
+    occlusions: list[Occlusion] = dc.field(default_factory=list)
+    dropouts: list[Interval] = dc.field(default_factory=list)
+    seed: int = 0
+
+
+@dc.dataclass
+class TrackerConfig:
+    """Kalman tracker (seed Eqs. 2-4). ``measurement_std`` None: the sensor's noise."""
+
+    measurement_std: typing.Optional[float] = None
+    velocity_process_noise: float = 4.0
+    initial_velocity_std: float = 2.0
+    max_coast_time: float = 0.5
+    exit_radius: float = 2.5
+    frame_timeout: typing.Optional[float] = None
+
+
+@dc.dataclass
+class SafetyConfig:
+    """Separation monitor and speed override (seed Eqs. 9-12).
+
+    ``stopping_time`` and ``stopping_distance`` None: taken from the braking table at
+    full speed. ``human_uncertainty_sigmas`` > 0 adds that many standard deviations of
+    each track's position estimate to Z_d (0 = the seed's constant Z_d).
+    """
+
+    human_speed: str = "estimated"
+    iso_human_speed: float = 2.0
+    iso_reduced_human_speed: float = 1.6
+    reaction_time: float = 0.1
+    stopping_time: typing.Optional[float] = None
+    stopping_distance: typing.Optional[float] = None
+    intrusion_distance: float = 0.0
+    human_uncertainty: float = 0.0
+    robot_uncertainty: float = 0.0
+    human_uncertainty_sigmas: float = 0.0
+    delta_s: float = 2.0
+    d_min: float = 0.30
+
+
+@dc.dataclass
+class BrakingConfig:
+    """Stopping data by speed fraction; empty lists: the defaults for the category.
+
+    Integrators must enter the stopping data measured on their own cell.
+    """
+
+    stop_category: int = 1
+    speed_fraction: list[float] = dc.field(default_factory=list)
+    stopping_time: list[float] = dc.field(default_factory=list)
+    stopping_distance: list[float] = dc.field(default_factory=list)
+
+
+@dc.dataclass
+class PathConfig:
+    """Cyclic joint-space path; empty lists: the default pick-and-place cycle."""
+
+    waypoints_deg: list[list[float]] = dc.field(default_factory=list)
+    segment_durations: list[float] = dc.field(default_factory=list)
+
+
+@dc.dataclass
+class RobotConfig:
+    """The UR5e station. ``mode``: ``kinematic`` (fast) or ``dynamic`` (plant + PD)."""
+
+    mode: str = "kinematic"
+    control_rate_hz: float = 500.0
+    cycles: int = 3
+    acceleration_limit: float = 2.0
+    path: PathConfig = dc.field(default_factory=PathConfig)
+
+
+@dc.dataclass
+class ControllerConfig:
+    """Everything the safety controller is configured with (a CONFIG file)."""
+
+    sensor: SensorConfig = dc.field(default_factory=SensorConfig)
+    tracker: TrackerConfig = dc.field(default_factory=TrackerConfig)
+    safety: SafetyConfig = dc.field(default_factory=SafetyConfig)
+    braking: BrakingConfig = dc.field(default_factory=BrakingConfig)
+
+
+@dc.dataclass
+class Body:
+    """A tracked rigid body (glove, head) at a fixed offset from its operator."""
+
+    name: str = ""
+    offset: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dc.dataclass
+class Waypoint:
+    """At ``time`` the operator sets off for ``position`` as fast as its limits allow."""
+
+    time: float = 0.0
+    position: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dc.dataclass
+class OperatorConfig:
+    """A scripted operator: bodies, timed waypoints, limits and presence window."""
+
+    name: str = ""
+    max_speed: float = 1.8
+    max_acceleration: float = 2.0
+    enter_time: float = 0.0
+    leave_time: float = math.inf
+    bodies: list[Body] = dc.field(default_factory=list)
+    waypoints: list[Waypoint] = dc.field(default_factory=list)
+
+
+@dc.dataclass
+class Scenario:
+    """One simulation: duration, robot, controller configuration and operators."""
+
+    name: str = ""
+    duration: float = 30.0
+    contact_distance: float = 0.10
+    robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
+    operators: list[OperatorConfig] = dc.field(default_factory=list)
+
+
+MAX_OPERATORS = 5
+MAX_BODIES_PER_OPERATOR = 3
+ISO_MAX_HUMAN_SPEED = 2.0  # ISO 13855 hand speed, m/s
+
+
+def _check(ok: bool, field: str, value: typing.Any, allowed: str) -> None:
+    if not ok:
+        raise ScenarioError(field, value, allowed)
+
+
+def _finite_nonneg(field: str, value: float) -> None:
+    _check(math.isfinite(value) and value >= 0.0, field, value, "a finite number >= 0")
+
+
+def _positive(field: str, value: float) -> None:
+    _check(math.isfinite(value) and value > 0.0, field, value, "a finite number > 0")
+
+
+def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None:
+    """Range checks of a controller configuration; raises :class:`ScenarioError`."""
+    s = c.sensor
+    _check(20.0 <= s.rate_hz <= 1000.0, f"{prefix}.sensor.rate_hz", s.rate_hz, "20 to 1000")
+    _finite_nonneg(f"{prefix}.sensor.noise_std", s.noise_std)
+    _finite_nonneg(f"{prefix}.sensor.latency", s.latency)
+    _check(s.latency <= 1.0, f"{prefix}.sensor.latency", s.latency, "0 to 1.0 s")
+    _check(s.seed >= 0, f"{prefix}.sensor.seed", s.seed, "an integer >= 0")
+    for i, d in enumerate(s.dropouts):
+        _check(0.0 <= d.start < d.end, f"{prefix}.sensor.dropouts[{i}]", [d.start, d.end],
+               "0 <= start < end")
+    for i, o in enumerate(s.occlusions):
+        _check(0.0 <= o.start < o.end, f"{prefix}.sensor.occlusions[{i}]", [o.start, o.end],
+               "0 <= start < end")
+    t = c.tracker
+    if t.measurement_std is not None:
+        _positive(f"{prefix}.tracker.measurement_std", t.measurement_std)
+    _positive(f"{prefix}.tracker.velocity_process_noise", t.velocity_process_noise)
+    _positive(f"{prefix}.tracker.initial_velocity_std", t.initial_velocity_std)
+    _positive(f"{prefix}.tracker.max_coast_time", t.max_coast_time)
+    _positive(f"{prefix}.tracker.exit_radius", t.exit_radius)
+    if t.frame_timeout is not None:
+        _positive(f"{prefix}.tracker.frame_timeout", t.frame_timeout)
+    f = c.safety
+    _check(f.human_speed in HUMAN_SPEED_MODES, f"{prefix}.safety.human_speed", f.human_speed,
+           " | ".join(HUMAN_SPEED_MODES))
+    for name in ("iso_human_speed", "iso_reduced_human_speed"):
+        _positive(f"{prefix}.safety.{name}", getattr(f, name))
+    for name in ("reaction_time", "intrusion_distance", "human_uncertainty",
+                 "robot_uncertainty", "human_uncertainty_sigmas", "d_min"):
+        _finite_nonneg(f"{prefix}.safety.{name}", getattr(f, name))
+    for name in ("stopping_time", "stopping_distance"):
+        if getattr(f, name) is not None:
+            _finite_nonneg(f"{prefix}.safety.{name}", getattr(f, name))
+    _check(math.isfinite(f.delta_s) and f.delta_s >= 1.0, f"{prefix}.safety.delta_s",
+           f.delta_s, "a finite number >= 1")
+    b = c.braking
+    _check(b.stop_category in (0, 1), f"{prefix}.braking.stop_category", b.stop_category,
+           "0 or 1")
+    n = len(b.speed_fraction)
+    for name in ("stopping_time", "stopping_distance"):
+        _check(len(getattr(b, name)) == n, f"{prefix}.braking.{name}", getattr(b, name),
+               f"a list as long as speed_fraction ({n} values)")
+
+
+def validate_scenario(s: Scenario) -> None:
+    """Range checks of a whole scenario; raises :class:`ScenarioError`."""
+    _positive("duration", s.duration)
+    _finite_nonneg("contact_distance", s.contact_distance)
+    r = s.robot
+    _check(r.mode in ("kinematic", "dynamic"), "robot.mode", r.mode, "kinematic | dynamic")
+    _check(100.0 <= r.control_rate_hz <= 2000.0, "robot.control_rate_hz", r.control_rate_hz,
+           "100 to 2000")
+    _check(r.cycles >= 1, "robot.cycles", r.cycles, "an integer >= 1")
+    _positive("robot.acceleration_limit", r.acceleration_limit)
+    p = r.path
+    if p.waypoints_deg or p.segment_durations:
+        _check(len(p.waypoints_deg) >= 2, "robot.path.waypoints_deg", p.waypoints_deg,
+               "at least 2 waypoints of 6 joint angles")
+        for i, w in enumerate(p.waypoints_deg):
+            _check(len(w) == 6, f"robot.path.waypoints_deg[{i}]", w, "6 joint angles in deg")
+        _check(len(p.segment_durations) == len(p.waypoints_deg),
+               "robot.path.segment_durations", p.segment_durations,
+               f"{len(p.waypoints_deg)} durations (one per segment, the last closes the cycle)")
+        for i, d in enumerate(p.segment_durations):
+            _positive(f"robot.path.segment_durations[{i}]", d)
+    validate_controller(s.controller)
+    _check(len(s.operators) <= MAX_OPERATORS, "operators", len(s.operators),
+           f"at most {MAX_OPERATORS} operators")
+    names = set()
+    for i, o in enumerate(s.operators):
+        f = f"operators[{i}]"
+        _check(bool(o.name) and o.name not in names, f"{f}.name", o.name, "a unique non-empty name")
+        names.add(o.name)
+        _check(0.0 < o.max_speed <= ISO_MAX_HUMAN_SPEED, f"{f}.max_speed", o.max_speed,
+               f"0 < max_speed <= {ISO_MAX_HUMAN_SPEED} m/s")
+        _positive(f"{f}.max_acceleration", o.max_acceleration)
+        _finite_nonneg(f"{f}.enter_time", o.enter_time)
+        _check(o.leave_time > o.enter_time, f"{f}.leave_time", o.leave_time,
+               f"later than enter_time ({o.enter_time})")
+        _check(2 <= len(o.bodies) <= MAX_BODIES_PER_OPERATOR, f"{f}.bodies", len(o.bodies),
+               f"2 to {MAX_BODIES_PER_OPERATOR} bodies (both gloves, optionally the head)")
+        for j, b in enumerate(o.bodies):
+            _check(len(b.offset) == 3, f"{f}.bodies[{j}].offset", b.offset, "3 numbers in m")
+        _check(len(o.waypoints) >= 1, f"{f}.waypoints", o.waypoints, "at least one waypoint")
+        last = -math.inf
+        for j, w in enumerate(o.waypoints):
+            _check(len(w.position) == 3, f"{f}.waypoints[{j}].position", w.position,
+                   "3 numbers in m")
+            _check(math.isfinite(w.time) and w.time > last, f"{f}.waypoints[{j}].time", w.time,
+                   f"finite and later than the previous waypoint's ({last})")
+            last = w.time
+    bodies = [f"{o.name}/{b.name}" for o in s.operators for b in o.bodies]
+    _check(len(set(bodies)) == len(bodies), "operators[].bodies[].name", bodies,
+           "unique body names within each operator")
+    for i, oc in enumerate(s.controller.sensor.occlusions):
+        _check(oc.body in bodies, f"controller.sensor.occlusions[{i}].body", oc.body,
+               f"one of {bodies}")
+
+
+def body_names(s: Scenario) -> list[str]:
+    """The registered body slots, operator by operator: ``operator/body``."""
+    return [f"{o.name}/{b.name}" for o in s.operators for b in o.bodies]
+
+
+def _load_typed(schema: type, text: str, source: str) -> typing.Any:
+    try:
+        return yaml_load_typed(schema=schema, data=text)
+    except (RuntimeError, ValueError, TypeError) as e:
+        raise ScenarioError(*_describe_load_error(schema, text, e, source)) from None
+
+
+def _describe_load_error(schema, text, error, source):
+    """Find the field behind a loader error (its messages do not always name one)."""
+    from pydrake.common.yaml import yaml_load
+
+    message = str(error).splitlines()[0]
+    try:
+        raw = yaml_load(data=text)
+    except Exception:  # noqa: BLE001 - report the parser's own message
+        return source, "<unparsable YAML>", message
+    found = _walk(schema, raw, "")
+    if found is not None:
+        return found
+    return source, "<file>", message
+
+
+def _walk(schema, raw, path):
+    """Return (field, value, allowed) for the first value that does not fit the schema."""
+    if dc.is_dataclass(schema):
+        if not isinstance(raw, dict):
+            return path or "<root>", raw, f"a mapping of {schema.__name__} fields"
+        fields = {f.name: f for f in dc.fields(schema)}
+        hints = typing.get_type_hints(schema)
+        for key, value in raw.items():
+            name = f"{path}.{key}" if path else key
+            if key not in fields:
+                return name, value, f"one of the fields {sorted(fields)}"
+            found = _walk(hints[key], value, name)
+            if found is not None:
+                return found
+        return None
+    origin = typing.get_origin(schema)
+    if origin is typing.Union:
+        if raw is None:
+            return None
+        return _walk([a for a in typing.get_args(schema) if a is not type(None)][0], raw, path)
+    if origin is list:
+        if not isinstance(raw, list):
+            return path, raw, "a list"
+        for i, item in enumerate(raw):
+            found = _walk(typing.get_args(schema)[0], item, f"{path}[{i}]")
+            if found is not None:
+                return found
+        return None
+    if schema is float and not (isinstance(raw, (int, float)) and not isinstance(raw, bool)):
+        return path, raw, "a number"
+    if schema is int and not (isinstance(raw, int) and not isinstance(raw, bool)):
+        return path, raw, "an integer"
+    if schema is str and not isinstance(raw, str):
+        return path, raw, "a string"
+    return None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Load and validate a scenario file; raises :class:`ScenarioError`."""
+    text = _read(path)
+    scenario = _load_typed(Scenario, text, str(path))
+    validate_scenario(scenario)
+    return scenario
+
+
+def load_controller_config(path: str | Path) -> ControllerConfig:
+    """Load and validate a controller configuration file."""
+    config = _load_typed(ControllerConfig, _read(path), str(path))
+    validate_controller(config, prefix="config")
+    return config
+
+
+def scenario_from_text(text: str) -> Scenario:
+    """Load and validate a scenario from YAML text."""
+    scenario = _load_typed(Scenario, text, "<text>")
+    validate_scenario(scenario)
+    return scenario
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """YAML text that :func:`scenario_from_text` loads back to an equal scenario."""
+    return yaml_dump_typed(scenario)
+
+
+def _read(path: str | Path) -> str:
+    try:
+        return Path(path).read_text()
+    except OSError as e:
+        raise ScenarioError("path", str(path), f"a readable file ({e.strerror})") from None

@@ -1,0 +1,210 @@
+"""Speed and separation monitoring maths: distances, directed speeds, S and k.
+
+Plain vectorised functions shared by the Drake systems and the batched verifier.
+Shapes: robot quantities are ``(..., 3)``, body quantities ``(..., N, 3)``;
+leading axes broadcast (a batch of scenarios, a time axis, or nothing).
+
+Seed: Lettera, Costa, Callegari, "A Hybrid Architecture for Safe Human-Robot
+Industrial Tasks", Appl. Sci. 2025 (``shared/seeds/000_*``), Eqs. 1 and 6-12.
+"""
+
+import numpy as np
+
+HUMAN_SPEED_MODES = ("estimated", "iso", "estimated_with_floor")
+
+# ISO/TS 15066 Eq. 1 (seed Section 2) after ISO 13855: 2000 mm/s, or 1600 mm/s where
+# the resulting S exceeds 500 mm (and then S is not taken below 500 mm).
+ISO_HUMAN_SPEED = 2.0
+ISO_REDUCED_HUMAN_SPEED = 1.6
+ISO_REDUCED_SPEED_THRESHOLD = 0.5
+
+
+def separation_distances(p_robot: np.ndarray, p_bodies: np.ndarray) -> np.ndarray:
+    """Euclidean distance from the robot point to every body, seed Eq. 8.
+
+    Returns shape ``(..., N)``.
+    """
+    p_robot = np.asarray(p_robot, dtype=float)
+    diff = np.asarray(p_bodies, dtype=float) - p_robot[..., None, :]
+    return np.sqrt(np.einsum("...i,...i->...", diff, diff))
+
+
+def directed_speeds(
+    p_robot: np.ndarray,
+    v_robot: np.ndarray,
+    p_bodies: np.ndarray,
+    v_bodies: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Speeds of each body towards the robot and of the robot towards each body.
+
+    Seed Eq. 6: v^d_RB_i = v_RB_i . (p_R - p_RB_i)/||p_R - p_RB_i||, and Eq. 7:
+    v^d_R = v_R . (p_RB_i - p_R)/||p_RB_i - p_R||. Positive means closing in.
+
+    Interpretation: where a body coincides with the robot point the direction is
+    undefined; there both speeds are taken as their full magnitudes (the worst case).
+
+    Returns ``(v_human_directed, v_robot_directed)``, each shape ``(..., N)``.
+    """
+    p_robot = np.asarray(p_robot, dtype=float)
+    v_robot = np.asarray(v_robot, dtype=float)
+    diff = p_robot[..., None, :] - np.asarray(p_bodies, dtype=float)  # body -> robot
+    dist = np.sqrt(np.einsum("...i,...i->...", diff, diff))
+    v_bodies = np.asarray(v_bodies, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = diff / dist[..., None]
+        v_h = np.einsum("...i,...i->...", v_bodies, unit)
+        v_r = -np.einsum("...i,...i->...", v_robot[..., None, :], unit)
+    coincident = dist <= 1e-12
+    if np.any(coincident):
+        v_h = np.where(coincident, np.linalg.norm(v_bodies, axis=-1), v_h)
+        v_r = np.where(coincident, np.linalg.norm(v_robot, axis=-1)[..., None], v_r)
+    return v_h, v_r
+
+
+def protective_separation_distance(
+    v_human: np.ndarray,
+    v_robot: np.ndarray,
+    *,
+    reaction_time: float,
+    stopping_time: float,
+    stopping_distance: float,
+    intrusion_distance: float = 0.0,
+    human_uncertainty: np.ndarray | float = 0.0,
+    robot_uncertainty: float = 0.0,
+) -> np.ndarray:
+    """Protective separation distance S_i, seed Eqs. 9-11 (ISO/TS 15066 Eq. 1).
+
+    S_i = v_H (T_s + T_r) + v_R T_r + B + C + Z_d + Z_r, where v_H is the human speed
+    term chosen by :func:`human_speed_term` (Eq. 10) and v_R the robot's speed towards
+    the body (Eq. 11). B is the stopping distance ``S_S`` (constant in the seed).
+    """
+    v_human = np.asarray(v_human, dtype=float)
+    return (
+        v_human * (stopping_time + reaction_time)
+        + np.asarray(v_robot, dtype=float) * reaction_time
+        + stopping_distance
+        + intrusion_distance
+        + human_uncertainty
+        + robot_uncertainty
+    )
+
+
+def human_speed_term(
+    v_human_directed: np.ndarray,
+    mode: str,
+    *,
+    iso_speed: float = ISO_HUMAN_SPEED,
+) -> np.ndarray:
+    """The human speed entering S, by ``mode``.
+
+    - ``estimated``: the Kalman filter's directed speed, as the seed does (Eq. 10);
+      negative when the body moves away, which lowers S.
+    - ``iso``: the constant ``iso_speed`` of ISO/TS 15066 Eq. 1 (2.0 m/s); the 1.6 m/s
+      reduction is applied by :func:`iso_protective_separation_distance`.
+    - ``estimated_with_floor``: the larger of the two.
+    """
+    v = np.asarray(v_human_directed, dtype=float)
+    if mode == "estimated":
+        return v
+    if mode == "iso":
+        return np.full_like(v, iso_speed)
+    if mode == "estimated_with_floor":
+        return np.maximum(v, iso_speed)
+    raise ValueError(f"human_speed mode {mode!r} is not one of {HUMAN_SPEED_MODES}")
+
+
+def monitor_protective_distances(
+    v_human_directed: np.ndarray,
+    v_robot_directed: np.ndarray,
+    *,
+    mode: str,
+    reaction_time: float,
+    stopping_time: float,
+    stopping_distance: float,
+    intrusion_distance: float = 0.0,
+    human_uncertainty: np.ndarray | float = 0.0,
+    robot_uncertainty: float = 0.0,
+    iso_speed: float = ISO_HUMAN_SPEED,
+    iso_reduced_speed: float = ISO_REDUCED_HUMAN_SPEED,
+) -> np.ndarray:
+    """S_i for every body under a human-speed ``mode`` (see :func:`human_speed_term`).
+
+    In ``iso`` mode, ISO 13855's rule is applied: if S computed with 2.0 m/s exceeds
+    0.5 m, S is recomputed with 1.6 m/s but not taken below 0.5 m.
+    """
+    kwargs = dict(
+        reaction_time=reaction_time,
+        stopping_time=stopping_time,
+        stopping_distance=stopping_distance,
+        intrusion_distance=intrusion_distance,
+        human_uncertainty=human_uncertainty,
+        robot_uncertainty=robot_uncertainty,
+    )
+    v_h = human_speed_term(v_human_directed, mode, iso_speed=iso_speed)
+    s = protective_separation_distance(v_h, v_robot_directed, **kwargs)
+    if mode == "iso":
+        s_reduced = protective_separation_distance(
+            np.full_like(v_h, iso_reduced_speed), v_robot_directed, **kwargs
+        )
+        s = np.where(
+            s > ISO_REDUCED_SPEED_THRESHOLD,
+            np.maximum(s_reduced, ISO_REDUCED_SPEED_THRESHOLD),
+            s,
+        )
+    return s
+
+
+def speed_override(
+    distances: np.ndarray,
+    s_max: np.ndarray | float,
+    *,
+    delta_s: float = 2.0,
+    d_min: float = 0.30,
+) -> np.ndarray:
+    """Speed override k per body, seed Eq. 12; shape of ``distances``.
+
+    k = 0 if d_i < S_max or d_i < d_min; else 1 if d_i >= dS * S_max; else
+    (d_i - S_max) / (dS * S_max - S_max).
+
+    Interpretations: the zero case is tested first (Eq. 12 lists its cases in the
+    other order, but then d < d_min would not stop the robot whenever
+    d >= dS * S_max, which the text rules out); with S_max <= 0 (every body moving
+    away fast under ``estimated`` speeds) the linear band is empty and k = 1 for
+    d >= d_min. Non-finite distances give k = 0 (fail safe).
+    """
+    d = np.asarray(distances, dtype=float)
+    s = np.broadcast_to(np.asarray(s_max, dtype=float), np.broadcast_shapes(d.shape, np.shape(s_max)))
+    band = (delta_s - 1.0) * s
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        ramp = np.where(band > 0.0, (d - s) / np.where(band > 0.0, band, 1.0), 1.0)
+    k = np.clip(ramp, 0.0, 1.0)
+    k = np.where(d >= delta_s * s, 1.0, k)
+    stop = (d < s) | (d < d_min) | ~np.isfinite(d)
+    return np.where(stop, 0.0, k)
+
+
+def overall_speed_override(
+    distances: np.ndarray,
+    protective_distances: np.ndarray,
+    included: np.ndarray,
+    *,
+    delta_s: float = 2.0,
+    d_min: float = 0.30,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The robot's k from every included body: min over bodies of Eq. 12.
+
+    S_max is the largest S_i of the included bodies (Eq. 12 compares each d_i with
+    S_max, not with its own S_i). Bodies not included (no track) are ignored; with no
+    included body k = 1. An included body with a non-finite d_i or S_i gives k = 0.
+
+    Returns ``(k, s_max)`` with the body axis (last) reduced.
+    """
+    d = np.asarray(distances, dtype=float)
+    s = np.asarray(protective_distances, dtype=float)
+    inc = np.asarray(included, dtype=bool)
+    bad = inc & ~(np.isfinite(d) & np.isfinite(s))
+    s_max = np.max(np.where(inc, s, -np.inf), axis=-1, initial=-np.inf)
+    s_max = np.where(np.any(bad, axis=-1), np.inf, s_max)
+    k_i = speed_override(d, s_max[..., None], delta_s=delta_s, d_min=d_min)
+    k = np.min(np.where(inc, k_i, 1.0), axis=-1, initial=1.0)
+    return k, s_max

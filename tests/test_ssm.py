@@ -1,0 +1,152 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from safety_systems.ssm import (
+    directed_speeds,
+    human_speed_term,
+    monitor_protective_distances,
+    overall_speed_override,
+    protective_separation_distance,
+    separation_distances,
+    speed_override,
+)
+
+
+def test_separation_distance_eq8():
+    d = separation_distances(np.array([0.0, 0.0, 0.0]), np.array([[3.0, 4.0, 0.0], [0, 0, 2]]))
+    np.testing.assert_allclose(d, [5.0, 2.0])
+
+
+def test_directed_speeds_eq6_eq7():
+    # Body at +x 2 m moving towards the robot at 1.5 m/s; robot moving +x at 0.25 m/s.
+    v_h, v_r = directed_speeds(
+        np.zeros(3), np.array([0.25, 0.0, 0.0]), np.array([[2.0, 0, 0]]), np.array([[-1.5, 0, 0]])
+    )
+    np.testing.assert_allclose(v_h, [1.5])
+    np.testing.assert_allclose(v_r, [0.25])
+    # Moving away gives negative directed speeds; a perpendicular velocity gives 0.
+    v_h, v_r = directed_speeds(
+        np.zeros(3), np.array([0.0, 0.3, 0.0]), np.array([[2.0, 0, 0]]), np.array([[1.0, 0, 0]])
+    )
+    np.testing.assert_allclose(v_h, [-1.0])
+    np.testing.assert_allclose(v_r, [0.0], atol=1e-15)
+
+
+def test_directed_speeds_coincident_is_worst_case():
+    v_h, v_r = directed_speeds(np.zeros(3), np.array([0, 0.4, 0.3]), np.zeros((1, 3)),
+                               np.array([[0.0, 1.2, 1.6]]))
+    np.testing.assert_allclose(v_h, [2.0])
+    np.testing.assert_allclose(v_r, [0.5])
+
+
+def test_protective_distance_by_hand():
+    # S = vH (Ts + Tr) + vR Tr + B + C + Zd + Zr
+    #   = 1.6 * (0.3 + 0.1) + 0.5 * 0.1 + 0.2 + 0.05 + 0.01 + 0.02 = 0.97
+    s = protective_separation_distance(
+        1.6, 0.5, reaction_time=0.1, stopping_time=0.3, stopping_distance=0.2,
+        intrusion_distance=0.05, human_uncertainty=0.01, robot_uncertainty=0.02,
+    )
+    assert s == pytest.approx(0.97)
+
+
+def test_human_speed_modes():
+    v = np.array([-1.0, 0.5, 2.5])
+    np.testing.assert_allclose(human_speed_term(v, "estimated"), v)
+    np.testing.assert_allclose(human_speed_term(v, "iso"), [2.0, 2.0, 2.0])
+    np.testing.assert_allclose(human_speed_term(v, "estimated_with_floor"), [2.0, 2.0, 2.5])
+    with pytest.raises(ValueError, match="human_speed mode"):
+        human_speed_term(v, "fast")
+
+
+def test_iso_mode_uses_reduced_speed_above_half_metre():
+    args = dict(reaction_time=0.1, stopping_time=0.3, stopping_distance=0.2)
+    # 2.0 * 0.4 + 0 + 0.2 = 1.0 > 0.5 -> 1.6 * 0.4 + 0.2 = 0.84.
+    s = monitor_protective_distances(np.array([0.0]), np.array([0.0]), mode="iso", **args)
+    np.testing.assert_allclose(s, [0.84])
+    # Small times: 2.0 * 0.1 + 0.05 = 0.25 <= 0.5 stays.
+    s = monitor_protective_distances(np.array([0.0]), np.array([0.0]), mode="iso",
+                                     reaction_time=0.05, stopping_time=0.05,
+                                     stopping_distance=0.05)
+    np.testing.assert_allclose(s, [0.25])
+    # Reduced value is floored at 0.5: 2.0*0.15+0.21 = 0.51 > 0.5 -> max(1.6*0.15+0.21, 0.5).
+    s = monitor_protective_distances(np.array([0.0]), np.array([0.0]), mode="iso",
+                                     reaction_time=0.05, stopping_time=0.1,
+                                     stopping_distance=0.21)
+    np.testing.assert_allclose(s, [0.5])
+
+
+@pytest.mark.parametrize(
+    "d, expected",
+    [(0.25, 0.0),  # d < d_min
+     (1.0, 0.0),  # d = S_max: the ramp starts at 0
+     (1.5, 0.5),  # d = 1.5 S_max with dS = 2
+     (2.0, 1.0),  # d = dS * S_max
+     (3.0, 1.0)],  # beyond
+)
+def test_speed_override_eq12_by_hand(d, expected):
+    assert speed_override(np.array([d]), 1.0, delta_s=2.0, d_min=0.3)[0] == pytest.approx(expected)
+
+
+def test_speed_override_dmin_beats_large_distance_band():
+    # S_max tiny: d = 0.2 >= dS * S_max, but d < d_min must still stop.
+    assert speed_override(np.array([0.2]), 0.05, delta_s=2.0, d_min=0.3)[0] == 0.0
+
+
+def test_overall_override_uses_smax_over_bodies_and_fails_safe():
+    d = np.array([1.5, 4.0, 0.1])
+    s = np.array([0.4, 1.0, 5.0])
+    inc = np.array([True, True, False])  # third body has no track: ignored
+    k, s_max = overall_speed_override(d, s, inc)
+    assert s_max == pytest.approx(1.0)
+    assert k == pytest.approx(0.5)
+    k, _ = overall_speed_override(d, np.array([np.nan, 1.0, 0.0]), inc)
+    assert k == 0.0
+    k, _ = overall_speed_override(d, s, np.zeros(3, bool))
+    assert k == 1.0
+
+
+finite = st.floats(min_value=0.0, max_value=10.0, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(d=finite, s_max=st.floats(-2.0, 5.0), delta_s=st.floats(1.0, 5.0), d_min=st.floats(0, 1))
+def test_override_properties(d, s_max, delta_s, d_min):
+    k = speed_override(np.array([d]), s_max, delta_s=delta_s, d_min=d_min)[0]
+    assert 0.0 <= k <= 1.0
+    if d < s_max or d < d_min:
+        assert k == 0.0
+
+
+@settings(max_examples=300, deadline=None)
+@given(d1=finite, d2=finite, s_max=st.floats(-2.0, 5.0), delta_s=st.floats(1.0, 5.0),
+       d_min=st.floats(0, 1))
+def test_override_monotone_in_distance(d1, d2, s_max, delta_s, d_min):
+    lo, hi = sorted((d1, d2))
+    k = speed_override(np.array([lo, hi]), s_max, delta_s=delta_s, d_min=d_min)
+    assert k[0] <= k[1]
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(finite, st.floats(0.0, 3.0)), min_size=1, max_size=10))
+def test_overall_override_is_zero_when_any_body_inside_smax(pairs):
+    d = np.array([p[0] for p in pairs])
+    s = np.array([p[1] for p in pairs])
+    k, s_max = overall_speed_override(d, s, np.ones(len(d), bool))
+    assert 0.0 <= k <= 1.0
+    if np.any(d < s_max) or np.any(d < 0.3):
+        assert k == 0.0
+
+
+def test_vectorised_over_batch_matches_loop():
+    rng = np.random.default_rng(0)
+    p_R = rng.normal(size=(7, 3))
+    v_R = rng.normal(size=(7, 3))
+    p_B = rng.normal(size=(7, 4, 3))
+    v_B = rng.normal(size=(7, 4, 3))
+    v_h, v_r = directed_speeds(p_R, v_R, p_B, v_B)
+    for b in range(7):
+        h1, r1 = directed_speeds(p_R[b], v_R[b], p_B[b], v_B[b])
+        np.testing.assert_allclose(v_h[b], h1)
+        np.testing.assert_allclose(v_r[b], r1)
