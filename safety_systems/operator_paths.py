@@ -1,0 +1,308 @@
+"""Scripted operators: timed straight-line waypoint paths with bounded speed and acceleration.
+
+An operator's reference point follows timed waypoints. Waypoint 0 is the start position,
+held until the departure time of waypoint 1. At each later waypoint's departure time
+t_j the operator leaves p_{j-1} for p_j along a straight line with a trapezoidal
+(or, for short segments, triangular) speed profile bounded by ``max_speed`` and
+``max_acceleration``, arrives as early as the limits allow and holds there until the
+next departure. The time of waypoint 0 only orders the list (the start is held for
+all t before t_1).
+
+Tracked bodies (gloves, head) are rigid world-frame offsets from the reference point
+(the operator does not rotate). All functions accept an array of times (leading axis)
+so the batched verifier can evaluate many instants at once; scalar times take a fast path
+because the simulation calls them at the robot rate.
+"""
+
+import bisect
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+MAX_BODIES_PER_OPERATOR = 3
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array = np.array(array, dtype=float)
+    array.setflags(write=False)
+    return array
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class OperatorPath:
+    """Precomputed segments of a waypoint path; build it with ``make_operator_path``.
+
+    Segment k goes from waypoint k to waypoint k + 1 and departs at
+    ``departure_times[k]``; it accelerates for ``accel_durations[k]`` seconds, cruises at
+    ``peak_speeds[k]`` (metres per second) for ``cruise_durations[k]`` seconds and brakes
+    for ``accel_durations[k]`` seconds.
+    """
+
+    waypoint_times: np.ndarray  # (M,) seconds
+    waypoint_positions: np.ndarray  # (M, 3) metres, world frame
+    max_speed: float  # metres per second
+    max_acceleration: float  # metres per second squared
+    departure_times: np.ndarray  # (M-1,)
+    directions: np.ndarray  # (M-1, 3) unit vectors (zero for zero-length segments)
+    lengths: np.ndarray  # (M-1,)
+    accel_durations: np.ndarray  # (M-1,)
+    cruise_durations: np.ndarray  # (M-1,)
+    peak_speeds: np.ndarray  # (M-1,)
+    # The same data as plain Python floats, for the scalar fast path (see _scalar_state).
+    segment_table: tuple = dataclasses.field(repr=False, default=())
+
+    @property
+    def durations(self) -> np.ndarray:
+        """Travel time of each segment, in seconds."""
+        return 2.0 * self.accel_durations + self.cruise_durations
+
+
+def segment_profile(
+    lengths: np.ndarray, max_speed: float, max_acceleration: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Fastest rest-to-rest profile for straight segments of the given lengths (metres).
+
+    Returns (accel_durations, cruise_durations, peak_speeds): trapezoidal when the segment
+    is long enough to reach ``max_speed``, otherwise triangular.
+    """
+    lengths = np.asarray(lengths, dtype=float)
+    peak = np.minimum(max_speed, np.sqrt(lengths * max_acceleration))
+    accel = peak / max_acceleration
+    cruise = np.where(peak > 0.0, (lengths - peak * accel) / np.where(peak > 0, peak, 1.0), 0.0)
+    return accel, np.maximum(cruise, 0.0), peak
+
+
+def make_operator_path(
+    times: Sequence[float] | np.ndarray,
+    positions: Sequence[Sequence[float]] | np.ndarray,
+    max_speed: float,
+    max_acceleration: float,
+) -> OperatorPath:
+    """Checks the waypoints and precomputes the path segments.
+
+    Args:
+        times: departure time of each waypoint, seconds, strictly increasing.
+        positions: (M, 3) waypoint positions, metres, world frame.
+        max_speed: walking speed limit, metres per second (> 0).
+        max_acceleration: acceleration limit, metres per second squared (> 0).
+
+    Raises:
+        ValueError: bad argument, or a segment that cannot finish before the next
+            waypoint's departure (names the waypoint, the time needed and the time given).
+    """
+    t = np.asarray(times, dtype=float)
+    p = np.asarray(positions, dtype=float)
+    if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)):
+        raise ValueError(f"times={times!r}: need a non-empty 1-D sequence of finite seconds")
+    if np.any(np.diff(t) <= 0.0):
+        raise ValueError(f"times={t.tolist()}: must be strictly increasing")
+    if p.shape != (t.size, 3) or not np.all(np.isfinite(p)):
+        raise ValueError(
+            f"positions has shape {p.shape}: need ({t.size}, 3) finite metres, one per time"
+        )
+    for name, value in (("max_speed", max_speed), ("max_acceleration", max_acceleration)):
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"{name}={value}: must be finite and > 0")
+    delta = np.diff(p, axis=0)
+    lengths = np.linalg.norm(delta, axis=1)
+    directions = np.divide(
+        delta, lengths[:, None], out=np.zeros_like(delta), where=lengths[:, None] > 0.0
+    )
+    accel, cruise, peak = segment_profile(lengths, max_speed, max_acceleration)
+    needed = 2.0 * accel + cruise
+    given = np.diff(t)[1:]  # segment k (to waypoint k+1) must end by t_{k+2}
+    for k in range(given.size):
+        if needed[k] > given[k] + 1e-12:
+            raise ValueError(
+                f"waypoint {k + 1}: reaching it needs {needed[k]:.4f} s but only "
+                f"{given[k]:.4f} s are given before waypoint {k + 2} departs"
+            )
+    rest = tuple(float(x) for x in p[0]) + (0.0, 0.0, 0.0)
+    table = (
+        tuple(float(x) for x in t[1:]),
+        rest,
+        tuple(
+            (
+                float(t[k + 1]),
+                float(accel[k]),
+                float(cruise[k]),
+                float(peak[k]),
+                float(lengths[k]),
+                float(max_acceleration),
+                tuple(float(x) for x in p[k]),
+                tuple(float(x) for x in directions[k]),
+                tuple(float(x) for x in p[k + 1]) + (0.0, 0.0, 0.0),
+            )
+            for k in range(lengths.size)
+        ),
+    )
+    return OperatorPath(
+        segment_table=table,
+        waypoint_times=_frozen(t),
+        waypoint_positions=_frozen(p),
+        max_speed=float(max_speed),
+        max_acceleration=float(max_acceleration),
+        departure_times=_frozen(t[1:]),
+        directions=_frozen(directions),
+        lengths=_frozen(lengths),
+        accel_durations=_frozen(accel),
+        cruise_durations=_frozen(cruise),
+        peak_speeds=_frozen(peak),
+    )
+
+
+def _scalar_state(path: OperatorPath, t: float) -> tuple[float, ...]:
+    """(x, y, z, vx, vy, vz) at a scalar time, in plain floats (the per-tick fast path)."""
+    k = bisect.bisect_right(path.segment_table[0], t) - 1
+    if k < 0:
+        return path.segment_table[1]
+    depart, ta, tc, vp, length, a, p0, u, p1 = path.segment_table[2][k]
+    total = 2.0 * ta + tc
+    tau = t - depart
+    if tau >= total:
+        return p1
+    if tau < ta:
+        s, v = 0.5 * a * tau * tau, a * tau
+    elif tau < ta + tc:
+        s, v = 0.5 * a * ta * ta + vp * (tau - ta), vp
+    else:
+        rest = total - tau
+        s, v = length - 0.5 * a * rest * rest, a * rest
+    return (p0[0] + s * u[0], p0[1] + s * u[1], p0[2] + s * u[2], v * u[0], v * u[1], v * u[2])
+
+
+def operator_position_velocity(
+    path: OperatorPath, t: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reference-point position (metres) and velocity (metres per second) at time(s) t.
+
+    A scalar t gives two (3,) arrays; an array of shape (T,) gives two (T, 3) arrays.
+    """
+    if np.ndim(t) == 0:
+        state = np.array(_scalar_state(path, float(t)))
+        return state[:3], state[3:]
+    t = np.asarray(t, dtype=float)
+    if path.departure_times.size == 0:
+        p0 = np.broadcast_to(path.waypoint_positions[0], t.shape + (3,)).copy()
+        return p0, np.zeros(t.shape + (3,))
+    k = np.searchsorted(path.departure_times, t, side="right") - 1
+    before = k < 0
+    k = np.maximum(k, 0)
+    a = path.max_acceleration
+    ta = path.accel_durations[k]
+    tc = path.cruise_durations[k]
+    vp = path.peak_speeds[k]
+    total = 2.0 * ta + tc
+    tau = np.clip(t - path.departure_times[k], 0.0, total)
+    rest = total - tau
+    s = np.where(
+        tau < ta,
+        0.5 * a * tau**2,
+        np.where(tau < ta + tc, 0.5 * a * ta**2 + vp * (tau - ta), path.lengths[k] - 0.5 * a * rest**2),
+    )
+    v = np.where(tau < ta, a * tau, np.where(tau < ta + tc, vp, a * rest))
+    s = np.where(before, 0.0, s)
+    v = np.where(before, 0.0, v)
+    u = path.directions[k]
+    return path.waypoint_positions[k] + s[..., None] * u, v[..., None] * u
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ScriptedOperator:
+    """One scripted operator: a path, its tracked bodies and when it is in the cell.
+
+    Args:
+        path: motion of the operator's reference point.
+        body_offsets: (m, 3) offsets of the m tracked bodies (1 to 3: gloves, head) from
+            the reference point, metres, world frame.
+        enter_time: seconds; the operator is present for enter_time <= t < leave_time.
+        leave_time: seconds, may be +inf.
+    """
+
+    path: OperatorPath
+    body_offsets: np.ndarray
+    enter_time: float = 0.0
+    leave_time: float = math.inf
+
+    def __post_init__(self) -> None:
+        offsets = np.asarray(self.body_offsets, dtype=float)
+        if (
+            offsets.ndim != 2
+            or offsets.shape[1] != 3
+            or not 1 <= offsets.shape[0] <= MAX_BODIES_PER_OPERATOR
+            or not np.all(np.isfinite(offsets))
+        ):
+            raise ValueError(
+                f"body_offsets has shape {offsets.shape}: need (m, 3) finite metres with "
+                f"1 <= m <= {MAX_BODIES_PER_OPERATOR}"
+            )
+        if math.isnan(self.enter_time) or self.enter_time == math.inf:
+            raise ValueError(f"enter_time={self.enter_time}: must be a number < +inf")
+        if not self.leave_time > self.enter_time:
+            raise ValueError(
+                f"leave_time={self.leave_time}: must be > enter_time={self.enter_time}"
+            )
+        object.__setattr__(self, "body_offsets", _frozen(offsets))
+
+    @property
+    def num_bodies(self) -> int:
+        return self.body_offsets.shape[0]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BodyLayout:
+    """Flat body-slot layout of a list of operators (slots numbered operator by operator)."""
+
+    operator_index: np.ndarray  # (N,) int: which operator each body slot belongs to
+    offsets: np.ndarray  # (N, 3) metres
+    enter_times: np.ndarray  # (K,) seconds
+    leave_times: np.ndarray  # (K,) seconds
+
+
+def body_layout(operators: Sequence[ScriptedOperator]) -> BodyLayout:
+    """Precomputes the body-slot layout used by ``operators_bodies_state``."""
+    index = np.concatenate([np.full(op.num_bodies, k) for k, op in enumerate(operators)])
+    index.setflags(write=False)
+    return BodyLayout(
+        operator_index=index,
+        offsets=_frozen(np.concatenate([op.body_offsets for op in operators])),
+        enter_times=_frozen([op.enter_time for op in operators]),
+        leave_times=_frozen([op.leave_time for op in operators]),
+    )
+
+
+def operators_bodies_state(
+    operators: Sequence[ScriptedOperator],
+    t: float | np.ndarray,
+    layout: BodyLayout | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """True body positions (3N), velocities (3N) and presence (N, 1.0/0.0) at time(s) t.
+
+    Body slots are numbered operator by operator; body i's xyz is at [3i:3i+3]. A time
+    array of shape (T,) gives arrays of shape (T, 3N), (T, 3N) and (T, N). Pass a
+    precomputed ``layout`` (from ``body_layout``) to save work on repeated calls.
+    """
+    if layout is None:
+        layout = body_layout(operators)
+    if np.ndim(t) == 0:
+        t = float(t)
+        ops = np.array([_scalar_state(op.path, t) for op in operators])[layout.operator_index]
+        inside = (t >= layout.enter_times) & (t < layout.leave_times)
+        return (
+            (ops[:, :3] + layout.offsets).ravel(),
+            ops[:, 3:].ravel(),
+            inside[layout.operator_index].astype(float),
+        )
+    states = [operator_position_velocity(op.path, t) for op in operators]
+    p = np.stack([s[0] for s in states], axis=-2)[..., layout.operator_index, :]
+    v = np.stack([s[1] for s in states], axis=-2)[..., layout.operator_index, :]
+    t_col = np.asarray(t, dtype=float)[..., None]
+    inside = (t_col >= layout.enter_times) & (t_col < layout.leave_times)
+    lead = np.shape(t)
+    return (
+        (p + layout.offsets).reshape(lead + (-1,)),
+        v.reshape(lead + (-1,)),
+        inside[..., layout.operator_index].astype(float),
+    )

@@ -1,0 +1,153 @@
+"""MocapSensor: an OptiTrack-like motion-capture sensor (seed Section 4)."""
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+
+MIN_PERIOD_SEC = 1.0 / 1000.0  # OptiTrack frame rates: 20 Hz up to 1000 Hz (seed Sec. 4.1)
+MAX_PERIOD_SEC = 1.0 / 20.0
+_TIME_TOL = 1e-9  # seconds, absorbs rounding in capture time + latency comparisons
+
+
+def _intervals(name: str, rows: Sequence, width: int) -> np.ndarray:
+    array = np.asarray(list(rows), dtype=float).reshape(-1, width)
+    if np.any(np.isnan(array)) or np.any(array[:, -1] < array[:, -2]):
+        raise ValueError(f"{name}={list(rows)!r}: each needs t_start <= t_end, no NaN")
+    return array
+
+
+class MocapSensor(LeafSystem):
+    """Samples the present, non-occluded bodies every period and delivers frames late.
+
+    Every ``period_sec`` (captures at t = k period) the sensor measures the bodies that
+    are present and not occluded, adding Gaussian noise of ``noise_std`` per axis
+    (deterministic: drawn from a generator seeded by (seed, k)). A frame captured at t_c
+    is delivered at t_c + latency_sec; the outputs show the newest delivered frame. During
+    a dropped-frame interval no frame is captured, so the last delivered frame stays on
+    the outputs and its ``sample_time`` goes stale (the tracker detects that). Before the
+    first delivery every body is invalid and ``sample_time`` is -inf.
+
+    The last frames live in the discrete state as a ring of ceil(latency / period) + 1
+    slots, oldest first; each slot is [capture_time, positions (3N), valid (N)].
+    Occlusion and drop intervals are half-open [t_start, t_end).
+
+    .. pydrake_system::
+
+        name: MocapSensor
+        input_ports:
+        - positions_true
+        - present
+        output_ports:
+        - positions_measured
+        - valid
+        - sample_time
+
+    Args:
+        num_bodies: number of body slots N (1 to 15).
+        period_sec: capture period, seconds (1/1000 to 1/20).
+        noise_std: standard deviation of the position noise per axis, metres (>= 0;
+            OptiTrack accuracy 0.2 mm, seed Sec. 4.1).
+        latency_sec: delay from capture to delivery, seconds (>= 0).
+        occlusions: (body_index, t_start, t_end) rows, seconds: body not seen.
+        dropped_frames: (t_start, t_end) rows, seconds: no frame at all is captured.
+        seed: noise seed (integer >= 0).
+    """
+
+    def __init__(
+        self,
+        *,
+        num_bodies: int,
+        period_sec: float = 0.05,
+        noise_std: float = 0.0002,
+        latency_sec: float = 0.0,
+        occlusions: Sequence[tuple[int, float, float]] = (),
+        dropped_frames: Sequence[tuple[float, float]] = (),
+        seed: int = 0,
+    ) -> None:
+        super().__init__()
+        if not (isinstance(num_bodies, int) and 1 <= num_bodies <= 15):
+            raise ValueError(f"num_bodies={num_bodies!r}: must be an integer in 1..15")
+        if not MIN_PERIOD_SEC - 1e-15 <= period_sec <= MAX_PERIOD_SEC + 1e-15:
+            raise ValueError(
+                f"period_sec={period_sec}: allowed {MIN_PERIOD_SEC} to {MAX_PERIOD_SEC} s"
+            )
+        if not (math.isfinite(noise_std) and noise_std >= 0.0):
+            raise ValueError(f"noise_std={noise_std}: must be finite and >= 0")
+        if not (math.isfinite(latency_sec) and latency_sec >= 0.0):
+            raise ValueError(f"latency_sec={latency_sec}: must be finite and >= 0")
+        if not (isinstance(seed, int) and seed >= 0):
+            raise ValueError(f"seed={seed!r}: must be an integer >= 0")
+        occ = _intervals("occlusions", occlusions, 3)
+        if np.any((occ[:, 0] < 0) | (occ[:, 0] >= num_bodies) | (occ[:, 0] % 1 != 0)):
+            raise ValueError(
+                f"occlusions={list(occlusions)!r}: body_index must be in 0..{num_bodies - 1}"
+            )
+        self._occ_body = occ[:, 0].astype(int)
+        self._occ_start, self._occ_end = occ[:, 1], occ[:, 2]
+        drops = _intervals("dropped_frames", dropped_frames, 2)
+        self._drop_start, self._drop_end = drops[:, 0], drops[:, 1]
+
+        n = num_bodies
+        self._n = n
+        self._period = float(period_sec)
+        self._noise_std = float(noise_std)
+        self._latency = float(latency_sec)
+        self._seed = seed
+        self._slot = 1 + 4 * n
+        self._num_slots = math.ceil(latency_sec / period_sec - _TIME_TOL) + 1
+        empty = np.r_[-np.inf, np.full(3 * n, np.nan), np.zeros(n)]
+        self._frames_index = self.DeclareDiscreteState(np.tile(empty, self._num_slots))
+
+        self._positions_true = self.DeclareVectorInputPort("positions_true", 3 * n)
+        self._present = self.DeclareVectorInputPort("present", n)
+        self.DeclarePeriodicDiscreteUpdateEvent(
+            period_sec=period_sec, offset_sec=0.0, update=self._capture
+        )
+        deps = {self.time_ticket(), self.xd_ticket()}
+        self.DeclareVectorOutputPort(
+            "positions_measured", BasicVector(3 * n), self._calc_positions, deps
+        )
+        self.DeclareVectorOutputPort("valid", BasicVector(n), self._calc_valid, deps)
+        self.DeclareVectorOutputPort("sample_time", BasicVector(1), self._calc_time, deps)
+
+    @property
+    def num_slots(self) -> int:
+        """Number of frames kept in the discrete state."""
+        return self._num_slots
+
+    def _capture(self, context: Context, discrete_state: DiscreteValues) -> None:
+        t = context.get_time()
+        if np.any((self._drop_start <= t) & (t < self._drop_end)):
+            return  # network/sensor fault: no frame this period
+        k = round(t / self._period)
+        valid = self._present.Eval(context) > 0.5
+        occluded = (self._occ_start <= t) & (t < self._occ_end)
+        valid[self._occ_body[occluded]] = False
+        positions = np.array(self._positions_true.Eval(context), dtype=float)
+        if self._noise_std > 0.0:
+            rng = np.random.default_rng([self._seed, k])
+            positions += self._noise_std * rng.standard_normal(3 * self._n)
+        positions.reshape(-1, 3)[~valid] = np.nan
+        frames = discrete_state.get_mutable_value(self._frames_index)
+        frames[: -self._slot] = frames[self._slot :].copy()  # drop the oldest slot
+        frames[-self._slot :] = np.r_[k * self._period, positions, valid]
+
+    def _delivered(self, context: Context) -> np.ndarray:
+        """The newest slot whose capture time + latency <= now (or the empty oldest one)."""
+        frames = context.get_discrete_state(self._frames_index).get_value()
+        now = context.get_time() + _TIME_TOL - self._latency
+        for start in range((self._num_slots - 1) * self._slot, -1, -self._slot):
+            if frames[start] <= now:
+                return frames[start : start + self._slot]
+        return frames[: self._slot]  # unreachable: the oldest slot is delivered or empty
+
+    def _calc_positions(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self._delivered(context)[1 : 1 + 3 * self._n])
+
+    def _calc_valid(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self._delivered(context)[1 + 3 * self._n :])
+
+    def _calc_time(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self._delivered(context)[:1])

@@ -1,0 +1,83 @@
+"""OperatorMotion: true positions and velocities of scripted operators' tracked bodies."""
+
+from collections.abc import Sequence
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
+
+from safety_systems.operator_paths import ScriptedOperator, body_layout, operators_bodies_state
+
+MAX_OPERATORS = 5
+
+
+class OperatorMotion(LeafSystem):
+    """Ground-truth motion of up to five scripted operators (a function of time only).
+
+    Body slots are numbered operator by operator (N = total number of bodies); body i's
+    xyz is at [3i:3i+3]. Absent bodies keep following their script (so a body re-enters
+    where its script puts it) but are flagged 0.0 in ``present``.
+
+    .. pydrake_system::
+
+        name: OperatorMotion
+        output_ports:
+        - positions_true
+        - velocities_true
+        - present
+
+    Args:
+        operators: the scripted operators (1 to 5), each with 1 to 3 bodies; positions in
+            metres, velocities in metres per second, world frame.
+    """
+
+    def __init__(self, *, operators: Sequence[ScriptedOperator]) -> None:
+        super().__init__()
+        operators = tuple(operators)
+        if not 1 <= len(operators) <= MAX_OPERATORS:
+            raise ValueError(
+                f"operators has {len(operators)} entries: allowed 1 to {MAX_OPERATORS}"
+            )
+        for k, op in enumerate(operators):
+            if not isinstance(op, ScriptedOperator):
+                raise ValueError(f"operators[{k}]={op!r}: must be a ScriptedOperator")
+        self._operators = operators
+        self._layout = body_layout(operators)
+        n = self._layout.operator_index.size
+        self._num_bodies = n
+
+        # One time-dependent evaluation feeds all three outputs.
+        self._state_cache = self.DeclareCacheEntry(
+            description="bodies_state",
+            value_producer=ValueProducer(
+                allocate=AbstractValue.Make(
+                    (np.zeros(3 * n), np.zeros(3 * n), np.zeros(n))
+                ).Clone,
+                calc=self._calc_state,
+            ),
+            prerequisites_of_calc={self.time_ticket()},
+        )
+        ticket = {self._state_cache.ticket()}
+        self.DeclareVectorOutputPort(
+            "positions_true", BasicVector(3 * n), self._make_output(0), ticket
+        )
+        self.DeclareVectorOutputPort(
+            "velocities_true", BasicVector(3 * n), self._make_output(1), ticket
+        )
+        self.DeclareVectorOutputPort("present", BasicVector(n), self._make_output(2), ticket)
+
+    @property
+    def num_bodies(self) -> int:
+        """Number of body slots N."""
+        return self._num_bodies
+
+    def _calc_state(self, context: Context, value: AbstractValue) -> None:
+        value.set_value(
+            operators_bodies_state(self._operators, context.get_time(), self._layout)
+        )
+
+    def _make_output(self, which: int):
+        def calc(context: Context, output: BasicVector) -> None:
+            output.SetFromVector(self._state_cache.Eval(context)[which])
+
+        return calc

@@ -1,0 +1,143 @@
+"""UR5e model: published DH data, the URDF, ``AddUr5e`` and fast tool0 kinematics.
+
+Frames: ``base_link`` is the standard-DH base frame {0} (z up; at q = 0 the arm points
+along -x), ``tool0`` is DH frame {6} at the flange. The URDF is generated from the
+constants below by ``models/ur5e/generate_urdf.py``; ``models/ur5e/README.md`` lists
+the sources.
+"""
+
+import math
+from pathlib import Path
+
+import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import ModelInstanceIndex
+
+UR5E_URDF = Path(__file__).resolve().parent.parent / "models" / "ur5e" / "ur5e.urdf"
+
+# Universal Robots, "DH parameters for calculations of kinematics and dynamics", UR5e
+# row (standard DH; metres, radians, kilograms; centres of mass in DH frame i).
+DH_D = (0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996)
+DH_A = (0.0, -0.425, -0.3922, 0.0, 0.0, 0.0)
+DH_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
+LINK_MASSES = (3.761, 8.058, 2.846, 1.37, 1.3, 0.365)
+LINK_COMS = (
+    (0.0, -0.02561, 0.00193),
+    (0.2125, 0.0, 0.11336),
+    (0.15, 0.0, 0.0265),
+    (0.0, -0.0018, 0.01634),
+    (0.0, 0.0018, 0.01634),
+    (0.0, 0.0, -0.001159),
+)
+TOTAL_MASS = sum(LINK_MASSES)  # the URDF's base_link is massless (welded to the world)
+
+JOINT_NAMES = (
+    "shoulder_pan_joint",
+    "shoulder_lift_joint",
+    "elbow_joint",
+    "wrist_1_joint",
+    "wrist_2_joint",
+    "wrist_3_joint",
+)
+# UR5e datasheet: +-360 deg on every joint (elbow limited to +-180 deg in practice by
+# self-collision), 180 deg/s on every joint, sizes 3/3/3/1/1/1 torque ratings.
+JOINT_POSITION_UPPER = np.array([2 * math.pi, 2 * math.pi, math.pi] + [2 * math.pi] * 3)
+JOINT_POSITION_LOWER = -JOINT_POSITION_UPPER
+JOINT_VELOCITY_LIMIT = math.pi  # radians per second
+JOINT_EFFORT_LIMITS = np.array([150.0, 150.0, 150.0, 28.0, 28.0, 28.0])  # newton metres
+NUM_JOINTS = 6
+
+
+def AddUr5e(plant: MultibodyPlant, *, model_name: str = "ur5e") -> ModelInstanceIndex:
+    """Parses the UR5e URDF into ``plant`` and welds ``base_link`` to the world origin."""
+    parser = Parser(plant, model_name)
+    (instance,) = parser.AddModels(str(UR5E_URDF))
+    plant.WeldFrames(
+        plant.world_frame(), plant.GetFrameByName("base_link", instance), RigidTransform()
+    )
+    return instance
+
+
+def dh_forward_kinematics(q: np.ndarray) -> np.ndarray:
+    """Pose of DH frame {6} (tool0) in the base frame by chaining standard-DH transforms.
+
+    T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i). ``q`` has shape ``(..., 6)``; returns
+    ``(..., 4, 4)``. Reference implementation (slow); see ``tool0_position``.
+    """
+    q = np.asarray(q, dtype=float)
+    T = np.broadcast_to(np.eye(4), q.shape[:-1] + (4, 4)).copy()
+    for i in range(NUM_JOINTS):
+        ct, st = np.cos(q[..., i]), np.sin(q[..., i])
+        ca, sa = math.cos(DH_ALPHA[i]), math.sin(DH_ALPHA[i])
+        Ti = np.zeros(q.shape[:-1] + (4, 4))
+        Ti[..., 0, :] = np.stack([ct, -st * ca, st * sa, DH_A[i] * ct], axis=-1)
+        Ti[..., 1, :] = np.stack([st, ct * ca, -ct * sa, DH_A[i] * st], axis=-1)
+        Ti[..., 2, :] = [0.0, sa, ca, DH_D[i]]
+        Ti[..., 3, 3] = 1.0
+        T = T @ Ti
+    return T
+
+
+def _tool0(q, v, cos, sin):
+    """Closed-form tool0 position (and velocity if ``v`` is given) from joint lists.
+
+    Joints 2-4 are parallel, so in the frame turned by q1 the tool lies at
+    u = a2 c2 + a3 c23 + d5 s234 - d6 s5 c234 (horizontal), w = a2 s2 + a3 s23
+    - d5 c234 - d6 s5 s234 (vertical), n = d4 + d6 c5 (along joint 2's axis); then
+    p = (c1 u + s1 n, s1 u - c1 n, d1 + w). The velocity is its time derivative.
+    """
+    q1, q2, q3, q4, q5, _ = q
+    a2, a3, d1, d4, d5, d6 = DH_A[1], DH_A[2], DH_D[0], DH_D[3], DH_D[4], DH_D[5]
+    c1, s1, c2, s2, c5, s5 = cos(q1), sin(q1), cos(q2), sin(q2), cos(q5), sin(q5)
+    c23, s23 = cos(q2 + q3), sin(q2 + q3)
+    c234, s234 = cos(q2 + q3 + q4), sin(q2 + q3 + q4)
+    u = a2 * c2 + a3 * c23 + d5 * s234 - d6 * s5 * c234
+    w = a2 * s2 + a3 * s23 - d5 * c234 - d6 * s5 * s234
+    n = d4 + d6 * c5
+    p = (c1 * u + s1 * n, s1 * u - c1 * n, d1 + w)
+    if v is None:
+        return p, None
+    v1, v2, v3, v4, v5, _ = v
+    v23 = v2 + v3
+    v234 = v23 + v4
+    du = -a2 * s2 * v2 - a3 * s23 * v23 + d5 * c234 * v234
+    du -= d6 * (c5 * c234 * v5 - s5 * s234 * v234)
+    dw = a2 * c2 * v2 + a3 * c23 * v23 + d5 * s234 * v234
+    dw -= d6 * (c5 * s234 * v5 + s5 * c234 * v234)
+    dn = -d6 * s5 * v5
+    pdot = (
+        -s1 * v1 * u + c1 * du + c1 * v1 * n + s1 * dn,
+        c1 * v1 * u + s1 * du + s1 * v1 * n - c1 * dn,
+        dw,
+    )
+    return p, pdot
+
+
+def tool0_position_and_velocity(
+    q: np.ndarray, v: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Closed-form tool0 origin position and translational velocity J(q) v in base frame.
+
+    ``q`` and ``v`` have shape ``(..., 6)``; returns arrays of shape ``(..., 3)`` (the
+    velocity is None when ``v`` is None). A single configuration (shape ``(6,)``) takes
+    a scalar fast path of a few microseconds, fit for a 500 Hz system.
+    """
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 1:
+        vl = None if v is None else np.asarray(v, dtype=float).tolist()
+        p, pdot = _tool0(q.tolist(), vl, math.cos, math.sin)
+        return np.array(p), (None if pdot is None else np.array(pdot))
+    qs = np.moveaxis(q, -1, 0)
+    vs = None if v is None else np.moveaxis(np.asarray(v, dtype=float), -1, 0)
+    p, pdot = _tool0(qs, vs, np.cos, np.sin)
+    p = np.stack(np.broadcast_arrays(*p), axis=-1)
+    if pdot is not None:
+        pdot = np.stack(np.broadcast_arrays(*pdot), axis=-1)
+    return p, pdot
+
+
+def tool0_position(q: np.ndarray) -> np.ndarray:
+    """Closed-form tool0 origin position in the base frame; ``(..., 6) -> (..., 3)``."""
+    return tool0_position_and_velocity(q)[0]
