@@ -11,8 +11,11 @@ import math
 import typing
 from pathlib import Path
 
+import numpy as np
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
+from safety_systems.joint_path import make_joint_path
+from safety_systems.operator_paths import make_operator_path
 from safety_systems.ssm import HUMAN_SPEED_MODES
 
 
@@ -55,13 +58,20 @@ class SensorConfig:
 
 @dc.dataclass
 class TrackerConfig:
-    """Kalman tracker (seed Eqs. 2-4). ``measurement_std`` None: the sensor's noise."""
+    """Kalman tracker (seed Eqs. 2-4).
+
+    ``measurement_std`` None: the sensor's noise. ``processing_time``: seconds from a
+    frame's delivery to the tracker's update. ``frame_timeout`` None: a frame is stale
+    (protective stop) 1.5 sensor periods + latency + processing time after its capture,
+    so one missing frame stops the robot.
+    """
 
     measurement_std: typing.Optional[float] = None
     velocity_process_noise: float = 4.0
     initial_velocity_std: float = 2.0
     max_coast_time: float = 0.5
     exit_radius: float = 2.5
+    processing_time: float = 0.001
     frame_timeout: typing.Optional[float] = None
 
 
@@ -111,7 +121,11 @@ class PathConfig:
 
 @dc.dataclass
 class RobotConfig:
-    """The UR5e station. ``mode``: ``kinematic`` (fast) or ``dynamic`` (plant + PD)."""
+    """The UR5e station. ``mode``: ``kinematic`` (fast) or ``dynamic`` (plant + PD).
+
+    ``acceleration_limit``: how fast the path speed may rise, in fractions of the
+    nominal path speed per second (2.0: from rest to full speed in 0.5 s).
+    """
 
     mode: str = "kinematic"
     control_rate_hz: float = 500.0
@@ -210,8 +224,12 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
     _positive(f"{prefix}.tracker.initial_velocity_std", t.initial_velocity_std)
     _positive(f"{prefix}.tracker.max_coast_time", t.max_coast_time)
     _positive(f"{prefix}.tracker.exit_radius", t.exit_radius)
+    _positive(f"{prefix}.tracker.processing_time", t.processing_time)
     if t.frame_timeout is not None:
-        _positive(f"{prefix}.tracker.frame_timeout", t.frame_timeout)
+        due = 1.0 / s.rate_hz + s.latency + t.processing_time
+        _check(math.isfinite(t.frame_timeout) and t.frame_timeout > due,
+               f"{prefix}.tracker.frame_timeout", t.frame_timeout,
+               f"more than one sensor period + latency + processing time ({due:.4g} s)")
     f = c.safety
     _check(f.human_speed in HUMAN_SPEED_MODES, f"{prefix}.safety.human_speed", f.human_speed,
            " | ".join(HUMAN_SPEED_MODES))
@@ -229,9 +247,17 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
     _check(b.stop_category in (0, 1), f"{prefix}.braking.stop_category", b.stop_category,
            "0 or 1")
     n = len(b.speed_fraction)
-    for name in ("stopping_time", "stopping_distance"):
-        _check(len(getattr(b, name)) == n, f"{prefix}.braking.{name}", getattr(b, name),
+    for name in ("speed_fraction", "stopping_time", "stopping_distance"):
+        values = getattr(b, name)
+        _check(len(values) == n, f"{prefix}.braking.{name}", values,
                f"a list as long as speed_fraction ({n} values)")
+        _check(all(math.isfinite(v) and v > 0.0 for v in values), f"{prefix}.braking.{name}",
+               values, "positive finite numbers")
+    _check(all(a < b_ for a, b_ in zip(b.speed_fraction, b.speed_fraction[1:])),
+           f"{prefix}.braking.speed_fraction", b.speed_fraction, "strictly increasing fractions")
+    _check(n == 0 or (max(b.speed_fraction) <= 1.0 and b.speed_fraction[-1] == 1.0),
+           f"{prefix}.braking.speed_fraction", b.speed_fraction,
+           "fractions of nominal speed up to and including 1.0")
 
 
 def validate_scenario(s: Scenario) -> None:
@@ -255,9 +281,14 @@ def validate_scenario(s: Scenario) -> None:
                f"{len(p.waypoints_deg)} durations (one per segment, the last closes the cycle)")
         for i, d in enumerate(p.segment_durations):
             _positive(f"robot.path.segment_durations[{i}]", d)
+        try:
+            make_joint_path(np.radians(p.waypoints_deg), p.segment_durations, cycles=r.cycles)
+        except ValueError as e:
+            raise ScenarioError("robot.path.segment_durations", p.segment_durations,
+                                str(e)) from None
     validate_controller(s.controller)
-    _check(len(s.operators) <= MAX_OPERATORS, "operators", len(s.operators),
-           f"at most {MAX_OPERATORS} operators")
+    _check(1 <= len(s.operators) <= MAX_OPERATORS, "operators", len(s.operators),
+           f"1 to {MAX_OPERATORS} operators")
     names = set()
     for i, o in enumerate(s.operators):
         f = f"operators[{i}]"
@@ -281,6 +312,12 @@ def validate_scenario(s: Scenario) -> None:
             _check(math.isfinite(w.time) and w.time > last, f"{f}.waypoints[{j}].time", w.time,
                    f"finite and later than the previous waypoint's ({last})")
             last = w.time
+        try:
+            make_operator_path([w.time for w in o.waypoints], [w.position for w in o.waypoints],
+                               o.max_speed, o.max_acceleration)
+        except ValueError as e:
+            raise ScenarioError(f"{f}.waypoints", [w.time for w in o.waypoints],
+                                f"times the operator's limits can keep ({e})") from None
     bodies = [f"{o.name}/{b.name}" for o in s.operators for b in o.bodies]
     _check(len(set(bodies)) == len(bodies), "operators[].bodies[].name", bodies,
            "unique body names within each operator")

@@ -1,0 +1,111 @@
+"""Braking model: how fast the robot's path speed can fall, from stopping data by speed.
+
+The robot follows its path at a rate sigma (fraction of nominal path speed). When the
+safety controller asks for a lower speed, sigma cannot fall faster than the robot's
+brakes allow. The stopping data is a table of rows (speed fraction sigma_j, stopping
+time T_j in seconds, stopping distance D_j of the tool in metres). The deceleration of
+sigma at speed sigma is interpolated from the rows' sigma_j / T_j (constant beyond the
+ends), so a table measured with constant deceleration is reproduced exactly: a stop
+from sigma_j takes T_j. Both stop categories are modelled as decelerations along the
+path (category 1, a controlled stop, does this; for category 0 it is an approximation,
+since removing power lets the arm leave its path).
+
+Default data (used when a configuration gives no table): Universal Robots, UR5/CB3
+User Manual v3.4.5, Appendix A, stop category 0 at 100 % speed (joint speed 183 deg/s),
+full extension and 5 kg payload: base 0.31 rad in 244 ms, shoulder 0.70 rad in 530 ms,
+elbow 0.22 rad in 164 ms. We take the slowest joint (shoulder, 530 ms), assume constant
+deceleration for the 33 % and 66 % rows (time proportional to speed, distance to its
+square) and convert the angle to a tool distance over the UR5's 0.85 m reach
+(0.70 rad x 0.85 m = 0.595 m). UR publishes category 1 data only as graphs, so the same
+rows serve both categories. THESE ARE PLACEHOLDERS: integrators must enter the stopping
+time and distance measured on their own cell, tool and payload.
+"""
+
+import dataclasses
+
+import numpy as np
+
+UR5_SHOULDER_STOP_TIME = 0.530  # s, stop category 0, 100 % speed (UR5/CB3 manual, App. A)
+UR5_SHOULDER_STOP_ANGLE = 0.70  # rad
+UR5_REACH = 0.85  # m
+DEFAULT_SPEED_FRACTIONS = (0.33, 0.66, 1.0)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BrakingTable:
+    """Stopping data by speed fraction (rows sorted by speed, all > 0)."""
+
+    speed_fraction: np.ndarray
+    stopping_time: np.ndarray  # s
+    stopping_distance: np.ndarray  # m, of the tool
+
+    def __post_init__(self) -> None:
+        rows = [np.array(getattr(self, f), dtype=float) for f in
+                ("speed_fraction", "stopping_time", "stopping_distance")]
+        names = ("speed_fraction", "stopping_time", "stopping_distance")
+        n = rows[0].size
+        for name, r in zip(names, rows):
+            if r.shape != (n,) or n == 0 or not np.all(np.isfinite(r) & (r > 0.0)):
+                raise ValueError(f"braking.{name}={r.tolist()}: need {max(n, 1)} or more "
+                                 "positive numbers, one per row")
+        if np.any(np.diff(rows[0]) <= 0.0):
+            raise ValueError(f"braking.speed_fraction={rows[0].tolist()}: must increase")
+        for name, r in zip(names, rows):
+            r.setflags(write=False)
+            object.__setattr__(self, name, r)
+
+    @property
+    def deceleration(self) -> np.ndarray:
+        """sigma_j / T_j for each row, fraction of nominal speed per second."""
+        return self.speed_fraction / self.stopping_time
+
+
+def default_braking_table() -> BrakingTable:
+    """The placeholder table derived from UR's published UR5 stopping data (see module)."""
+    f = np.array(DEFAULT_SPEED_FRACTIONS)
+    return BrakingTable(
+        speed_fraction=f,
+        stopping_time=UR5_SHOULDER_STOP_TIME * f,
+        stopping_distance=UR5_SHOULDER_STOP_ANGLE * UR5_REACH * f * f,
+    )
+
+
+def braking_deceleration(table: BrakingTable, speed: np.ndarray | float) -> np.ndarray:
+    """Largest rate at which |sigma| can fall at path speed |sigma|, per second."""
+    return np.interp(np.abs(speed), table.speed_fraction, table.deceleration)
+
+
+def stopping_time(table: BrakingTable, speed: np.ndarray | float) -> np.ndarray:
+    """Stopping time at speed fraction ``speed``, seconds (linear in the table; 0 at 0)."""
+    return np.interp(np.abs(speed), np.r_[0.0, table.speed_fraction],
+                     np.r_[0.0, table.stopping_time])
+
+
+def stopping_distance(table: BrakingTable, speed: np.ndarray | float) -> np.ndarray:
+    """Tool stopping distance at speed fraction ``speed``, metres (0 at 0)."""
+    return np.interp(np.abs(speed), np.r_[0.0, table.speed_fraction],
+                     np.r_[0.0, table.stopping_distance])
+
+
+def path_rate_step(
+    rate: np.ndarray | float,
+    commanded: np.ndarray | float,
+    dt: float,
+    *,
+    table: BrakingTable,
+    acceleration_limit: float,
+) -> np.ndarray:
+    """The path rate sigma one control tick later, moving towards the commanded rate.
+
+    Falling magnitude (towards zero) is bounded by :func:`braking_deceleration`;
+    rising magnitude by ``acceleration_limit`` (fraction of nominal speed per second).
+    A command of the other sign first brings sigma to rest (it never crosses zero
+    within one tick). Non-finite commands count as 0 (fail safe). Vectorised.
+    """
+    rate = np.asarray(rate, dtype=float)
+    cmd = np.asarray(commanded, dtype=float)
+    cmd = np.where(np.isfinite(cmd), np.clip(cmd, -1.0, 1.0), 0.0)
+    slowing = (np.abs(cmd) < np.abs(rate)) | (cmd * rate < 0.0)
+    bound = np.where(slowing, braking_deceleration(table, rate), acceleration_limit) * dt
+    new = rate + np.clip(cmd - rate, -bound, bound)
+    return np.where(rate * new < 0.0, 0.0, new)

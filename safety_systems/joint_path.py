@@ -1,0 +1,139 @@
+"""The robot's pre-programmed cyclic path in joint space, as a function of a path parameter.
+
+The path visits joint-space waypoints W_0 ... W_{M-1} and returns to W_0 (one cycle);
+segment j goes from W_j to W_{j+1 mod M} in ``durations[j]`` seconds of nominal time
+with a minimum-jerk (quintic) rest-to-rest profile, so the robot pauses at every
+waypoint as a pick-and-place cycle does. The path parameter ``s`` is nominal time in
+seconds, from 0 to ``cycles * cycle_time``; the PathFollower advances it at the rate
+sigma = ds/dt (1 = nominal speed). All functions are vectorised over ``s``.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from safety_systems.ur5e import JOINT_VELOCITY_LIMIT
+
+# Peak of the minimum-jerk blend's derivative h'(tau) = 30 tau^2 (1 - tau)^2, at tau = 1/2.
+_PEAK_BLEND_RATE = 1.875
+
+# Default pick-and-place cycle of the UR5e on its table (own choice): above the pick
+# point on the operator's side of the table, down, up, across, down to the place
+# point, up, back. Degrees and seconds.
+DEFAULT_WAYPOINTS_DEG = (
+    (140.0, -80.0, 100.0, -110.0, -90.0, 0.0),
+    (140.0, -65.0, 110.0, -135.0, -90.0, 0.0),
+    (140.0, -80.0, 100.0, -110.0, -90.0, 0.0),
+    (220.0, -80.0, 100.0, -110.0, -90.0, 0.0),
+    (220.0, -65.0, 110.0, -135.0, -90.0, 0.0),
+    (220.0, -80.0, 100.0, -110.0, -90.0, 0.0),
+)
+DEFAULT_DURATIONS = (0.8, 0.8, 1.5, 0.8, 0.8, 1.5)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class JointPath:
+    """A cyclic joint path; build it with :func:`make_joint_path`.
+
+    Attributes:
+        waypoints: (M, 6) joint positions, radians.
+        durations: (M,) nominal segment durations, seconds.
+        starts: (M,) nominal start time of each segment within a cycle, seconds.
+        cycle_time: nominal time of one cycle, seconds.
+        cycles: number of cycles in the task.
+    """
+
+    waypoints: np.ndarray
+    durations: np.ndarray
+    starts: np.ndarray
+    cycle_time: float
+    cycles: int
+
+    @property
+    def end(self) -> float:
+        """The path parameter at which the task is finished, seconds of nominal time."""
+        return self.cycle_time * self.cycles
+
+    @property
+    def peak_joint_speed(self) -> float:
+        """Largest joint speed at nominal speed (sigma = 1), radians per second."""
+        deltas = np.abs(np.roll(self.waypoints, -1, axis=0) - self.waypoints)
+        return float(np.max(_PEAK_BLEND_RATE * deltas / self.durations[:, None]))
+
+
+def make_joint_path(
+    waypoints_rad: np.ndarray,
+    durations: np.ndarray,
+    *,
+    cycles: int = 1,
+    joint_speed_limit: float = JOINT_VELOCITY_LIMIT,
+) -> JointPath:
+    """Checks and precomputes a cyclic joint path.
+
+    Args:
+        waypoints_rad: (M, 6) joint positions in radians, M >= 2.
+        durations: (M,) positive nominal durations in seconds; the last one closes the
+            cycle from W_{M-1} back to W_0.
+        cycles: how many cycles make the task (>= 1).
+        joint_speed_limit: radians per second; no joint may exceed it at nominal speed.
+
+    Raises:
+        ValueError: naming the bad value (a segment too fast for the joint limit names
+            its index and the shortest duration allowed).
+    """
+    w = np.array(waypoints_rad, dtype=float)
+    d = np.array(durations, dtype=float)
+    if w.ndim != 2 or w.shape[0] < 2 or w.shape[1] != 6 or not np.all(np.isfinite(w)):
+        raise ValueError(f"waypoints has shape {w.shape}: need (M >= 2, 6) finite radians")
+    if d.shape != (w.shape[0],) or not np.all(np.isfinite(d) & (d > 0.0)):
+        raise ValueError(f"durations={d.tolist()}: need {w.shape[0]} positive seconds")
+    if not (isinstance(cycles, int) and cycles >= 1):
+        raise ValueError(f"cycles={cycles!r}: need an integer >= 1")
+    deltas = np.abs(np.roll(w, -1, axis=0) - w).max(axis=1)
+    shortest = _PEAK_BLEND_RATE * deltas / joint_speed_limit
+    for j in np.flatnonzero(d < shortest - 1e-12):
+        raise ValueError(
+            f"segment_durations[{j}]={d[j]}: the joint speed would exceed "
+            f"{math.degrees(joint_speed_limit):.0f} deg/s; allowed >= {shortest[j]:.4f} s"
+        )
+    starts = np.concatenate([[0.0], np.cumsum(d)[:-1]])
+    for a in (w, d, starts):
+        a.setflags(write=False)
+    return JointPath(w, d, starts, float(d.sum()), cycles)
+
+
+def default_joint_path(cycles: int = 1) -> JointPath:
+    """The default pick-and-place cycle (``DEFAULT_WAYPOINTS_DEG``)."""
+    return make_joint_path(np.radians(DEFAULT_WAYPOINTS_DEG), DEFAULT_DURATIONS, cycles=cycles)
+
+
+def _blend(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Minimum-jerk blend h, h', h'' on tau in [0, 1]."""
+    t2 = tau * tau
+    h = t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2)
+    dh = 30.0 * t2 * (1.0 - tau) ** 2
+    ddh = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
+    return h, dh, ddh
+
+
+def joint_path_state(
+    path: JointPath, s: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q(s), dq/ds and d2q/ds2 at path parameter(s) s (clipped to [0, end]).
+
+    ``s`` of shape ``S`` gives three arrays of shape ``S + (6,)``: radians, radians per
+    second of nominal time, and radians per second squared.
+    """
+    s = np.clip(np.asarray(s, dtype=float), 0.0, path.end)
+    phase = np.where(s >= path.end, path.cycle_time, np.mod(s, path.cycle_time))
+    j = np.clip(np.searchsorted(path.starts, phase, side="right") - 1, 0, path.starts.size - 1)
+    T = path.durations[j]
+    tau = np.clip((phase - path.starts[j]) / T, 0.0, 1.0)
+    h, dh, ddh = _blend(tau)
+    w0 = path.waypoints[j]
+    delta = path.waypoints[(j + 1) % path.waypoints.shape[0]] - w0
+    q = w0 + h[..., None] * delta
+    dq = (dh / T)[..., None] * delta
+    ddq = (ddh / (T * T))[..., None] * delta
+    return q, dq, ddq

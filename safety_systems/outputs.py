@@ -1,0 +1,104 @@
+"""What ``safety-systems simulate`` writes: trace.csv, summary.json and plot.png."""
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from safety_systems.metrics import summarize, tool_state, true_separations
+from safety_systems.simulation import Run
+
+
+def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
+    """Header and rows of the trace: one row per control tick.
+
+    Columns: time (s), k (commanded speed scale), path_rate (sigma), robot_speed (true
+    tool speed, m/s), stop_reason (0 none, 1 separation, 2 sensor fault, 3 lost
+    track), S_max (m), then for each body ``<body>:d_true`` (true distance, empty when
+    absent), ``<body>:d_measured`` (the monitor's d_i from the tracker's estimate, empty
+    without a track) and ``<body>:S`` (the monitor's S_i).
+    """
+    p, speed = tool_state(run)
+    d_true = true_separations(run, p)
+    header = ["time", "k", "path_rate", "robot_speed", "stop_reason", "S_max"]
+    columns = [run.time, run["override.speed_scale_commanded"][:, 0],
+               run["follower.path_state"][:, 1], speed, run["override.stop_reason"][:, 0],
+               run["override.max_protective_distance"][:, 0]]
+    for i, name in enumerate(run.body_names):
+        header += [f"{name}:d_true", f"{name}:d_measured", f"{name}:S"]
+        columns += [d_true[:, i], run["monitor.distances"][:, i],
+                    run["monitor.protective_distances"][:, i]]
+    return header, np.column_stack(columns)
+
+
+def write_trace(run: Run, path: Path) -> None:
+    header, rows = trace_table(run)
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(header)
+        for row in rows:
+            writer.writerow(["" if not math.isfinite(x) else f"{x:.6g}" for x in row])
+
+
+def write_summary(run: Run, path: Path) -> dict:
+    summary = summarize(run)
+    path.write_text(json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def plot_run(run: Run, path: Path) -> None:
+    """Two panels in the manner of the seed's Figs. 7 and 9: speeds above; d_i, S_i,
+    d_min and k below."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = run.time
+    _, speed = tool_state(run)
+    v_est = np.linalg.norm(run.bodies("tracker.velocities_estimated"), axis=-1)
+    d = run["monitor.distances"]
+    s = run["monitor.protective_distances"]
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(10, 7))
+    for i, name in enumerate(run.body_names):
+        top.plot(t, v_est[:, i], label=f"v {name} (estimated)")
+    top.plot(t, speed, color="goldenrod", label="v_R (tool)")
+    top.set_ylabel("speed [m/s]")
+    top.legend(loc="upper right", fontsize="small")
+    top.grid(alpha=0.3)
+    for i, name in enumerate(run.body_names):
+        (line,) = bottom.plot(t, d[:, i], label=f"d {name}")
+        bottom.plot(t, s[:, i], linestyle="--", color=line.get_color(), label=f"S {name}")
+    bottom.axhline(run.scenario.controller.safety.d_min, color="red", label="d_min")
+    bottom.set_ylabel("distance [m]")
+    bottom.set_xlabel("time [s]")
+    bottom.set_ylim(bottom=min(0.0, float(np.nanmin(s, initial=0.0))))
+    k_axis = bottom.twinx()
+    k_axis.plot(t, run["override.speed_scale_commanded"][:, 0], color="black", label="k")
+    k_axis.set_ylim(-0.05, 1.05)
+    k_axis.set_ylabel("speed override k")
+    lines = bottom.get_legend_handles_labels()
+    k_lines = k_axis.get_legend_handles_labels()
+    bottom.legend(lines[0] + k_lines[0], lines[1] + k_lines[1], loc="upper right",
+                  fontsize="small", ncol=2)
+    bottom.grid(alpha=0.3)
+    fig.suptitle(f"{run.scenario.name}: SSM speed override (human speed: "
+                 f"{run.scenario.controller.safety.human_speed})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_outputs(run: Run, out_dir: Path, *, html: bool = False) -> dict:
+    """Writes trace.csv, summary.json, plot.png (and replay.html) into ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_trace(run, out_dir / "trace.csv")
+    summary = write_summary(run, out_dir / "summary.json")
+    plot_run(run, out_dir / "plot.png")
+    if html:
+        from safety_systems.replay import write_replay
+
+        write_replay(run, out_dir / "replay.html")
+    return summary

@@ -1,0 +1,201 @@
+"""KalmanTracker: one constant-velocity Kalman filter per tracked body (seed Eqs. 2-4)."""
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem, ValueProducer
+
+from safety_systems.kalman import (
+    batch_predict,
+    batch_update,
+    initial_covariance,
+    process_noise,
+    transition_matrix,
+)
+from safety_systems.systems.separation_monitor import (
+    TRACK_COASTING,
+    TRACK_LOST,
+    TRACK_NONE,
+    TRACK_TRACKING,
+)
+
+# Per-body state slot: x (6), P (36), status, time of the last predict/update, time last seen.
+_X, _P, _STATUS, _T_LAST, _T_SEEN = slice(0, 6), slice(6, 42), 42, 43, 44
+_SLOT = 45
+MIN_MEASUREMENT_STD = 1e-6  # m; keeps R positive definite for a noise-free sensor
+
+
+def track_step(
+    tracks: np.ndarray,
+    frame_time: float,
+    z: np.ndarray,
+    valid: np.ndarray,
+    *,
+    measurement_std: float,
+    velocity_process_noise: float,
+    initial_velocity_std: float,
+    max_coast_time: float,
+    exit_radius: float,
+) -> np.ndarray:
+    """Process one sensor frame for every body slot; returns the new (N, 45) track array.
+
+    Tracks that exist (tracking or coasting) are predicted to ``frame_time`` with their
+    own dt (Eqs. 2 and 4) and updated where the body is ``valid`` (Eq. 3). A valid body
+    without a track starts one at the measured position with zero velocity and
+    ``initial_velocity_std``. A track not seen for more than ``max_coast_time`` ends
+    (status none) if its last estimate lies more than ``exit_radius`` from the robot
+    base horizontally (the operator walked out of the cell), and is otherwise marked
+    lost (it vanished near the robot: the SpeedOverride stops). A lost track stays
+    lost until its body is seen again.
+    """
+    out = tracks.copy()
+    status = out[:, _STATUS]
+    active = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
+    valid = np.asarray(valid, dtype=bool) & np.all(np.isfinite(z), axis=1)
+    if np.any(active):
+        idx = np.flatnonzero(active)
+        dt = frame_time - out[idx, _T_LAST]
+        F = np.stack([transition_matrix(t) for t in dt])
+        Q = np.stack([process_noise(t, velocity_process_noise) for t in dt])
+        x, P = batch_predict(out[idx, _X], out[idx, _P].reshape(-1, 6, 6), F, Q)
+        R = np.eye(3) * measurement_std**2
+        x, P = batch_update(x, P, z[idx], R, valid_mask=valid[idx])
+        out[idx, _X] = x
+        out[idx, _P] = P.reshape(-1, 36)
+        out[idx, _T_LAST] = frame_time
+    start = valid & ~active
+    if np.any(start):
+        out[start, _X] = np.hstack([z[start], np.zeros((int(start.sum()), 3))])
+        out[start, _P] = initial_covariance(
+            measurement_std, initial_velocity_std, (int(start.sum()),)).reshape(-1, 36)
+        out[start, _T_LAST] = frame_time
+    out[valid, _STATUS] = TRACK_TRACKING
+    out[valid, _T_SEEN] = frame_time
+    coasting = active & ~valid
+    out[coasting, _STATUS] = TRACK_COASTING
+    expired = coasting & (frame_time - out[:, _T_SEEN] > max_coast_time)
+    if np.any(expired):
+        outside = np.hypot(out[:, 0], out[:, 1]) > exit_radius
+        out[expired & outside, _STATUS] = TRACK_NONE
+        out[expired & ~outside, _STATUS] = TRACK_LOST
+    return out
+
+
+class KalmanTracker(LeafSystem):
+    """Tracks every body slot from the sensor's frames and flags sensor faults.
+
+    At each of its updates (every sensor period, ``processing_time`` after a frame is
+    due to be delivered) it takes the newest delivered frame, if it is new, through
+    :func:`track_step`. Outputs are the filtered estimates at the frame's capture time.
+    ``fault`` is 1 when the newest processed frame is older than ``frame_timeout`` (a
+    missing frame, or no frame yet) or the newest frame was bad (capture time not moving
+    forward, or a body flagged valid without a finite position), and 0 otherwise; a
+    stale frame is never extrapolated.
+
+    .. pydrake_system::
+
+        name: KalmanTracker
+        input_ports:
+        - positions_measured
+        - valid
+        - sample_time
+        output_ports:
+        - positions_estimated
+        - velocities_estimated
+        - track_status
+        - position_std
+        - fault
+
+    Untracked slots (status none) output NaN positions and velocities. ``position_std``
+    is the root of the largest eigenvalue of each track's position covariance, metres.
+
+    Args:
+        num_bodies: body slots N.
+        period_sec: the sensor's capture period, seconds.
+        latency_sec: the sensor's delivery latency, seconds.
+        processing_time: seconds from delivery to the tracker's update (> 0).
+        frame_timeout: seconds after capture after which a frame is stale.
+        measurement_std: the measurement noise per axis (N = std^2 I3), metres.
+        velocity_process_noise: q2 of Eq. 4, metres squared per second squared.
+        initial_velocity_std: velocity uncertainty of a new track, metres per second.
+        max_coast_time: seconds a track survives without measurements.
+        exit_radius: metres from the robot base beyond which an unseen track ends.
+    """
+
+    def __init__(self, *, num_bodies: int, period_sec: float, latency_sec: float,
+                 processing_time: float, frame_timeout: float, measurement_std: float,
+                 velocity_process_noise: float, initial_velocity_std: float,
+                 max_coast_time: float, exit_radius: float) -> None:
+        super().__init__()
+        for name, value in dict(period_sec=period_sec, processing_time=processing_time,
+                                frame_timeout=frame_timeout,
+                                velocity_process_noise=velocity_process_noise,
+                                initial_velocity_std=initial_velocity_std,
+                                max_coast_time=max_coast_time, exit_radius=exit_radius).items():
+            if not (np.isfinite(value) and value > 0.0):
+                raise ValueError(f"{name}: got {value}; allowed: a finite number > 0")
+        if not (np.isfinite(latency_sec) and latency_sec >= 0.0):
+            raise ValueError(f"latency_sec: got {latency_sec}; allowed: a finite number >= 0")
+        n = self._n = num_bodies
+        self._timeout = float(frame_timeout)
+        self._args = dict(
+            measurement_std=max(float(measurement_std), MIN_MEASUREMENT_STD),
+            velocity_process_noise=velocity_process_noise,
+            initial_velocity_std=initial_velocity_std, max_coast_time=max_coast_time,
+            exit_radius=exit_radius,
+        )
+        # Tracks, the capture time of the newest processed frame, and a bad-frame flag.
+        self._state = self.DeclareDiscreteState(np.r_[np.zeros(n * _SLOT), -np.inf, 0.0])
+        self._z = self.DeclareVectorInputPort("positions_measured", 3 * n)
+        self._valid = self.DeclareVectorInputPort("valid", n)
+        self._time = self.DeclareVectorInputPort("sample_time", 1)
+        self.DeclarePeriodicDiscreteUpdateEvent(
+            period_sec=period_sec, offset_sec=latency_sec + processing_time, update=self._update)
+        self._out = self.DeclareCacheEntry(
+            description="estimates",
+            value_producer=ValueProducer(allocate=AbstractValue.Make(np.zeros((8, n))).Clone,
+                                         calc=self._calc_estimates),
+            prerequisites_of_calc={self.xd_ticket()},
+        )
+        for name, rows in (("positions_estimated", slice(0, 3)),
+                           ("velocities_estimated", slice(3, 6)), ("track_status", 6),
+                           ("position_std", 7)):
+            size = 3 * n if isinstance(rows, slice) else n
+            self.DeclareVectorOutputPort(
+                name, size, lambda c, o, r=rows: o.SetFromVector(np.ravel(self._out.Eval(c)[r], "F")),
+                prerequisites_of_calc={self._out.ticket()},
+            )
+        self.DeclareVectorOutputPort("fault", 1, self._calc_fault,
+                                     prerequisites_of_calc={self.xd_ticket(), self.time_ticket()})
+
+    def _update(self, context: Context, discrete_state: DiscreteValues) -> None:
+        t_frame = self._time.Eval(context)[0]
+        state = context.get_discrete_state(self._state).get_value()
+        if t_frame == state[-2] or t_frame == -np.inf:
+            return  # no new frame: nothing to process (the fault output sees the age)
+        n = self._n
+        z = np.asarray(self._z.Eval(context)).reshape(n, 3)
+        valid = self._valid.Eval(context) > 0.5
+        if not (np.isfinite(t_frame) and t_frame > state[-2]) or not np.all(np.isfinite(z[valid])):
+            # A bad frame (time not moving forward, or a valid body without a finite
+            # position) is not used, and raises the fault until a good frame comes.
+            discrete_state.get_mutable_value(self._state)[-1] = 1.0
+            return
+        tracks = state[:-2].reshape(n, _SLOT)
+        new = track_step(tracks, t_frame, z, valid, **self._args)
+        discrete_state.set_value(self._state, np.r_[new.ravel(), t_frame, 0.0])
+
+    def _calc_estimates(self, context: Context, value: AbstractValue) -> None:
+        n = self._n
+        tracks = context.get_discrete_state(self._state).get_value()[:-2].reshape(n, _SLOT)
+        out = value.get_mutable_value()
+        status = tracks[:, _STATUS]
+        out[0:6] = tracks[:, _X].T
+        out[0:6, status == TRACK_NONE] = np.nan
+        out[6] = status
+        P_pos = tracks[:, _P].reshape(n, 6, 6)[:, :3, :3]
+        out[7] = np.sqrt(np.maximum(np.linalg.eigvalsh(P_pos)[:, -1], 0.0)) if n else 0.0
+
+    def _calc_fault(self, context: Context, output: BasicVector) -> None:
+        t_frame, bad = context.get_discrete_state(self._state).get_value()[-2:]
+        stale = not (context.get_time() - t_frame <= self._timeout)
+        output.SetAtIndex(0, float(stale or bad != 0.0))

@@ -1,0 +1,238 @@
+"""Builders: ``AddSafetyController`` and ``MakeWorkcell`` (the whole cell from a scenario).
+
+The diagram (seed Sections 4-6, Fig. 5's loop)::
+
+    OperatorMotion -> MocapSensor -> KalmanTracker -> SeparationMonitor -> SpeedOverride
+                                                             ^                   |
+         UR5e (kinematic, or plant + inverse dynamics) -> EndEffectorVelocity    |
+                    ^                                                            |
+                    +------------------ PathFollower (braking) <-----------------+
+
+Every signal is logged at the control period.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.controllers import InverseDynamicsController
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
+from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
+
+from safety_systems.braking import BrakingTable, default_braking_table, stopping_distance
+from safety_systems.braking import stopping_time as table_stopping_time
+from safety_systems.joint_path import JointPath, default_joint_path, make_joint_path
+from safety_systems.operator_paths import ScriptedOperator, make_operator_path
+from safety_systems.scenario import ControllerConfig, RobotConfig, Scenario, body_names
+from safety_systems.systems.end_effector_velocity import EndEffectorVelocity
+from safety_systems.systems.kalman_tracker import KalmanTracker
+from safety_systems.systems.mocap_sensor import MocapSensor
+from safety_systems.systems.operator_motion import OperatorMotion
+from safety_systems.systems.path_follower import PathFollower
+from safety_systems.systems.separation_monitor import SeparationMonitor
+from safety_systems.systems.speed_override import SpeedOverride
+from safety_systems.ur5e import AddUr5e
+
+# Joint-space gains of the dynamic mode's inverse-dynamics controller: critically
+# damped, natural frequency 30 rad/s (own choice).
+DYNAMIC_KP = 900.0
+DYNAMIC_KD = 60.0
+
+
+def braking_table(config: ControllerConfig) -> BrakingTable:
+    """The configured stopping data, or the UR5 placeholder table when none is given."""
+    b = config.braking
+    if not b.speed_fraction:
+        return default_braking_table()
+    return BrakingTable(np.array(b.speed_fraction), np.array(b.stopping_time),
+                        np.array(b.stopping_distance))
+
+
+def assumed_stopping(config: ControllerConfig) -> tuple[float, float]:
+    """(T_s, B) the monitor uses: the configured values, else the table's at full speed."""
+    table = braking_table(config)
+    t_s = config.safety.stopping_time
+    b = config.safety.stopping_distance
+    return (float(table_stopping_time(table, 1.0)) if t_s is None else t_s,
+            float(stopping_distance(table, 1.0)) if b is None else b)
+
+
+def frame_timeout(config: ControllerConfig) -> float:
+    """Age after which a frame is stale, seconds (see ``TrackerConfig``)."""
+    if config.tracker.frame_timeout is not None:
+        return config.tracker.frame_timeout
+    return 1.5 / config.sensor.rate_hz + config.sensor.latency + config.tracker.processing_time
+
+
+def joint_path(robot: RobotConfig) -> JointPath:
+    """The robot's cyclic path from the scenario (default pick and place if none)."""
+    p = robot.path
+    if not p.waypoints_deg:
+        return default_joint_path(cycles=robot.cycles)
+    return make_joint_path(np.radians(p.waypoints_deg), p.segment_durations,
+                           cycles=robot.cycles)
+
+
+def scripted_operators(scenario: Scenario) -> list[ScriptedOperator]:
+    """The scenario's operators as scripted paths with rigid body offsets."""
+    return [
+        ScriptedOperator(
+            path=make_operator_path([w.time for w in o.waypoints],
+                                    [w.position for w in o.waypoints],
+                                    o.max_speed, o.max_acceleration),
+            body_offsets=np.array([b.offset for b in o.bodies]),
+            enter_time=o.enter_time, leave_time=o.leave_time,
+        )
+        for o in scenario.operators
+    ]
+
+
+@dataclasses.dataclass
+class SafetyController:
+    """The systems ``AddSafetyController`` added; connect the sensor and the robot to them."""
+
+    tracker: KalmanTracker
+    ee: EndEffectorVelocity
+    monitor: SeparationMonitor
+    override: SpeedOverride
+
+
+def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, num_bodies: int,
+                        control_period: float) -> SafetyController:
+    """Adds the tracker, the robot-velocity estimate, the monitor and the override.
+
+    Left to connect: the tracker's ``positions_measured``, ``valid`` and
+    ``sample_time`` (from a sensor) and the EndEffectorVelocity's ``joint_positions``
+    (from the robot). The override's ``speed_scale_commanded`` is the controller's output.
+    """
+    s, t, f = config.sensor, config.tracker, config.safety
+    t_s, b = assumed_stopping(config)
+    tracker = builder.AddNamedSystem("tracker", KalmanTracker(
+        num_bodies=num_bodies, period_sec=1.0 / s.rate_hz, latency_sec=s.latency,
+        processing_time=t.processing_time, frame_timeout=frame_timeout(config),
+        measurement_std=s.noise_std if t.measurement_std is None else t.measurement_std,
+        velocity_process_noise=t.velocity_process_noise,
+        initial_velocity_std=t.initial_velocity_std, max_coast_time=t.max_coast_time,
+        exit_radius=t.exit_radius))
+    ee = builder.AddNamedSystem("ee_velocity", EndEffectorVelocity(period_sec=control_period))
+    monitor = builder.AddNamedSystem("monitor", SeparationMonitor(
+        num_bodies=num_bodies, human_speed=f.human_speed, reaction_time=f.reaction_time,
+        stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
+        human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
+        human_uncertainty_sigmas=f.human_uncertainty_sigmas, iso_speed=f.iso_human_speed,
+        iso_reduced_speed=f.iso_reduced_human_speed))
+    override = builder.AddNamedSystem("override", SpeedOverride(
+        num_bodies=num_bodies, delta_s=f.delta_s, d_min=f.d_min))
+    for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std"):
+        builder.Connect(tracker.GetOutputPort(name), monitor.GetInputPort(name))
+    builder.Connect(ee.GetOutputPort("ee_position"), monitor.GetInputPort("ee_position"))
+    builder.Connect(ee.GetOutputPort("ee_velocity"), monitor.GetInputPort("ee_velocity"))
+    builder.Connect(monitor.GetOutputPort("distances"), override.GetInputPort("distances"))
+    builder.Connect(monitor.GetOutputPort("protective_distances"),
+                    override.GetInputPort("protective_distances"))
+    builder.Connect(tracker.GetOutputPort("track_status"), override.GetInputPort("track_status"))
+    builder.Connect(tracker.GetOutputPort("fault"), override.GetInputPort("fault"))
+    return SafetyController(tracker, ee, monitor, override)
+
+
+@dataclasses.dataclass
+class Workcell:
+    """A built workcell: the diagram, its named systems and its loggers by signal name."""
+
+    diagram: Diagram
+    scenario: Scenario
+    path: JointPath
+    body_names: list[str]
+    systems: dict
+    loggers: dict
+    plant: MultibodyPlant | None = None
+
+
+def _sensor_intervals(scenario: Scenario) -> tuple[list, list]:
+    names = body_names(scenario)
+    s = scenario.controller.sensor
+    occlusions = [(names.index(o.body), o.start, o.end) for o in s.occlusions]
+    return occlusions, [(d.start, d.end) for d in s.dropouts]
+
+
+def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollower,
+               dt: float) -> tuple[OutputPort, OutputPort, MultibodyPlant | None]:
+    """Adds the robot in its mode; returns its joint position and velocity ports."""
+    if robot.mode == "kinematic":
+        return (follower.GetOutputPort("joint_positions_desired"),
+                follower.GetOutputPort("joint_velocities_desired"), None)
+    plant = builder.AddNamedSystem("plant", MultibodyPlant(time_step=dt))
+    AddUr5e(plant)
+    plant.Finalize()
+    model = MultibodyPlant(time_step=dt)
+    AddUr5e(model)
+    model.Finalize()
+    controller = builder.AddNamedSystem("inverse_dynamics", InverseDynamicsController(
+        model, kp=np.full(6, DYNAMIC_KP), ki=np.zeros(6), kd=np.full(6, DYNAMIC_KD),
+        has_reference_acceleration=True))
+    desired = builder.AddNamedSystem("desired_state", Multiplexer([6, 6]))
+    builder.Connect(follower.GetOutputPort("joint_positions_desired"), desired.get_input_port(0))
+    builder.Connect(follower.GetOutputPort("joint_velocities_desired"), desired.get_input_port(1))
+    builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
+    builder.Connect(follower.GetOutputPort("joint_accelerations_desired"),
+                    controller.get_input_port_desired_acceleration())
+    builder.Connect(plant.get_state_output_port(), controller.get_input_port_estimated_state())
+    builder.Connect(controller.get_output_port_control(), plant.get_actuation_input_port())
+    split = builder.AddNamedSystem("joint_state", Demultiplexer([6, 6]))
+    builder.Connect(plant.get_state_output_port(), split.get_input_port())
+    return split.get_output_port(0), split.get_output_port(1), plant
+
+
+def MakeWorkcell(scenario: Scenario) -> Workcell:
+    """Builds the whole cell of a (validated) scenario, with every signal logged."""
+    robot, config = scenario.robot, scenario.controller
+    dt = 1.0 / robot.control_rate_hz
+    path = joint_path(robot)
+    names = body_names(scenario)
+    n = len(names)
+    builder = DiagramBuilder()
+    motion = builder.AddNamedSystem(
+        "operators", OperatorMotion(operators=scripted_operators(scenario)))
+    occlusions, dropouts = _sensor_intervals(scenario)
+    sensor = builder.AddNamedSystem("mocap", MocapSensor(
+        num_bodies=n, period_sec=1.0 / config.sensor.rate_hz,
+        noise_std=config.sensor.noise_std, latency_sec=config.sensor.latency,
+        occlusions=occlusions, dropped_frames=dropouts, seed=config.sensor.seed))
+    builder.Connect(motion.GetOutputPort("positions_true"),
+                    sensor.GetInputPort("positions_true"))
+    builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))
+    safety = AddSafetyController(builder, config=config, num_bodies=n, control_period=dt)
+    for name in ("positions_measured", "valid", "sample_time"):
+        builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
+    follower = builder.AddNamedSystem("follower", PathFollower(
+        path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
+        period_sec=dt))
+    builder.Connect(safety.override.GetOutputPort("speed_scale_commanded"),
+                    follower.GetInputPort("speed_scale_commanded"))
+    q_port, v_port, plant = _add_robot(builder, robot, follower, dt)
+    builder.Connect(q_port, safety.ee.GetInputPort("joint_positions"))
+    systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker,
+                   ee_velocity=safety.ee, monitor=safety.monitor, override=safety.override,
+                   follower=follower)
+
+    logged = {"q": q_port, "v": v_port}
+    for system_name, system in systems.items():
+        for i in range(system.num_output_ports()):
+            port = system.get_output_port(i)
+            logged[f"{system_name}.{port.get_name()}"] = port
+    loggers = {}
+    for key, port in logged.items():
+        if port.size() == 0:
+            continue
+        logger = builder.AddNamedSystem(f"log {key}", VectorLogSink(port.size(), dt))
+        builder.Connect(port, logger.get_input_port())
+        loggers[key] = logger
+    diagram = builder.Build()
+    diagram.set_name("workcell")
+    return Workcell(diagram, scenario, path, names, systems, loggers, plant)
+
+
+def control_ticks(duration: float, period: float) -> int:
+    """Number of control ticks in [0, duration]."""
+    return int(math.floor(duration / period + 1e-9)) + 1
