@@ -104,8 +104,8 @@ def path_rate_step(
     """
     rate = np.asarray(rate, dtype=float)
     cmd = np.asarray(commanded, dtype=float)
-    cmd = np.where(np.isfinite(cmd), np.clip(cmd, -1.0, 1.0), 0.0)
+    cmd = np.where(cmd == cmd, np.minimum(np.maximum(cmd, -1.0), 1.0), 0.0)  # NaN -> 0
     slowing = (np.abs(cmd) < np.abs(rate)) | (cmd * rate < 0.0)
     bound = np.where(slowing, braking_deceleration(table, rate), acceleration_limit) * dt
-    new = rate + np.clip(cmd - rate, -bound, bound)
+    new = rate + np.minimum(np.maximum(cmd - rate, -bound), bound)
     return np.where(rate * new < 0.0, 0.0, new)

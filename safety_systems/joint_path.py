@@ -42,6 +42,7 @@ class JointPath:
         starts: (M,) nominal start time of each segment within a cycle, seconds.
         cycle_time: nominal time of one cycle, seconds.
         cycles: number of cycles in the task.
+        deltas: (M, 6) joint displacement of each segment, radians.
     """
 
     waypoints: np.ndarray
@@ -49,6 +50,7 @@ class JointPath:
     starts: np.ndarray
     cycle_time: float
     cycles: int
+    deltas: np.ndarray  # (M, 6) joint displacement of each segment, radians
 
     @property
     def end(self) -> float:
@@ -58,8 +60,7 @@ class JointPath:
     @property
     def peak_joint_speed(self) -> float:
         """Largest joint speed at nominal speed (sigma = 1), radians per second."""
-        deltas = np.abs(np.roll(self.waypoints, -1, axis=0) - self.waypoints)
-        return float(np.max(_PEAK_BLEND_RATE * deltas / self.durations[:, None]))
+        return float(np.max(_PEAK_BLEND_RATE * np.abs(self.deltas) / self.durations[:, None]))
 
 
 def make_joint_path(
@@ -90,17 +91,17 @@ def make_joint_path(
         raise ValueError(f"durations={d.tolist()}: need {w.shape[0]} positive seconds")
     if not (isinstance(cycles, int) and cycles >= 1):
         raise ValueError(f"cycles={cycles!r}: need an integer >= 1")
-    deltas = np.abs(np.roll(w, -1, axis=0) - w).max(axis=1)
-    shortest = _PEAK_BLEND_RATE * deltas / joint_speed_limit
+    deltas = np.roll(w, -1, axis=0) - w
+    shortest = _PEAK_BLEND_RATE * np.abs(deltas).max(axis=1) / joint_speed_limit
     for j in np.flatnonzero(d < shortest - 1e-12):
         raise ValueError(
             f"segment_durations[{j}]={d[j]}: the joint speed would exceed "
             f"{math.degrees(joint_speed_limit):.0f} deg/s; allowed >= {shortest[j]:.4f} s"
         )
     starts = np.concatenate([[0.0], np.cumsum(d)[:-1]])
-    for a in (w, d, starts):
+    for a in (w, d, starts, deltas):
         a.setflags(write=False)
-    return JointPath(w, d, starts, float(d.sum()), cycles)
+    return JointPath(w, d, starts, float(d.sum()), cycles, deltas)
 
 
 def default_joint_path(cycles: int = 1) -> JointPath:
@@ -125,14 +126,14 @@ def joint_path_state(
     ``s`` of shape ``S`` gives three arrays of shape ``S + (6,)``: radians, radians per
     second of nominal time, and radians per second squared.
     """
-    s = np.clip(np.asarray(s, dtype=float), 0.0, path.end)
-    phase = np.where(s >= path.end, path.cycle_time, np.mod(s, path.cycle_time))
-    j = np.clip(np.searchsorted(path.starts, phase, side="right") - 1, 0, path.starts.size - 1)
+    s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), path.end)
+    phase = s - path.cycle_time * np.minimum(np.floor(s / path.cycle_time), path.cycles - 1)
+    j = np.searchsorted(path.starts, phase, side="right") - 1
     T = path.durations[j]
-    tau = np.clip((phase - path.starts[j]) / T, 0.0, 1.0)
+    tau = np.minimum((phase - path.starts[j]) / T, 1.0)
     h, dh, ddh = _blend(tau)
     w0 = path.waypoints[j]
-    delta = path.waypoints[(j + 1) % path.waypoints.shape[0]] - w0
+    delta = path.deltas[j]
     q = w0 + h[..., None] * delta
     dq = (dh / T)[..., None] * delta
     ddq = (ddh / (T * T))[..., None] * delta

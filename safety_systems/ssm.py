@@ -24,9 +24,8 @@ def separation_distances(p_robot: np.ndarray, p_bodies: np.ndarray) -> np.ndarra
 
     Returns shape ``(..., N)``.
     """
-    p_robot = np.asarray(p_robot, dtype=float)
-    diff = np.asarray(p_bodies, dtype=float) - p_robot[..., None, :]
-    return np.sqrt(np.einsum("...i,...i->...", diff, diff))
+    diff = np.asarray(p_bodies, dtype=float) - np.asarray(p_robot, dtype=float)[..., None, :]
+    return np.sqrt((diff * diff).sum(axis=-1))
 
 
 def directed_speeds(
@@ -45,19 +44,20 @@ def directed_speeds(
 
     Returns ``(v_human_directed, v_robot_directed)``, each shape ``(..., N)``.
     """
-    p_robot = np.asarray(p_robot, dtype=float)
-    v_robot = np.asarray(v_robot, dtype=float)
-    diff = p_robot[..., None, :] - np.asarray(p_bodies, dtype=float)  # body -> robot
-    dist = np.sqrt(np.einsum("...i,...i->...", diff, diff))
+    v_robot = np.asarray(v_robot, dtype=float)[..., None, :]
     v_bodies = np.asarray(v_bodies, dtype=float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = diff / dist[..., None]
-        v_h = np.einsum("...i,...i->...", v_bodies, unit)
-        v_r = -np.einsum("...i,...i->...", v_robot[..., None, :], unit)
-    coincident = dist <= 1e-12
-    if np.any(coincident):
+    diff = np.asarray(p_robot, dtype=float)[..., None, :] - np.asarray(p_bodies, dtype=float)
+    dist = np.sqrt((diff * diff).sum(axis=-1))
+    apart = dist > 1e-12
+    # Projections onto body -> robot, divided by the distance where it is defined.
+    v_h = np.divide((v_bodies * diff).sum(axis=-1), dist, out=np.zeros_like(dist), where=apart)
+    v_r = np.divide(-(v_robot * diff).sum(axis=-1), dist, out=np.zeros_like(dist), where=apart)
+    if not apart.all():
+        coincident = ~apart & np.isfinite(dist)
         v_h = np.where(coincident, np.linalg.norm(v_bodies, axis=-1), v_h)
-        v_r = np.where(coincident, np.linalg.norm(v_robot, axis=-1)[..., None], v_r)
+        v_r = np.where(coincident, np.linalg.norm(v_robot, axis=-1), v_r)
+        v_h[np.isnan(dist)] = np.nan
+        v_r[np.isnan(dist)] = np.nan
     return v_h, v_r
 
 
@@ -173,14 +173,15 @@ def speed_override(
     d >= d_min. Non-finite distances give k = 0 (fail safe).
     """
     d = np.asarray(distances, dtype=float)
-    s = np.broadcast_to(np.asarray(s_max, dtype=float), np.broadcast_shapes(d.shape, np.shape(s_max)))
+    s = np.asarray(s_max, dtype=float)
     band = (delta_s - 1.0) * s
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        ramp = np.where(band > 0.0, (d - s) / np.where(band > 0.0, band, 1.0), 1.0)
-    k = np.clip(ramp, 0.0, 1.0)
-    k = np.where(d >= delta_s * s, 1.0, k)
-    stop = (d < s) | (d < d_min) | ~np.isfinite(d)
-    return np.where(stop, 0.0, k)
+    # Where the band is empty or infinite the ramp is not used: k is 1 or 0 below.
+    ramp = np.divide(d - s, band, out=np.ones(np.broadcast_shapes(d.shape, s.shape)),
+                     where=(band > 0.0) & (band < np.inf))
+    k = np.minimum(np.maximum(ramp, 0.0), 1.0)
+    k[d >= delta_s * s] = 1.0
+    k[~((d >= s) & (d >= d_min) & (d < np.inf))] = 0.0
+    return k
 
 
 def overall_speed_override(
@@ -202,9 +203,10 @@ def overall_speed_override(
     d = np.asarray(distances, dtype=float)
     s = np.asarray(protective_distances, dtype=float)
     inc = np.asarray(included, dtype=bool)
-    bad = inc & ~(np.isfinite(d) & np.isfinite(s))
-    s_max = np.max(np.where(inc, s, -np.inf), axis=-1, initial=-np.inf)
-    s_max = np.where(np.any(bad, axis=-1), np.inf, s_max)
+    s_inc = np.where(inc, s, -np.inf)
+    s_inc[inc & ~np.isfinite(d)] = np.inf  # a bad distance makes S_max infinite: stop
+    s_inc[np.isnan(s_inc)] = np.inf
+    s_max = s_inc.max(axis=-1, initial=-np.inf)
     k_i = speed_override(d, s_max[..., None], delta_s=delta_s, d_min=d_min)
-    k = np.min(np.where(inc, k_i, 1.0), axis=-1, initial=1.0)
-    return k, s_max
+    k_i[~inc] = 1.0
+    return k_i.min(axis=-1, initial=1.0), s_max

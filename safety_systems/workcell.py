@@ -13,6 +13,7 @@ Every signal is logged at the control period.
 
 import dataclasses
 import math
+from collections.abc import Iterable
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
@@ -184,8 +185,12 @@ def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollow
     return split.get_output_port(0), split.get_output_port(1), plant
 
 
-def MakeWorkcell(scenario: Scenario) -> Workcell:
-    """Builds the whole cell of a (validated) scenario, with every signal logged."""
+def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> Workcell:
+    """Builds the whole cell of a (validated) scenario.
+
+    Every output port is logged at the control period unless ``logged`` names the
+    signals to keep (``"q"``, ``"v"`` and ``"system.port"`` keys).
+    """
     robot, config = scenario.robot, scenario.controller
     dt = 1.0 / robot.control_rate_hz
     path = joint_path(robot)
@@ -216,14 +221,19 @@ def MakeWorkcell(scenario: Scenario) -> Workcell:
                    ee_velocity=safety.ee, monitor=safety.monitor, override=safety.override,
                    follower=follower)
 
-    logged = {"q": q_port, "v": v_port}
+    ports = {"q": q_port, "v": v_port}
     for system_name, system in systems.items():
         for i in range(system.num_output_ports()):
             port = system.get_output_port(i)
-            logged[f"{system_name}.{port.get_name()}"] = port
+            ports[f"{system_name}.{port.get_name()}"] = port
+    if logged is not None:
+        logged = set(logged)
+        unknown = logged - set(ports)
+        if unknown:
+            raise ValueError(f"logged: unknown signals {sorted(unknown)}; allowed: {sorted(ports)}")
     loggers = {}
-    for key, port in logged.items():
-        if port.size() == 0:
+    for key, port in ports.items():
+        if logged is not None and key not in logged:
             continue
         logger = builder.AddNamedSystem(f"log {key}", VectorLogSink(port.size(), dt))
         builder.Connect(port, logger.get_input_port())

@@ -1,7 +1,8 @@
 """EndEffectorVelocity: the robot point p_R and its velocity v_R (seed Eq. 5)."""
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem, ValueProducer
 
 from safety_systems.ur5e import tool0_position
 
@@ -36,19 +37,23 @@ class EndEffectorVelocity(LeafSystem):
         self._previous = self.DeclareDiscreteState(np.full(3, np.nan))
         self.DeclarePeriodicDiscreteUpdateEvent(period_sec=period_sec, offset_sec=0.0,
                                                 update=self._store)
-        self.DeclareVectorOutputPort("ee_position", 3, self._calc_position,
-                                     prerequisites_of_calc={self._q.ticket()})
+        self._p = self.DeclareCacheEntry(
+            description="ee_position",
+            value_producer=ValueProducer(
+                allocate=AbstractValue.Make(np.zeros(3)).Clone,
+                calc=lambda c, v: v.set_value(tool0_position(self._q.Eval(c)))),
+            prerequisites_of_calc={self._q.ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "ee_position", 3, lambda c, o: o.SetFromVector(self._p.Eval(c)),
+            prerequisites_of_calc={self._p.ticket()})
         self.DeclareVectorOutputPort(
             "ee_velocity", 3, self._calc_velocity,
-            prerequisites_of_calc={self._q.ticket(), self.xd_ticket()})
+            prerequisites_of_calc={self._p.ticket(), self.xd_ticket()})
 
     def _store(self, context: Context, discrete_state: DiscreteValues) -> None:
-        discrete_state.set_value(self._previous, tool0_position(self._q.Eval(context)))
-
-    def _calc_position(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(tool0_position(self._q.Eval(context)))
+        discrete_state.set_value(self._previous, self._p.Eval(context))
 
     def _calc_velocity(self, context: Context, output: BasicVector) -> None:
         previous = context.get_discrete_state(self._previous).get_value()
-        current = tool0_position(self._q.Eval(context))
-        output.SetFromVector((current - previous) / self._dt)
+        output.SetFromVector((self._p.Eval(context) - previous) / self._dt)

@@ -1,0 +1,230 @@
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from safety_systems.operator_paths import (
+    ScriptedOperator,
+    body_layout,
+    make_operator_path,
+    operator_position_velocity,
+    operators_bodies_state,
+    segment_profile,
+)
+
+FIXED = settings(derandomize=True, deadline=None, max_examples=40)
+
+# Speed limit 1.5 m/s, acceleration limit 1 m/s^2. Segment 0: 3 m along +x, trapezoidal
+# (1.5 s accelerating, 0.5 s cruising, 1.5 s braking = 3.5 s). Segment 1: 1 m along +y,
+# triangular (peak sqrt(1 * 1) = 1 m/s, 1 s + 1 s). Segment 2: zero length.
+TIMES = [0.0, 1.0, 6.0, 9.0]
+POSITIONS = [[0, 0, 0], [3, 0, 0], [3, 1, 0], [3, 1, 0]]
+
+
+def _path():
+    return make_operator_path(TIMES, POSITIONS, max_speed=1.5, max_acceleration=1.0)
+
+
+def _random_path(seed: int):
+    """A random feasible path: 2 to 5 waypoints, random limits, random slack."""
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(2, 6))
+    v_max, a_max = rng.uniform(0.2, 2.5), rng.uniform(0.3, 4.0)
+    p = rng.uniform(-2, 2, size=(m, 3))
+    p[rng.uniform(size=m) < 0.2] = p[0]  # sometimes revisit the start (or stay put)
+    ta, tc, _ = segment_profile(np.linalg.norm(np.diff(p, axis=0), axis=1), v_max, a_max)
+    durations = 2 * ta + tc
+    t = [rng.uniform(-1, 1), rng.uniform(1, 2)]
+    for d in durations[:-1]:
+        t.append(t[-1] + d + rng.uniform(0.0, 1.0))
+    return make_operator_path(t, p, max_speed=v_max, max_acceleration=a_max)
+
+
+def test_segment_profile_trapezoidal_triangular_and_zero():
+    ta, tc, vp = segment_profile(np.array([3.0, 1.0, 0.0, 2.25]), 1.5, 1.0)
+    np.testing.assert_allclose(vp, [1.5, 1.0, 0.0, 1.5])
+    np.testing.assert_allclose(ta, [1.5, 1.0, 0.0, 1.5])
+    np.testing.assert_allclose(tc, [0.5, 0.0, 0.0, 0.0], atol=1e-15)  # 2.25 m: just reaches
+
+
+def test_path_profile_hand_computed():
+    path = _path()
+    np.testing.assert_allclose(path.peak_speeds, [1.5, 1.0, 0.0])
+    np.testing.assert_allclose(path.durations, [3.5, 2.0, 0.0])
+    np.testing.assert_allclose(path.departure_times, [1.0, 6.0, 9.0])
+    np.testing.assert_allclose(path.directions, [[1, 0, 0], [0, 1, 0], [0, 0, 0]])
+    cases = {  # t: (position, velocity)
+        1.75: ([0.5 * 0.75**2, 0, 0], [0.75, 0, 0]),  # accelerating
+        2.75: ([1.125 + 1.5 * 0.25, 0, 0], [1.5, 0, 0]),  # cruising at max_speed
+        4.0: ([3 - 0.5 * 0.5**2, 0, 0], [0.5, 0, 0]),  # braking, 0.5 s left
+        4.5: ([3, 0, 0], [0, 0, 0]),  # arrived
+        5.9: ([3, 0, 0], [0, 0, 0]),  # held until the next departure
+        7.0: ([3, 0.5, 0], [0, 1.0, 0]),  # triangular peak halfway
+        7.5: ([3, 1 - 0.5 * 0.5**2, 0], [0, 0.5, 0]),
+        8.0: ([3, 1, 0], [0, 0, 0]),
+        100.0: ([3, 1, 0], [0, 0, 0]),
+    }
+    for t, (p, v) in cases.items():
+        for got in (operator_position_velocity(path, t),
+                    [a[0] for a in operator_position_velocity(path, np.array([t]))]):
+            np.testing.assert_allclose(got[0], p, atol=1e-12, err_msg=f"t={t}")
+            np.testing.assert_allclose(got[1], v, atol=1e-12, err_msg=f"t={t}")
+
+
+@pytest.mark.parametrize("t", [-1e6, -3.0, 0.0, 0.5, 0.999999])
+def test_start_held_before_first_departure(t):
+    # Waypoint 0's time (0.0) only orders the list: the start is held for all t < 1.
+    for p, v in (operator_position_velocity(_path(), t),
+                 operator_position_velocity(_path(), np.array([t, t]))):
+        np.testing.assert_array_equal(p, np.broadcast_to([0.0, 0, 0], np.shape(p)))
+        np.testing.assert_array_equal(v, np.zeros(np.shape(v)))
+
+
+def test_single_waypoint_is_held_forever():
+    path = make_operator_path([2.0], [[1.0, 2.0, 3.0]], max_speed=1.0, max_acceleration=1.0)
+    p, v = operator_position_velocity(path, np.array([-5.0, 2.0, 50.0]))
+    np.testing.assert_array_equal(p, [[1.0, 2.0, 3.0]] * 3)
+    np.testing.assert_array_equal(v, np.zeros((3, 3)))
+    np.testing.assert_array_equal(operator_position_velocity(path, 7.0)[0], [1.0, 2.0, 3.0])
+
+
+@FIXED
+@given(seed=st.integers(0, 2**32 - 1))
+def test_limits_respected_and_waypoints_reached(seed):
+    path = _random_path(seed)
+    dt = 1e-3
+    t = np.arange(path.waypoint_times[0] - 0.5, path.departure_times[-1] + 6.0, dt)
+    p, v = operator_position_velocity(path, t)
+    speed = np.linalg.norm(v, axis=1)
+    assert speed.max() <= path.max_speed * (1 + 1e-12)
+    accel = np.linalg.norm(np.diff(v, axis=0), axis=1) / dt
+    assert accel.max() <= path.max_acceleration * (1 + 1e-9)
+    # Velocity is the derivative of position (trapezoid rule, error <= a dt / 2 per step).
+    np.testing.assert_allclose(
+        np.diff(p, axis=0) / dt, 0.5 * (v[1:] + v[:-1]), atol=path.max_acceleration * dt
+    )
+    # Each segment ends at its waypoint, at rest, no later than the next departure.
+    arrive = path.departure_times + path.durations
+    deadlines = np.r_[path.departure_times[1:], arrive[-1]]
+    assert np.all(arrive <= deadlines + 1e-12)
+    p_end, v_end = operator_position_velocity(path, np.r_[arrive, deadlines - 1e-9])
+    targets = np.r_[path.waypoint_positions[1:], path.waypoint_positions[1:]]
+    np.testing.assert_allclose(p_end, targets, atol=1e-8)
+    np.testing.assert_allclose(v_end, 0.0, atol=1e-8)
+
+
+@FIXED
+@given(seed=st.integers(0, 2**32 - 1), data=st.data())
+def test_scalar_fast_path_equals_vectorised(seed, data):
+    path = _random_path(seed)
+    t_min, t_max = path.waypoint_times[0] - 1, path.departure_times[-1] + 5
+    times = data.draw(st.lists(st.floats(t_min, t_max), min_size=1, max_size=20))
+    # Also the phase boundaries exactly, where the branch choice matters.
+    d, ta, tc = path.departure_times, path.accel_durations, path.cruise_durations
+    end = d + 2 * ta + tc
+    times = np.r_[times, d, d + ta, d + ta + tc, end, end + 1e-6, d - 1e-6]
+    p_vec, v_vec = operator_position_velocity(path, times)
+    for i, t in enumerate(times):
+        p, v = operator_position_velocity(path, float(t))
+        assert p.shape == v.shape == (3,)
+        np.testing.assert_allclose(p, p_vec[i], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(v, v_vec[i], rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "times, positions, v_max, a_max, match",
+    [
+        ([0, 1, 1], POSITIONS[:3], 1.5, 1.0, "strictly increasing"),
+        ([0, 2, 1, 3], POSITIONS, 1.5, 1.0, "strictly increasing"),
+        ([], np.zeros((0, 3)), 1.5, 1.0, "times"),
+        ([0, float("nan")], POSITIONS[:2], 1.5, 1.0, "times"),
+        ([0, 1], POSITIONS[:3], 1.5, 1.0, r"positions has shape \(3, 3\)"),
+        ([0, 1], [[0, 0], [1, 1]], 1.5, 1.0, "positions"),
+        ([0, 1], [[0, 0, 0], [0, float("inf"), 0]], 1.5, 1.0, "positions"),
+        # 3.5 s needed for the 3 m segment, 3.0 s given before waypoint 2 departs.
+        ([0, 1, 4, 9], POSITIONS, 1.5, 1.0, r"waypoint 1: .*3\.5000 s.*3\.0000 s.*waypoint 2"),
+        ([0, 1, 4.6, 6.0], POSITIONS, 1.5, 1.0, r"waypoint 2: .*2\.0000 s.*1\.4000 s"),
+        (TIMES, POSITIONS, 0.0, 1.0, "max_speed=0.0"),
+        (TIMES, POSITIONS, -1.0, 1.0, "max_speed"),
+        (TIMES, POSITIONS, math.inf, 1.0, "max_speed"),
+        (TIMES, POSITIONS, 1.5, 0.0, "max_acceleration=0.0"),
+        (TIMES, POSITIONS, 1.5, float("nan"), "max_acceleration"),
+    ],
+)
+def test_make_operator_path_rejects_bad_input(times, positions, v_max, a_max, match):
+    with pytest.raises(ValueError, match=match):
+        make_operator_path(times, positions, max_speed=v_max, max_acceleration=a_max)
+
+
+def test_segment_that_just_fits_is_accepted():
+    path = make_operator_path([0, 1, 4.5, 9], POSITIONS, max_speed=1.5, max_acceleration=1.0)
+    np.testing.assert_allclose(operator_position_velocity(path, 4.5)[0], [3, 0, 0])
+
+
+def _operators():
+    path_a = _path()
+    path_b = make_operator_path([0, 0.5], [[1, 1, 0], [1, 2, 0]], 1.0, 2.0)
+    return [
+        ScriptedOperator(path=path_a, body_offsets=[[0.1, 0, 1.0], [-0.1, 0, 1.0]],
+                         enter_time=2.0, leave_time=5.0),
+        ScriptedOperator(path=path_b, body_offsets=[[0, 0, 1.7]]),  # from 0.0, never leaves
+    ]
+
+
+def test_bodies_state_offsets_and_velocities():
+    ops = _operators()
+    for t in (0.2, 2.75, 7.25):
+        p, v, _ = operators_bodies_state(ops, t)
+        assert p.shape == v.shape == (9,)
+        ref = [operator_position_velocity(op.path, t) for op in ops]
+        np.testing.assert_allclose(p.reshape(3, 3), [ref[0][0] + [0.1, 0, 1.0],
+                                                     ref[0][0] + [-0.1, 0, 1.0],
+                                                     ref[1][0] + [0, 0, 1.7]])
+        np.testing.assert_allclose(v.reshape(3, 3), [ref[0][1], ref[0][1], ref[1][1]])
+    p, _, _ = operators_bodies_state(ops, 2.75)
+    np.testing.assert_allclose(p[:3], [1.125 + 1.5 * 0.25 + 0.1, 0, 1.0])
+
+
+@pytest.mark.parametrize(
+    "t, present",
+    [(-1.0, [0, 0, 0]), (0.0, [0, 0, 1]), (1.999999, [0, 0, 1]), (2.0, [1, 1, 1]),
+     (4.999999, [1, 1, 1]), (5.0, [0, 0, 1]), (1e9, [0, 0, 1])],
+)
+def test_presence_window_is_half_open(t, present):
+    ops = _operators()
+    _, _, got = operators_bodies_state(ops, t)
+    np.testing.assert_array_equal(got, present)
+    _, _, got_vec = operators_bodies_state(ops, np.array([t]))
+    np.testing.assert_array_equal(got_vec, [present])
+
+
+def test_bodies_state_vectorised_matches_scalar_and_layout():
+    ops = _operators()
+    times = np.linspace(-1.0, 10.0, 45)
+    layout = body_layout(ops)
+    np.testing.assert_array_equal(layout.operator_index, [0, 0, 1])
+    p, v, present = operators_bodies_state(ops, times, layout)
+    assert p.shape == v.shape == (45, 9) and present.shape == (45, 3)
+    for i, t in enumerate(times):
+        for got, want in zip(operators_bodies_state(ops, t), (p[i], v[i], present[i])):
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    assert 0 < present[:, 0].sum() < 45  # the window is actually exercised
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(body_offsets=np.zeros((0, 3))), "body_offsets"),
+        (dict(body_offsets=np.zeros((4, 3))), "body_offsets"),
+        (dict(body_offsets=np.zeros((2, 2))), "body_offsets"),
+        (dict(body_offsets=[[0, 0, float("nan")]]), "body_offsets"),
+        (dict(body_offsets=[[0, 0, 0]], enter_time=float("nan")), "enter_time"),
+        (dict(body_offsets=[[0, 0, 0]], enter_time=math.inf), "enter_time"),
+        (dict(body_offsets=[[0, 0, 0]], enter_time=3.0, leave_time=3.0), "leave_time"),
+    ],
+)
+def test_scripted_operator_rejects_bad_input(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        ScriptedOperator(path=_path(), **kwargs)
