@@ -177,7 +177,7 @@ def speed_override(
     band = (delta_s - 1.0) * s
     # Where the band is empty or infinite the ramp is not used: k is 1 or 0 below.
     ramp = np.divide(d - s, band, out=np.ones(np.broadcast_shapes(d.shape, s.shape)),
-                     where=(band > 0.0) & (band < np.inf))
+                     where=(band > 1e-12) & (band < np.inf))
     k = np.minimum(np.maximum(ramp, 0.0), 1.0)
     k[d >= delta_s * s] = 1.0
     k[~((d >= s) & (d >= d_min) & (d < np.inf))] = 0.0
