@@ -1,0 +1,81 @@
+"""Speed of the workcell simulation and of the SSM maths, measured in one run.
+
+    python benchmarks/bench_simulate.py [--duration S] [--repeats N]
+
+Prints the real-time factor of the inspection scenario in kinematic and dynamic mode
+(simulated seconds per wall-clock second, best of N runs; building the diagram is not
+timed) and the cost of one monitor + override evaluation for 10 tracked bodies as plain
+functions, each beside its goal. Run it pinned to one core for the one-core figure
+(e.g. ``taskset -c 0 python benchmarks/bench_simulate.py``).
+"""
+
+import argparse
+import dataclasses
+import time
+import timeit
+from pathlib import Path
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+
+from safety_systems.scenario import load_scenario
+from safety_systems.ssm import (
+    directed_speeds,
+    monitor_protective_distances,
+    overall_speed_override,
+    separation_distances,
+)
+from safety_systems.workcell import MakeWorkcell
+
+SCENARIO = Path(__file__).parents[1] / "models" / "scenarios" / "inspection.yaml"
+GOALS = {"kinematic": 100.0, "dynamic": 15.0}  # x real time
+MONITOR_GOAL_US = 20.0
+
+
+def real_time_factor(mode: str, duration: float, repeats: int) -> float:
+    scenario = load_scenario(SCENARIO)
+    scenario = dataclasses.replace(scenario, robot=dataclasses.replace(scenario.robot, mode=mode))
+    best = np.inf
+    for _ in range(repeats):
+        simulator = Simulator(MakeWorkcell(scenario).diagram)
+        simulator.Initialize()
+        start = time.perf_counter()
+        simulator.AdvanceTo(duration)
+        best = min(best, time.perf_counter() - start)
+    return duration / best
+
+
+def monitor_and_override_us(n: int = 10, number: int = 20000) -> float:
+    rng = np.random.default_rng(0)
+    p_R, v_R = rng.normal(size=3), rng.normal(size=3)
+    p_B, v_B = rng.normal(size=(n, 3)) * 2, rng.normal(size=(n, 3))
+    tracked = np.ones(n, dtype=bool)
+
+    def once():
+        d = separation_distances(p_R, p_B)
+        v_h, v_r = directed_speeds(p_R, v_R, p_B, v_B)
+        s = monitor_protective_distances(v_h, v_r, mode="estimated", reaction_time=0.1,
+                                         stopping_time=0.53, stopping_distance=0.26)
+        return overall_speed_override(d, s, tracked)
+
+    return min(timeit.repeat(once, number=number, repeat=5)) / number * 1e6
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=20.0, help="simulated seconds")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    print(f"inspection scenario, {args.duration:g} s simulated, best of {args.repeats}")
+    print(f"{'measure':44s} {'figure':>10s} {'goal':>10s} {'figure/goal':>12s}")
+    for mode, goal in GOALS.items():
+        rtf = real_time_factor(mode, args.duration, args.repeats)
+        print(f"{'real-time factor, ' + mode + ' mode':44s} {rtf:9.1f}x {goal:9.0f}x "
+              f"{rtf / goal:12.2f}")
+    us = monitor_and_override_us()
+    print(f"{'monitor + override, 10 bodies (plain fns)':44s} {us:8.1f}us "
+          f"{MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")
+
+
+if __name__ == "__main__":
+    main()
