@@ -104,7 +104,7 @@ def path_rate_step(
     """
     rate = np.asarray(rate, dtype=float)
     cmd = np.asarray(commanded, dtype=float)
-    cmd = np.where(cmd == cmd, np.minimum(np.maximum(cmd, -1.0), 1.0), 0.0)  # NaN -> 0
+    cmd = np.where(np.isfinite(cmd), np.minimum(np.maximum(cmd, -1.0), 1.0), 0.0)  # NaN, inf -> 0
     slowing = (np.abs(cmd) < np.abs(rate)) | (cmd * rate < 0.0)
     bound = np.where(slowing, braking_deceleration(table, rate), acceleration_limit) * dt
     new = rate + np.minimum(np.maximum(cmd - rate, -bound), bound)

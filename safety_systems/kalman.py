@@ -16,9 +16,15 @@ _I3 = np.eye(3)
 _O3 = np.zeros((3, 3))
 
 
-def transition_matrix(dt: float) -> np.ndarray:
-    """Eq. 2: F = [[I3, dt I3], [O3, I3]] for a sampling time dt in seconds."""
-    return np.block([[_I3, dt * _I3], [_O3, _I3]])
+def transition_matrix(dt: float | np.ndarray) -> np.ndarray:
+    """Eq. 2: F = [[I3, dt I3], [O3, I3]] for a sampling time dt in seconds.
+
+    An array of dt of shape D gives shape D + (6, 6).
+    """
+    dt = np.asarray(dt, dtype=float)
+    F = np.broadcast_to(np.eye(6), dt.shape + (6, 6)).copy()
+    F[..., [0, 1, 2], [3, 4, 5]] = dt[..., None]
+    return F
 
 
 def measurement_matrix() -> np.ndarray:
@@ -32,8 +38,13 @@ def process_noise(dt: float, q2: float) -> np.ndarray:
     The seed leaves Q2 unspecified ("uncertainty on the velocity dynamics"); we take it
     isotropic, q2 in metres squared per second squared per step. The position block
     I3 dt^2 is used exactly as printed (units: seconds squared, read as metres squared).
+    An array of dt of shape D gives shape D + (6, 6).
     """
-    return np.block([[dt * dt * _I3, _O3], [_O3, q2 * _I3]])
+    dt = np.asarray(dt, dtype=float)
+    Q = np.zeros(dt.shape + (6, 6))
+    Q[..., [0, 1, 2], [0, 1, 2]] = (dt * dt)[..., None]
+    Q[..., [3, 4, 5], [3, 4, 5]] = q2
+    return Q
 
 
 def _missing(z: np.ndarray | None) -> bool:

@@ -190,23 +190,69 @@ def operator_position_velocity(
     k = np.searchsorted(path.departure_times, t, side="right") - 1
     before = k < 0
     k = np.maximum(k, 0)
-    a = path.max_acceleration
-    ta = path.accel_durations[k]
-    tc = path.cruise_durations[k]
-    vp = path.peak_speeds[k]
-    total = 2.0 * ta + tc
-    tau = np.clip(t - path.departure_times[k], 0.0, total)
-    rest = total - tau
-    s = np.where(
-        tau < ta,
-        0.5 * a * tau**2,
-        np.where(tau < ta + tc, 0.5 * a * ta**2 + vp * (tau - ta), path.lengths[k] - 0.5 * a * rest**2),
-    )
-    v = np.where(tau < ta, a * tau, np.where(tau < ta + tc, vp, a * rest))
-    s = np.where(before, 0.0, s)
-    v = np.where(before, 0.0, v)
+    s, v = _segment_progress(t - path.departure_times[k], path.accel_durations[k],
+                             path.cruise_durations[k], path.peak_speeds[k], path.lengths[k],
+                             path.max_acceleration, before)
     u = path.directions[k]
     return path.waypoint_positions[k] + s[..., None] * u, v[..., None] * u
+
+
+def _segment_progress(tau, ta, tc, vp, length, a, before):
+    """Distance along and speed on a trapezoidal segment ``tau`` seconds after departure
+    (clipped to the segment); zero where ``before`` (the first departure is to come)."""
+    total = 2.0 * ta + tc
+    tau = np.minimum(np.maximum(tau, 0.0), total)
+    rest = total - tau
+    accelerating, cruising = tau < ta, tau < ta + tc
+    s = np.where(accelerating, 0.5 * a * tau**2,
+                 np.where(cruising, 0.5 * a * ta**2 + vp * (tau - ta), length - 0.5 * a * rest**2))
+    v = np.where(accelerating, a * tau, np.where(cruising, vp, a * rest))
+    return np.where(before, 0.0, s), np.where(before, 0.0, v)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PathStack:
+    """P operator paths with the same number of waypoints, stacked for batch evaluation.
+
+    Every array has the paths on its first axis (see ``OperatorPath`` for the fields).
+    """
+
+    departure_times: np.ndarray  # (P, M-1)
+    accel_durations: np.ndarray
+    cruise_durations: np.ndarray
+    peak_speeds: np.ndarray
+    lengths: np.ndarray
+    directions: np.ndarray  # (P, M-1, 3)
+    waypoint_positions: np.ndarray  # (P, M, 3)
+    max_acceleration: np.ndarray  # (P,)
+
+
+def stack_paths(paths: Sequence[OperatorPath]) -> PathStack:
+    """Stacks paths that all have the same number of waypoints (>= 2)."""
+    sizes = {p.waypoint_positions.shape[0] for p in paths}
+    if len(sizes) != 1 or sizes == {1}:
+        raise ValueError(f"paths have {sorted(sizes)} waypoints: need one common count >= 2")
+    fields = ("departure_times", "accel_durations", "cruise_durations", "peak_speeds",
+              "lengths", "directions", "waypoint_positions")
+    arrays = {f: np.stack([getattr(p, f) for p in paths]) for f in fields}
+    return PathStack(**arrays, max_acceleration=np.array([p.max_acceleration for p in paths]))
+
+
+def stacked_position_velocity(
+    stack: PathStack, t: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Positions and velocities (P, 3) of every stacked path's reference point at time t
+    (a scalar, or one time per path, shape (P,))."""
+    t = np.asarray(t, dtype=float)
+    k = np.count_nonzero(stack.departure_times <= t[..., None], axis=1) - 1
+    before = k < 0
+    k = np.maximum(k, 0)
+    rows = np.arange(k.size)
+    s, v = _segment_progress(t - stack.departure_times[rows, k], stack.accel_durations[rows, k],
+                             stack.cruise_durations[rows, k], stack.peak_speeds[rows, k],
+                             stack.lengths[rows, k], stack.max_acceleration, before)
+    u = stack.directions[rows, k]
+    return stack.waypoint_positions[rows, k] + s[:, None] * u, v[:, None] * u
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

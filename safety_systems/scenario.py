@@ -125,12 +125,16 @@ class RobotConfig:
 
     ``acceleration_limit``: how fast the path speed may rise, in fractions of the
     nominal path speed per second (2.0: from rest to full speed in 0.5 s).
+    ``braking_time_scale``: the real robot's stopping times as a multiple of the
+    configured stopping data (1: the brakes are as the data says; > 1: weaker brakes,
+    which verification uses to check what happens when the data is wrong).
     """
 
     mode: str = "kinematic"
     control_rate_hz: float = 500.0
     cycles: int = 3
     acceleration_limit: float = 2.0
+    braking_time_scale: float = 1.0
     path: PathConfig = dc.field(default_factory=PathConfig)
 
 
@@ -175,13 +179,18 @@ class OperatorConfig:
 
 @dc.dataclass
 class Scenario:
-    """One simulation: duration, robot, controller configuration and operators."""
+    """One simulation: duration, robot, controller configuration and operators.
+
+    ``sensor``: the cell's real sensor when it differs from the one the controller is
+    configured for (``controller.sensor``), e.g. a larger latency; None: as configured.
+    """
 
     name: str = ""
     duration: float = 30.0
     contact_distance: float = 0.10
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
+    sensor: typing.Optional[SensorConfig] = None
     operators: list[OperatorConfig] = dc.field(default_factory=list)
 
 
@@ -203,20 +212,25 @@ def _positive(field: str, value: float) -> None:
     _check(math.isfinite(value) and value > 0.0, field, value, "a finite number > 0")
 
 
-def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None:
-    """Range checks of a controller configuration; raises :class:`ScenarioError`."""
-    s = c.sensor
-    _check(20.0 <= s.rate_hz <= 1000.0, f"{prefix}.sensor.rate_hz", s.rate_hz, "20 to 1000")
-    _finite_nonneg(f"{prefix}.sensor.noise_std", s.noise_std)
-    _finite_nonneg(f"{prefix}.sensor.latency", s.latency)
-    _check(s.latency <= 1.0, f"{prefix}.sensor.latency", s.latency, "0 to 1.0 s")
-    _check(s.seed >= 0, f"{prefix}.sensor.seed", s.seed, "an integer >= 0")
+def validate_sensor(s: SensorConfig, prefix: str) -> None:
+    """Range checks of a sensor description; raises :class:`ScenarioError`."""
+    _check(20.0 <= s.rate_hz <= 1000.0, f"{prefix}.rate_hz", s.rate_hz, "20 to 1000")
+    _finite_nonneg(f"{prefix}.noise_std", s.noise_std)
+    _finite_nonneg(f"{prefix}.latency", s.latency)
+    _check(s.latency <= 1.0, f"{prefix}.latency", s.latency, "0 to 1.0 s")
+    _check(s.seed >= 0, f"{prefix}.seed", s.seed, "an integer >= 0")
     for i, d in enumerate(s.dropouts):
-        _check(0.0 <= d.start < d.end, f"{prefix}.sensor.dropouts[{i}]", [d.start, d.end],
+        _check(0.0 <= d.start < d.end, f"{prefix}.dropouts[{i}]", [d.start, d.end],
                "0 <= start < end")
     for i, o in enumerate(s.occlusions):
-        _check(0.0 <= o.start < o.end, f"{prefix}.sensor.occlusions[{i}]", [o.start, o.end],
+        _check(0.0 <= o.start < o.end, f"{prefix}.occlusions[{i}]", [o.start, o.end],
                "0 <= start < end")
+
+
+def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None:
+    """Range checks of a controller configuration; raises :class:`ScenarioError`."""
+    validate_sensor(c.sensor, f"{prefix}.sensor")
+    s = c.sensor
     t = c.tracker
     if t.measurement_std is not None:
         _positive(f"{prefix}.tracker.measurement_std", t.measurement_std)
@@ -287,6 +301,10 @@ def validate_scenario(s: Scenario) -> None:
             raise ScenarioError("robot.path.segment_durations", p.segment_durations,
                                 str(e)) from None
     validate_controller(s.controller)
+    if s.sensor is not None:
+        validate_sensor(s.sensor, "sensor")
+    _check(math.isfinite(r.braking_time_scale) and r.braking_time_scale > 0.0,
+           "robot.braking_time_scale", r.braking_time_scale, "a finite number > 0")
     _check(1 <= len(s.operators) <= MAX_OPERATORS, "operators", len(s.operators),
            f"1 to {MAX_OPERATORS} operators")
     names = set()
@@ -321,9 +339,14 @@ def validate_scenario(s: Scenario) -> None:
     bodies = [f"{o.name}/{b.name}" for o in s.operators for b in o.bodies]
     _check(len(set(bodies)) == len(bodies), "operators[].bodies[].name", bodies,
            "unique body names within each operator")
-    for i, oc in enumerate(s.controller.sensor.occlusions):
-        _check(oc.body in bodies, f"controller.sensor.occlusions[{i}].body", oc.body,
-               f"one of {bodies}")
+    sensor, where = actual_sensor(s), "sensor" if s.sensor is not None else "controller.sensor"
+    for i, oc in enumerate(sensor.occlusions):
+        _check(oc.body in bodies, f"{where}.occlusions[{i}].body", oc.body, f"one of {bodies}")
+
+
+def actual_sensor(s: Scenario) -> SensorConfig:
+    """The cell's real sensor: ``s.sensor`` if given, else the one configured."""
+    return s.controller.sensor if s.sensor is None else s.sensor
 
 
 def body_names(s: Scenario) -> list[str]:
@@ -388,6 +411,11 @@ def _walk(schema, raw, path):
     if schema is str and not isinstance(raw, str):
         return path, raw, "a string"
     return None
+
+
+def load_typed(schema: type, path: str | Path) -> typing.Any:
+    """Loads a YAML file strictly into the dataclass ``schema`` (no range checks)."""
+    return _load_typed(schema, _read(path), str(path))
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -25,7 +25,13 @@ from safety_systems.braking import BrakingTable, default_braking_table, stopping
 from safety_systems.braking import stopping_time as table_stopping_time
 from safety_systems.joint_path import JointPath, default_joint_path, make_joint_path
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
-from safety_systems.scenario import ControllerConfig, RobotConfig, Scenario, body_names
+from safety_systems.scenario import (
+    ControllerConfig,
+    RobotConfig,
+    Scenario,
+    actual_sensor,
+    body_names,
+)
 from safety_systems.systems.end_effector_velocity import EndEffectorVelocity
 from safety_systems.systems.kalman_tracker import KalmanTracker
 from safety_systems.systems.mocap_sensor import MocapSensor
@@ -150,9 +156,19 @@ class Workcell:
     plant: MultibodyPlant | None = None
 
 
+def robot_braking_table(scenario: Scenario) -> BrakingTable:
+    """The real robot's brakes: the configured table with its times (and, at constant
+    deceleration, distances) scaled by ``robot.braking_time_scale``."""
+    table, scale = braking_table(scenario.controller), scenario.robot.braking_time_scale
+    if scale == 1.0:
+        return table
+    return BrakingTable(table.speed_fraction, table.stopping_time * scale,
+                        table.stopping_distance * scale)
+
+
 def _sensor_intervals(scenario: Scenario) -> tuple[list, list]:
     names = body_names(scenario)
-    s = scenario.controller.sensor
+    s = actual_sensor(scenario)
     occlusions = [(names.index(o.body), o.start, o.end) for o in s.occlusions]
     return occlusions, [(d.start, d.end) for d in s.dropouts]
 
@@ -200,10 +216,11 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     motion = builder.AddNamedSystem(
         "operators", OperatorMotion(operators=scripted_operators(scenario)))
     occlusions, dropouts = _sensor_intervals(scenario)
+    real = actual_sensor(scenario)
     sensor = builder.AddNamedSystem("mocap", MocapSensor(
-        num_bodies=n, period_sec=1.0 / config.sensor.rate_hz,
-        noise_std=config.sensor.noise_std, latency_sec=config.sensor.latency,
-        occlusions=occlusions, dropped_frames=dropouts, seed=config.sensor.seed))
+        num_bodies=n, period_sec=1.0 / real.rate_hz, noise_std=real.noise_std,
+        latency_sec=real.latency, occlusions=occlusions, dropped_frames=dropouts,
+        seed=real.seed))
     builder.Connect(motion.GetOutputPort("positions_true"),
                     sensor.GetInputPort("positions_true"))
     builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))
@@ -211,7 +228,8 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     for name in ("positions_measured", "valid", "sample_time"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     follower = builder.AddNamedSystem("follower", PathFollower(
-        path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
+        path=path, braking=robot_braking_table(scenario),
+        acceleration_limit=robot.acceleration_limit,
         period_sec=dt))
     builder.Connect(safety.override.GetOutputPort("speed_scale_commanded"),
                     follower.GetInputPort("speed_scale_commanded"))

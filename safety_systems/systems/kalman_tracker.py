@@ -54,8 +54,7 @@ def track_step(
     if np.any(active):
         idx = np.flatnonzero(active)
         dt = frame_time - out[idx, _T_LAST]
-        F = np.stack([transition_matrix(t) for t in dt])
-        Q = np.stack([process_noise(t, velocity_process_noise) for t in dt])
+        F, Q = transition_matrix(dt), process_noise(dt, velocity_process_noise)
         x, P = batch_predict(out[idx, _X], out[idx, _P].reshape(-1, 6, 6), F, Q)
         R = np.eye(3) * measurement_std**2
         x, P = batch_update(x, P, z[idx], R, valid_mask=valid[idx])

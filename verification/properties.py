@@ -1,0 +1,60 @@
+"""The safety properties and their robustness, defined once for the whole project.
+
+Robustness convention: a value >= 0 means the property holds (safe), a value < 0 means
+it is violated; its size says by how much. Falsifiers minimise robustness.
+
+- **Stopped before contact** (primary): whenever an operator body is within the contact
+  distance of the tool, the robot is at rest. Robustness = the smallest true separation
+  over the instants when the tool moves faster than ``MOVING_SPEED``, minus the contact
+  distance (+inf when the tool never moves while a body is present).
+- **Protective distance respected** (reported beside it): the time the robot spends
+  moving while the true separation is below the ISO/TS 15066 protective distance S
+  computed from the true speeds (Eq. 1 with the true directed speeds and the
+  configuration's T_r, T_s, B, C, Z_d, Z_r), and the deepest such intrusion, metres.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from safety_systems.metrics import MOVING_SPEED, min_separation_while_moving
+from safety_systems.ssm import monitor_protective_distances
+
+__all__ = ["MOVING_SPEED", "Robustness", "stopped_before_contact", "protective_intrusion"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Robustness:
+    """Both properties' figures for one scenario (robustness >= 0 means safe)."""
+
+    stopped_before_contact: float  # m
+    min_separation_while_moving: float  # m (inf if never moving near a body)
+    protective_violation_time: float  # s moving inside the true-speed S
+    protective_deepest_intrusion: float  # m, max of S_true - d_true while moving (0 if none)
+
+    @property
+    def safe(self) -> bool:
+        return self.stopped_before_contact >= 0.0
+
+
+def stopped_before_contact(separations: np.ndarray, tool_speed: np.ndarray,
+                           contact_distance: float) -> float:
+    """Robustness of "stopped before contact" from (T, N) true separations (NaN where a
+    body is absent) and (T,) true tool speeds."""
+    return min_separation_while_moving(separations, tool_speed) - contact_distance
+
+
+def protective_intrusion(separations: np.ndarray, tool_speed: np.ndarray,
+                         v_human_directed: np.ndarray, v_robot_directed: np.ndarray,
+                         dt: float, **s_args) -> tuple[float, float]:
+    """(time, deepest intrusion) of the robot moving inside the protective distance
+    computed from the true directed speeds; ``s_args`` are the configuration's
+    ``reaction_time``, ``stopping_time``, ``stopping_distance`` and margins."""
+    s_true = monitor_protective_distances(v_human_directed, v_robot_directed,
+                                          mode="estimated", **s_args)
+    moving = (tool_speed > MOVING_SPEED)[:, None]
+    intrusion = np.where(moving & np.isfinite(separations), s_true - separations, -np.inf)
+    inside = intrusion > 0.0
+    time = float(np.count_nonzero(np.any(inside, axis=1)) * dt)
+    deepest = float(max(np.max(intrusion, initial=-np.inf), 0.0))
+    return time, deepest

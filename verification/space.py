@@ -1,0 +1,248 @@
+"""Scenario spaces: boxes of worst-case operator approaches, and their assumptions.
+
+A space file (typed YAML, loaded strictly) gives a [min, max] range for each parameter
+of an approach; a range with min == max fixes it. A point of the space (one value per
+parameter) becomes a full :class:`safety_systems.scenario.Scenario`:
+
+- The robot runs its path from t = 0. Every operator stands still at its start point
+  until the onset, ``settle_time + onset_phase * cycle_time`` (the robot is then at that
+  fraction of its cycle), so the tracker has settled.
+- The hand heads for the *target*: where the tool is at ``target_phase`` of its cycle.
+  The start point lies ``start_distance`` from the target in the direction
+  (``azimuth_deg``, ``elevation_deg``); extra operators come from azimuths turned by
+  360 / n degrees.
+- At the onset the hand either goes straight to the target or, when
+  ``retreat_distance`` > 0, first walks that far away and then reverses, with peak
+  speed ``peak_speed`` and acceleration ``acceleration``. It stays at the target.
+- Each operator has two tracked gloves: the approaching hand at the reference point and
+  the other hand 0.35 m to its side.
+- Sensor conditions: noise, latency, and from the onset a run of dropped frames
+  (``dropout``, s) and an occlusion of the approaching hand (``occlusion``, s).
+- ``braking_time_scale`` > 1 makes the real brakes slower than the stopping data says.
+
+This module must not use ``from __future__ import annotations`` (the YAML loader).
+"""
+
+import dataclasses as dc
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+
+from safety_systems.joint_path import joint_path_state
+from safety_systems.operator_paths import segment_profile
+from safety_systems.scenario import (
+    Body,
+    ControllerConfig,
+    Interval,
+    Occlusion,
+    OperatorConfig,
+    RobotConfig,
+    Scenario,
+    ScenarioError,
+    Waypoint,
+    load_typed,
+    validate_scenario,
+)
+from safety_systems.ur5e import tool0_position
+from safety_systems.workcell import joint_path
+
+OTHER_HAND_OFFSET = 0.35  # m, sideways from the approaching hand
+
+
+@dc.dataclass
+class Range:
+    """A closed interval [min, max]."""
+
+    min: float = 0.0
+    max: float = 0.0
+
+
+def _r(lo: float, hi: float):
+    return dc.field(default_factory=lambda: Range(lo, hi))
+
+
+@dc.dataclass
+class SpaceParameters:
+    """The ranges of a space (angles in degrees, lengths in m, times in s)."""
+
+    azimuth_deg: Range = _r(-180.0, 180.0)
+    elevation_deg: Range = _r(-20.0, 20.0)
+    start_distance: Range = _r(1.0, 3.0)
+    peak_speed: Range = _r(0.5, 2.0)
+    acceleration: Range = _r(1.0, 10.0)
+    onset_phase: Range = _r(0.0, 1.0)
+    target_phase: Range = _r(0.0, 1.0)
+    retreat_distance: Range = _r(0.0, 0.0)
+    operators: Range = _r(1.0, 1.0)
+    noise_std: Range = _r(0.0002, 0.0002)
+    latency: Range = _r(0.0, 0.0)
+    dropout: Range = _r(0.0, 0.0)
+    occlusion: Range = _r(0.0, 0.0)
+    braking_time_scale: Range = _r(1.0, 1.0)
+
+
+@dc.dataclass
+class ScenarioSpace:
+    """A box of approaches, the cell they happen in and the stated assumptions.
+
+    ``settle_time``: s every operator stands still before any onset. ``tail_time``: s
+    simulated after the hand reaches the target. ``noise_bound_sigmas``: for proofs,
+    sensor noise is assumed bounded at this many standard deviations per axis.
+    ``notes``: assumptions in words, repeated in every result.
+    """
+
+    name: str = ""
+    settle_time: float = 1.0
+    tail_time: float = 1.5
+    contact_distance: float = 0.10
+    noise_bound_sigmas: float = 4.0
+    robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    parameters: SpaceParameters = dc.field(default_factory=SpaceParameters)
+    notes: list[str] = dc.field(default_factory=list)
+
+
+NAMES = tuple(f.name for f in dc.fields(SpaceParameters))
+_LIMITS = {  # allowed ranges of each parameter
+    "azimuth_deg": (-360.0, 360.0), "elevation_deg": (-80.0, 80.0),
+    "start_distance": (0.2, 10.0), "peak_speed": (0.01, 2.0), "acceleration": (0.1, 100.0),
+    "onset_phase": (0.0, 1.0), "target_phase": (0.0, 1.0), "retreat_distance": (0.0, 5.0),
+    "operators": (1.0, 5.0), "noise_std": (0.0, 0.05), "latency": (0.0, 1.0),
+    "dropout": (0.0, 5.0), "occlusion": (0.0, 5.0), "braking_time_scale": (0.1, 10.0),
+}
+
+
+def validate_space(space: ScenarioSpace) -> None:
+    """Range checks; raises ScenarioError naming the field."""
+    for name in NAMES:
+        r = getattr(space.parameters, name)
+        lo, hi = _LIMITS[name]
+        ok = math.isfinite(r.min) and math.isfinite(r.max) and lo <= r.min <= r.max <= hi
+        if not ok:
+            raise ScenarioError(f"parameters.{name}", [r.min, r.max],
+                                f"min <= max within [{lo}, {hi}]")
+    ops = space.parameters.operators
+    if ops.min != round(ops.min) or ops.max != round(ops.max):
+        raise ScenarioError("parameters.operators", [ops.min, ops.max], "whole numbers")
+    for name in ("settle_time", "tail_time", "noise_bound_sigmas"):
+        value = getattr(space, name)
+        if not (math.isfinite(value) and value > 0.0):
+            raise ScenarioError(name, value, "a finite number > 0")
+
+
+def load_space(path: str | Path) -> ScenarioSpace:
+    space = load_typed(ScenarioSpace, path)
+    validate_space(space)
+    return space
+
+
+def lower_upper(space: ScenarioSpace) -> tuple[np.ndarray, np.ndarray]:
+    """The box's corners as two vectors in the order of ``NAMES``."""
+    p = space.parameters
+    return (np.array([getattr(p, n).min for n in NAMES]),
+            np.array([getattr(p, n).max for n in NAMES]))
+
+
+def free_parameters(space: ScenarioSpace) -> list[str]:
+    """Names of the parameters whose range is not a single value."""
+    lo, hi = lower_upper(space)
+    return [n for n, a, b in zip(NAMES, lo, hi) if b > a]
+
+
+def to_point(space: ScenarioSpace, unit: np.ndarray) -> dict[str, float]:
+    """Maps a point of the unit cube over the free parameters to parameter values."""
+    lo, hi = lower_upper(space)
+    values = {n: float(x) for n, x in zip(NAMES, lo)}
+    for name, u in zip(free_parameters(space), np.asarray(unit, dtype=float)):
+        i = NAMES.index(name)
+        values[name] = float(lo[i] + min(max(u, 0.0), 1.0) * (hi[i] - lo[i]))
+    values["operators"] = float(round(values["operators"]))
+    return values
+
+
+def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
+    """The assumptions under which a verdict over ``space`` holds, in words."""
+    p = space.parameters
+    lines = [
+        f"{int(p.operators.min)} to {int(p.operators.max)} operator(s), each tracked by two "
+        "gloves; no other body enters the cell",
+        f"every operator starts {p.start_distance.min:g} to {p.start_distance.max:g} m from "
+        f"the point it approaches and stands still for at least {space.settle_time:g} s",
+        f"hand speed never exceeds {p.peak_speed.max:g} m/s (ISO 13855: 2.0 m/s) and "
+        f"acceleration never exceeds {p.acceleration.max:g} m/s^2",
+        f"approach directions: azimuth {p.azimuth_deg.min:g} to {p.azimuth_deg.max:g} deg, "
+        f"elevation {p.elevation_deg.min:g} to {p.elevation_deg.max:g} deg; straight lines "
+        + ("with a retreat of up to "f"{p.retreat_distance.max:g} m before reversing"
+           if p.retreat_distance.max > 0 else "without retreat"),
+        f"sensor: {config.sensor.rate_hz:g} Hz, noise std {p.noise_std.min:g} to "
+        f"{p.noise_std.max:g} m (bounded at {space.noise_bound_sigmas:g} sigma for proofs), "
+        f"latency {p.latency.min:g} to {p.latency.max:g} s, dropped frames up to "
+        f"{p.dropout.max:g} s, occlusion of the approaching hand up to {p.occlusion.max:g} s",
+        f"the robot stops as its stopping data says, times scaled by "
+        f"{p.braking_time_scale.min:g} to {p.braking_time_scale.max:g}",
+        f"contact means a body within {space.contact_distance:g} m of the tool flange",
+    ]
+    return lines + list(space.notes)
+
+
+def approach_times(peak_speed: float, acceleration: float, length: float) -> float:
+    """Duration of a rest-to-rest straight move, s."""
+    ta, tc, _ = segment_profile(np.array([length]), peak_speed, acceleration)
+    return float(2.0 * ta[0] + tc[0])
+
+
+def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[str, float],
+                  *, name: str = "sample") -> Scenario:
+    """The scenario of one point of the space (``values`` by parameter name)."""
+    v = values
+    path = joint_path(space.robot)
+    onset = space.settle_time + v["onset_phase"] * path.cycle_time
+    target = tool0_position(joint_path_state(path, v["target_phase"] * path.cycle_time)[0])
+    n_ops = int(round(v["operators"]))
+    operators, end = [], onset
+    for j in range(n_ops):
+        az = math.radians(v["azimuth_deg"] + 360.0 * j / n_ops)
+        el = math.radians(v["elevation_deg"])
+        u = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+        start = target + v["start_distance"] * u
+        waypoints = [Waypoint(0.0, start.tolist())]
+        t = onset
+        if v["retreat_distance"] > 0.0:
+            away = start + v["retreat_distance"] * u
+            waypoints.append(Waypoint(t, away.tolist()))
+            t += approach_times(v["peak_speed"], v["acceleration"], v["retreat_distance"])
+            t += 1e-6
+        waypoints.append(Waypoint(t, target.tolist()))
+        length = float(np.linalg.norm(target - np.array(waypoints[-2].position)))
+        end = max(end, t + approach_times(v["peak_speed"], v["acceleration"], length))
+        side = np.array([-math.sin(az), math.cos(az), 0.0]) * OTHER_HAND_OFFSET
+        operators.append(OperatorConfig(
+            name=f"operator_{j}", max_speed=v["peak_speed"], max_acceleration=v["acceleration"],
+            bodies=[Body("hand", [0.0, 0.0, 0.0]), Body("other_hand", side.tolist())],
+            waypoints=waypoints))
+    duration = end + space.tail_time
+    sensor = dc.replace(config.sensor, noise_std=v["noise_std"], latency=v["latency"],
+                        dropouts=[], occlusions=[])
+    if v["dropout"] > 0.0:
+        sensor.dropouts = [Interval(onset, onset + v["dropout"])]
+    if v["occlusion"] > 0.0:
+        sensor.occlusions = [Occlusion(f"operator_{j}/hand", onset, onset + v["occlusion"])
+                             for j in range(n_ops)]
+    robot = dc.replace(space.robot, braking_time_scale=v["braking_time_scale"],
+                       cycles=int(math.ceil(duration / path.cycle_time)) + 1)
+    scenario = Scenario(name=name, duration=duration, contact_distance=space.contact_distance,
+                        robot=robot, controller=config, sensor=sensor, operators=operators)
+    validate_scenario(scenario)
+    return scenario
+
+
+def corners(space: ScenarioSpace) -> np.ndarray:
+    """Every vertex of the unit cube over the free parameters, (2^d, d)."""
+    d = len(free_parameters(space))
+    return np.array(list(itertools.product((0.0, 1.0), repeat=d))).reshape(-1, d)
+
+
+def describe(values: dict[str, float]) -> dict[str, float]:
+    """Parameter values rounded for reports."""
+    return {k: float(np.round(x, 6)) for k, x in values.items()}
