@@ -94,10 +94,12 @@ def path_rate_step(
     *,
     table: BrakingTable,
     acceleration_limit: float,
+    time_scale: np.ndarray | float = 1.0,
 ) -> np.ndarray:
     """The path rate sigma one control tick later, moving towards the commanded rate.
 
-    Falling magnitude (towards zero) is bounded by :func:`braking_deceleration`;
+    Falling magnitude (towards zero) is bounded by :func:`braking_deceleration`
+    divided by ``time_scale`` (the real brakes' stopping times relative to the table's);
     rising magnitude by ``acceleration_limit`` (fraction of nominal speed per second).
     A command of the other sign first brings sigma to rest (it never crosses zero
     within one tick). Non-finite commands count as 0 (fail safe). Vectorised.
@@ -106,7 +108,8 @@ def path_rate_step(
     cmd = np.asarray(commanded, dtype=float)
     cmd = np.where(np.isfinite(cmd), np.minimum(np.maximum(cmd, -1.0), 1.0), 0.0)  # NaN, inf -> 0
     slowing = (np.abs(cmd) < np.abs(rate)) | (cmd * rate < 0.0)
-    bound = np.where(slowing, braking_deceleration(table, rate), acceleration_limit) * dt
+    bound = np.where(slowing, braking_deceleration(table, rate) / time_scale,
+                     acceleration_limit) * dt
     new = rate + np.minimum(np.maximum(cmd - rate, -bound), bound)
     return np.where(rate * new < 0.0, 0.0, new)
 

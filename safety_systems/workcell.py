@@ -156,16 +156,6 @@ class Workcell:
     plant: MultibodyPlant | None = None
 
 
-def robot_braking_table(scenario: Scenario) -> BrakingTable:
-    """The real robot's brakes: the configured table with its times (and, at constant
-    deceleration, distances) scaled by ``robot.braking_time_scale``."""
-    table, scale = braking_table(scenario.controller), scenario.robot.braking_time_scale
-    if scale == 1.0:
-        return table
-    return BrakingTable(table.speed_fraction, table.stopping_time * scale,
-                        table.stopping_distance * scale)
-
-
 def _sensor_intervals(scenario: Scenario) -> tuple[list, list]:
     names = body_names(scenario)
     s = actual_sensor(scenario)
@@ -228,8 +218,8 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     for name in ("positions_measured", "valid", "sample_time"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     follower = builder.AddNamedSystem("follower", PathFollower(
-        path=path, braking=robot_braking_table(scenario),
-        acceleration_limit=robot.acceleration_limit,
+        path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
+        braking_time_scale=robot.braking_time_scale,
         period_sec=dt))
     builder.Connect(safety.override.GetOutputPort("speed_scale_commanded"),
                     follower.GetInputPort("speed_scale_commanded"))

@@ -20,13 +20,13 @@ from safety_systems.systems.separation_monitor import (
 
 # Per-body state slot: x (6), P (36), status, time of the last predict/update, time last seen.
 _X, _P, _STATUS, _T_LAST, _T_SEEN = slice(0, 6), slice(6, 42), 42, 43, 44
-_SLOT = 45
+TRACK_SLOT = 45
 MIN_MEASUREMENT_STD = 1e-6  # m; keeps R positive definite for a noise-free sensor
 
 
 def track_step(
     tracks: np.ndarray,
-    frame_time: float,
+    frame_time: float | np.ndarray,
     z: np.ndarray,
     valid: np.ndarray,
     *,
@@ -45,30 +45,32 @@ def track_step(
     (status none) if its last estimate lies more than ``exit_radius`` from the robot
     base horizontally (the operator walked out of the cell), and is otherwise marked
     lost (it vanished near the robot: the SpeedOverride stops). A lost track stays
-    lost until its body is seen again.
+    lost until its body is seen again. ``frame_time`` is the frame's capture time, s:
+    one for all rows, or one per row (the batched verifier steps many cells at once).
     """
     out = tracks.copy()
+    frame_time = np.broadcast_to(np.asarray(frame_time, dtype=float), out.shape[:1])
     status = out[:, _STATUS]
     active = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
     valid = np.asarray(valid, dtype=bool) & np.all(np.isfinite(z), axis=1)
     if np.any(active):
         idx = np.flatnonzero(active)
-        dt = frame_time - out[idx, _T_LAST]
+        dt = frame_time[idx] - out[idx, _T_LAST]
         F, Q = transition_matrix(dt), process_noise(dt, velocity_process_noise)
         x, P = batch_predict(out[idx, _X], out[idx, _P].reshape(-1, 6, 6), F, Q)
         R = np.eye(3) * measurement_std**2
         x, P = batch_update(x, P, z[idx], R, valid_mask=valid[idx])
         out[idx, _X] = x
         out[idx, _P] = P.reshape(-1, 36)
-        out[idx, _T_LAST] = frame_time
+        out[idx, _T_LAST] = frame_time[idx]
     start = valid & ~active
     if np.any(start):
         out[start, _X] = np.hstack([z[start], np.zeros((int(start.sum()), 3))])
         out[start, _P] = initial_covariance(
             measurement_std, initial_velocity_std, (int(start.sum()),)).reshape(-1, 36)
-        out[start, _T_LAST] = frame_time
+        out[start, _T_LAST] = frame_time[start]
     out[valid, _STATUS] = TRACK_TRACKING
-    out[valid, _T_SEEN] = frame_time
+    out[valid, _T_SEEN] = frame_time[valid]
     coasting = active & ~valid
     out[coasting, _STATUS] = TRACK_COASTING
     expired = coasting & (frame_time - out[:, _T_SEEN] > max_coast_time)
@@ -77,6 +79,17 @@ def track_step(
         out[expired & outside, _STATUS] = TRACK_NONE
         out[expired & ~outside, _STATUS] = TRACK_LOST
     return out
+
+
+def track_estimates(tracks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tracker's outputs from a (..., 45) track array: states x (..., 6) (NaN without
+    a track), status (...) and position std (...), the root of the largest eigenvalue of
+    the position covariance, metres."""
+    status = tracks[..., _STATUS]
+    x = np.where((status == TRACK_NONE)[..., None], np.nan, tracks[..., _X])
+    P_pos = tracks[..., _P].reshape(tracks.shape[:-1] + (6, 6))[..., :3, :3]
+    std = np.sqrt(np.maximum(np.linalg.eigvalsh(P_pos)[..., -1], 0.0))
+    return x, status, std
 
 
 class KalmanTracker(LeafSystem):
@@ -143,7 +156,7 @@ class KalmanTracker(LeafSystem):
             exit_radius=exit_radius,
         )
         # Tracks, the capture time of the newest processed frame, and a bad-frame flag.
-        self._state = self.DeclareDiscreteState(np.r_[np.zeros(n * _SLOT), -np.inf, 0.0])
+        self._state = self.DeclareDiscreteState(np.r_[np.zeros(n * TRACK_SLOT), -np.inf, 0.0])
         self._z = self.DeclareVectorInputPort("positions_measured", 3 * n)
         self._valid = self.DeclareVectorInputPort("valid", n)
         self._time = self.DeclareVectorInputPort("sample_time", 1)
@@ -179,20 +192,17 @@ class KalmanTracker(LeafSystem):
             # position) is not used, and raises the fault until a good frame comes.
             discrete_state.get_mutable_value(self._state)[-1] = 1.0
             return
-        tracks = state[:-2].reshape(n, _SLOT)
+        tracks = state[:-2].reshape(n, TRACK_SLOT)
         new = track_step(tracks, t_frame, z, valid, **self._args)
         discrete_state.set_value(self._state, np.r_[new.ravel(), t_frame, 0.0])
 
     def _calc_estimates(self, context: Context, value: AbstractValue) -> None:
-        n = self._n
-        tracks = context.get_discrete_state(self._state).get_value()[:-2].reshape(n, _SLOT)
+        tracks = context.get_discrete_state(self._state).get_value()[:-2].reshape(self._n, TRACK_SLOT)
+        x, status, std = track_estimates(tracks)
         out = value.get_mutable_value()
-        status = tracks[:, _STATUS]
-        out[0:6] = tracks[:, _X].T
-        out[0:6, status == TRACK_NONE] = np.nan
+        out[0:6] = x.T
         out[6] = status
-        P_pos = tracks[:, _P].reshape(n, 6, 6)[:, :3, :3]
-        out[7] = np.sqrt(np.maximum(np.linalg.eigvalsh(P_pos)[:, -1], 0.0)) if n else 0.0
+        out[7] = std
 
     def _calc_fault(self, context: Context, output: BasicVector) -> None:
         t_frame, bad = context.get_discrete_state(self._state).get_value()[-2:]

@@ -35,16 +35,20 @@ class PathFollower(LeafSystem):
         braking: stopping data bounding how fast sigma can fall.
         acceleration_limit: how fast sigma may rise, fraction of nominal speed per second.
         period_sec: control period in seconds (the robot's 500 Hz: 0.002).
+        braking_time_scale: the real brakes' stopping times relative to ``braking``'s
+            (1: as the stopping data says).
     """
 
     def __init__(self, *, path: JointPath, braking: BrakingTable, acceleration_limit: float,
-                 period_sec: float) -> None:
+                 period_sec: float, braking_time_scale: float = 1.0) -> None:
         super().__init__()
-        for name, value in (("acceleration_limit", acceleration_limit), ("period_sec", period_sec)):
+        for name, value in (("acceleration_limit", acceleration_limit), ("period_sec", period_sec),
+                            ("braking_time_scale", braking_time_scale)):
             if not (np.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name}: got {value}; allowed: a finite number > 0")
         self._path, self._table = path, braking
         self._accel, self._dt = float(acceleration_limit), float(period_sec)
+        self._brake_scale = float(braking_time_scale)
         # State: s, sigma, dsigma/dt over the last tick.
         self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, 0.0]))
         self._cmd = self.DeclareVectorInputPort("speed_scale_commanded", 1)
@@ -77,7 +81,7 @@ class PathFollower(LeafSystem):
             return
         cmd = self._cmd.Eval(context)[0]
         new = float(path_rate_step(rate, cmd, self._dt, table=self._table,
-                                   acceleration_limit=self._accel))
+                                   acceleration_limit=self._accel, time_scale=self._brake_scale))
         s_new = s + 0.5 * (rate + new) * self._dt
         if s_new >= end or s_new <= 0.0:
             s_new, new = min(max(s_new, 0.0), end), 0.0

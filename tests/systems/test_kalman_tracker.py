@@ -10,7 +10,7 @@ from pydrake.systems.framework import DiagramBuilder
 from safety_systems.kalman import initial_covariance, predict, process_noise, transition_matrix
 from safety_systems.kalman import update as kf_update
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
-from safety_systems.systems.kalman_tracker import _P, _SLOT, _STATUS, _T_LAST, _T_SEEN, _X
+from safety_systems.systems.kalman_tracker import _P, TRACK_SLOT, _STATUS, _T_LAST, _T_SEEN, _X
 from safety_systems.systems.kalman_tracker import KalmanTracker, track_step
 from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
@@ -34,7 +34,7 @@ def _step(tracks, t, z, valid, **kw):
 
 
 def test_first_valid_frame_starts_tracks_at_rest():
-    tracks = np.zeros((3, _SLOT))
+    tracks = np.zeros((3, TRACK_SLOT))
     out = _step(tracks, 0.2, [[1, 0, 1], NAN3, [2, 2, 1]], [1, 0, 1])
     assert not np.any(tracks)  # input untouched
     np.testing.assert_array_equal(out[:, _STATUS], [TRACK_TRACKING, TRACK_NONE, TRACK_TRACKING])
@@ -53,7 +53,7 @@ def test_agrees_with_reference_filter_for_one_body(seed):
     seen = rng.uniform(size=30) < 0.7
     seen[0] = True
     z = rng.normal(size=(30, 3)) + times[:, None] * [1.0, -0.5, 0.0]
-    tracks = np.zeros((1, _SLOT))
+    tracks = np.zeros((1, TRACK_SLOT))
     x = P = None
     for t, zk, ok in zip(times, z, seen):
         tracks = _step(tracks, t, [zk], [ok], max_coast_time=10.0)
@@ -69,7 +69,7 @@ def test_agrees_with_reference_filter_for_one_body(seed):
 
 
 def test_update_moves_towards_measurement():
-    tracks = _step(np.zeros((1, _SLOT)), 0.0, [[0, 0, 1]], [1])
+    tracks = _step(np.zeros((1, TRACK_SLOT)), 0.0, [[0, 0, 1]], [1])
     out = _step(tracks, 0.05, [[0.1, 0, 1]], [1])
     assert 0.0 < out[0, 0] < 0.1 and out[0, 3] > 0.0  # towards z, moving +x
     np.testing.assert_allclose(out[0, [1, 2, 4, 5]], [0, 1, 0, 0], atol=1e-12)
@@ -79,7 +79,7 @@ def test_update_moves_towards_measurement():
 
 @pytest.mark.parametrize("z, valid", [([NAN3], [0]), ([[5, 5, 5]], [0]), ([NAN3], [1])])
 def test_coasts_when_not_seen(z, valid):
-    tracks = _step(np.zeros((1, _SLOT)), 0.0, [[0, 0, 1]], [1])
+    tracks = _step(np.zeros((1, TRACK_SLOT)), 0.0, [[0, 0, 1]], [1])
     tracks[0, 3:6] = [1.0, 0.0, 0.0]  # moving at 1 m/s along x
     out = _step(tracks, 0.1, z, valid)
     assert out[0, _STATUS] == TRACK_COASTING
@@ -92,7 +92,7 @@ def test_coasts_when_not_seen(z, valid):
 
 def test_expiry_none_outside_exit_radius_lost_inside():
     # Bodies at 3 m (outside 2.5 m), 1 m (inside) and at 2.4 m walking out at 1 m/s.
-    tracks = _step(np.zeros((3, _SLOT)), 0.0, [[3, 0, 1], [0, 1, 1], [2.4, 0, 1]], [1, 1, 1])
+    tracks = _step(np.zeros((3, TRACK_SLOT)), 0.0, [[3, 0, 1], [0, 1, 1], [2.4, 0, 1]], [1, 1, 1])
     tracks[2, 3] = 1.0
     unseen = [NAN3] * 3
     at_limit = _step(tracks, 0.5, unseen, [0, 0, 0])  # not seen for exactly max_coast_time
@@ -108,7 +108,7 @@ def test_expiry_none_outside_exit_radius_lost_inside():
 
 @pytest.mark.parametrize("lost_status", [TRACK_LOST, TRACK_NONE])
 def test_track_restarts_when_seen_again(lost_status):
-    tracks = _step(np.zeros((1, _SLOT)), 0.0, [[0, 1, 1]], [1])
+    tracks = _step(np.zeros((1, TRACK_SLOT)), 0.0, [[0, 1, 1]], [1])
     tracks[0, 3:6] = [0.3, 0.2, 0.1]
     # Expires at 1 s with its estimate 1.24 m from the base: lost, or gone if beyond.
     tracks = _step(tracks, 1.0, [NAN3], [0], exit_radius=1.2 if lost_status == 0 else 1.3)
@@ -197,7 +197,7 @@ def test_bad_frames_raise_fault_and_are_not_used():
     assert fault[0] == 0.0 and list(status) == [TRACK_TRACKING, TRACK_NONE]
     np.testing.assert_array_equal(p[:3], [1, 0, 1])
     assert np.all(np.isnan(p[3:]))  # untracked slot
-    expected = track_step(np.zeros((2, _SLOT)), 0.0, np.array(good, float),
+    expected = track_step(np.zeros((2, TRACK_SLOT)), 0.0, np.array(good, float),
                           np.array([1, 0], bool), **(KW | dict(measurement_std=0.0002)))
     # Slot 1 flagged valid without a position: a bad frame.
     p, status, fault = frame(0.05, [[1.05, 0, 1], [np.nan, 0, 1]], [1, 1], 0.06)

@@ -1,0 +1,273 @@
+"""Breadth: step many scenarios at once in numpy, through the same maths as the diagram.
+
+:func:`evaluate_batch` reproduces the Drake workcell (kinematic mode) tick by tick for a
+batch of scenarios that share the robot, the controller configuration and the shape of
+their operators (number of operators, bodies and waypoints), as the scenarios of one
+space do. It calls the functions the LeafSystems wrap: ``operator_paths`` (truth),
+the MocapSensor's capture and noise rules, ``KalmanTracker.track_step``, ``ssm``
+(Eqs. 6-12), ``braking.path_rate_step``, ``joint_path_state`` and ``tool0_position``.
+Event order follows the diagram: a tracker update at time u is seen by the first
+control tick after u; outputs at a tick are computed from the state before that tick's
+updates, as Drake's loggers record them. ``tests/verification`` checks the two agree.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from safety_systems.braking import path_rate_step
+from safety_systems.joint_path import joint_path_state
+from safety_systems.operator_paths import stack_paths, stacked_position_velocity
+from safety_systems.scenario import Scenario, actual_sensor
+from safety_systems.ssm import (
+    directed_speeds,
+    monitor_protective_distances,
+    overall_speed_override,
+    separation_distances,
+)
+from safety_systems.systems.kalman_tracker import (
+    MIN_MEASUREMENT_STD,
+    TRACK_SLOT,
+    track_estimates,
+    track_step,
+)
+from safety_systems.systems.mocap_sensor import _TIME_TOL
+from safety_systems.systems.separation_monitor import TRACK_COASTING, TRACK_LOST, TRACK_TRACKING
+from safety_systems.ur5e import tool0_position_and_velocity
+from safety_systems.workcell import (
+    assumed_stopping,
+    braking_table,
+    frame_timeout,
+    joint_path,
+    scripted_operators,
+)
+from verification.evaluate_drake import protective_args
+from verification.properties import MOVING_SPEED
+
+_EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
+
+
+@dataclasses.dataclass(frozen=True)
+class BatchResult:
+    """Per-scenario figures, each of shape (B,) (see ``verification.properties``)."""
+
+    robustness: np.ndarray  # stopped before contact, m (>= 0 safe)
+    min_separation_while_moving: np.ndarray
+    protective_violation_time: np.ndarray
+    protective_deepest_intrusion: np.ndarray
+
+
+def _common(scenarios: list[Scenario], get, what: str):
+    first = get(scenarios[0])
+    for s in scenarios[1:]:
+        if get(s) != first:
+            raise ValueError(f"evaluate_batch: scenarios differ in {what}; batch them apart")
+    return first
+
+
+class _Cells:
+    """The fixed data of a batch: truth, sensor conditions, configuration."""
+
+    def __init__(self, scenarios: list[Scenario]):
+        self.B = len(scenarios)
+        self.config = _common(scenarios, lambda s: s.controller, "controller configuration")
+        robot = _common(scenarios, lambda s: dataclasses.replace(
+            s.robot, cycles=1, braking_time_scale=1.0), "robot")
+        self.dt = 1.0 / robot.control_rate_hz
+        self.accel = robot.acceleration_limit
+        cycles = max(s.robot.cycles for s in scenarios)
+        self.path = joint_path(dataclasses.replace(robot, cycles=cycles))
+        self.end = np.array([self.path.cycle_time * s.robot.cycles for s in scenarios])
+        self.brake_scale = np.array([s.robot.braking_time_scale for s in scenarios])
+        self.table = braking_table(self.config)
+        self.ticks = np.array([int(math.floor(s.duration / self.dt + 1e-9)) for s in scenarios])
+        sensors = [actual_sensor(s) for s in scenarios]
+        self.period = _common(scenarios, lambda s: 1.0 / actual_sensor(s).rate_hz, "sensor rate")
+        self.seed = _common(scenarios, lambda s: actual_sensor(s).seed, "sensor seed")
+        self.latency = np.array([s.latency for s in sensors])
+        self.noise = np.array([s.noise_std for s in sensors])
+        d = max((len(s.dropouts) for s in sensors), default=0)
+        self.drops = np.full((self.B, d, 2), np.inf)
+        for b, s in enumerate(sensors):
+            for j, iv in enumerate(s.dropouts):
+                self.drops[b, j] = (iv.start, iv.end)
+        # Operators: same shape in every scenario.
+        _common(scenarios, lambda s: [(len(o.bodies), len(o.waypoints)) for o in s.operators],
+                "operator shape")
+        ops = [scripted_operators(s) for s in scenarios]
+        self.K = len(ops[0])
+        self.stack = stack_paths([o.path for row in ops for o in row])
+        layout = [np.repeat(np.arange(self.K), [o.num_bodies for o in ops[0]])]
+        self.op_index = layout[0]
+        self.N = self.op_index.size
+        self.offsets = np.stack([np.concatenate([o.body_offsets for o in row]) for row in ops])
+        self.enter = np.array([[o.enter_time for o in row] for row in ops])
+        self.leave = np.array([[o.leave_time for o in row] for row in ops])
+        names = [f"{o.name}/{b.name}" for o in scenarios[0].operators for b in o.bodies]
+        o = max((len(s.occlusions) for s in sensors), default=0)
+        self.occ = np.full((self.B, o, 3), np.inf)  # body index, start, end
+        for b, s in enumerate(sensors):
+            for j, oc in enumerate(s.occlusions):
+                self.occ[b, j] = (names.index(oc.body), oc.start, oc.end)
+
+    def truth(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """True body positions and velocities (B, N, 3) and presence (B, N) at time(s) t
+        (scalar, or one per scenario)."""
+        t = np.broadcast_to(np.asarray(t, dtype=float), (self.B,))
+        p, v = stacked_position_velocity(self.stack, np.repeat(t, self.K))
+        p = p.reshape(self.B, self.K, 3)[:, self.op_index] + self.offsets
+        v = v.reshape(self.B, self.K, 3)[:, self.op_index]
+        present = (t[:, None] >= self.enter) & (t[:, None] < self.leave)
+        return p, v, present[:, self.op_index]
+
+    def delivered_frame(self, u: float) -> np.ndarray:
+        """Index of the frame each scenario's sensor shows at time u (-1: none yet)."""
+        now = u + _TIME_TOL - self.latency
+        i = np.floor(now / self.period).astype(int)
+        i = np.where((i + 1) * self.period <= now, i + 1, i)
+        i = np.where(i * self.period > now, i - 1, i)
+        for _ in range(self.drops.shape[1] + 1):  # step back over dropped captures
+            t = i * self.period
+            inside = (self.drops[..., 0] <= t[:, None]) & (t[:, None] < self.drops[..., 1])
+            if not inside.any():
+                break
+            first = np.where(inside, np.ceil(self.drops[..., 0] / self.period - 1e-9) - 1, i[:, None])
+            i = np.where(inside.any(axis=1), first.min(axis=1), i).astype(int)
+        return np.maximum(i, -1)
+
+    def frame(self, rows: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Measured positions (R, N, 3) and valid flags (R, N) of frame ``index`` of the
+        scenarios ``rows``, as MocapSensor captures them."""
+        t = index * self.period
+        times = np.full(self.B, 0.0)
+        times[rows] = t
+        p, _, present = self.truth(times)
+        p, present = p[rows].copy(), present[rows]
+        occluded = np.zeros_like(present)
+        for j in range(self.occ.shape[1]):
+            body, start, end = self.occ[rows, j].T
+            hit = (start <= t) & (t < end)
+            occluded[hit, body[hit].astype(int)] = True
+        noisy = self.noise[rows] > 0.0
+        for k in np.unique(index[noisy]):  # MocapSensor's noise depends on (seed, frame)
+            unit = np.random.default_rng([self.seed, int(k)]).standard_normal(3 * self.N)
+            hit = noisy & (index == k)
+            p[hit] += self.noise[rows[hit], None, None] * unit.reshape(self.N, 3)
+        valid = present & ~occluded
+        p[~valid] = np.nan
+        return p, valid
+
+
+def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
+    """Closed-loop figures of every scenario (kinematic robot)."""
+    c = _Cells(scenarios)
+    B, N, dt = c.B, c.N, c.dt
+    cfg = c.config
+    f, tr = cfg.safety, cfg.tracker
+    t_s, b_stop = assumed_stopping(cfg)
+    s_args = dict(mode=f.human_speed, reaction_time=f.reaction_time, stopping_time=t_s,
+                  stopping_distance=b_stop, intrusion_distance=f.intrusion_distance,
+                  robot_uncertainty=f.robot_uncertainty, iso_speed=f.iso_human_speed,
+                  iso_reduced_speed=f.iso_reduced_human_speed)
+    m_std = cfg.sensor.noise_std if tr.measurement_std is None else tr.measurement_std
+    t_args = dict(measurement_std=max(m_std, MIN_MEASUREMENT_STD),
+                  velocity_process_noise=tr.velocity_process_noise,
+                  initial_velocity_std=tr.initial_velocity_std,
+                  max_coast_time=tr.max_coast_time, exit_radius=tr.exit_radius)
+    timeout = frame_timeout(cfg)
+    update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
+    prot_args = protective_args(scenarios[0])
+
+    s = np.zeros(B)
+    rate = np.zeros(B)
+    p_prev = np.full((B, 3), np.nan)
+    tracks = np.zeros((B * N, TRACK_SLOT))
+    t_frame = np.full(B, -np.inf)
+    est_p = np.full((B, N, 3), np.nan)
+    est_v = np.full((B, N, 3), np.nan)
+    status = np.zeros((B, N))
+    std = np.zeros((B, N))
+    min_sep = np.full(B, np.inf)
+    prot_time = np.zeros(B)
+    prot_deep = np.zeros(B)
+    j = 0
+    for k in range(int(c.ticks.max()) + 1):
+        t = k * dt
+        while update_offset + j * update_period < t - _EVENT_TOL:
+            u = update_offset + j * update_period
+            index = c.delivered_frame(u)
+            rows = np.flatnonzero((index >= 0) & (index * c.period > t_frame))
+            if rows.size:
+                z, valid = c.frame(rows, index[rows])
+                sel = (rows[:, None] * N + np.arange(N)).ravel()
+                tracks[sel] = track_step(tracks[sel], np.repeat(index[rows] * c.period, N),
+                                         z.reshape(-1, 3), valid.ravel(), **t_args)
+                t_frame[rows] = index[rows] * c.period
+                x, status, std = track_estimates(tracks.reshape(B, N, TRACK_SLOT))
+                est_p, est_v = x[..., :3], x[..., 3:]
+            j += 1
+        q, dq, _ = joint_path_state(c.path, s)
+        p_R, v_tool = tool0_position_and_velocity(q, dq * rate[:, None])
+        v_R = (p_R - p_prev) / dt
+        usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
+        d = separation_distances(p_R, est_p)
+        v_h, v_r = directed_speeds(p_R, v_R, est_p, est_v)
+        S = monitor_protective_distances(v_h, v_r, human_uncertainty=f.human_uncertainty
+                                         + f.human_uncertainty_sigmas * std, **s_args)
+        d[~usable] = np.nan
+        S[~usable] = np.nan
+        k_cmd, _ = overall_speed_override(d, S, usable, delta_s=f.delta_s, d_min=f.d_min)
+        stop = np.any(status == TRACK_LOST, axis=1) | ~(t - t_frame <= timeout)
+        k_cmd = np.where(stop, 0.0, k_cmd)
+
+        # The properties, on the true state at this tick.
+        live = k <= c.ticks
+        p_H, v_H, present = c.truth(t)
+        sep = np.where(present, separation_distances(p_R, p_H), np.nan)
+        moving = (np.linalg.norm(v_tool, axis=1) > MOVING_SPEED) & live
+        closest = np.min(np.where(np.isnan(sep), np.inf, sep), axis=1)
+        min_sep = np.where(moving, np.minimum(min_sep, closest), min_sep)
+        if np.any(moving & present.any(axis=1)):
+            vh_true, vr_true = directed_speeds(p_R, v_tool, p_H, v_H)
+            s_true = monitor_protective_distances(vh_true, vr_true, mode="estimated",
+                                                  **prot_args)
+            intrusion = np.where(present & moving[:, None], s_true - sep, -np.inf)
+            deepest = intrusion.max(axis=1)
+            prot_time += np.where(deepest > 0.0, dt, 0.0)
+            prot_deep = np.maximum(prot_deep, deepest)
+
+        # Updates at this tick: the follower (PathFollower._step) and Eq. 5's memory.
+        new = path_rate_step(rate, k_cmd, dt, table=c.table, acceleration_limit=c.accel,
+                             time_scale=c.brake_scale)
+        s_new = s + 0.5 * (rate + new) * dt
+        done = s >= c.end
+        clamp = (s_new >= c.end) | (s_new <= 0.0)
+        s = np.where(done, c.end, np.where(clamp, np.minimum(np.maximum(s_new, 0.0), c.end), s_new))
+        rate = np.where(done | clamp, 0.0, new)
+        p_prev = p_R
+    return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
+                       prot_time, prot_deep)
+
+
+def batch_key(s: Scenario) -> tuple:
+    """Scenarios with equal keys can share one batch."""
+    sensor = actual_sensor(s)
+    robot = dataclasses.replace(s.robot, cycles=1, braking_time_scale=1.0)
+    return (repr(s.controller), repr(robot), sensor.rate_hz, sensor.seed,
+            tuple((len(o.bodies), len(o.waypoints)) for o in s.operators))
+
+
+def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> BatchResult:
+    """``evaluate_batch`` over scenarios of any shapes: grouped by ``batch_key`` and cut
+    into batches of at most ``batch_size``; results in the input order."""
+    out = np.zeros((4, len(scenarios)))
+    groups: dict[tuple, list[int]] = {}
+    for i, s in enumerate(scenarios):
+        groups.setdefault(batch_key(s), []).append(i)
+    for members in groups.values():
+        for start in range(0, len(members), batch_size):
+            rows = members[start:start + batch_size]
+            r = evaluate_batch([scenarios[i] for i in rows])
+            out[:, rows] = np.stack(dataclasses.astuple(r))
+    return BatchResult(*out)
