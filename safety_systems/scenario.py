@@ -82,6 +82,8 @@ class SafetyConfig:
     ``stopping_time`` and ``stopping_distance`` None: taken from the braking table at
     full speed. ``human_uncertainty_sigmas`` > 0 adds that many standard deviations of
     each track's position estimate to Z_d (0 = the seed's constant Z_d).
+    ``occlusion_speed`` > 0 (m/s) grows Z_d of a body while it is unseen
+    (``safety_systems.ssm.occlusion_margin``; 0 = the seed's constant Z_d).
     """
 
     human_speed: str = "estimated"
@@ -94,6 +96,7 @@ class SafetyConfig:
     human_uncertainty: float = 0.0
     robot_uncertainty: float = 0.0
     human_uncertainty_sigmas: float = 0.0
+    occlusion_speed: float = 0.0
     delta_s: float = 2.0
     d_min: float = 0.30
 
@@ -250,7 +253,7 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
     for name in ("iso_human_speed", "iso_reduced_human_speed"):
         _positive(f"{prefix}.safety.{name}", getattr(f, name))
     for name in ("reaction_time", "intrusion_distance", "human_uncertainty",
-                 "robot_uncertainty", "human_uncertainty_sigmas", "d_min"):
+                 "robot_uncertainty", "human_uncertainty_sigmas", "occlusion_speed", "d_min"):
         _finite_nonneg(f"{prefix}.safety.{name}", getattr(f, name))
     for name in ("stopping_time", "stopping_distance"):
         if getattr(f, name) is not None:

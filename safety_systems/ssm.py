@@ -154,6 +154,25 @@ def monitor_protective_distances(
     return s
 
 
+def occlusion_margin(
+    unseen_time: np.ndarray,
+    velocity_estimate: np.ndarray,
+    occlusion_speed: float,
+) -> np.ndarray:
+    """Extra uncertainty of bodies not measured for ``unseen_time`` seconds, metres.
+
+    Not in the seed (its Z_d is constant). While a body is unseen its track coasts at
+    the estimated velocity; the body itself may have moved anywhere within
+    ``occlusion_speed`` (m/s) of where it was last measured. The estimate is then off by
+    at most (occlusion_speed + |v_estimate|) * unseen_time, which this returns (0 when
+    ``occlusion_speed`` is 0: the seed's behaviour). Shapes: (..., N) and (..., N, 3).
+    """
+    if occlusion_speed <= 0.0:
+        return np.zeros(np.shape(unseen_time))
+    speed = np.sqrt((np.asarray(velocity_estimate, dtype=float) ** 2).sum(axis=-1))
+    return (occlusion_speed + np.nan_to_num(speed)) * np.asarray(unseen_time, dtype=float)
+
+
 def speed_override(
     distances: np.ndarray,
     s_max: np.ndarray | float,

@@ -127,11 +127,13 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         num_bodies=num_bodies, human_speed=f.human_speed, reaction_time=f.reaction_time,
         stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
         human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
-        human_uncertainty_sigmas=f.human_uncertainty_sigmas, iso_speed=f.iso_human_speed,
+        human_uncertainty_sigmas=f.human_uncertainty_sigmas, occlusion_speed=f.occlusion_speed,
+        iso_speed=f.iso_human_speed,
         iso_reduced_speed=f.iso_reduced_human_speed))
     override = builder.AddNamedSystem("override", SpeedOverride(
         num_bodies=num_bodies, delta_s=f.delta_s, d_min=f.d_min))
-    for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std"):
+    for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std",
+                 "unseen_time"):
         builder.Connect(tracker.GetOutputPort(name), monitor.GetInputPort(name))
     builder.Connect(ee.GetOutputPort("ee_position"), monitor.GetInputPort("ee_position"))
     builder.Connect(ee.GetOutputPort("ee_velocity"), monitor.GetInputPort("ee_velocity"))

@@ -23,6 +23,7 @@ from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.ssm import (
     directed_speeds,
     monitor_protective_distances,
+    occlusion_margin,
     overall_speed_override,
     separation_distances,
 )
@@ -188,6 +189,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     est_v = np.full((B, N, 3), np.nan)
     status = np.zeros((B, N))
     std = np.zeros((B, N))
+    unseen = np.zeros((B, N))
     min_sep = np.full(B, np.inf)
     prot_time = np.zeros(B)
     prot_deep = np.zeros(B)
@@ -204,7 +206,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                 tracks[sel] = track_step(tracks[sel], np.repeat(index[rows] * c.period, N),
                                          z.reshape(-1, 3), valid.ravel(), **t_args)
                 t_frame[rows] = index[rows] * c.period
-                x, status, std = track_estimates(tracks.reshape(B, N, TRACK_SLOT))
+                x, status, std, unseen = track_estimates(tracks.reshape(B, N, TRACK_SLOT))
                 est_p, est_v = x[..., :3], x[..., 3:]
             j += 1
         q, dq, _ = joint_path_state(c.path, s)
@@ -213,8 +215,9 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
         d = separation_distances(p_R, est_p)
         v_h, v_r = directed_speeds(p_R, v_R, est_p, est_v)
-        S = monitor_protective_distances(v_h, v_r, human_uncertainty=f.human_uncertainty
-                                         + f.human_uncertainty_sigmas * std, **s_args)
+        z_d = (f.human_uncertainty + f.human_uncertainty_sigmas * std
+               + occlusion_margin(unseen, est_v, f.occlusion_speed))
+        S = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **s_args)
         d[~usable] = np.nan
         S[~usable] = np.nan
         k_cmd, _ = overall_speed_override(d, S, usable, delta_s=f.delta_s, d_min=f.d_min)

@@ -81,15 +81,20 @@ def track_step(
     return out
 
 
-def track_estimates(tracks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def track_estimates(
+    tracks: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The tracker's outputs from a (..., 45) track array: states x (..., 6) (NaN without
-    a track), status (...) and position std (...), the root of the largest eigenvalue of
-    the position covariance, metres."""
+    a track), status (...), position std (...), the root of the largest eigenvalue of
+    the position covariance in metres, and unseen time (...), the seconds between the
+    track's last measurement and its newest frame (0 when seen in it or untracked)."""
     status = tracks[..., _STATUS]
-    x = np.where((status == TRACK_NONE)[..., None], np.nan, tracks[..., _X])
+    none = status == TRACK_NONE
+    x = np.where(none[..., None], np.nan, tracks[..., _X])
     P_pos = tracks[..., _P].reshape(tracks.shape[:-1] + (6, 6))[..., :3, :3]
     std = np.sqrt(np.maximum(np.linalg.eigvalsh(P_pos)[..., -1], 0.0))
-    return x, status, std
+    unseen = np.where(none, 0.0, tracks[..., _T_LAST] - tracks[..., _T_SEEN])
+    return x, status, std, unseen
 
 
 class KalmanTracker(LeafSystem):
@@ -115,10 +120,12 @@ class KalmanTracker(LeafSystem):
         - velocities_estimated
         - track_status
         - position_std
+        - unseen_time
         - fault
 
     Untracked slots (status none) output NaN positions and velocities. ``position_std``
-    is the root of the largest eigenvalue of each track's position covariance, metres.
+    is the root of the largest eigenvalue of each track's position covariance, metres;
+    ``unseen_time`` the seconds since each track was last measured, as of its newest frame.
 
     Args:
         num_bodies: body slots N.
@@ -164,13 +171,13 @@ class KalmanTracker(LeafSystem):
             period_sec=period_sec, offset_sec=latency_sec + processing_time, update=self._update)
         self._out = self.DeclareCacheEntry(
             description="estimates",
-            value_producer=ValueProducer(allocate=AbstractValue.Make(np.zeros((8, n))).Clone,
+            value_producer=ValueProducer(allocate=AbstractValue.Make(np.zeros((9, n))).Clone,
                                          calc=self._calc_estimates),
             prerequisites_of_calc={self.xd_ticket()},
         )
         for name, rows in (("positions_estimated", slice(0, 3)),
                            ("velocities_estimated", slice(3, 6)), ("track_status", 6),
-                           ("position_std", 7)):
+                           ("position_std", 7), ("unseen_time", 8)):
             size = 3 * n if isinstance(rows, slice) else n
             self.DeclareVectorOutputPort(
                 name, size, lambda c, o, r=rows: o.SetFromVector(np.ravel(self._out.Eval(c)[r], "F")),
@@ -198,11 +205,12 @@ class KalmanTracker(LeafSystem):
 
     def _calc_estimates(self, context: Context, value: AbstractValue) -> None:
         tracks = context.get_discrete_state(self._state).get_value()[:-2].reshape(self._n, TRACK_SLOT)
-        x, status, std = track_estimates(tracks)
+        x, status, std, unseen = track_estimates(tracks)
         out = value.get_mutable_value()
         out[0:6] = x.T
         out[6] = status
         out[7] = std
+        out[8] = unseen
 
     def _calc_fault(self, context: Context, output: BasicVector) -> None:
         t_frame, bad = context.get_discrete_state(self._state).get_value()[-2:]

@@ -10,6 +10,7 @@ from safety_systems.ssm import (
     ISO_REDUCED_HUMAN_SPEED,
     directed_speeds,
     monitor_protective_distances,
+    occlusion_margin,
     separation_distances,
 )
 
@@ -30,6 +31,7 @@ class SeparationMonitor(LeafSystem):
         - velocities_estimated
         - track_status
         - position_std
+        - unseen_time
         output_ports:
         - distances
         - protective_distances
@@ -52,6 +54,9 @@ class SeparationMonitor(LeafSystem):
         robot_uncertainty: Z_r in metres.
         human_uncertainty_sigmas: adds this many position standard deviations of each
             track to Z_d (0: the seed's constant Z_d).
+        occlusion_speed: metres per second; > 0 adds
+            :func:`safety_systems.ssm.occlusion_margin` to Z_d for bodies unseen for a
+            while (0: the seed's constant Z_d).
         iso_speed, iso_reduced_speed: ISO/TS 15066 human speeds in metres per second.
     """
 
@@ -67,6 +72,7 @@ class SeparationMonitor(LeafSystem):
         human_uncertainty: float = 0.0,
         robot_uncertainty: float = 0.0,
         human_uncertainty_sigmas: float = 0.0,
+        occlusion_speed: float = 0.0,
         iso_speed: float = ISO_HUMAN_SPEED,
         iso_reduced_speed: float = ISO_REDUCED_HUMAN_SPEED,
     ):
@@ -78,12 +84,14 @@ class SeparationMonitor(LeafSystem):
         for name, value in dict(
             reaction_time=reaction_time, stopping_time=stopping_time,
             stopping_distance=stopping_distance, human_uncertainty_sigmas=human_uncertainty_sigmas,
+            occlusion_speed=occlusion_speed,
         ).items():
             if not np.isfinite(value) or value < 0:
                 raise ValueError(f"{name}: got {value}; allowed: a finite number >= 0")
         self._n = num_bodies
         self._mode = human_speed
         self._sigmas = human_uncertainty_sigmas
+        self._occlusion_speed = occlusion_speed
         self._z_d = human_uncertainty
         self._s_args = dict(
             mode=human_speed, reaction_time=reaction_time, stopping_time=stopping_time,
@@ -97,6 +105,7 @@ class SeparationMonitor(LeafSystem):
         self._v_B = self.DeclareVectorInputPort("velocities_estimated", 3 * num_bodies)
         self._status = self.DeclareVectorInputPort("track_status", num_bodies)
         self._std = self.DeclareVectorInputPort("position_std", num_bodies)
+        self._unseen = self.DeclareVectorInputPort("unseen_time", num_bodies)
         self._cache = self.DeclareCacheEntry(
             description="separation",
             value_producer=ValueProducer(
@@ -128,7 +137,8 @@ class SeparationMonitor(LeafSystem):
         v_B = self._v_B.Eval(context).reshape(n, 3)
         status = self._status.Eval(context)
         usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
-        z_d = self._z_d + self._sigmas * self._std.Eval(context)
+        z_d = (self._z_d + self._sigmas * self._std.Eval(context)
+               + occlusion_margin(self._unseen.Eval(context), v_B, self._occlusion_speed))
         d = separation_distances(p_R, p_B)
         v_h, v_r = directed_speeds(p_R, v_R, p_B, v_B)
         s = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **self._s_args)

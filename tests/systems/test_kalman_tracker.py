@@ -11,7 +11,7 @@ from safety_systems.kalman import initial_covariance, predict, process_noise, tr
 from safety_systems.kalman import update as kf_update
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
 from safety_systems.systems.kalman_tracker import _P, TRACK_SLOT, _STATUS, _T_LAST, _T_SEEN, _X
-from safety_systems.systems.kalman_tracker import KalmanTracker, track_step
+from safety_systems.systems.kalman_tracker import KalmanTracker, track_estimates, track_step
 from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
 from safety_systems.systems.separation_monitor import (
@@ -90,6 +90,18 @@ def test_coasts_when_not_seen(z, valid):
     assert out[0, _T_LAST] == 0.1 and out[0, _T_SEEN] == 0.0
 
 
+def test_unseen_time_and_per_row_frame_times():
+    tracks = _step(np.zeros((2, TRACK_SLOT)), 0.0, [[1, 0, 1], [0, 1, 1]], [1, 1])
+    tracks = _step(tracks, np.array([0.05, 0.05]), [[1, 0, 1], NAN3], [1, 0])
+    tracks = _step(tracks, np.array([0.10, 0.15]), [[1, 0, 1], NAN3], [1, 0])
+    x, status, std, unseen = track_estimates(tracks)
+    np.testing.assert_array_equal(status, [TRACK_TRACKING, TRACK_COASTING])
+    np.testing.assert_allclose(unseen, [0.0, 0.15])  # body 1 last measured at t = 0
+    np.testing.assert_allclose(tracks[:, _T_LAST], [0.10, 0.15])
+    assert np.all(std > 0.0) and not np.any(np.isnan(x))
+    assert track_estimates(np.zeros((1, TRACK_SLOT)))[3][0] == 0.0  # untracked
+
+
 def test_expiry_none_outside_exit_radius_lost_inside():
     # Bodies at 3 m (outside 2.5 m), 1 m (inside) and at 2.4 m walking out at 1 m/s.
     tracks = _step(np.zeros((3, TRACK_SLOT)), 0.0, [[3, 0, 1], [0, 1, 1], [2.4, 0, 1]], [1, 1, 1])
@@ -143,7 +155,7 @@ def _cell(drops=()):
     simulator.Initialize()
     context = tracker.GetMyContextFromRoot(simulator.get_context())
     names = ("positions_estimated", "velocities_estimated", "track_status", "position_std",
-             "fault")
+             "unseen_time", "fault")
 
     def read(t):
         simulator.AdvanceTo(t)
@@ -155,7 +167,7 @@ def _cell(drops=()):
 def test_estimates_constant_velocity_body_in_cell():
     read = _cell()
     for t in np.arange(0.5, 2.0, 0.0173):
-        p, v, status, std, fault = read(t)
+        p, v, status, std, _, fault = read(t)
         capture = math.floor((t - 0.021) / 0.05 + 1e-9) * 0.05  # estimate at capture time
         np.testing.assert_allclose(p[:3], [capture, 0.5, 1.0], atol=2e-3, err_msg=f"t={t}")
         np.testing.assert_allclose(v[:3], [1.0, 0.0, 0.0], atol=0.03, err_msg=f"t={t}")
@@ -167,15 +179,15 @@ def test_estimates_constant_velocity_body_in_cell():
 
 def test_fault_before_first_frame_and_when_frames_stop():
     read = _cell(drops=[(1.0, 1.5)])
-    p, v, status, _, fault = read(0.0205)  # frame 0 delivered at 0.02, processed at 0.021
+    p, v, status, _, _, fault = read(0.0205)  # frame 0 delivered at 0.02, processed at 0.021
     assert fault[0] == 1.0
     assert np.all(np.isnan(p)) and np.all(np.isnan(v)) and np.all(status == TRACK_NONE)
     for t in np.arange(0.022, 1.0459, 0.0071):  # fresh frames up to 0.95 + 0.096 s
-        assert read(t)[4][0] == 0.0, f"t={t}"
+        assert read(t)[5][0] == 0.0, f"t={t}"
     for t in np.arange(1.047, 1.520, 0.0071):  # capture 1.5 processed at 1.521
-        assert read(t)[4][0] == 1.0, f"t={t}"
+        assert read(t)[5][0] == 1.0, f"t={t}"
     for t in np.arange(1.522, 2.0, 0.0071):
-        assert read(t)[4][0] == 0.0, f"t={t}"
+        assert read(t)[5][0] == 0.0, f"t={t}"
 
 
 def test_bad_frames_raise_fault_and_are_not_used():

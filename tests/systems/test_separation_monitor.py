@@ -7,11 +7,12 @@ from safety_systems.systems.separation_monitor import SeparationMonitor
 ARGS = dict(reaction_time=0.1, stopping_time=0.3, stopping_distance=0.2)
 
 
-def _fixed(monitor, p_R, v_R, p_B, v_B, status, std):
+def _fixed(monitor, p_R, v_R, p_B, v_B, status, std, unseen=None):
     c = monitor.CreateDefaultContext()
+    unseen = np.zeros(len(status)) if unseen is None else unseen
     for name, value in dict(ee_position=p_R, ee_velocity=v_R, positions_estimated=p_B.ravel(),
                             velocities_estimated=v_B.ravel(), track_status=status,
-                            position_std=std).items():
+                            position_std=std, unseen_time=unseen).items():
         monitor.GetInputPort(name).FixValue(c, np.asarray(value, float))
     return c
 
@@ -52,3 +53,18 @@ def test_bad_arguments_rejected():
         SeparationMonitor(num_bodies=1, human_speed="fast", **ARGS)
     with pytest.raises(ValueError, match="reaction_time"):
         SeparationMonitor(num_bodies=1, reaction_time=-1, stopping_time=0.3, stopping_distance=0)
+
+
+def test_occlusion_margin_grows_s_of_unseen_bodies():
+    # Body 0 unseen for 0.2 s, estimated speed 1.0 m/s; body 1 seen in the last frame.
+    p_B = np.array([[1.5, 0, 0.3], [0, 1.5, 0.3]])
+    v_B = np.array([[0.0, 1.0, 0.0], [0, 0, 0]])
+    args = ([0.5, 0, 0.3], [0, 0, 0], p_B, v_B, [2, 1], [0, 0])
+    plain = SeparationMonitor(num_bodies=2, **ARGS)
+    grown = SeparationMonitor(num_bodies=2, occlusion_speed=2.0, **ARGS)
+    s_plain = plain.GetOutputPort("protective_distances").Eval(_fixed(plain, *args, [0.2, 0]))
+    s_grown = grown.GetOutputPort("protective_distances").Eval(_fixed(grown, *args, [0.2, 0]))
+    # (2.0 + 1.0) m/s * 0.2 s = 0.6 m more for the unseen body, nothing for the other.
+    np.testing.assert_allclose(s_grown - s_plain, [0.6, 0.0])
+    with pytest.raises(ValueError, match="occlusion_speed"):
+        SeparationMonitor(num_bodies=1, occlusion_speed=-1.0, **ARGS)
