@@ -1,0 +1,126 @@
+"""Where scenarios are evaluated: in this process, on local cores, or on a Dask cluster.
+
+Drake objects never cross process boundaries: workers receive scenario dataclasses and
+build what they need. Every evaluation goes through an :class:`EvaluationCache` kept in
+a JSON-lines file, so an interrupted run, started again with the same output folder,
+does not repeat finished work.
+"""
+
+import dataclasses
+import hashlib
+import json
+import os
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from safety_systems.scenario import Scenario, dump_scenario
+from verification.evaluate_batch import evaluate_many
+
+FIELDS = ("robustness", "min_separation_while_moving", "protective_violation_time",
+          "protective_deepest_intrusion")
+
+
+def _evaluate_chunk(scenarios: list[Scenario]) -> np.ndarray:
+    """(4, B) figures of a chunk (runs in a worker)."""
+    r = evaluate_many(scenarios)
+    return np.stack([getattr(r, f) for f in FIELDS])
+
+
+def scenario_key(scenario: Scenario) -> str:
+    """A stable key of a scenario's content (its YAML text, without its name)."""
+    text = dump_scenario(dataclasses.replace(scenario, name=""))
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+class EvaluationCache:
+    """Figures by scenario key, appended to ``path`` (JSON lines) as they arrive."""
+
+    def __init__(self, path: Path | None):
+        self.path = path
+        self.values: dict[str, list[float]] = {}
+        if path is not None and path.exists():
+            for line in path.read_text().splitlines():
+                try:
+                    row = json.loads(line)
+                except json.JSONDecodeError:
+                    continue  # a line cut short by an interruption
+                self.values[row["key"]] = [float(x) for x in row["figures"]]
+
+    def add(self, key: str, figures: np.ndarray) -> None:
+        self.values[key] = [float(x) for x in figures]
+        if self.path is not None:
+            with open(self.path, "a") as f:
+                f.write(json.dumps({"key": key, "figures": self.values[key]}) + "\n")
+
+
+class Runner:
+    """Evaluates lists of scenarios with the batched evaluator.
+
+    Args:
+        workers: local processes (None: all cores; 1: in this process).
+        scheduler: address of a Dask scheduler (``tcp://host:port``); overrides workers.
+        cache_path: JSON-lines file of finished evaluations (None: memory only).
+        chunk: scenarios per task.
+        progress: show a progress bar.
+    """
+
+    def __init__(self, *, workers: int | None = None, scheduler: str | None = None,
+                 cache_path: Path | None = None, chunk: int = 64, progress: bool = False):
+        self.workers = workers if workers is not None else (os.cpu_count() or 1)
+        self.scheduler = scheduler
+        self.cache = EvaluationCache(cache_path)
+        self.chunk = chunk
+        self.progress = progress
+        self.simulations = 0  # closed-loop simulations run or served from the cache
+        self._pool = None
+        self._client = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+
+    def evaluate(self, scenarios: list[Scenario]) -> np.ndarray:
+        """(len(scenarios), 4) figures (see ``FIELDS``) in input order."""
+        keys = [scenario_key(s) for s in scenarios]
+        todo = [i for i, k in enumerate(keys) if k not in self.cache.values]
+        todo = list(dict.fromkeys(todo))
+        chunks = [todo[i:i + self.chunk] for i in range(0, len(todo), self.chunk)]
+        with tqdm(total=len(todo), unit="sim", disable=not self.progress or not todo,
+                  leave=False, delay=1.0) as bar:
+            for rows, figures in zip(chunks, self._map([[scenarios[i] for i in c]
+                                                         for c in chunks])):
+                for i, column in zip(rows, figures.T):
+                    if keys[i] not in self.cache.values:
+                        self.cache.add(keys[i], column)
+                bar.update(len(rows))
+        self.simulations += len(scenarios)
+        return np.array([self.cache.values[k] for k in keys]).reshape(len(scenarios), -1)
+
+    def _map(self, chunks):
+        if not chunks:
+            return iter(())
+        if self.scheduler is not None:
+            if self._client is None:
+                from dask.distributed import Client
+
+                self._client = Client(self.scheduler)
+            futures = self._client.map(_evaluate_chunk, chunks, pure=False)
+            return (f.result() for f in futures)
+        if self.workers <= 1 or len(chunks) == 1:
+            return (_evaluate_chunk(c) for c in chunks)
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(max_workers=self.workers)
+        return self._pool.map(_evaluate_chunk, chunks)
