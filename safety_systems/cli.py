@@ -1,7 +1,7 @@
 """The ``safety-systems`` command line: thin subcommands that parse, call and report.
 
-Exit codes: 0 done, 2 bad input (one line on stderr naming the field, the value and
-what is allowed).
+Exit codes: 0 done (``verify``: proved or passed), 1 (``verify``: falsified), 2 bad
+input (one line on stderr naming the field, the value and what is allowed).
 """
 
 import argparse
@@ -38,6 +38,33 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _verify(args: argparse.Namespace) -> int:
+    from safety_systems.scenario import load_controller_config
+    from verification.report import write_report
+    from verification.space import load_space
+    from verification.verify import verify
+
+    config = load_controller_config(args.config)
+    space = load_space(args.space)
+    for name in ("budget", "workers"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            raise ScenarioError(f"--{name}", value, "an integer >= 1")
+    if args.seed < 0:
+        raise ScenarioError("--seed", args.seed, "an integer >= 0")
+    out = Path(args.out)
+    outcome = verify(config, space, out, budget=args.budget, method=args.method,
+                     workers=args.workers, scheduler=args.scheduler, seed=args.seed,
+                     progress=not args.quiet, config_text=Path(args.config).read_text())
+    report = write_report(outcome, out, config_path=args.config, space_path=args.space)
+    if not args.quiet:
+        first = report["simulations_to_first_counterexample"]
+        print(f"{report['verdict']}: min robustness {report['min_robustness']} over "
+              f"{report['simulations']} simulations"
+              + (f", first counterexample after {first}" if first else "") + f" -> {out}")
+    return 1 if outcome.verdict == "falsified" else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="safety-systems",
@@ -53,6 +80,21 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--duration", type=float, help="override the scenario's duration, s")
     sim.add_argument("--quiet", action="store_true", help="no progress bar or summary line")
     sim.set_defaults(run=_simulate)
+    ver = commands.add_parser(
+        "verify", help="prove or falsify 'stopped before contact' over a scenario space "
+                       "(exit 0 proved/passed, 1 falsified, 2 bad input)")
+    ver.add_argument("config", help="controller configuration YAML file")
+    ver.add_argument("--space", required=True, help="scenario space YAML file")
+    ver.add_argument("--out", required=True, help="output directory (reused to resume)")
+    ver.add_argument("--budget", type=int, default=200, help="closed-loop simulations")
+    ver.add_argument("--method", default="falsify",
+                     choices=("falsify", "sobol", "halton", "grid", "uniform", "corners"))
+    where = ver.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    where.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
+    ver.add_argument("--seed", type=int, default=0)
+    ver.add_argument("--quiet", action="store_true")
+    ver.set_defaults(run=_verify)
     return parser
 
 

@@ -63,11 +63,14 @@ class TrackerConfig:
     ``measurement_std`` None: the sensor's noise. ``processing_time``: seconds from a
     frame's delivery to the tracker's update. ``frame_timeout`` None: a frame is stale
     (protective stop) 1.5 sensor periods + latency + processing time after its capture,
-    so one missing frame stops the robot.
+    so one missing frame stops the robot. ``velocity_process_noise``: Q2 of Eq. 4, which
+    the seed leaves unspecified beyond "the velocity dynamics (assumed constant)"; we
+    read that literally: (0.22 m/s)^2 per step, a nearly constant velocity, which
+    smooths the estimate (and makes it lag a sudden lunge).
     """
 
     measurement_std: typing.Optional[float] = None
-    velocity_process_noise: float = 4.0
+    velocity_process_noise: float = 0.05
     initial_velocity_std: float = 2.0
     max_coast_time: float = 0.5
     exit_radius: float = 2.5

@@ -64,17 +64,17 @@ class Runner:
         scheduler: address of a Dask scheduler (``tcp://host:port``); overrides workers.
         cache_path: JSON-lines file of finished evaluations (None: memory only).
         chunk: scenarios per task.
-        progress: show a progress bar.
+        progress: show one progress bar over all evaluations (``total`` expected).
     """
 
     def __init__(self, *, workers: int | None = None, scheduler: str | None = None,
-                 cache_path: Path | None = None, chunk: int = 64, progress: bool = False):
+                 cache_path: Path | None = None, chunk: int = 64, progress: bool = False,
+                 total: int | None = None):
         self.workers = workers if workers is not None else (os.cpu_count() or 1)
         self.scheduler = scheduler
         self.cache = EvaluationCache(cache_path)
         self.chunk = chunk
-        self.progress = progress
-        self.simulations = 0  # closed-loop simulations run or served from the cache
+        self._bar = tqdm(total=total, unit="sim", disable=not progress, delay=1.0)
         self._pool = None
         self._client = None
 
@@ -85,6 +85,7 @@ class Runner:
         self.close()
 
     def close(self) -> None:
+        self._bar.close()
         if self._pool is not None:
             self._pool.shutdown()
             self._pool = None
@@ -95,18 +96,19 @@ class Runner:
     def evaluate(self, scenarios: list[Scenario]) -> np.ndarray:
         """(len(scenarios), 4) figures (see ``FIELDS``) in input order."""
         keys = [scenario_key(s) for s in scenarios]
-        todo = [i for i, k in enumerate(keys) if k not in self.cache.values]
-        todo = list(dict.fromkeys(todo))
-        chunks = [todo[i:i + self.chunk] for i in range(0, len(todo), self.chunk)]
-        with tqdm(total=len(todo), unit="sim", disable=not self.progress or not todo,
-                  leave=False, delay=1.0) as bar:
-            for rows, figures in zip(chunks, self._map([[scenarios[i] for i in c]
-                                                         for c in chunks])):
-                for i, column in zip(rows, figures.T):
-                    if keys[i] not in self.cache.values:
-                        self.cache.add(keys[i], column)
-                bar.update(len(rows))
-        self.simulations += len(scenarios)
+        todo, queued = [], set()
+        for i, k in enumerate(keys):  # each new scenario once
+            if k not in self.cache.values and k not in queued:
+                queued.add(k)
+                todo.append(i)
+        # Split the work evenly over the workers, in chunks of at most ``chunk``.
+        size = max(1, min(self.chunk, -(-len(todo) // max(1, self.workers))))
+        chunks = [todo[i:i + size] for i in range(0, len(todo), size)]
+        for rows, figures in zip(chunks, self._map([[scenarios[i] for i in c] for c in chunks])):
+            for i, column in zip(rows, figures.T):
+                if keys[i] not in self.cache.values:
+                    self.cache.add(keys[i], column)
+        self._bar.update(len(scenarios))
         return np.array([self.cache.values[k] for k in keys]).reshape(len(scenarios), -1)
 
     def _map(self, chunks):
