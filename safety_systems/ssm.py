@@ -193,7 +193,7 @@ def speed_override(
     """
     d = np.asarray(distances, dtype=float)
     s = np.asarray(s_max, dtype=float)
-    band = (delta_s - 1.0) * s
+    band = (delta_s - 1.0) * np.where(np.isinf(s), 0.0, s)  # S_max = inf: stop (below)
     # Where the band is empty or infinite the ramp is not used: k is 1 or 0 below.
     ramp = np.divide(d - s, band, out=np.ones(np.broadcast_shapes(d.shape, s.shape)),
                      where=(band > 1e-12) & (band < np.inf))

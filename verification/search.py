@@ -6,8 +6,9 @@ Points live in the unit cube over the space's free parameters
 - Sweeps: ``grid``, ``sobol``, ``halton``, ``uniform`` and ``corners`` (every vertex).
 - Falsification (:func:`falsify`): candidates from the corners and a Sobol set are
   ranked by a cheap open-loop *danger score* (no closed-loop simulation: how close the
-  hand's scripted path comes to where the tool would be if the robot kept its speed
-  until the hand set off and then braked as hard as its stopping data allows), and
+  hand's scripted path comes to the tool if the robot kept full speed until the
+  configured monitor, fed the hand as the sensor shows it, would first stop it, and
+  then braked as its stopping data allows; :func:`danger_scores`), and
   simulated in that order interleaved with plain Sobol order; then CMA-ES (the ``cma``
   package) minimises the closed-loop robustness from the best point found, each
   population simulated as one batch. The score only orders candidates; every verdict
@@ -25,9 +26,15 @@ from scipy.stats import qmc
 from safety_systems.braking import path_rate_step
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import stack_paths, stacked_position_velocity
-from safety_systems.scenario import ControllerConfig
-from safety_systems.ur5e import tool0_position
-from safety_systems.workcell import braking_table, joint_path, scripted_operators
+from safety_systems.scenario import ControllerConfig, actual_sensor
+from safety_systems.ssm import directed_speeds, monitor_protective_distances, occlusion_margin
+from safety_systems.ur5e import tool0_position, tool0_position_and_velocity
+from safety_systems.workcell import (
+    assumed_stopping,
+    braking_table,
+    joint_path,
+    scripted_operators,
+)
 from verification.runner import Runner
 from verification.space import (
     ScenarioSpace,
@@ -38,7 +45,7 @@ from verification.space import (
 )
 
 SWEEPS = ("grid", "sobol", "halton", "uniform", "corners")
-DETECTION_DELAY = 0.2  # s after the hand heads in at which the score lets the robot brake
+ESTIMATE_LAG = 0.05  # s by which the score lets an estimated hand speed lag the truth
 
 
 def sweep_points(method: str, n: int, d: int, *, seed: int = 0) -> np.ndarray:
@@ -62,38 +69,66 @@ def sweep_points(method: str, n: int, d: int, *, seed: int = 0) -> np.ndarray:
 
 
 def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
-                  *, samples: int = 80) -> np.ndarray:
-    """Open-loop danger score of each point, m (lower is more dangerous; see module):
-    the closest the first operator's hand comes to the tool while the tool still moves,
-    if the robot ran at full speed until ``DETECTION_DELAY`` after the hand heads for
-    the target (after any retreat) and is visible (after any occlusion), and then
-    braked."""
+                  *, step: float = 0.02) -> np.ndarray:
+    """Open-loop danger score of each point, m (lower is more dangerous; see module).
+
+    The robot runs its path at full speed until the configured monitor, fed with the
+    first operator's hand as the sensor would show it (one period plus the latency late,
+    frozen and coasting while occluded; for ``estimated`` speeds, the hand's directed
+    speed ``ESTIMATE_LAG`` late), finds it closer than S (Eqs. 9-11) or d_min; then it
+    brakes from full speed. The score is the closest the hand comes to the tool while
+    the tool still moves. Nothing here feeds back: it only orders candidates.
+    """
     scenarios = [make_scenario(space, config, to_point(space, u)) for u in points]
+    n = len(scenarios)
     path = joint_path(space.robot)
     dt = 1.0 / space.robot.control_rate_hz
-    # Path parameter travelled while braking from full speed, tick by tick.
-    rate, travelled = [1.0], [0.0]
+    table = braking_table(config)
+    rate, travelled = [1.0], [0.0]  # a stop from full speed, tick by tick
     while rate[-1] > 0.0:
-        new = float(path_rate_step(rate[-1], 0.0, dt, table=braking_table(config),
-                                   acceleration_limit=1.0))
+        new = float(path_rate_step(rate[-1], 0.0, dt, table=table, acceleration_limit=1.0))
         travelled.append(travelled[-1] + 0.5 * (rate[-1] + new) * dt)
         rate.append(new)
     stop_time = (len(rate) - 1) * dt
-    onsets = np.array([s.operators[0].waypoints[1].time for s in scenarios])
-    ends = np.array([s.duration for s in scenarios])
-    times = onsets[:, None] + np.linspace(0.0, 1.0, samples) * (ends - onsets)[:, None]
-    # The robot reacts once the hand heads for it (after any retreat) and can be seen.
-    heads_in = np.array([s.operators[0].waypoints[-1].time for s in scenarios])
-    seen = np.array([max((o.end for o in s.sensor.occlusions), default=0.0) for s in scenarios])
-    brake_at = (np.maximum(heads_in, seen) + DETECTION_DELAY)[:, None]
-    after = np.maximum(times - brake_at, 0.0)
-    s = np.minimum(times, brake_at) + np.interp(after, np.arange(len(rate)) * dt, travelled)
-    tool = tool0_position(joint_path_state(path, s)[0])
+    t = np.arange(0.0, max(s.duration for s in scenarios) + step, step)
+    q, dq, _ = joint_path_state(path, t)
+    tool, tool_v = tool0_position_and_velocity(q, dq)  # full speed: s = t
     stack = stack_paths([scripted_operators(sc)[0].path for sc in scenarios])
-    hand = np.stack([stacked_position_velocity(stack, times[:, k])[0] for k in range(samples)],
-                    axis=1)
-    d = np.linalg.norm(hand - tool, axis=-1)
-    return np.min(np.where(after < stop_time, d, np.inf), axis=1)
+    f = config.safety
+    delay = 1.0 / config.sensor.rate_hz + np.array([actual_sensor(sc).latency for sc in scenarios])
+    lag = np.where(f.human_speed == "iso", 0.0, ESTIMATE_LAG)
+    occ = np.array([[o.start, o.end] if (o := next(iter(sc.sensor.occlusions), None)) else
+                    [np.inf, np.inf] for sc in scenarios])
+    t_s, b = assumed_stopping(config)
+    trigger = np.full(n, np.inf)
+    for k, now in enumerate(t):  # the monitor's view at each time, for every candidate
+        seen_at = np.maximum(now - delay, 0.0)
+        hidden = (seen_at >= occ[:, 0]) & (seen_at < occ[:, 1])
+        base = np.where(hidden, occ[:, 0], seen_at)
+        p_b, v_b = stacked_position_velocity(stack, base)
+        p_m = p_b + v_b * np.where(hidden, seen_at - base, 0.0)[:, None]
+        v_m = stacked_position_velocity(stack, np.maximum(base - lag, 0.0))[1]
+        d = np.linalg.norm(p_m - tool[k], axis=-1)
+        v_h, v_r = directed_speeds(tool[k], tool_v[k], p_m[:, None], v_m[:, None])
+        margin = occlusion_margin(np.where(hidden, seen_at - base, 0.0), v_m, f.occlusion_speed)
+        S = monitor_protective_distances(
+            v_h[:, 0], v_r[:, 0], mode=f.human_speed, reaction_time=f.reaction_time,
+            stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
+            human_uncertainty=f.human_uncertainty + margin,
+            robot_uncertainty=f.robot_uncertainty, iso_speed=f.iso_human_speed,
+            iso_reduced_speed=f.iso_reduced_human_speed)
+        hit = np.isinf(trigger) & ((d < S) | (d < f.d_min))
+        trigger[hit] = now
+    brake = np.minimum(trigger, t[-1])[:, None]
+    after = np.maximum(t[None] - brake, 0.0)
+    scale = np.array([sc.robot.braking_time_scale for sc in scenarios])[:, None]
+    # Slower brakes stretch the stop in time and (at constant deceleration) in distance.
+    s = np.minimum(t[None], brake) + scale * np.interp(after / scale, np.arange(len(rate)) * dt,
+                                                       travelled)
+    tool_actual = tool0_position(joint_path_state(path, s)[0])
+    hand = np.stack([stacked_position_velocity(stack, now)[0] for now in t], axis=1)
+    d_true = np.linalg.norm(hand - tool_actual, axis=-1)
+    return np.min(np.where(after < stop_time * scale, d_true, np.inf), axis=1)
 
 
 @dataclasses.dataclass

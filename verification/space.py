@@ -11,9 +11,10 @@ parameter) becomes a full :class:`safety_systems.scenario.Scenario`:
   The start point lies ``start_distance`` from the target in the direction
   (``azimuth_deg``, ``elevation_deg``); extra operators come from azimuths turned by
   360 / n degrees.
-- At the onset the hand either goes straight to the target or, when
+- At the onset the hand either goes straight for the target or, when
   ``retreat_distance`` > 0, first walks that far away and then reverses, with peak
-  speed ``peak_speed`` and acceleration ``acceleration``. It stays at the target.
+  speed ``peak_speed`` and acceleration ``acceleration``. It reaches on through the
+  target by ``overshoot`` along the same line and stays there.
 - Each operator has two tracked gloves: the approaching hand at the reference point and
   the other hand 0.35 m to its side.
 - Sensor conditions: noise, latency, and from the onset a run of dropped frames
@@ -49,6 +50,7 @@ from safety_systems.ur5e import tool0_position
 from safety_systems.workcell import joint_path
 
 OTHER_HAND_OFFSET = 0.35  # m, sideways from the approaching hand
+MIN_GAP = 1e-9  # s; shorter dropouts and occlusions are none
 
 
 @dc.dataclass
@@ -75,6 +77,7 @@ class SpaceParameters:
     onset_phase: Range = _r(0.0, 1.0)
     target_phase: Range = _r(0.0, 1.0)
     retreat_distance: Range = _r(0.0, 0.0)
+    overshoot: Range = _r(0.0, 0.0)
     operators: Range = _r(1.0, 1.0)
     noise_std: Range = _r(0.0002, 0.0002)
     latency: Range = _r(0.0, 0.0)
@@ -107,7 +110,7 @@ NAMES = tuple(f.name for f in dc.fields(SpaceParameters))
 _LIMITS = {  # allowed ranges of each parameter
     "azimuth_deg": (-360.0, 360.0), "elevation_deg": (-80.0, 80.0),
     "start_distance": (0.2, 10.0), "peak_speed": (0.01, 2.0), "acceleration": (0.1, 100.0),
-    "onset_phase": (0.0, 1.0), "target_phase": (0.0, 1.0), "retreat_distance": (0.0, 5.0),
+    "onset_phase": (0.0, 1.0), "target_phase": (0.0, 1.0), "retreat_distance": (0.0, 5.0), "overshoot": (0.0, 2.0),
     "operators": (1.0, 5.0), "noise_std": (0.0, 0.05), "latency": (0.0, 1.0),
     "dropout": (0.0, 5.0), "occlusion": (0.0, 5.0), "braking_time_scale": (0.1, 10.0),
 }
@@ -174,7 +177,8 @@ def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
         f"approach directions: azimuth {p.azimuth_deg.min:g} to {p.azimuth_deg.max:g} deg, "
         f"elevation {p.elevation_deg.min:g} to {p.elevation_deg.max:g} deg; straight lines "
         + ("with a retreat of up to "f"{p.retreat_distance.max:g} m before reversing"
-           if p.retreat_distance.max > 0 else "without retreat"),
+           if p.retreat_distance.max > 0 else "without retreat")
+        + f", reaching up to {p.overshoot.max:g} m past the target",
         f"sensor: {config.sensor.rate_hz:g} Hz, noise std {p.noise_std.min:g} to "
         f"{p.noise_std.max:g} m (bounded at {space.noise_bound_sigmas:g} sigma for proofs), "
         f"latency {p.latency.min:g} to {p.latency.max:g} s, dropped frames up to "
@@ -213,8 +217,9 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
             waypoints.append(Waypoint(t, away.tolist()))
             t += approach_times(v["peak_speed"], v["acceleration"], v["retreat_distance"])
             t += 1e-6
-        waypoints.append(Waypoint(t, target.tolist()))
-        length = float(np.linalg.norm(target - np.array(waypoints[-2].position)))
+        end_point = target - v["overshoot"] * u  # reaching on through the target
+        waypoints.append(Waypoint(t, end_point.tolist()))
+        length = float(np.linalg.norm(end_point - np.array(waypoints[-2].position)))
         end = max(end, t + approach_times(v["peak_speed"], v["acceleration"], length))
         side = np.array([-math.sin(az), math.cos(az), 0.0]) * OTHER_HAND_OFFSET
         operators.append(OperatorConfig(
@@ -224,9 +229,9 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
     duration = end + space.tail_time
     sensor = dc.replace(config.sensor, noise_std=v["noise_std"], latency=v["latency"],
                         dropouts=[], occlusions=[])
-    if v["dropout"] > 0.0:
+    if v["dropout"] > MIN_GAP:
         sensor.dropouts = [Interval(onset, onset + v["dropout"])]
-    if v["occlusion"] > 0.0:
+    if v["occlusion"] > MIN_GAP:
         sensor.occlusions = [Occlusion(f"operator_{j}/hand", onset, onset + v["occlusion"])
                              for j in range(n_ops)]
     robot = dc.replace(space.robot, braking_time_scale=v["braking_time_scale"],
@@ -240,7 +245,7 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
 def corners(space: ScenarioSpace) -> np.ndarray:
     """Every vertex of the unit cube over the free parameters, (2^d, d)."""
     d = len(free_parameters(space))
-    return np.array(list(itertools.product((0.0, 1.0), repeat=d))).reshape(-1, d)
+    return np.array(list(itertools.product((0.0, 1.0), repeat=d)), dtype=float).reshape(2**d, d)
 
 
 def describe(values: dict[str, float]) -> dict[str, float]:

@@ -1,0 +1,257 @@
+"""Scenario spaces: strict loading, the unit cube's mapping and the scenarios of points."""
+
+import dataclasses as dc
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from safety_systems.joint_path import joint_path_state
+from safety_systems.operator_paths import make_operator_path, operator_position_velocity
+from safety_systems.scenario import (
+    ScenarioError,
+    dump_scenario,
+    load_controller_config,
+    scenario_from_text,
+    validate_scenario,
+)
+from safety_systems.ur5e import tool0_position
+from safety_systems.workcell import joint_path
+from verification.space import (
+    _LIMITS,
+    MIN_GAP,
+    NAMES,
+    Range,
+    assumptions,
+    corners,
+    free_parameters,
+    load_space,
+    lower_upper,
+    make_scenario,
+    to_point,
+    validate_space,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+SPACE = load_space(ROOT / "models/spaces/default.yaml")
+CONFIG = load_controller_config(ROOT / "models/configs/iso.yaml")
+# The default space with up to four operators, so that n > 2 is exercised too.
+WIDE = dc.replace(SPACE, parameters=dc.replace(SPACE.parameters, operators=Range(1.0, 4.0)))
+FIXED = settings(derandomize=True, deadline=None, max_examples=40)
+
+
+def test_default_space_loads_and_validates():
+    validate_space(SPACE)
+    assert SPACE.name == "default"
+    assert set(NAMES) == set(_LIMITS)
+    lo, hi = lower_upper(SPACE)
+    assert np.all(lo <= hi)
+    assert SPACE.parameters.peak_speed.max <= 2.0  # ISO 13855 hand speed
+    assert "peak_speed" in free_parameters(SPACE)
+    assert "braking_time_scale" not in free_parameters(SPACE)  # fixed at 1
+
+
+@pytest.mark.parametrize("text, field", [
+    ("bogus: 1", "bogus"),
+    ("parameters:\n  bogus: {min: 0.0, max: 1.0}", "parameters.bogus"),
+    ("parameters:\n  peak_speed: {min: 0.5, max: 2.0, mean: 1.0}", "parameters.peak_speed.mean"),
+    ("parameters:\n  peak_speed: {min: fast, max: 2.0}", "parameters.peak_speed.min"),
+    ("parameters:\n  peak_speed: {min: 1.5, max: 1.0}", "parameters.peak_speed"),
+    ("parameters:\n  peak_speed: {min: 0.5, max: 2.5}", "parameters.peak_speed"),
+    ("parameters:\n  elevation_deg: {min: -90.0, max: 0.0}", "parameters.elevation_deg"),
+    ("parameters:\n  noise_std: {min: -0.001, max: 0.001}", "parameters.noise_std"),
+    ("parameters:\n  overshoot: {min: 0.0, max: .inf}", "parameters.overshoot"),
+    ("parameters:\n  operators: {min: 1.5, max: 2.0}", "parameters.operators"),
+    ("parameters:\n  operators: {min: 1.0, max: 2.5}", "parameters.operators"),
+    ("settle_time: 0.0", "settle_time"),
+    ("noise_bound_sigmas: -1.0", "noise_bound_sigmas"),
+])
+def test_bad_space_files_name_the_field(tmp_path, text, field):
+    path = tmp_path / "space.yaml"
+    path.write_text(f"name: bad\n{text}\n")
+    with pytest.raises(ScenarioError) as error:
+        load_space(path)
+    assert error.value.field == field
+    assert field in str(error.value)
+
+
+@FIXED
+@given(name=st.sampled_from(NAMES), below=st.booleans(), by=st.floats(1e-3, 100.0))
+def test_ranges_outside_the_limits_are_rejected(name, below, by):
+    lo, hi = _LIMITS[name]
+    bad = Range(lo - by, hi) if below else Range(lo, hi + by)
+    space = dc.replace(SPACE, parameters=dc.replace(SPACE.parameters, **{name: bad}))
+    with pytest.raises(ScenarioError, match=f"parameters.{name}"):
+        validate_space(space)
+    validate_space(dc.replace(SPACE, parameters=dc.replace(SPACE.parameters,
+                                                           **{name: Range(lo, hi)})))
+
+
+@FIXED
+@given(unit=st.lists(st.floats(-0.5, 1.5), min_size=15, max_size=15))
+def test_to_point_maps_the_unit_cube_onto_the_ranges(unit):
+    free = free_parameters(WIDE)
+    unit = np.array(unit[:len(free)])
+    values = to_point(WIDE, unit)
+    assert set(values) == set(NAMES)
+    for name in NAMES:
+        r = getattr(WIDE.parameters, name)
+        if name not in free:
+            assert values[name] == r.min  # fixed parameters keep their value
+            continue
+        u = min(max(unit[free.index(name)], 0.0), 1.0)
+        expected = r.min + u * (r.max - r.min)
+        if name == "operators":
+            assert values[name] == round(expected) and abs(values[name] - expected) <= 0.5
+        else:
+            assert values[name] == pytest.approx(expected, rel=1e-12, abs=1e-12)
+        assert r.min <= values[name] <= r.max
+    lo, hi = lower_upper(WIDE)
+    assert to_point(WIDE, np.zeros(len(free))) == dict(zip(NAMES, lo.tolist()))
+    assert to_point(WIDE, np.ones(len(free))) == dict(zip(NAMES, hi.tolist()))
+
+
+def _check_scenario(space, values):
+    v = values
+    scenario = make_scenario(space, CONFIG, v, name="probe")
+    path = joint_path(space.robot)
+    target = tool0_position(joint_path_state(path, v["target_phase"] * path.cycle_time)[0])
+    onset = space.settle_time + v["onset_phase"] * path.cycle_time
+    n = int(v["operators"])
+    assert [o.name for o in scenario.operators] == [f"operator_{j}" for j in range(n)]
+    azimuths = []
+    for o in scenario.operators:
+        w = [np.array(p.position) for p in o.waypoints]
+        assert o.waypoints[0].time == 0.0 and o.waypoints[1].time == pytest.approx(onset)
+        assert o.max_speed == v["peak_speed"] and o.max_acceleration == v["acceleration"]
+        assert [b.name for b in o.bodies] == ["hand", "other_hand"]
+        assert o.bodies[0].offset == [0.0, 0.0, 0.0]
+        assert np.linalg.norm(o.bodies[1].offset) == pytest.approx(0.35)
+        u = (w[0] - target) / v["start_distance"]
+        assert np.linalg.norm(w[0] - target) == pytest.approx(v["start_distance"], abs=1e-9)
+        assert math.degrees(math.asin(u[2])) == pytest.approx(v["elevation_deg"], abs=1e-6)
+        assert abs(np.dot(o.bodies[1].offset, u)) < 1e-9  # the other hand is to the side
+        azimuths.append(math.degrees(math.atan2(u[1], u[0])))
+        if v["retreat_distance"] > 0.0:  # away along the approach line, then back in
+            assert len(w) == 3
+            np.testing.assert_allclose(w[1], w[0] + v["retreat_distance"] * u, atol=1e-9)
+        else:
+            assert len(w) == 2
+        # The final point lies ``overshoot`` past the target, on the line from the start.
+        np.testing.assert_allclose(w[-1], target - v["overshoot"] * u, atol=1e-9)
+        assert np.linalg.norm(w[-1] - w[0]) == pytest.approx(
+            v["start_distance"] + v["overshoot"], abs=1e-9)
+        # The hand has arrived, at rest, before the tail of the run.
+        op_path = make_operator_path([p.time for p in o.waypoints], w, o.max_speed,
+                                     o.max_acceleration)
+        p_end, v_end = operator_position_velocity(op_path, scenario.duration - space.tail_time)
+        np.testing.assert_allclose(p_end, w[-1], atol=1e-9)
+        np.testing.assert_allclose(v_end, 0.0, atol=1e-9)
+    turns = np.mod(np.array(azimuths) - azimuths[0], 360.0)
+    turns = np.where(turns > 360.0 - 1e-6, 0.0, turns)
+    np.testing.assert_allclose(turns, 360.0 / n * np.arange(n), atol=1e-6)
+    assert (azimuths[0] - v["azimuth_deg"] + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-6)
+    s = scenario.sensor
+    assert (s.noise_std, s.latency) == (v["noise_std"], v["latency"])
+    if v["dropout"] > MIN_GAP:
+        assert len(s.dropouts) == 1
+        assert (s.dropouts[0].start, s.dropouts[0].end) == pytest.approx(
+            (onset, onset + v["dropout"]))
+    else:
+        assert s.dropouts == []
+    if v["occlusion"] > MIN_GAP:
+        assert [o.body for o in s.occlusions] == [f"operator_{j}/hand" for j in range(n)]
+        for o in s.occlusions:
+            assert (o.start, o.end) == pytest.approx((onset, onset + v["occlusion"]))
+    else:
+        assert s.occlusions == []
+    assert scenario.robot.braking_time_scale == v["braking_time_scale"]
+    assert scenario.robot.cycles * path.cycle_time >= scenario.duration  # keeps working
+    assert scenario.contact_distance == space.contact_distance
+    assert scenario.controller == CONFIG
+    validate_scenario(scenario)
+    assert scenario_from_text(dump_scenario(scenario)) == scenario
+    return scenario, target
+
+
+# Coordinates of 0 or not vanishingly small (see test_make_scenario_of_a_tiny_gap).
+UNIT = st.one_of(st.just(0.0), st.floats(1e-9, 1.0))
+
+
+@FIXED
+@given(unit=st.lists(UNIT, min_size=15, max_size=15))
+def test_make_scenario_of_any_point(unit):
+    free = free_parameters(WIDE)
+    _check_scenario(WIDE, to_point(WIDE, np.array(unit[:len(free)])))
+
+
+def test_make_scenario_hand_picked_point():
+    values = to_point(SPACE, np.zeros(len(free_parameters(SPACE))))
+    values.update(azimuth_deg=0.0, elevation_deg=0.0, start_distance=1.5, onset_phase=0.5,
+                  target_phase=0.25, retreat_distance=0.4, overshoot=0.2, operators=3.0,
+                  dropout=0.1, occlusion=0.2, braking_time_scale=1.7)
+    scenario, target = _check_scenario(SPACE, values)
+    w = [np.array(p.position) for p in scenario.operators[0].waypoints]
+    np.testing.assert_allclose(w[0], target + [1.5, 0.0, 0.0], atol=1e-12)  # azimuth 0: +x
+    np.testing.assert_allclose(w[1], target + [1.9, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(w[2], target + [-0.2, 0.0, 0.0], atol=1e-12)
+    cycle = joint_path(SPACE.robot).cycle_time
+    assert scenario.sensor.dropouts[0].start == pytest.approx(SPACE.settle_time + 0.5 * cycle)
+    assert scenario.robot.braking_time_scale == 1.7
+
+
+@pytest.mark.parametrize("gap", ["dropout", "occlusion"])
+def test_make_scenario_of_a_tiny_gap(gap):
+    # A gap below MIN_GAP (here below the float resolution at the onset, which once gave
+    # an empty interval [onset, onset) that validation rejected) is no gap.
+    values = to_point(SPACE, np.zeros(len(free_parameters(SPACE))))
+    values.update(onset_phase=0.5, **{gap: 1e-17})
+    scenario, _ = _check_scenario(SPACE, values)
+    assert scenario.sensor.dropouts == [] and scenario.sensor.occlusions == []
+
+
+def _fix(space, names):
+    """``space`` with the named parameters fixed at their minimum."""
+    p = space.parameters
+    return dc.replace(space, parameters=dc.replace(
+        p, **{n: Range(getattr(p, n).min, getattr(p, n).min) for n in names}))
+
+
+@pytest.mark.parametrize("fixed", [(), ("peak_speed",), ("peak_speed", "noise_std", "latency")])
+def test_corners_are_every_vertex(fixed):
+    space = _fix(SPACE, fixed)
+    d = len(free_parameters(space))
+    assert d == len(free_parameters(SPACE)) - len(fixed)
+    c = corners(space)
+    assert c.shape == (2**d, d)
+    assert set(np.unique(c)) == {0.0, 1.0}
+    assert len({tuple(row) for row in c}) == 2**d
+
+
+def test_corners_of_a_point_space():
+    # FAILS (bug in verification/space.py): with no free parameter, corners() raises
+    # "cannot reshape array of size 0" instead of returning the one vertex, shape (1, 0).
+    assert corners(_fix(SPACE, NAMES)).shape == (1, 0)
+
+
+def test_assumptions_state_the_limits():
+    p = SPACE.parameters
+    odd = dc.replace(SPACE, contact_distance=0.137, notes=["a note"], parameters=dc.replace(
+        p, peak_speed=Range(0.5, 1.7), start_distance=Range(0.45, 2.25),
+        acceleration=Range(1.0, 7.5), overshoot=Range(0.0, 0.35), occlusion=Range(0.0, 0.15),
+        dropout=Range(0.0, 0.07), operators=Range(1.0, 3.0), latency=Range(0.0, 0.03),
+        retreat_distance=Range(0.0, 0.6),
+        braking_time_scale=Range(1.0, 1.3), elevation_deg=Range(-15.0, 25.0)))
+    text = "\n".join(assumptions(odd, CONFIG))
+    for piece in ("1.7 m/s", "0.45 to 2.25 m", "7.5 m/s^2", "0.35 m past", "up to 0.15 s",
+                  "up to 0.07 s", "1 to 3 operator", "latency 0 to 0.03 s", "by 1 to 1.3",
+                  "elevation -15 to 25 deg", "within 0.137 m", "0.6 m before reversing",
+                  f"{CONFIG.sensor.rate_hz:g} Hz", f"{odd.noise_bound_sigmas:g} sigma"):
+        assert piece in text, piece
+    assert assumptions(odd, CONFIG)[-1] == "a note"
+    no_retreat = dc.replace(odd, parameters=dc.replace(odd.parameters,
+                                                       retreat_distance=Range(0.0, 0.0)))
+    assert "without retreat" in "\n".join(assumptions(no_retreat, CONFIG))
