@@ -27,6 +27,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
         "assumptions": o.assumptions,
         "box": o.proof.box,
         "free_parameters": o.free_parameters,
+        # null when +inf: the tool never moved while a body was present
         "min_robustness": _finite(float(rho.min())) if rho.size else None,
         "simulations": len(o.log.points),
         "simulations_to_first_counterexample": o.log.first_violation(),

@@ -51,9 +51,11 @@ class Outcome:
 
 def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget: int,
            method: str = "falsify", workers: int | None = None, scheduler: str | None = None,
-           seed: int = 0, progress: bool = False, config_text: str = "") -> Outcome:
+           seed: int = 0, progress: bool = False, config_text: str = "",
+           stop_at_first: bool = False) -> Outcome:
     """Runs proof and search for ``config`` over ``space``; writes scenario files of
-    confirmed counterexamples under ``out / "counterexamples"``."""
+    confirmed counterexamples under ``out / "counterexamples"``. ``stop_at_first`` ends
+    a falsifying search at its first violation instead of spending the whole budget."""
     if method not in METHODS:
         raise ValueError(f"method: got {method!r}; allowed: {' | '.join(METHODS)}")
     out.mkdir(parents=True, exist_ok=True)
@@ -61,7 +63,8 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     with Runner(workers=workers, scheduler=scheduler, cache_path=out / "evaluations.jsonl",
                 progress=progress, total=budget) as runner:
         if method == "falsify":
-            log = falsify(space, config, runner, budget=budget, seed=seed)
+            log = falsify(space, config, runner, budget=budget, seed=seed,
+                          stop_at_first=stop_at_first)
         else:
             log = sweep(space, config, runner, method=method, budget=budget, seed=seed)
     confirmed, unconfirmed = _confirm(space, config, log, out)

@@ -1,0 +1,39 @@
+"""Local processes and a Dask cluster (here on loopback) give the in-process figures."""
+
+import numpy as np
+import pytest
+from dask.distributed import LocalCluster
+
+from safety_systems.scenario import load_controller_config
+from verification.evaluate_batch import evaluate_many
+from verification.runner import Runner
+from verification.space import free_parameters, load_space, make_scenario, to_point
+
+SPACE = load_space("models/spaces/default.yaml")
+
+
+@pytest.fixture(scope="module")
+def scenarios():
+    config = load_controller_config("models/configs/seed_estimated.yaml")
+    rng = np.random.default_rng(2)
+    d = len(free_parameters(SPACE))
+    return [make_scenario(SPACE, config, to_point(SPACE, rng.uniform(size=d))) for _ in range(4)]
+
+
+def test_processes_and_dask_agree_with_in_process(scenarios):
+    expected = evaluate_many(scenarios).robustness
+    with Runner(workers=2, chunk=2) as runner:
+        np.testing.assert_array_equal(runner.evaluate(scenarios)[:, 0], expected)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster:
+        with Runner(scheduler=cluster.scheduler_address, chunk=2) as runner:
+            figures = runner.evaluate(scenarios)
+    np.testing.assert_array_equal(figures[:, 0], expected)
+
+
+def test_repeated_scenarios_run_once(scenarios, tmp_path):
+    cache = tmp_path / "cache.jsonl"
+    with Runner(workers=1, cache_path=cache) as runner:
+        figures = runner.evaluate(scenarios[:2] + scenarios[:2])
+    assert len(cache.read_text().splitlines()) == 2
+    np.testing.assert_array_equal(figures[:2], figures[2:])

@@ -1,0 +1,69 @@
+"""``safety-systems verify``: exit codes, report files and replayable counterexamples."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from safety_systems.cli import main
+from safety_systems.scenario import load_scenario
+from safety_systems.simulation import simulate
+from verification.evaluate_drake import robustness_of_run
+
+MODELS = Path(__file__).parents[2] / "models"
+SPACE = str(MODELS / "spaces" / "default.yaml")
+REPORT_KEYS = {"verdict", "method", "assumptions", "min_robustness", "simulations",
+               "counterexamples"}
+
+
+def test_iso_configuration_is_proved(tmp_path):
+    out = tmp_path / "iso"
+    code = main(["verify", str(MODELS / "configs" / "iso.yaml"), "--space", SPACE, "--out",
+                 str(out), "--budget", "6", "--workers", "1", "--quiet"])
+    report = json.loads((out / "report.json").read_text())
+    assert code == 0 and report["verdict"] == "proved"
+    assert REPORT_KEYS <= set(report) and report["simulations"] == 6
+    # None: +inf, the robot never moved while a hand was present.
+    assert report["min_robustness"] is None or report["min_robustness"] > 0.0
+    assert report["counterexamples"] == []
+    assert "z3" in report["method"] and report["proof"]["margin_at_worst_corner"] > 0.0
+    assert any("2 m/s" in a for a in report["assumptions"])
+    assert (out / "report.md").read_text().startswith("# Verification: PROVED")
+    assert (out / "robustness.png").stat().st_size > 5_000
+
+
+def test_seed_configuration_is_falsified_and_replayable(tmp_path):
+    out = tmp_path / "seed"
+    code = main(["verify", str(MODELS / "configs" / "seed_estimated.yaml"), "--space", SPACE,
+                 "--out", str(out), "--budget", "8", "--workers", "1", "--seed", "1",
+                 "--quiet"])
+    report = json.loads((out / "report.json").read_text())
+    assert code == 1 and report["verdict"] == "falsified"
+    assert report["simulations_to_first_counterexample"] <= 8
+    worst = report["counterexamples"][0]
+    assert worst["drake_robustness"] < 0.0 and set(worst["parameters"]) >= {"peak_speed"}
+    # The scenario file replays the violation through the simulate pipeline.
+    run = simulate(load_scenario(worst["scenario"]))
+    assert robustness_of_run(run).stopped_before_contact == pytest.approx(
+        worst["drake_robustness"], abs=1e-12)
+    assert (out / "replay.html").stat().st_size > 100_000
+
+
+@pytest.mark.parametrize("args, field", [
+    (["--budget", "0"], "--budget"),
+    (["--seed", "-1"], "--seed"),
+])
+def test_bad_arguments_exit_2(tmp_path, capsys, args, field):
+    code = main(["verify", str(MODELS / "configs" / "iso.yaml"), "--space", SPACE, "--out",
+                 str(tmp_path), *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and field in err[0]
+
+
+def test_bad_space_file_exits_2(tmp_path, capsys):
+    bad = tmp_path / "space.yaml"
+    bad.write_text("parameters:\n  peak_speed: {min: 0.5, max: 3.0}\n")
+    code = main(["verify", str(MODELS / "configs" / "iso.yaml"), "--space", str(bad), "--out",
+                 str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "parameters.peak_speed" in err[0]
