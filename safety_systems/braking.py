@@ -95,6 +95,7 @@ def path_rate_step(
     table: BrakingTable,
     acceleration_limit: float,
     time_scale: np.ndarray | float = 1.0,
+    max_rate: float = 1.0,
 ) -> np.ndarray:
     """The path rate sigma one control tick later, moving towards the commanded rate.
 
@@ -102,11 +103,13 @@ def path_rate_step(
     divided by ``time_scale`` (the real brakes' stopping times relative to the table's);
     rising magnitude by ``acceleration_limit`` (fraction of nominal speed per second).
     A command of the other sign first brings sigma to rest (it never crosses zero
-    within one tick). Non-finite commands count as 0 (fail safe). Vectorised.
+    within one tick). Commands are clipped to [-max_rate, max_rate] (1: the nominal
+    speed; speed alteration controllers may go faster). Non-finite commands count as 0
+    (fail safe). Vectorised.
     """
     rate = np.asarray(rate, dtype=float)
     cmd = np.asarray(commanded, dtype=float)
-    cmd = np.where(np.isfinite(cmd), np.minimum(np.maximum(cmd, -1.0), 1.0), 0.0)  # NaN, inf -> 0
+    cmd = np.where(np.isfinite(cmd), np.minimum(np.maximum(cmd, -max_rate), max_rate), 0.0)
     slowing = (np.abs(cmd) < np.abs(rate)) | (cmd * rate < 0.0)
     bound = np.where(slowing, braking_deceleration(table, rate) / time_scale,
                      acceleration_limit) * dt

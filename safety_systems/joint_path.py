@@ -12,6 +12,7 @@ import dataclasses
 import math
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from safety_systems.ur5e import JOINT_VELOCITY_LIMIT
 
@@ -118,14 +119,57 @@ def _blend(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return h, dh, ddh
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class SplinePath:
+    """A one-way joint path: a cubic spline through joint samples, s from 0 to ``end``.
+
+    Built by :func:`make_spline_path` (e.g. from inverse kinematics of a Cartesian
+    line, ``safety_systems.cartesian_path``). ``cycles`` is 1 and ``cycle_time`` the
+    whole path, so code written for cyclic paths sees one cycle.
+    """
+
+    spline: CubicSpline  # s -> q, shape (6,)
+    end: float
+    cycles: int = 1
+
+    @property
+    def cycle_time(self) -> float:
+        return self.end
+
+    @property
+    def peak_joint_speed(self) -> float:
+        s = np.linspace(0.0, self.end, 2001)
+        return float(np.max(np.abs(self.spline(s, 1))))
+
+
+def make_spline_path(s_samples: np.ndarray, q_samples: np.ndarray, *,
+                     joint_speed_limit: float = JOINT_VELOCITY_LIMIT) -> SplinePath:
+    """A spline path through (s, q) samples (s in seconds of nominal time, increasing from
+    0; q (K, 6) radians), at rest at both ends (clamped spline)."""
+    s = np.asarray(s_samples, dtype=float)
+    q = np.asarray(q_samples, dtype=float)
+    if s.ndim != 1 or s.size < 2 or s[0] != 0.0 or np.any(np.diff(s) <= 0.0):
+        raise ValueError(f"s_samples: need an increasing sequence from 0, got {s.tolist()}")
+    if q.shape != (s.size, 6) or not np.all(np.isfinite(q)):
+        raise ValueError(f"q_samples has shape {q.shape}: need ({s.size}, 6) finite radians")
+    path = SplinePath(CubicSpline(s, q, bc_type="clamped", axis=0), float(s[-1]))
+    if path.peak_joint_speed > joint_speed_limit:
+        raise ValueError(f"the path needs {math.degrees(path.peak_joint_speed):.0f} deg/s at "
+                         f"nominal speed; allowed <= {math.degrees(joint_speed_limit):.0f}")
+    return path
+
+
 def joint_path_state(
-    path: JointPath, s: float | np.ndarray
+    path: JointPath | SplinePath, s: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q(s), dq/ds and d2q/ds2 at path parameter(s) s (clipped to [0, end]).
 
     ``s`` of shape ``S`` gives three arrays of shape ``S + (6,)``: radians, radians per
     second of nominal time, and radians per second squared.
     """
+    if isinstance(path, SplinePath):
+        s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), path.end)
+        return path.spline(s), path.spline(s, 1), path.spline(s, 2)
     s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), path.end)
     phase = s - path.cycle_time * np.minimum(np.floor(s / path.cycle_time), path.cycles - 1)
     j = np.searchsorted(path.starts, phase, side="right") - 1

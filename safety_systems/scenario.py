@@ -118,11 +118,26 @@ class BrakingConfig:
 
 
 @dc.dataclass
+class LineConfig:
+    """A straight tool0 line (m, base frame) at a nominal speed (m/s), the tool held at
+    roll-pitch-yaw ``rpy_deg``; inverse kinematics starts from ``seed_deg``."""
+
+    start: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    goal: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    speed: float = 0.05
+    rpy_deg: list[float] = dc.field(default_factory=lambda: [180.0, 0.0, 0.0])
+    seed_deg: list[float] = dc.field(
+        default_factory=lambda: [159.0, -103.0, 74.0, -61.0, -90.0, -111.0])
+
+
+@dc.dataclass
 class PathConfig:
-    """Cyclic joint-space path; empty lists: the default pick-and-place cycle."""
+    """The robot's path: a cyclic joint-space path (empty lists: the default
+    pick-and-place cycle), or, when ``line`` is given, a one-way straight tool line."""
 
     waypoints_deg: list[list[float]] = dc.field(default_factory=list)
     segment_durations: list[float] = dc.field(default_factory=list)
+    line: typing.Optional[LineConfig] = None
 
 
 @dc.dataclass
@@ -145,13 +160,75 @@ class RobotConfig:
 
 
 @dc.dataclass
-class ControllerConfig:
-    """Everything the safety controller is configured with (a CONFIG file)."""
+class EllipsoidConfig:
+    """Ellipsoid models (seed 004, Eqs. 1-5), metres.
 
+    Robot: one ellipsoid per link between DH frame origins (``link_radii``, 6 values;
+    empty: the tool only) and a ``tool_radius`` sphere ``tool_offset`` along tool0's z
+    axis from the flange. Operator: ``human``: ``hands`` (a sphere per tracked glove) or
+    ``upper_body`` (hands, forearms, upper arms, head and torso, built from the gloves;
+    ``safety_systems.ellipsoids.human_ellipsoids``).
+    """
+
+    link_radii: list[float] = dc.field(
+        default_factory=lambda: [0.075, 0.065, 0.055, 0.05, 0.05, 0.05])
+    tool_radius: float = 0.05
+    tool_offset: float = 0.0
+    human: str = "upper_body"
+    hand_radius: float = 0.05
+    forearm_radius: float = 0.05
+    upper_arm_radius: float = 0.06
+    head_radius: float = 0.12
+    torso_semi_axes: list[float] = dc.field(default_factory=lambda: [0.12, 0.20, 0.30])
+
+
+@dc.dataclass
+class SpeedAlterationConfig:
+    """Speed alteration controllers (seed 004): ``erga``, ``hwang``, ``bimodal``, ``none``.
+
+    Every ``rate_hz`` they choose an end-effector speed along the path, signed (the
+    robot may back away), at most ``speed_limit`` (ISO 10218-1: 0.25 m/s). ERGA: Eq. 11
+    weights ``P``, ``D`` and penalty ``R`` (Eq. 12), GA settings (Section IV-A) and an
+    explicit ``seed``; ``prediction``: ``constant_velocity`` (Eqs. 9-10) or ``kalman``
+    (the tracker's velocity). ``hwang_candidates``: speeds tried by Eq. 13's search.
+    ``bimodal_clearance``: Morato's stop/go distance between the closest ellipsoids.
+    """
+
+    rate_hz: float = 10.0
+    speed_limit: float = 0.25
+    P: float = 1.0
+    D: float = 1.0
+    R: float = 10.0
+    population: int = 50
+    generations: int = 100
+    crossover: float = 0.8
+    mutation: float = 0.1
+    elites: int = 2
+    seed: int = 0
+    prediction: str = "constant_velocity"
+    hwang_candidates: int = 101
+    bimodal_clearance: float = 0.0
+    ellipsoids: EllipsoidConfig = dc.field(default_factory=EllipsoidConfig)
+
+
+CONTROLLER_TYPES = ("ssm_override", "erga", "hwang", "bimodal", "none")
+
+
+@dc.dataclass
+class ControllerConfig:
+    """Everything the safety controller is configured with (a CONFIG file).
+
+    ``type`` chooses the controller: ``ssm_override`` (seed 000, Eq. 12; uses
+    ``safety``), or a speed alteration controller of seed 004 (``erga``, ``hwang``,
+    ``bimodal``; ``none`` keeps the pre-programmed speed) configured by ``alteration``.
+    """
+
+    type: str = "ssm_override"
     sensor: SensorConfig = dc.field(default_factory=SensorConfig)
     tracker: TrackerConfig = dc.field(default_factory=TrackerConfig)
     safety: SafetyConfig = dc.field(default_factory=SafetyConfig)
     braking: BrakingConfig = dc.field(default_factory=BrakingConfig)
+    alteration: SpeedAlterationConfig = dc.field(default_factory=SpeedAlterationConfig)
 
 
 @dc.dataclass
@@ -263,6 +340,8 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
             _finite_nonneg(f"{prefix}.safety.{name}", getattr(f, name))
     _check(math.isfinite(f.delta_s) and f.delta_s >= 1.0, f"{prefix}.safety.delta_s",
            f.delta_s, "a finite number >= 1")
+    _check(c.type in CONTROLLER_TYPES, f"{prefix}.type", c.type, " | ".join(CONTROLLER_TYPES))
+    validate_alteration(c.alteration, f"{prefix}.alteration")
     b = c.braking
     _check(b.stop_category in (0, 1), f"{prefix}.braking.stop_category", b.stop_category,
            "0 or 1")
@@ -280,6 +359,40 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
            "fractions of nominal speed up to and including 1.0")
 
 
+def validate_alteration(a: SpeedAlterationConfig, prefix: str) -> None:
+    """Range checks of the speed alteration settings."""
+    _check(1.0 <= a.rate_hz <= 100.0, f"{prefix}.rate_hz", a.rate_hz, "1 to 100 (Hz)")
+    for name in ("speed_limit", "R"):
+        _positive(f"{prefix}.{name}", getattr(a, name))
+    for name in ("P", "D", "bimodal_clearance"):
+        _finite_nonneg(f"{prefix}.{name}", getattr(a, name))
+    _check(a.population >= 2, f"{prefix}.population", a.population, "an integer >= 2")
+    _check(a.generations >= 1, f"{prefix}.generations", a.generations, "an integer >= 1")
+    for name in ("crossover", "mutation"):
+        value = getattr(a, name)
+        _check(0.0 <= value <= 1.0, f"{prefix}.{name}", value, "a probability in [0, 1]")
+    _check(0 <= a.elites < a.population, f"{prefix}.elites", a.elites, "0 <= elites < population")
+    _check(a.seed >= 0, f"{prefix}.seed", a.seed, "an integer >= 0")
+    _check(a.prediction in ("constant_velocity", "kalman"), f"{prefix}.prediction",
+           a.prediction, "constant_velocity | kalman")
+    _check(a.hwang_candidates >= 3, f"{prefix}.hwang_candidates", a.hwang_candidates,
+           "an integer >= 3")
+    e = a.ellipsoids
+    _check(len(e.link_radii) in (0, 6), f"{prefix}.ellipsoids.link_radii", e.link_radii,
+           "6 radii in m, or none (the tool only)")
+    _check(all(math.isfinite(r) and r > 0 for r in e.link_radii),
+           f"{prefix}.ellipsoids.link_radii", e.link_radii, "positive radii in m")
+    for name in ("tool_radius", "hand_radius", "forearm_radius", "upper_arm_radius",
+                 "head_radius"):
+        _positive(f"{prefix}.ellipsoids.{name}", getattr(e, name))
+    _check(math.isfinite(e.tool_offset), f"{prefix}.ellipsoids.tool_offset", e.tool_offset,
+           "a finite offset in m")
+    _check(e.human in ("hands", "upper_body"), f"{prefix}.ellipsoids.human", e.human,
+           "hands | upper_body")
+    _check(len(e.torso_semi_axes) == 3 and all(x > 0 for x in e.torso_semi_axes),
+           f"{prefix}.ellipsoids.torso_semi_axes", e.torso_semi_axes, "3 positive lengths in m")
+
+
 def validate_scenario(s: Scenario) -> None:
     """Range checks of a whole scenario; raises :class:`ScenarioError`."""
     _positive("duration", s.duration)
@@ -291,6 +404,18 @@ def validate_scenario(s: Scenario) -> None:
     _check(r.cycles >= 1, "robot.cycles", r.cycles, "an integer >= 1")
     _positive("robot.acceleration_limit", r.acceleration_limit)
     p = r.path
+    if p.line is not None:
+        _check(not p.waypoints_deg and not p.segment_durations, "robot.path.line", "line",
+               "either a line or waypoints, not both")
+        _check(r.cycles == 1, "robot.cycles", r.cycles, "1 for a one-way line path")
+        for name in ("start", "goal", "rpy_deg"):
+            _check(len(getattr(p.line, name)) == 3, f"robot.path.line.{name}",
+                   getattr(p.line, name), "3 numbers")
+        _check(len(p.line.seed_deg) == 6, "robot.path.line.seed_deg", p.line.seed_deg,
+               "6 joint angles in deg")
+        _positive("robot.path.line.speed", p.line.speed)
+        _check(p.line.start != p.line.goal, "robot.path.line.goal", p.line.goal,
+               "a point other than start")
     if p.waypoints_deg or p.segment_durations:
         _check(len(p.waypoints_deg) >= 2, "robot.path.waypoints_deg", p.waypoints_deg,
                "at least 2 waypoints of 6 joint angles")

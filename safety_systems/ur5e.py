@@ -60,14 +60,15 @@ def AddUr5e(plant: MultibodyPlant, *, model_name: str = "ur5e") -> ModelInstance
     return instance
 
 
-def dh_forward_kinematics(q: np.ndarray) -> np.ndarray:
-    """Pose of DH frame {6} (tool0) in the base frame by chaining standard-DH transforms.
+def dh_frames(q: np.ndarray) -> np.ndarray:
+    """Poses of DH frames {0} ... {6} in the base frame, shape ``(..., 7, 4, 4)``.
 
-    T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i). ``q`` has shape ``(..., 6)``; returns
-    ``(..., 4, 4)``. Reference implementation (slow); see ``tool0_position``.
+    T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i), chained; frame {6} is tool0. ``q`` has
+    shape ``(..., 6)``.
     """
     q = np.asarray(q, dtype=float)
-    T = np.broadcast_to(np.eye(4), q.shape[:-1] + (4, 4)).copy()
+    frames = np.empty(q.shape[:-1] + (7, 4, 4))
+    frames[..., 0, :, :] = np.eye(4)
     for i in range(NUM_JOINTS):
         ct, st = np.cos(q[..., i]), np.sin(q[..., i])
         ca, sa = math.cos(DH_ALPHA[i]), math.sin(DH_ALPHA[i])
@@ -76,8 +77,16 @@ def dh_forward_kinematics(q: np.ndarray) -> np.ndarray:
         Ti[..., 1, :] = np.stack([st, ct * ca, -ct * sa, DH_A[i] * st], axis=-1)
         Ti[..., 2, :] = [0.0, sa, ca, DH_D[i]]
         Ti[..., 3, 3] = 1.0
-        T = T @ Ti
-    return T
+        frames[..., i + 1, :, :] = frames[..., i, :, :] @ Ti
+    return frames
+
+
+def dh_forward_kinematics(q: np.ndarray) -> np.ndarray:
+    """Pose of DH frame {6} (tool0) in the base frame, ``(..., 6) -> (..., 4, 4)``.
+
+    Reference implementation (slow); see ``tool0_position``.
+    """
+    return dh_frames(q)[..., 6, :, :]
 
 
 def _tool0(q, v, cos, sin):

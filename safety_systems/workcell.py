@@ -23,7 +23,8 @@ from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
 
 from safety_systems.braking import BrakingTable, default_braking_table, stopping_distance
 from safety_systems.braking import stopping_time as table_stopping_time
-from safety_systems.joint_path import JointPath, default_joint_path, make_joint_path
+from safety_systems.cartesian_path import line_path
+from safety_systems.joint_path import JointPath, SplinePath, default_joint_path, make_joint_path
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
 from safety_systems.scenario import (
     ControllerConfig,
@@ -32,11 +33,15 @@ from safety_systems.scenario import (
     actual_sensor,
     body_names,
 )
+from safety_systems.systems.bimodal_speed_controller import BimodalSpeedController
 from safety_systems.systems.end_effector_velocity import EndEffectorVelocity
+from safety_systems.systems.erga_speed_controller import ErgaSpeedController
+from safety_systems.systems.hwang_speed_controller import HwangSpeedController
 from safety_systems.systems.kalman_tracker import KalmanTracker
 from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
 from safety_systems.systems.path_follower import PathFollower
+from safety_systems.systems.preprogrammed_speed_controller import PreprogrammedSpeedController
 from safety_systems.systems.separation_monitor import SeparationMonitor
 from safety_systems.systems.speed_override import SpeedOverride
 from safety_systems.ur5e import AddUr5e
@@ -72,9 +77,13 @@ def frame_timeout(config: ControllerConfig) -> float:
     return 1.5 / config.sensor.rate_hz + config.sensor.latency + config.tracker.processing_time
 
 
-def joint_path(robot: RobotConfig) -> JointPath:
-    """The robot's cyclic path from the scenario (default pick and place if none)."""
+def joint_path(robot: RobotConfig) -> JointPath | SplinePath:
+    """The robot's path from the scenario: its line, its waypoints, or the default pick
+    and place cycle."""
     p = robot.path
+    if p.line is not None:
+        return line_path(np.array(p.line.start), np.array(p.line.goal), speed=p.line.speed,
+                         rpy=np.radians(p.line.rpy_deg), seed=np.radians(p.line.seed_deg))
     if not p.waypoints_deg:
         return default_joint_path(cycles=robot.cycles)
     return make_joint_path(np.radians(p.waypoints_deg), p.segment_durations,
@@ -97,24 +106,37 @@ def scripted_operators(scenario: Scenario) -> list[ScriptedOperator]:
 
 @dataclasses.dataclass
 class SafetyController:
-    """The systems ``AddSafetyController`` added; connect the sensor and the robot to them."""
+    """What ``AddSafetyController`` added: the tracker, the controller's systems by name
+    and the port carrying the commanded path speed (a fraction of nominal, signed)."""
 
     tracker: KalmanTracker
-    ee: EndEffectorVelocity
-    monitor: SeparationMonitor
-    override: SpeedOverride
+    systems: dict
+    command: OutputPort
+
+
+SPEED_CONTROLLERS = {"erga": ErgaSpeedController, "hwang": HwangSpeedController,
+                     "bimodal": BimodalSpeedController, "none": PreprogrammedSpeedController}
+
+
+def body_roles(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
+    """(operator index, is-a-hand) of every body slot; bodies named ``head`` are heads."""
+    operator_of = [k for k, o in enumerate(scenario.operators) for _ in o.bodies]
+    is_hand = [b.name.lower() != "head" for o in scenario.operators for b in o.bodies]
+    return np.array(operator_of), np.array(is_hand)
 
 
 def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, num_bodies: int,
-                        control_period: float) -> SafetyController:
-    """Adds the tracker, the robot-velocity estimate, the monitor and the override.
+                        control_period: float, path=None, operator_of=None,
+                        is_hand=None) -> SafetyController:
+    """Adds the tracker and the controller ``config.type`` names.
 
-    Left to connect: the tracker's ``positions_measured``, ``valid`` and
-    ``sample_time`` (from a sensor) and the EndEffectorVelocity's ``joint_positions``
-    (from the robot). The override's ``speed_scale_commanded`` is the controller's output.
+    ``ssm_override`` (seed 000): EndEffectorVelocity, SeparationMonitor and
+    SpeedOverride; left to connect: the EndEffectorVelocity's ``joint_positions``. The
+    seed-004 controllers (``erga``, ``hwang``, ``bimodal``, ``none``) need ``path`` and
+    the body roles (``body_roles``); left to connect: their ``path_state``. Always left
+    to connect: the tracker's ``positions_measured``, ``valid`` and ``sample_time``.
     """
     s, t, f = config.sensor, config.tracker, config.safety
-    t_s, b = assumed_stopping(config)
     tracker = builder.AddNamedSystem("tracker", KalmanTracker(
         num_bodies=num_bodies, period_sec=1.0 / s.rate_hz, latency_sec=s.latency,
         processing_time=t.processing_time, frame_timeout=frame_timeout(config),
@@ -122,6 +144,17 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         velocity_process_noise=t.velocity_process_noise,
         initial_velocity_std=t.initial_velocity_std, max_coast_time=t.max_coast_time,
         exit_radius=t.exit_radius))
+    if config.type != "ssm_override":
+        # Decide one control tick after the tracker has processed the newest frame.
+        offset = s.latency + t.processing_time + control_period
+        speed = builder.AddNamedSystem("speed", SPEED_CONTROLLERS[config.type](
+            path=path, config=config.alteration, operator_of=operator_of, is_hand=is_hand,
+            offset_sec=offset))
+        for name in ("positions_estimated", "velocities_estimated", "track_status", "fault"):
+            builder.Connect(tracker.GetOutputPort(name), speed.GetInputPort(name))
+        return SafetyController(tracker, {"speed": speed},
+                                speed.GetOutputPort("speed_scale_commanded"))
+    t_s, b = assumed_stopping(config)
     ee = builder.AddNamedSystem("ee_velocity", EndEffectorVelocity(period_sec=control_period))
     monitor = builder.AddNamedSystem("monitor", SeparationMonitor(
         num_bodies=num_bodies, human_speed=f.human_speed, reaction_time=f.reaction_time,
@@ -142,7 +175,9 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
                     override.GetInputPort("protective_distances"))
     builder.Connect(tracker.GetOutputPort("track_status"), override.GetInputPort("track_status"))
     builder.Connect(tracker.GetOutputPort("fault"), override.GetInputPort("fault"))
-    return SafetyController(tracker, ee, monitor, override)
+    return SafetyController(tracker, {"ee_velocity": ee, "monitor": monitor,
+                                      "override": override},
+                            override.GetOutputPort("speed_scale_commanded"))
 
 
 @dataclasses.dataclass
@@ -216,19 +251,24 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     builder.Connect(motion.GetOutputPort("positions_true"),
                     sensor.GetInputPort("positions_true"))
     builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))
-    safety = AddSafetyController(builder, config=config, num_bodies=n, control_period=dt)
+    operator_of, is_hand = body_roles(scenario)
+    safety = AddSafetyController(builder, config=config, num_bodies=n, control_period=dt,
+                                 path=path, operator_of=operator_of, is_hand=is_hand)
     for name in ("positions_measured", "valid", "sample_time"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
+    speed = safety.systems.get("speed")
     follower = builder.AddNamedSystem("follower", PathFollower(
         path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
-        braking_time_scale=robot.braking_time_scale,
-        period_sec=dt))
-    builder.Connect(safety.override.GetOutputPort("speed_scale_commanded"),
-                    follower.GetInputPort("speed_scale_commanded"))
+        braking_time_scale=robot.braking_time_scale, period_sec=dt,
+        max_rate=1.0 if speed is None else config.alteration.speed_limit
+        / speed.preprogrammed_speed))
+    builder.Connect(safety.command, follower.GetInputPort("speed_scale_commanded"))
     q_port, v_port, plant = _add_robot(builder, robot, follower, dt)
-    builder.Connect(q_port, safety.ee.GetInputPort("joint_positions"))
-    systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker,
-                   ee_velocity=safety.ee, monitor=safety.monitor, override=safety.override,
+    if speed is None:
+        builder.Connect(q_port, safety.systems["ee_velocity"].GetInputPort("joint_positions"))
+    else:
+        builder.Connect(follower.GetOutputPort("path_state"), speed.GetInputPort("path_state"))
+    systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker, **safety.systems,
                    follower=follower)
 
     ports = {"q": q_port, "v": v_port}

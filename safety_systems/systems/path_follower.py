@@ -37,18 +37,21 @@ class PathFollower(LeafSystem):
         period_sec: control period in seconds (the robot's 500 Hz: 0.002).
         braking_time_scale: the real brakes' stopping times relative to ``braking``'s
             (1: as the stopping data says).
+        max_rate: the largest |sigma| a command may ask for (1: nominal speed).
     """
 
     def __init__(self, *, path: JointPath, braking: BrakingTable, acceleration_limit: float,
-                 period_sec: float, braking_time_scale: float = 1.0) -> None:
+                 period_sec: float, braking_time_scale: float = 1.0,
+                 max_rate: float = 1.0) -> None:
         super().__init__()
         for name, value in (("acceleration_limit", acceleration_limit), ("period_sec", period_sec),
-                            ("braking_time_scale", braking_time_scale)):
+                            ("braking_time_scale", braking_time_scale), ("max_rate", max_rate)):
             if not (np.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name}: got {value}; allowed: a finite number > 0")
         self._path, self._table = path, braking
         self._accel, self._dt = float(acceleration_limit), float(period_sec)
         self._brake_scale = float(braking_time_scale)
+        self._max_rate = float(max_rate)
         # State: s, sigma, dsigma/dt over the last tick.
         self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, 0.0]))
         self._cmd = self.DeclareVectorInputPort("speed_scale_commanded", 1)
@@ -81,7 +84,8 @@ class PathFollower(LeafSystem):
             return
         cmd = self._cmd.Eval(context)[0]
         new = float(path_rate_step(rate, cmd, self._dt, table=self._table,
-                                   acceleration_limit=self._accel, time_scale=self._brake_scale))
+                                   acceleration_limit=self._accel, time_scale=self._brake_scale,
+                                   max_rate=self._max_rate))
         s_new = s + 0.5 * (rate + new) * self._dt
         if s_new >= end or s_new <= 0.0:
             s_new, new = min(max(s_new, 0.0), end), 0.0

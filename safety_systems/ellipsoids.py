@@ -1,0 +1,163 @@
+"""Ellipsoid models of the robot and the operators, and the danger index (seed 004).
+
+Chan and Tsai, "Collision-Free Speed Alteration Strategy for Human Safety in
+Human-Robot Coexistence Environments", IEEE Access 2020 (``shared/seeds/004_*``):
+every robot link and every part of the operator's upper body is an ellipsoid (Eqs.
+1-5), and the danger index of a pair is DI = 1 / F (Eq. 7), with F <= 1 when the pair
+collides (Eq. 6), so DI >= 1 means a collision.
+
+An ellipsoid here is (centre c, rotation R, semi-axes r): the points x with
+|diag(1/r) R^T (x - c)| <= 1. Shapes: centres (..., 3), rotations (..., 3, 3), semi-axes
+(..., 3); everything broadcasts over leading axes.
+
+Our method for F (the seed follows Hwang et al.'s transformation, which it does not
+spell out): F = (d / (h1 + h2))^2, where d is the distance between the centres and h1,
+h2 are the ellipsoids' support functions along the line joining them,
+h(u) = |diag(r) R^T u|. If F > 1 the plane normal to that line separates the two, so
+a pair reported apart (DI < 1) never overlaps. For spheres it is exact:
+DI = ((r1 + r2) / d)^2, and DI = 1 when they touch. For other ellipsoids it is
+conservative: DI >= 1 can also mean "close, and not proven apart".
+"""
+
+import dataclasses
+
+import numpy as np
+
+from safety_systems.ur5e import dh_frames
+
+
+@dataclasses.dataclass(frozen=True)
+class Ellipsoids:
+    """A set of ellipsoids (see the module docstring for the shapes)."""
+
+    centres: np.ndarray
+    rotations: np.ndarray
+    semi_axes: np.ndarray
+
+    def moved(self, displacement: np.ndarray) -> "Ellipsoids":
+        """The same ellipsoids translated by ``displacement`` (..., 3)."""
+        return Ellipsoids(self.centres + displacement, self.rotations, self.semi_axes)
+
+
+def support(rotations: np.ndarray, semi_axes: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Support function h(u) = max over the ellipsoid of (x - c) . u, for unit u."""
+    local = np.einsum("...ji,...j->...i", rotations, u)  # R^T u
+    return np.sqrt(np.sum((semi_axes * local) ** 2, axis=-1))
+
+
+def danger_index(a: Ellipsoids, b: Ellipsoids) -> np.ndarray:
+    """DI of every pair (a_i, b_j), shape (..., n_a, n_b); Eq. 7 with F as in the module.
+
+    Coincident centres give DI = inf (a collision).
+    """
+    ca = a.centres[..., :, None, :]
+    cb = b.centres[..., None, :, :]
+    diff = cb - ca
+    d = np.sqrt(np.sum(diff * diff, axis=-1))
+    u = np.divide(diff, d[..., None], out=np.zeros_like(diff), where=d[..., None] > 0.0)
+    h = (support(a.rotations[..., :, None, :, :], a.semi_axes[..., :, None, :], u)
+         + support(b.rotations[..., None, :, :, :], b.semi_axes[..., None, :, :], u))
+    return np.divide(h * h, d * d, out=np.full_like(d, np.inf), where=d > 0.0)
+
+
+def segment_ellipsoids(start: np.ndarray, end: np.ndarray, radius: np.ndarray) -> Ellipsoids:
+    """Ellipsoids around segments start -> end (..., 3): centred at the midpoint, semi-axis
+    half the length plus ``radius`` along the segment and ``radius`` across it."""
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    radius = np.asarray(radius, dtype=float)
+    axis = end - start
+    length = np.sqrt(np.sum(axis * axis, axis=-1))
+    x = np.divide(axis, length[..., None], out=np.zeros_like(axis), where=length[..., None] > 0)
+    x = np.where(length[..., None] > 0, x, [1.0, 0.0, 0.0])
+    helper = np.where(np.abs(x[..., 2:3]) < 0.9, [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
+    y = np.cross(helper, x)
+    y /= np.linalg.norm(y, axis=-1, keepdims=True)
+    z = np.cross(x, y)
+    rotations = np.stack([x, y, z], axis=-1)  # columns: the ellipsoid's axes in the world
+    semi = np.stack(np.broadcast_arrays(0.5 * length + radius, radius, radius), axis=-1)
+    return Ellipsoids(0.5 * (start + end), rotations, semi)
+
+
+def spheres(centres: np.ndarray, radius: np.ndarray | float) -> Ellipsoids:
+    """Spheres (the seed's 50 mm hand and end effector)."""
+    centres = np.asarray(centres, dtype=float)
+    radius = np.broadcast_to(np.asarray(radius, dtype=float), centres.shape[:-1])
+    rotations = np.broadcast_to(np.eye(3), centres.shape + (3,)).copy()
+    return Ellipsoids(centres, rotations, np.repeat(radius[..., None], 3, axis=-1))
+
+
+def concatenate(*sets: Ellipsoids) -> Ellipsoids:
+    """One set from several, along the ellipsoid axis."""
+    return Ellipsoids(*(np.concatenate([getattr(s, f) for s in sets], axis=axis)
+                        for f, axis in (("centres", -2), ("rotations", -3),
+                                        ("semi_axes", -2))))
+
+
+# The UR5e's links between DH frame origins (seed Eqs. 1-3 place an ellipsoid at each
+# link's centre): shoulder column, upper arm, forearm, the three wrist links.
+ROBOT_SEGMENTS = ((0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (5, 6))
+
+
+def robot_ellipsoids(q: np.ndarray, link_radii, tool_radius: float,
+                     tool_offset: float = 0.0) -> Ellipsoids:
+    """The robot's ellipsoids at joint positions q (..., 6): one per link segment between
+    DH frame origins (radii ``link_radii``: 6 values, or none for the tool only) and a
+    sphere of ``tool_radius`` ``tool_offset`` along tool0's z axis from the flange (the
+    seed's end-effector ellipsoid)."""
+    frames = dh_frames(q)
+    origins = frames[..., :3, 3]
+    tool = origins[..., 6, :] + tool_offset * frames[..., 6, :3, 2]
+    parts = [spheres(tool[..., None, :], tool_radius)]
+    if len(link_radii):
+        starts = origins[..., [a for a, _ in ROBOT_SEGMENTS], :]
+        ends = origins[..., [b for _, b in ROBOT_SEGMENTS], :]
+        parts.insert(0, segment_ellipsoids(starts, ends, np.asarray(link_radii, dtype=float)))
+    return concatenate(*parts)
+
+
+SHOULDER_WIDTH = 0.40  # m
+ARM_SEGMENT = 0.30  # m, upper arm and forearm
+TORSO_BEHIND_HANDS = 0.45  # m
+TORSO_ABOVE_HANDS = 0.35  # m
+
+
+def human_ellipsoids(hands: np.ndarray, sizes) -> Ellipsoids:
+    """An operator's upper body from its two tracked hands (..., 2, 3), metres.
+
+    The seed models hands, forearms, upper arms, head and torso from a Kinect skeleton;
+    our tracker sees gloves, so we build the skeleton (our interpretation): the operator
+    faces the robot base (the origin), the torso centre stands ``TORSO_BEHIND_HANDS``
+    behind the hands' midpoint and ``TORSO_ABOVE_HANDS`` above it, shoulders 0.2 m
+    above the torso centre and ``SHOULDER_WIDTH`` apart, elbows where an arm of two
+    ``ARM_SEGMENT`` lengths bends below the shoulder-hand line, the head 0.55 m above
+    the torso centre. ``sizes`` has the radii of ``EllipsoidConfig``.
+
+    Returns 8 ellipsoids: 2 hands, 2 forearms, 2 upper arms, head and torso.
+    """
+    hands = np.asarray(hands, dtype=float)
+    middle = hands.mean(axis=-2)
+    forward = -middle.copy()
+    forward[..., 2] = 0.0
+    norm = np.linalg.norm(forward, axis=-1, keepdims=True)
+    forward = np.where(norm > 1e-9, forward / np.maximum(norm, 1e-9), [1.0, 0.0, 0.0])
+    up = np.array([0.0, 0.0, 1.0])
+    left = np.cross(up, forward)
+    torso = middle - TORSO_BEHIND_HANDS * forward + TORSO_ABOVE_HANDS * up
+    # Each hand hangs from the shoulder on its own side (arms never cross).
+    lateral = np.einsum("...ki,...i->...k", hands - middle[..., None, :], left)
+    first_left = (lateral[..., 0] >= lateral[..., 1])[..., None]
+    side = np.where(first_left, [0.5, -0.5], [-0.5, 0.5])[..., None] * SHOULDER_WIDTH
+    shoulders = torso[..., None, :] + 0.2 * up + side * left[..., None, :]
+    span = hands - shoulders
+    half = np.minimum(np.linalg.norm(span, axis=-1, keepdims=True) / 2.0, ARM_SEGMENT)
+    elbows = shoulders + 0.5 * span - np.sqrt(np.maximum(ARM_SEGMENT**2 - half**2, 0.0)) * up
+    torso_rot = np.stack([forward, left, np.broadcast_to(up, forward.shape)], axis=-1)
+    return concatenate(
+        spheres(hands, sizes.hand_radius),
+        segment_ellipsoids(elbows, hands, sizes.forearm_radius),
+        segment_ellipsoids(shoulders, elbows, sizes.upper_arm_radius),
+        spheres((torso + 0.55 * up)[..., None, :], sizes.head_radius),
+        Ellipsoids(torso[..., None, :], torso_rot[..., None, :, :],
+                   np.broadcast_to(np.asarray(sizes.torso_semi_axes, dtype=float),
+                                   torso.shape)[..., None, :]),
+    )

@@ -1,0 +1,18 @@
+"""HwangSpeedController: the collision-trend baseline of seed 004 (Eq. 13)."""
+
+from safety_systems.speed_alteration import hwang_speed
+from safety_systems.systems.speed_alteration_controller import SpeedAlterationController
+
+
+class HwangSpeedController(SpeedAlterationController):
+    """Selects the speed minimising Eq. 13 over a grid of candidate speeds; the ports are
+    ``SpeedAlterationController``'s."""
+
+    def __init__(self, *, path, config, operator_of, is_hand, offset_sec: float = 0.0) -> None:
+        self.grid_size = config.hwang_candidates
+        super().__init__(path=path, config=config, operator_of=operator_of, is_hand=is_hand,
+                         offset_sec=offset_sec)
+
+    def choose(self, *, s, v_prev, danger, danger_now, gap, k) -> float:
+        return hwang_speed(grid_speeds=self._speeds, danger=danger, danger_now=danger_now,
+                           v_pre=self._v_pre)
