@@ -65,6 +65,22 @@ def _verify(args: argparse.Namespace) -> int:
     return 1 if outcome.verdict == "falsified" else 0
 
 
+def _compare(args: argparse.Namespace) -> int:
+    from safety_systems.compare import compare, markdown_table, write_comparison
+    from safety_systems.scenario import CONTROLLER_TYPES
+
+    controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
+    for c in controllers:
+        if c not in CONTROLLER_TYPES:
+            raise ScenarioError("--controllers", c, " | ".join(CONTROLLER_TYPES))
+    scenarios = [load_scenario(path) for path in args.scenarios]
+    rows = compare(scenarios, controllers)
+    write_comparison(rows, Path(args.out))
+    if not args.quiet:
+        print(markdown_table(rows), end="")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="safety-systems",
@@ -95,6 +111,14 @@ def build_parser() -> argparse.ArgumentParser:
     ver.add_argument("--seed", type=int, default=0)
     ver.add_argument("--quiet", action="store_true")
     ver.set_defaults(run=_verify)
+    cmp_ = commands.add_parser("compare", help="run several controllers on the same scenarios "
+                                                "and tabulate danger index, goal and jerk")
+    cmp_.add_argument("scenarios", nargs="+", help="scenario YAML files")
+    cmp_.add_argument("--controllers", default="erga,hwang,bimodal,none",
+                      help="comma-separated controller types; the first is the reference")
+    cmp_.add_argument("--out", required=True, help="output directory")
+    cmp_.add_argument("--quiet", action="store_true")
+    cmp_.set_defaults(run=_compare)
     return parser
 
 

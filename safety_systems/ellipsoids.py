@@ -41,7 +41,7 @@ class Ellipsoids:
 
 def support(rotations: np.ndarray, semi_axes: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Support function h(u) = max over the ellipsoid of (x - c) . u, for unit u."""
-    local = np.einsum("...ji,...j->...i", rotations, u)  # R^T u
+    local = np.matmul(u[..., None, :], rotations)[..., 0, :]  # (R^T u)^T
     return np.sqrt(np.sum((semi_axes * local) ** 2, axis=-1))
 
 

@@ -47,16 +47,26 @@ class ErgaParameters:
             raise ValueError(f"elites: got {self.elites!r}; allowed: 0 <= elites < population")
 
 
+def danger_penalty(danger: np.ndarray, R: float) -> np.ndarray:
+    """Eq. 12's penalty: R times the sum of DI^2 over the pairs with DI >= 1."""
+    return R * np.sum(np.where(danger >= 1.0, danger, 0.0) ** 2, axis=-1)
+
+
+def speed_terms(v: np.ndarray, *, v_preprogrammed: float, v_previous: float, P: float,
+                D: float) -> np.ndarray:
+    """Eq. 11's f: P (V - V_pre)^2 / V_pre^2 + D (V - V_prev)^2 / V_pre^2."""
+    v = np.asarray(v, dtype=float)
+    scale = v_preprogrammed * v_preprogrammed
+    return (P * (v - v_preprogrammed) ** 2 + D * (v - v_previous) ** 2) / scale
+
+
 def speed_objective(v: np.ndarray, *, v_preprogrammed: float, v_previous: float,
                     danger: np.ndarray, P: float = 1.0, D: float = 1.0,
                     R: float = 10.0) -> np.ndarray:
     """F of Eqs. 11-12 for candidate speeds ``v`` (...,); ``danger`` (..., pairs) holds
     each pair's DI at the pose each candidate leads to (m/s throughout)."""
-    v = np.asarray(v, dtype=float)
-    scale = v_preprogrammed * v_preprogrammed
-    penalty = np.sum(np.where(danger >= 1.0, danger, 0.0) ** 2, axis=-1)
-    return (P * (v - v_preprogrammed) ** 2 / scale + D * (v - v_previous) ** 2 / scale
-            + R * penalty)
+    return (speed_terms(v, v_preprogrammed=v_preprogrammed, v_previous=v_previous, P=P, D=D)
+            + danger_penalty(danger, R))
 
 
 def erga(fitness: Callable[[np.ndarray], np.ndarray], *, bound: float,
@@ -69,24 +79,26 @@ def erga(fitness: Callable[[np.ndarray], np.ndarray], *, bound: float,
     """
     if not bound > 0.0:
         raise ValueError(f"bound: got {bound!r}; allowed: a speed > 0")
-    n = params.population
+    n, g, m = params.population, params.generations, params.population - params.elites
+    # Every random number of the run at once: tournament picks, crossover mixes and
+    # decisions, mutation decisions and values.
     pop = rng.uniform(-bound, bound, n)
+    picks = rng.integers(0, n, (g, 2, m, 2))
+    mix, cross, mutate, fresh = rng.uniform(0.0, 1.0, (4, g, m))
+    cross, mutate = cross < params.crossover, mutate < params.mutation
+    fresh = -bound + 2.0 * bound * fresh
+    rows = np.arange(m)
     fit = fitness(pop)
-    history = np.empty(params.generations)
-    for g in range(params.generations):
+    history = np.empty(g)
+    for k in range(g):
         order = np.argsort(fit, kind="stable")
-        elite = pop[order[:params.elites]]
-        n_children = n - params.elites
-        # Binary tournaments pick two parents for each child.
-        a, b = rng.integers(0, n, (2, n_children, 2))
-        parents = np.where(fit[a] <= fit[b], pop[a], pop[b])  # (children, 2)
-        mix = rng.uniform(0.0, 1.0, n_children)
-        cross = rng.uniform(size=n_children) < params.crossover
-        children = np.where(cross, mix * parents[:, 0] + (1.0 - mix) * parents[:, 1],
-                            parents[:, 0])
-        mutate = rng.uniform(size=n_children) < params.mutation
-        children = np.where(mutate, rng.uniform(-bound, bound, n_children), children)
-        pop = np.concatenate([elite, children])
-        fit = np.concatenate([fit[order[:params.elites]], fitness(children)])
-        history[g] = fit.min()
+        a, b = picks[k]
+        winner = np.where(fit[a] <= fit[b], a, b)  # (m, 2) binary tournaments
+        p1, p2 = pop[winner[rows, 0]], pop[winner[rows, 1]]
+        children = np.where(cross[k], mix[k] * p1 + (1.0 - mix[k]) * p2, p1)
+        children = np.where(mutate[k], fresh[k], children)
+        keep = order[:params.elites]
+        pop = np.concatenate([pop[keep], children])
+        fit = np.concatenate([fit[keep], fitness(children)])
+        history[k] = fit.min()
     return float(pop[np.argmin(fit)]), history

@@ -266,6 +266,8 @@ class Scenario:
 
     ``sensor``: the cell's real sensor when it differs from the one the controller is
     configured for (``controller.sensor``), e.g. a larger latency; None: as configured.
+    ``jerk_window``: [first, last] sample (controller periods) over which ``compare``
+    reports jerk; empty: the whole run.
     """
 
     name: str = ""
@@ -274,6 +276,7 @@ class Scenario:
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
     sensor: typing.Optional[SensorConfig] = None
+    jerk_window: list[int] = dc.field(default_factory=list)
     operators: list[OperatorConfig] = dc.field(default_factory=list)
 
 
@@ -397,6 +400,9 @@ def validate_scenario(s: Scenario) -> None:
     """Range checks of a whole scenario; raises :class:`ScenarioError`."""
     _positive("duration", s.duration)
     _finite_nonneg("contact_distance", s.contact_distance)
+    _check(not s.jerk_window or (len(s.jerk_window) == 2
+                                 and 2 <= s.jerk_window[0] < s.jerk_window[1]),
+           "jerk_window", s.jerk_window, "empty, or [first, last] samples with 2 <= first < last")
     r = s.robot
     _check(r.mode in ("kinematic", "dynamic"), "robot.mode", r.mode, "kinematic | dynamic")
     _check(100.0 <= r.control_rate_hz <= 2000.0, "robot.control_rate_hz", r.control_rate_hz,

@@ -28,7 +28,7 @@ from safety_systems.ellipsoids import (
     spheres,
     support,
 )
-from safety_systems.erga import ErgaParameters, erga, speed_objective
+from safety_systems.erga import ErgaParameters, danger_penalty, erga, speed_terms
 from safety_systems.joint_path import joint_path_state
 from safety_systems.ur5e import tool0_position_and_velocity
 
@@ -94,11 +94,16 @@ def grid_upper(grid_speeds: np.ndarray, rows: np.ndarray, v: np.ndarray) -> np.n
 def erga_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, v_pre: float, v_prev: float,
                limit: float, rng: np.random.Generator, params: ErgaParameters,
                P: float, D: float, R: float) -> tuple[float, np.ndarray]:
-    """ERGA's choice (Eqs. 11-12) and its best fitness per generation."""
+    """ERGA's choice (Eqs. 11-12) and its best fitness per generation. The Eq. 12
+    penalty of each grid cell (pairs taken at their worse end, ``grid_upper``) is
+    summed once; a candidate reads its cell's."""
+    worse = np.maximum(danger[:-1], danger[1:])  # grid_upper's value on each cell
+    penalty = danger_penalty(worse, R)
+    index = np.arange(len(grid_speeds))
 
     def fitness(v: np.ndarray) -> np.ndarray:
-        return speed_objective(v, v_preprogrammed=v_pre, v_previous=v_prev,
-                               danger=grid_upper(grid_speeds, danger, v), P=P, D=D, R=R)
+        cell = np.minimum(np.interp(v, grid_speeds, index).astype(int), len(worse) - 1)
+        return speed_terms(v, v_preprogrammed=v_pre, v_previous=v_prev, P=P, D=D) + penalty[cell]
 
     return erga(fitness, bound=limit, rng=rng, params=params)
 

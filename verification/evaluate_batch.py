@@ -162,6 +162,9 @@ class _Cells:
 
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     """Closed-loop figures of every scenario (kinematic robot)."""
+    if any(s.controller.type != "ssm_override" for s in scenarios):
+        raise ValueError("evaluate_batch models the ssm_override controller only; "
+                         "use evaluate_many")
     c = _Cells(scenarios)
     B, N, dt = c.B, c.N, c.dt
     cfg = c.config
@@ -263,10 +266,18 @@ def batch_key(s: Scenario) -> tuple:
 
 def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> BatchResult:
     """``evaluate_batch`` over scenarios of any shapes: grouped by ``batch_key`` and cut
-    into batches of at most ``batch_size``; results in the input order."""
+    into batches of at most ``batch_size``; results in the input order. Scenarios whose
+    controller the batched evaluator does not model (the seed-004 speed alteration
+    controllers) run one by one in the Drake diagram."""
+    from verification.evaluate_drake import evaluate_drake
+
     out = np.zeros((4, len(scenarios)))
     groups: dict[tuple, list[int]] = {}
     for i, s in enumerate(scenarios):
+        if s.controller.type != "ssm_override":
+            r, _ = evaluate_drake(s)
+            out[:, i] = dataclasses.astuple(r)
+            continue
         groups.setdefault(batch_key(s), []).append(i)
     for members in groups.values():
         for start in range(0, len(members), batch_size):

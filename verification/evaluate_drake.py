@@ -11,7 +11,7 @@ from safety_systems.workcell import MakeWorkcell, assumed_stopping
 from verification.properties import Robustness, protective_intrusion, stopped_before_contact
 
 LOGGED = ("q", "v", "operators.positions_true", "operators.velocities_true",
-          "operators.present", "follower.path_state", "override.speed_scale_commanded")
+          "operators.present", "follower.path_state")
 
 
 def protective_args(scenario: Scenario) -> dict:

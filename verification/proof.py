@@ -201,6 +201,8 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
         f.occlusion_speed >= p.peak_speed.max
         and p.occlusion.max + 1.0 / config.sensor.rate_hz <= config.tracker.max_coast_time)
     premises = [
+        ("the controller is the SSM speed override (seed 000, Eq. 12)",
+         config.type == "ssm_override"),
         ("the human-speed term is a constant floor (iso or estimated_with_floor)",
          f.human_speed in ("iso", "estimated_with_floor")),
         ("the robot is kinematic (joints follow the braked reference)",

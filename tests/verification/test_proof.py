@@ -28,7 +28,7 @@ SEED = load_controller_config(ROOT / "models/configs/seed_estimated.yaml")
 SPACE = load_space(ROOT / "models/spaces/default.yaml")
 PATH = joint_path(SPACE.robot)
 H = 1.0 / SPACE.robot.control_rate_hz
-HUMAN_SPEED, OCCLUSION = 0, 3  # premise indices
+HUMAN_SPEED, OCCLUSION = 1, 4  # premise indices
 
 
 def _safety(**kw):
@@ -47,7 +47,7 @@ def iso_proof():
 def test_iso_config_is_proved_with_a_positive_margin(iso_proof):
     assert iso_proof.proved
     assert iso_proof.margin_at_worst_corner > 0.0
-    assert len(iso_proof.premises) == 6 and all(ok for _, ok in iso_proof.premises)
+    assert len(iso_proof.premises) == 7 and all(ok for _, ok in iso_proof.premises)
 
 
 def test_margin_is_the_theorem_s_m_at_the_worst_corner(iso_proof):
@@ -70,7 +70,7 @@ def test_seed_config_fails_on_its_human_speed():
     assert "human-speed" in proof.premises[HUMAN_SPEED][0]
     # Without occlusions (the seed has no occlusion margin) it is the only failing premise.
     proof = prove(SEED, _space(occlusion=Range(0.0, 0.0)))
-    assert [ok for _, ok in proof.premises] == [False, True, True, True, True]
+    assert [ok for _, ok in proof.premises] == [True, False, True, True, True, True]
 
 
 BROKEN = {
@@ -90,7 +90,7 @@ def test_broken_iso_configs_are_not_proved(name):
     if name == "long occlusion":
         assert not proof.premises[OCCLUSION][1] and proof.margin_at_worst_corner is None
     else:  # every premise but z3's holds; the margin is negative
-        assert [ok for _, ok in proof.premises] == [True] * 5 + [False]
+        assert [ok for _, ok in proof.premises] == [True] * 6 + [False]
         assert proof.margin_at_worst_corner < 0.0
 
 
@@ -222,3 +222,9 @@ def test_tracker_error_stays_within_the_bound(coefficients, kind, seed):
     assert updates == frames - gap
     assert worst <= alpha * n + beta * v_max
     assert worst > 0.5 * n  # the noise reached the estimate: the check is not vacuous
+
+
+def test_speed_alteration_controllers_are_not_proved():
+    proof = prove(dc.replace(ISO, type="erga"), SPACE)
+    assert not proof.proved and not proof.premises[0][1]
+    assert "speed override" in proof.premises[0][0]
