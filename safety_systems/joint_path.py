@@ -145,14 +145,15 @@ class SplinePath:
 def make_spline_path(s_samples: np.ndarray, q_samples: np.ndarray, *,
                      joint_speed_limit: float = JOINT_VELOCITY_LIMIT) -> SplinePath:
     """A spline path through (s, q) samples (s in seconds of nominal time, increasing from
-    0; q (K, 6) radians), at rest at both ends (clamped spline)."""
+    0; q (K, 6) radians); not-a-knot ends, so evenly spaced samples of a uniform motion
+    give a uniform speed (the PathFollower starts and ends the motion)."""
     s = np.asarray(s_samples, dtype=float)
     q = np.asarray(q_samples, dtype=float)
     if s.ndim != 1 or s.size < 2 or s[0] != 0.0 or np.any(np.diff(s) <= 0.0):
         raise ValueError(f"s_samples: need an increasing sequence from 0, got {s.tolist()}")
     if q.shape != (s.size, 6) or not np.all(np.isfinite(q)):
         raise ValueError(f"q_samples has shape {q.shape}: need ({s.size}, 6) finite radians")
-    path = SplinePath(CubicSpline(s, q, bc_type="clamped", axis=0), float(s[-1]))
+    path = SplinePath(CubicSpline(s, q, bc_type="not-a-knot", axis=0), float(s[-1]))
     if path.peak_joint_speed > joint_speed_limit:
         raise ValueError(f"the path needs {math.degrees(path.peak_joint_speed):.0f} deg/s at "
                          f"nominal speed; allowed <= {math.degrees(joint_speed_limit):.0f}")

@@ -56,7 +56,7 @@ def summarize(run: Run) -> dict:
     p, speed = tool_state(run)
     sep = true_separations(run, p)
     min_sep = min_separation_while_moving(sep, speed)
-    reasons = run["override.stop_reason"][:, 0]
+    reasons = run.signals.get("override.stop_reason", np.zeros((len(run.time), 1)))[:, 0]
     dt = np.diff(run.time, append=run.time[-1])
     finite = float(np.nanmin(sep)) if np.any(np.isfinite(sep)) else None
     return {

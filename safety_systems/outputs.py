@@ -9,27 +9,52 @@ import numpy as np
 
 from safety_systems.metrics import summarize, tool_state, true_separations
 from safety_systems.simulation import Run
+from safety_systems.ssm import separation_distances
+
+
+def commanded_speed(run: Run) -> np.ndarray:
+    """(T,) the controller's commanded path speed (k for the SSM override)."""
+    key = "override" if "override.speed_scale_commanded" in run.signals else "speed"
+    return run[f"{key}.speed_scale_commanded"][:, 0]
+
+
+def measured_distances(run: Run) -> np.ndarray:
+    """(T, N) distances the controller saw: the monitor's d_i, or, for the seed-004
+    controllers, the tool's distance to each tracked estimate."""
+    if "monitor.distances" in run.signals:
+        return run["monitor.distances"]
+    return separation_distances(tool_state(run)[0], run.bodies("tracker.positions_estimated"))
 
 
 def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
     """Header and rows of the trace: one row per control tick.
 
     Columns: time (s), k (commanded speed scale), path_rate (sigma), robot_speed (true
-    tool speed, m/s), stop_reason (0 none, 1 separation, 2 sensor fault, 3 lost
-    track), S_max (m), then for each body ``<body>:d_true`` (true distance, empty when
-    absent), ``<body>:d_measured`` (the monitor's d_i from the tracker's estimate, empty
-    without a track) and ``<body>:S`` (the monitor's S_i).
+    tool speed, m/s); for the SSM override stop_reason (0 none, 1 separation, 2 sensor
+    fault, 3 lost track) and S_max (m), for the seed-004 controllers danger_index (the
+    controller's predicted DI); then for each body ``<body>:d_true`` (true distance,
+    empty when absent), ``<body>:d_measured`` (the distance the controller saw, empty
+    without a track) and, for the SSM override, ``<body>:S`` (the monitor's S_i).
     """
     p, speed = tool_state(run)
     d_true = true_separations(run, p)
-    header = ["time", "k", "path_rate", "robot_speed", "stop_reason", "S_max"]
-    columns = [run.time, run["override.speed_scale_commanded"][:, 0],
-               run["follower.path_state"][:, 1], speed, run["override.stop_reason"][:, 0],
-               run["override.max_protective_distance"][:, 0]]
+    ssm = "override.stop_reason" in run.signals
+    header = ["time", "k", "path_rate", "robot_speed"]
+    columns = [run.time, commanded_speed(run), run["follower.path_state"][:, 1], speed]
+    if ssm:
+        header += ["stop_reason", "S_max"]
+        columns += [run["override.stop_reason"][:, 0],
+                    run["override.max_protective_distance"][:, 0]]
+    else:
+        header.append("danger_index")
+        columns.append(run["speed.danger_index"][:, 0])
+    measured = measured_distances(run)
     for i, name in enumerate(run.body_names):
-        header += [f"{name}:d_true", f"{name}:d_measured", f"{name}:S"]
-        columns += [d_true[:, i], run["monitor.distances"][:, i],
-                    run["monitor.protective_distances"][:, i]]
+        header += [f"{name}:d_true", f"{name}:d_measured"]
+        columns += [d_true[:, i], measured[:, i]]
+        if ssm:
+            header.append(f"{name}:S")
+            columns.append(run["monitor.protective_distances"][:, i])
     return header, np.column_stack(columns)
 
 
@@ -59,8 +84,8 @@ def plot_run(run: Run, path: Path) -> None:
     t = run.time
     _, speed = tool_state(run)
     v_est = np.linalg.norm(run.bodies("tracker.velocities_estimated"), axis=-1)
-    d = run["monitor.distances"]
-    s = run["monitor.protective_distances"]
+    d = measured_distances(run)
+    s = run.signals.get("monitor.protective_distances")
     fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(10, 7))
     for i, name in enumerate(run.body_names):
         top.plot(t, v_est[:, i], label=f"v {name} (estimated)")
@@ -70,22 +95,28 @@ def plot_run(run: Run, path: Path) -> None:
     top.grid(alpha=0.3)
     for i, name in enumerate(run.body_names):
         (line,) = bottom.plot(t, d[:, i], label=f"d {name}")
-        bottom.plot(t, s[:, i], linestyle="--", color=line.get_color(), label=f"S {name}")
-    bottom.axhline(run.scenario.controller.safety.d_min, color="red", label="d_min")
+        if s is not None:
+            bottom.plot(t, s[:, i], linestyle="--", color=line.get_color(), label=f"S {name}")
+    if s is not None:
+        bottom.axhline(run.scenario.controller.safety.d_min, color="red", label="d_min")
     bottom.set_ylabel("distance [m]")
     bottom.set_xlabel("time [s]")
-    bottom.set_ylim(bottom=min(0.0, float(np.nanmin(s, initial=0.0))))
+    bottom.set_ylim(bottom=min(0.0, float(np.nanmin(s, initial=0.0))) if s is not None else 0.0)
     k_axis = bottom.twinx()
-    k_axis.plot(t, run["override.speed_scale_commanded"][:, 0], color="black", label="k")
-    k_axis.set_ylim(-0.05, 1.05)
-    k_axis.set_ylabel("speed override k")
+    k = commanded_speed(run)
+    k_axis.plot(t, k, color="black", label="k (commanded speed / nominal)")
+    if s is None:
+        k_axis.plot(t, run["speed.danger_index"][:, 0], color="purple", label="danger index")
+    k_axis.set_ylim(min(-0.05, float(k.min()) - 0.05), max(1.05, float(k.max()) + 0.05))
+    k_axis.set_ylabel("commanded speed k, danger index")
     lines = bottom.get_legend_handles_labels()
     k_lines = k_axis.get_legend_handles_labels()
     bottom.legend(lines[0] + k_lines[0], lines[1] + k_lines[1], loc="upper right",
                   fontsize="small", ncol=2)
     bottom.grid(alpha=0.3)
-    fig.suptitle(f"{run.scenario.name}: SSM speed override (human speed: "
-                 f"{run.scenario.controller.safety.human_speed})")
+    c = run.scenario.controller
+    fig.suptitle(f"{run.scenario.name}: SSM speed override (human speed: {c.safety.human_speed})"
+                 if c.type == "ssm_override" else f"{run.scenario.name}: {c.type} speed alteration")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

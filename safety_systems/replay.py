@@ -21,7 +21,7 @@ def replay_html(run: Run, *, meshcat: Meshcat | None = None) -> str:
 
     Each body is a small sphere at its true position (hidden while absent); a
     translucent sphere of radius S_i (the monitor's protective distance) surrounds its
-    tracked position while it has a track.
+    tracked position while it has a track (SSM override only).
     """
     meshcat = meshcat or Meshcat()
     builder = DiagramBuilder()
@@ -37,7 +37,8 @@ def replay_html(run: Run, *, meshcat: Meshcat | None = None) -> str:
     true_p = run.bodies("operators.positions_true")
     est_p = run.bodies("tracker.positions_estimated")
     present = run["operators.present"] > 0.5
-    s = run["monitor.protective_distances"]
+    s = run.signals.get("monitor.protective_distances",
+                        np.full((len(run.time), len(run.body_names)), np.nan))
     for i, name in enumerate(run.body_names):
         r, g, b = _COLORS[(i // 2) % len(_COLORS)]
         meshcat.SetObject(f"bodies/{name}/body", Sphere(BODY_RADIUS), Rgba(r, g, b, 1.0))

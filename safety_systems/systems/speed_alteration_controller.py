@@ -118,7 +118,7 @@ class SpeedAlterationController(LeafSystem):
             sizes = self._cfg.ellipsoids
             danger = danger_grid(self._path, s, self._speeds, self._dt, self._v_pre, humans,
                                  sizes)
-            robot_now = robot_at(self._path, np.array([s]), sizes)
+            robot_now = robot_at(self._path, s, sizes)
             now = operator_ellipsoids(p, valid, self._operator_of, self._is_hand, sizes)
             danger_now = danger_index(robot_now, now).ravel()
             gap = clearance(robot_now, now)
