@@ -87,8 +87,7 @@ def grid_upper(grid_speeds: np.ndarray, rows: np.ndarray, v: np.ndarray) -> np.n
     grid values around each v (between grid points the danger index is taken at its
     worse end, so a speed the search accepts is never riskier than it looks)."""
     x = np.interp(v, grid_speeds, np.arange(len(grid_speeds)))
-    lo = np.minimum(np.floor(x).astype(int), len(grid_speeds) - 2)
-    return np.maximum(rows[lo], rows[lo + 1])
+    return np.maximum(rows[np.floor(x).astype(int)], rows[np.ceil(x).astype(int)])
 
 
 def erga_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, v_pre: float, v_prev: float,
@@ -97,13 +96,15 @@ def erga_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, v_pre: float, v_p
     """ERGA's choice (Eqs. 11-12) and its best fitness per generation. The Eq. 12
     penalty of each grid cell (pairs taken at their worse end, ``grid_upper``) is
     summed once; a candidate reads its cell's."""
-    worse = np.maximum(danger[:-1], danger[1:])  # grid_upper's value on each cell
-    penalty = danger_penalty(worse, R)
+    on_cell = danger_penalty(np.maximum(danger[:-1], danger[1:]), R)  # grid_upper's values
+    on_point = danger_penalty(danger, R)
     index = np.arange(len(grid_speeds))
 
     def fitness(v: np.ndarray) -> np.ndarray:
-        cell = np.minimum(np.interp(v, grid_speeds, index).astype(int), len(worse) - 1)
-        return speed_terms(v, v_preprogrammed=v_pre, v_previous=v_prev, P=P, D=D) + penalty[cell]
+        x = np.interp(v, grid_speeds, index)
+        lo = np.minimum(np.floor(x).astype(int), len(on_cell) - 1)
+        penalty = np.where(x == np.floor(x), on_point[np.floor(x).astype(int)], on_cell[lo])
+        return speed_terms(v, v_preprogrammed=v_pre, v_previous=v_prev, P=P, D=D) + penalty
 
     return erga(fitness, bound=limit, rng=rng, params=params)
 
@@ -127,6 +128,7 @@ def clearance(a: Ellipsoids, b: Ellipsoids) -> float:
     diff = b.centres[None, :, :] - a.centres[:, None, :]
     d = np.linalg.norm(diff, axis=-1)
     u = np.divide(diff, d[..., None], out=np.zeros_like(diff), where=d[..., None] > 0)
+    u[d == 0.0] = [1.0, 0.0, 0.0]  # coincident centres: any direction measures the overlap
     h = (support(a.rotations[:, None], a.semi_axes[:, None], u)
          + support(b.rotations[None], b.semi_axes[None], u))
     return float(np.min(d - h))

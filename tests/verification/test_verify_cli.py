@@ -67,3 +67,15 @@ def test_bad_space_file_exits_2(tmp_path, capsys):
                  str(tmp_path / "out")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "parameters.peak_speed" in err[0]
+
+
+def test_erga_controller_is_verified_in_the_diagram(tmp_path):
+    # Seed 004's one-step prediction against the default space's lunges: the search
+    # runs the ERGA in the Drake diagram (the batched evaluator models Eq. 12 only).
+    out = tmp_path / "erga"
+    code = main(["verify", str(MODELS / "configs" / "erga.yaml"), "--space", SPACE, "--out",
+                 str(out), "--budget", "3", "--workers", "1", "--seed", "1", "--quiet"])
+    report = json.loads((out / "report.json").read_text())
+    assert not report["proof"]["proved"]
+    assert code == 1 and report["verdict"] == "falsified"
+    assert report["counterexamples"][0]["drake_robustness"] < 0.0

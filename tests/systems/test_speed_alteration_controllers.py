@@ -1,0 +1,175 @@
+import dataclasses
+
+import numpy as np
+import pytest
+
+from safety_systems.cartesian_path import line_path
+from safety_systems.erga import ErgaParameters
+from safety_systems.scenario import EllipsoidConfig, SpeedAlterationConfig
+from safety_systems.speed_alteration import (
+    danger_grid,
+    erga_speed,
+    hwang_speed,
+    operator_ellipsoids,
+)
+from safety_systems.systems.bimodal_speed_controller import BimodalSpeedController
+from safety_systems.systems.erga_speed_controller import ErgaSpeedController
+from safety_systems.systems.hwang_speed_controller import HwangSpeedController
+from safety_systems.systems.preprogrammed_speed_controller import PreprogrammedSpeedController
+
+CONTROLLERS = [ErgaSpeedController, HwangSpeedController, BimodalSpeedController,
+               PreprogrammedSpeedController]
+CONFIG = SpeedAlterationConfig(
+    ellipsoids=EllipsoidConfig(human="hands", link_radii=[], tool_offset=-0.05))
+S = 1.0  # path position of every decision, s: the tool sphere's centre is then at
+TOOL = np.array([0.368, 0.05, 0.7185])  # (tool0 at y = 0.05 m, 5 cm above it), m
+# The tool moves along +y at 0.05 m/s; in one 0.1 s step it reaches y = 0.055. A glove
+# 0.102 m ahead is clear now (DI < 1) but is touched by 0.1 m of spheres unless the speed
+# stays below 0.02 m/s.
+AHEAD = TOOL + [0.0, 0.102, 0.0]
+
+
+@pytest.fixture(scope="module")
+def path():
+    return line_path([0.368, 0, 0.6685], [0.368, 0.12, 0.6685], speed=0.05, rpy=[np.pi, 0, 0],
+                     seed=np.radians([159, -103, 74, -61, -90, -111]))
+
+
+def _decide(cls, path, hand, *, status=1.0, fault=0.0, config=CONFIG):
+    """One decision at t = 0 by a controller with one glove; its outputs and the system."""
+    system = cls(path=path, config=config, operator_of=[0], is_hand=[True])
+    context = system.CreateDefaultContext()
+    system.GetInputPort("positions_estimated").FixValue(context, np.asarray(hand, float))
+    system.GetInputPort("velocities_estimated").FixValue(context, np.zeros(3))
+    system.GetInputPort("track_status").FixValue(context, [status])
+    system.GetInputPort("fault").FixValue(context, [fault])
+    system.GetInputPort("path_state").FixValue(context, [S, 1.0, 0.0])
+    context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
+    out = {n: system.GetOutputPort(n).Eval(context)[0]
+           for n in ("speed_scale_commanded", "speed_selected", "danger_index")}
+    return out, system
+
+
+def _humans(hand, config=CONFIG):
+    return operator_ellipsoids(np.asarray([hand], float), np.array([True]), np.array([0]),
+                               np.array([True]), config.ellipsoids)
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_no_tracked_operator_keeps_preprogrammed_speed(cls, path):
+    for hand, status in ((AHEAD, 0.0), ([np.nan] * 3, 1.0)):
+        out, system = _decide(cls, path, hand, status=status)
+        assert system.preprogrammed_speed == pytest.approx(0.05, abs=1e-3)
+        assert out["speed_selected"] == system.preprogrammed_speed
+        assert out["speed_scale_commanded"] == 1.0
+        assert out["danger_index"] == 0.0
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+@pytest.mark.parametrize("hand", [TOOL + [0.0, 0.5, 0.0], AHEAD])
+def test_fault_or_lost_track_stops(cls, path, hand):
+    for kw in ({"fault": 1.0}, {"fault": float("nan")}, {"status": 3.0}):
+        out, _ = _decide(cls, path, hand, **kw)
+        assert out["speed_selected"] == 0.0, kw
+        assert out["speed_scale_commanded"] == 0.0, kw
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_far_operator_keeps_preprogrammed_speed(cls, path):
+    out, system = _decide(cls, path, TOOL + [0.0, 0.5, 0.0], status=2.0)  # coasting counts
+    assert out["speed_selected"] == pytest.approx(system.preprogrammed_speed, abs=1e-3)
+    assert out["speed_scale_commanded"] == pytest.approx(
+        out["speed_selected"] / system.preprogrammed_speed)
+    assert 0.0 < out["danger_index"] < 1.0
+
+
+def test_erga_slows_for_a_hand_ahead(path):
+    out, system = _decide(ErgaSpeedController, path, AHEAD)
+    v_pre = system.preprogrammed_speed
+    assert out["speed_selected"] < v_pre
+    assert 0.0 < out["speed_selected"] < 0.02  # as fast as it can while staying clear
+    assert out["danger_index"] < 1.0
+    assert out["speed_scale_commanded"] == pytest.approx(out["speed_selected"] / v_pre)
+    # The reported DI is the exact one at the pose the chosen speed reaches.
+    reached = danger_grid(path, S, np.array([out["speed_selected"]]), 0.1, v_pre,
+                          _humans(AHEAD), CONFIG.ellipsoids)
+    assert out["danger_index"] == pytest.approx(reached.max())
+
+
+def test_erga_backs_away_from_an_overlapping_hand(path):
+    # 0.08 m ahead the spheres already overlap: only backing off 2 cm (v <= -0.2 m/s over
+    # 0.1 s) clears them, which Eq. 11 prices at (0.25 / 0.05)^2 * (P + D) = 50. A penalty
+    # R = 1000 makes that worth it.
+    config = dataclasses.replace(CONFIG, R=1000.0)
+    out, _ = _decide(ErgaSpeedController, path, TOOL + [0.0, 0.08, 0.0], config=config)
+    assert -CONFIG.speed_limit <= out["speed_selected"] < -0.19
+    assert out["danger_index"] < 1.0
+
+
+def test_erga_with_seed_penalty_accepts_overlap_over_a_large_speed_change(path):
+    # Seed behaviour, not a bug: with R = 10 the penalty of staying (10 DI^2 ~ 15-25) is
+    # cheaper than backing off, so the finite penalty lets DI >= 1 through (cf. Fig. 6).
+    out, system = _decide(ErgaSpeedController, path, TOOL + [0.0, 0.08, 0.0])
+    assert -0.19 < out["speed_selected"] < system.preprogrammed_speed
+    assert out["danger_index"] >= 1.0
+
+
+def test_erga_matches_the_plain_function(path):
+    out, system = _decide(ErgaSpeedController, path, AHEAD)
+    v_pre, c = system.preprogrammed_speed, CONFIG
+    grid = np.linspace(-c.speed_limit, c.speed_limit, system.grid_size)
+    danger = danger_grid(path, S, grid, 1 / c.rate_hz, v_pre, _humans(AHEAD), c.ellipsoids)
+    v, _ = erga_speed(grid_speeds=grid, danger=danger, v_pre=v_pre, v_prev=v_pre,
+                      limit=c.speed_limit, rng=np.random.default_rng([c.seed, 0]),
+                      params=ErgaParameters(), P=c.P, D=c.D, R=c.R)
+    assert out["speed_selected"] == v
+
+
+def test_erga_same_seed_same_decision(path):
+    a, _ = _decide(ErgaSpeedController, path, AHEAD)
+    b, _ = _decide(ErgaSpeedController, path, AHEAD)
+    assert a == b
+    others = {_decide(ErgaSpeedController, path, AHEAD,
+                      config=dataclasses.replace(CONFIG, seed=seed))[0]["speed_selected"]
+              for seed in (1, 2, 3)}
+    assert len(others | {a["speed_selected"]}) > 1  # the seed is used
+
+
+def test_preprogrammed_ignores_the_hand_but_reports_the_danger(path):
+    out, system = _decide(PreprogrammedSpeedController, path, AHEAD)
+    assert out["speed_selected"] == system.preprogrammed_speed
+    assert out["speed_scale_commanded"] == 1.0
+    assert out["danger_index"] >= 1.0
+
+
+@pytest.mark.parametrize("threshold, stops", [(0.1, True), (0.06, True), (0.04, False),
+                                              (0.0, False)])
+def test_bimodal_stops_within_its_clearance(path, threshold, stops):
+    # Centres 0.15 m apart, radii 0.05 + 0.05: a clearance of 0.05 m.
+    config = dataclasses.replace(CONFIG, bimodal_clearance=threshold)
+    out, system = _decide(BimodalSpeedController, path, TOOL + [0.0, 0.15, 0.0], config=config)
+    assert out["speed_selected"] == (0.0 if stops else system.preprogrammed_speed)
+
+
+def test_bimodal_stops_on_overlap_at_zero_threshold(path):
+    out, _ = _decide(BimodalSpeedController, path, TOOL + [0.0, 0.08, 0.0])
+    assert out["speed_selected"] == 0.0
+    assert out["danger_index"] >= 1.0
+
+
+@pytest.mark.parametrize("candidates", [5, 21, 101])
+@pytest.mark.parametrize("offset", [0.08, 0.102, 0.3])
+def test_hwang_picks_from_its_grid(path, candidates, offset):
+    config = dataclasses.replace(CONFIG, hwang_candidates=candidates)
+    hand = TOOL + [0.0, offset, 0.0]
+    out, system = _decide(HwangSpeedController, path, hand, config=config)
+    grid = np.linspace(-config.speed_limit, config.speed_limit, candidates)
+    assert system.grid_size == candidates
+    assert np.any(np.isclose(out["speed_selected"], grid, rtol=0, atol=1e-12))
+    # The same choice as Eq. 13 on the controller's own inputs.
+    v_pre, e = system.preprogrammed_speed, config.ellipsoids
+    humans = _humans(hand, config)
+    danger = danger_grid(path, S, grid, 0.1, v_pre, humans, e)
+    now = danger_grid(path, S, np.zeros(1), 0.1, v_pre, humans, e)[0]
+    assert out["speed_selected"] == hwang_speed(grid_speeds=grid, danger=danger,
+                                                danger_now=now, v_pre=v_pre)
