@@ -121,39 +121,61 @@ def _blend(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class SplinePath:
-    """A one-way joint path: a cubic spline through joint samples, s from 0 to ``end``.
+    """A joint path through joint samples: a cubic spline over ``duration`` seconds of
+    nominal time, run one way (``cycles`` 1) or there and back (a cycle is the way out
+    and the way back, ``cycles`` >= 1).
 
     Built by :func:`make_spline_path` (e.g. from inverse kinematics of a Cartesian
-    line, ``safety_systems.cartesian_path``). ``cycles`` is 1 and ``cycle_time`` the
-    whole path, so code written for cyclic paths sees one cycle.
+    path, ``safety_systems.cartesian_path``).
     """
 
-    spline: CubicSpline  # s -> q, shape (6,)
-    end: float
+    spline: CubicSpline  # u in [0, duration] -> q, shape (6,)
+    duration: float
     cycles: int = 1
+    there_and_back: bool = False
 
     @property
     def cycle_time(self) -> float:
-        return self.end
+        return self.duration * (2.0 if self.there_and_back else 1.0)
+
+    @property
+    def end(self) -> float:
+        return self.cycle_time * self.cycles
 
     @property
     def peak_joint_speed(self) -> float:
-        s = np.linspace(0.0, self.end, 2001)
-        return float(np.max(np.abs(self.spline(s, 1))))
+        u = np.linspace(0.0, self.duration, 2001)
+        return float(np.max(np.abs(self.spline(u, 1))))
+
+    def state(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q, dq/ds, d2q/ds2 at path parameters s (clipped to [0, end])."""
+        s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), self.end)
+        phase = s - self.cycle_time * np.minimum(np.floor(s / self.cycle_time), self.cycles - 1)
+        back = phase > self.duration
+        u = np.where(back, 2.0 * self.duration - phase, phase)
+        sign = np.where(back, -1.0, 1.0)[..., None]
+        return self.spline(u), sign * self.spline(u, 1), self.spline(u, 2)
 
 
-def make_spline_path(s_samples: np.ndarray, q_samples: np.ndarray, *,
+def make_spline_path(s_samples: np.ndarray, q_samples: np.ndarray, *, rest_to_rest: bool = False,
+                     cycles: int = 1, there_and_back: bool = False,
                      joint_speed_limit: float = JOINT_VELOCITY_LIMIT) -> SplinePath:
     """A spline path through (s, q) samples (s in seconds of nominal time, increasing from
-    0; q (K, 6) radians); not-a-knot ends, so evenly spaced samples of a uniform motion
-    give a uniform speed (the PathFollower starts and ends the motion)."""
+    0; q (K, 6) radians). ``rest_to_rest``: zero joint speeds at both ends (clamped
+    spline; needed there and back), else not-a-knot ends, so evenly spaced samples of a
+    uniform motion give a uniform speed (the PathFollower starts and ends the motion)."""
     s = np.asarray(s_samples, dtype=float)
     q = np.asarray(q_samples, dtype=float)
     if s.ndim != 1 or s.size < 2 or s[0] != 0.0 or np.any(np.diff(s) <= 0.0):
         raise ValueError(f"s_samples: need an increasing sequence from 0, got {s.tolist()}")
     if q.shape != (s.size, 6) or not np.all(np.isfinite(q)):
         raise ValueError(f"q_samples has shape {q.shape}: need ({s.size}, 6) finite radians")
-    path = SplinePath(CubicSpline(s, q, bc_type="not-a-knot", axis=0), float(s[-1]))
+    if there_and_back and not rest_to_rest:
+        raise ValueError("there_and_back: needs rest_to_rest (the path turns round at rest)")
+    if not (isinstance(cycles, int) and cycles >= 1 and (cycles == 1 or there_and_back)):
+        raise ValueError(f"cycles={cycles!r}: 1, or more for a there-and-back path")
+    spline = CubicSpline(s, q, bc_type="clamped" if rest_to_rest else "not-a-knot", axis=0)
+    path = SplinePath(spline, float(s[-1]), cycles, there_and_back)
     if path.peak_joint_speed > joint_speed_limit:
         raise ValueError(f"the path needs {math.degrees(path.peak_joint_speed):.0f} deg/s at "
                          f"nominal speed; allowed <= {math.degrees(joint_speed_limit):.0f}")
@@ -169,8 +191,7 @@ def joint_path_state(
     second of nominal time, and radians per second squared.
     """
     if isinstance(path, SplinePath):
-        s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), path.end)
-        return path.spline(s), path.spline(s, 1), path.spline(s, 2)
+        return path.state(s)
     s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), path.end)
     phase = s - path.cycle_time * np.minimum(np.floor(s / path.cycle_time), path.cycles - 1)
     j = np.searchsorted(path.starts, phase, side="right") - 1

@@ -131,13 +131,37 @@ class LineConfig:
 
 
 @dc.dataclass
+class TaskPoints:
+    """A task-space path file (``safety-systems plan`` writes one): points in m."""
+
+    points: list[list[float]] = dc.field(default_factory=list)
+
+
+@dc.dataclass
+class TaskPathConfig:
+    """A tool0 path through task-space points (m, base frame), run there and back
+    ``robot.cycles`` times rest to rest at a mean ``speed`` (m/s), the tool held at
+    roll-pitch-yaw ``rpy_deg``; inverse kinematics starts from ``seed_deg``. The points
+    are ``points``, or, when that is empty, those of ``file`` (a ``TaskPoints`` YAML
+    file, relative to the scenario file)."""
+
+    points: list[list[float]] = dc.field(default_factory=list)
+    file: str = ""
+    speed: float = 0.1
+    rpy_deg: list[float] = dc.field(default_factory=lambda: [180.0, 0.0, 0.0])
+    seed_deg: list[float] = dc.field(
+        default_factory=lambda: [90.0, -90.0, 90.0, -90.0, -90.0, 0.0])
+
+
+@dc.dataclass
 class PathConfig:
     """The robot's path: a cyclic joint-space path (empty lists: the default
-    pick-and-place cycle), or, when ``line`` is given, a one-way straight tool line."""
+    pick-and-place cycle), a one-way straight tool ``line``, or a ``task_path``."""
 
     waypoints_deg: list[list[float]] = dc.field(default_factory=list)
     segment_durations: list[float] = dc.field(default_factory=list)
     line: typing.Optional[LineConfig] = None
+    task_path: typing.Optional[TaskPathConfig] = None
 
 
 @dc.dataclass
@@ -211,7 +235,27 @@ class SpeedAlterationConfig:
     ellipsoids: EllipsoidConfig = dc.field(default_factory=EllipsoidConfig)
 
 
-CONTROLLER_TYPES = ("ssm_override", "erga", "hwang", "bimodal", "none")
+@dc.dataclass
+class ZonesConfig:
+    """Safety zones (seed 001, Section 2.5, Eq. 6): green while the closest tracked body
+    is at least ``green_distance`` from the tool, red within ``red_distance``, yellow in
+    between; each zone has a speed (fraction of the nominal path speed). Performance
+    recovery (Section 2.6): speeding up (after a zone change or a resume) follows a
+    bounded-jerk profile, path acceleration at most ``max_acceleration`` (1/s) and its
+    rate at most ``max_jerk`` (1/s^2); slowing down is immediate (within the brakes).
+    Decisions at ``rate_hz``."""
+
+    green_distance: float = 1.0
+    red_distance: float = 0.5
+    green_speed: float = 1.0
+    yellow_speed: float = 0.5
+    red_speed: float = 0.1
+    max_acceleration: float = 1.0
+    max_jerk: float = 5.0
+    rate_hz: float = 100.0
+
+
+CONTROLLER_TYPES = ("ssm_override", "erga", "hwang", "bimodal", "none", "zones")
 
 
 @dc.dataclass
@@ -219,8 +263,9 @@ class ControllerConfig:
     """Everything the safety controller is configured with (a CONFIG file).
 
     ``type`` chooses the controller: ``ssm_override`` (seed 000, Eq. 12; uses
-    ``safety``), or a speed alteration controller of seed 004 (``erga``, ``hwang``,
-    ``bimodal``; ``none`` keeps the pre-programmed speed) configured by ``alteration``.
+    ``safety``), a speed alteration controller of seed 004 (``erga``, ``hwang``,
+    ``bimodal``; ``none`` keeps the pre-programmed speed) configured by ``alteration``,
+    or seed 001's safety ``zones``.
     """
 
     type: str = "ssm_override"
@@ -229,6 +274,7 @@ class ControllerConfig:
     safety: SafetyConfig = dc.field(default_factory=SafetyConfig)
     braking: BrakingConfig = dc.field(default_factory=BrakingConfig)
     alteration: SpeedAlterationConfig = dc.field(default_factory=SpeedAlterationConfig)
+    zones: ZonesConfig = dc.field(default_factory=ZonesConfig)
 
 
 @dc.dataclass
@@ -261,13 +307,25 @@ class OperatorConfig:
 
 
 @dc.dataclass
+class Gesture:
+    """A gesture command (seed 001, Section 2.1) at ``time``: start, stop or resume."""
+
+    time: float = 0.0
+    command: str = "stop"
+
+
+GESTURES = ("start", "stop", "resume")
+
+
+@dc.dataclass
 class Scenario:
     """One simulation: duration, robot, controller configuration and operators.
 
     ``sensor``: the cell's real sensor when it differs from the one the controller is
     configured for (``controller.sensor``), e.g. a larger latency; None: as configured.
     ``jerk_window``: [first, last] sample (controller periods) over which ``compare``
-    reports jerk; empty: the whole run.
+    reports jerk; empty: the whole run. ``gestures``: timed start/stop/resume commands
+    for the ``zones`` controller.
     """
 
     name: str = ""
@@ -277,6 +335,7 @@ class Scenario:
     controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
     sensor: typing.Optional[SensorConfig] = None
     jerk_window: list[int] = dc.field(default_factory=list)
+    gestures: list[Gesture] = dc.field(default_factory=list)
     operators: list[OperatorConfig] = dc.field(default_factory=list)
 
 
@@ -345,6 +404,16 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
            f.delta_s, "a finite number >= 1")
     _check(c.type in CONTROLLER_TYPES, f"{prefix}.type", c.type, " | ".join(CONTROLLER_TYPES))
     validate_alteration(c.alteration, f"{prefix}.alteration")
+    z = c.zones
+    _check(math.isfinite(z.green_distance) and z.green_distance > z.red_distance > 0.0,
+           f"{prefix}.zones.green_distance", [z.green_distance, z.red_distance],
+           "green_distance > red_distance > 0 (m)")
+    _check(0.0 <= z.red_speed <= z.yellow_speed <= z.green_speed <= 1.0,
+           f"{prefix}.zones.red_speed", [z.red_speed, z.yellow_speed, z.green_speed],
+           "0 <= red_speed <= yellow_speed <= green_speed <= 1")
+    for name in ("max_acceleration", "max_jerk"):
+        _positive(f"{prefix}.zones.{name}", getattr(z, name))
+    _check(1.0 <= z.rate_hz <= 1000.0, f"{prefix}.zones.rate_hz", z.rate_hz, "1 to 1000 (Hz)")
     b = c.braking
     _check(b.stop_category in (0, 1), f"{prefix}.braking.stop_category", b.stop_category,
            "0 or 1")
@@ -400,6 +469,12 @@ def validate_scenario(s: Scenario) -> None:
     """Range checks of a whole scenario; raises :class:`ScenarioError`."""
     _positive("duration", s.duration)
     _finite_nonneg("contact_distance", s.contact_distance)
+    last = -math.inf
+    for i, g in enumerate(s.gestures):
+        _check(g.command in GESTURES, f"gestures[{i}].command", g.command, " | ".join(GESTURES))
+        _check(math.isfinite(g.time) and g.time >= 0.0 and g.time > last,
+               f"gestures[{i}].time", g.time, "finite, >= 0 and after the previous gesture")
+        last = g.time
     _check(not s.jerk_window or (len(s.jerk_window) == 2
                                  and 2 <= s.jerk_window[0] < s.jerk_window[1]),
            "jerk_window", s.jerk_window, "empty, or [first, last] samples with 2 <= first < last")
@@ -422,6 +497,18 @@ def validate_scenario(s: Scenario) -> None:
         _positive("robot.path.line.speed", p.line.speed)
         _check(p.line.start != p.line.goal, "robot.path.line.goal", p.line.goal,
                "a point other than start")
+    if p.task_path is not None:
+        t = p.task_path
+        _check(p.line is None and not p.waypoints_deg, "robot.path.task_path", "task_path",
+               "one kind of path: task_path, line or waypoints")
+        _check(bool(t.points) or bool(t.file), "robot.path.task_path.points", t.points,
+               "2 or more [x, y, z] points in m, or a file")
+        _check(not t.points or (len(t.points) >= 2 and all(len(q) == 3 for q in t.points)),
+               "robot.path.task_path.points", t.points, "2 or more [x, y, z] points in m")
+        _positive("robot.path.task_path.speed", t.speed)
+        _check(len(t.rpy_deg) == 3, "robot.path.task_path.rpy_deg", t.rpy_deg, "3 angles in deg")
+        _check(len(t.seed_deg) == 6, "robot.path.task_path.seed_deg", t.seed_deg,
+               "6 joint angles in deg")
     if p.waypoints_deg or p.segment_durations:
         _check(len(p.waypoints_deg) >= 2, "robot.path.waypoints_deg", p.waypoints_deg,
                "at least 2 waypoints of 6 joint angles")
@@ -556,9 +643,16 @@ def load_typed(schema: type, path: str | Path) -> typing.Any:
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Load and validate a scenario file; raises :class:`ScenarioError`."""
+    """Load and validate a scenario file; raises :class:`ScenarioError`. A task path's
+    ``file`` is read here, relative to the scenario file."""
     text = _read(path)
     scenario = _load_typed(Scenario, text, str(path))
+    task = scenario.robot.path.task_path
+    if task is not None and not task.points and task.file:
+        points_file = Path(path).parent / task.file
+        task.points = load_typed(TaskPoints, points_file).points
+        _check(len(task.points) >= 2, "robot.path.task_path.file", task.file,
+               f"a file with 2 or more points ({points_file})")
     validate_scenario(scenario)
     return scenario
 

@@ -23,7 +23,7 @@ from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
 
 from safety_systems.braking import BrakingTable, default_braking_table, stopping_distance
 from safety_systems.braking import stopping_time as table_stopping_time
-from safety_systems.cartesian_path import line_path
+from safety_systems.cartesian_path import line_path, polyline_path
 from safety_systems.joint_path import JointPath, SplinePath, default_joint_path, make_joint_path
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
 from safety_systems.scenario import (
@@ -36,6 +36,7 @@ from safety_systems.scenario import (
 from safety_systems.systems.bimodal_speed_controller import BimodalSpeedController
 from safety_systems.systems.end_effector_velocity import EndEffectorVelocity
 from safety_systems.systems.erga_speed_controller import ErgaSpeedController
+from safety_systems.systems.gesture_source import GestureSource
 from safety_systems.systems.hwang_speed_controller import HwangSpeedController
 from safety_systems.systems.kalman_tracker import KalmanTracker
 from safety_systems.systems.mocap_sensor import MocapSensor
@@ -44,6 +45,7 @@ from safety_systems.systems.path_follower import PathFollower
 from safety_systems.systems.preprogrammed_speed_controller import PreprogrammedSpeedController
 from safety_systems.systems.separation_monitor import SeparationMonitor
 from safety_systems.systems.speed_override import SpeedOverride
+from safety_systems.systems.zones_controller import ZonesController
 from safety_systems.ur5e import AddUr5e
 
 # Joint-space gains of the dynamic mode's inverse-dynamics controller: critically
@@ -81,6 +83,11 @@ def joint_path(robot: RobotConfig) -> JointPath | SplinePath:
     """The robot's path from the scenario: its line, its waypoints, or the default pick
     and place cycle."""
     p = robot.path
+    if p.task_path is not None:
+        t = p.task_path
+        return polyline_path(np.array(t.points), speed=t.speed, rpy=np.radians(t.rpy_deg),
+                             seed=np.radians(t.seed_deg), cycles=robot.cycles,
+                             there_and_back=True)
     if p.line is not None:
         return line_path(np.array(p.line.start), np.array(p.line.goal), speed=p.line.speed,
                          rpy=np.radians(p.line.rpy_deg), seed=np.radians(p.line.seed_deg))
@@ -133,8 +140,10 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
     ``ssm_override`` (seed 000): EndEffectorVelocity, SeparationMonitor and
     SpeedOverride; left to connect: the EndEffectorVelocity's ``joint_positions``. The
     seed-004 controllers (``erga``, ``hwang``, ``bimodal``, ``none``) need ``path`` and
-    the body roles (``body_roles``); left to connect: their ``path_state``. Always left
-    to connect: the tracker's ``positions_measured``, ``valid`` and ``sample_time``.
+    the body roles (``body_roles``); left to connect: their ``path_state``. ``zones``
+    (seed 001) needs ``path``; left to connect: its ``path_state`` and ``gesture``.
+    Always left to connect: the tracker's ``positions_measured``, ``valid`` and
+    ``sample_time``.
     """
     s, t, f = config.sensor, config.tracker, config.safety
     tracker = builder.AddNamedSystem("tracker", KalmanTracker(
@@ -144,6 +153,13 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         velocity_process_noise=t.velocity_process_noise,
         initial_velocity_std=t.initial_velocity_std, max_coast_time=t.max_coast_time,
         exit_radius=t.exit_radius))
+    if config.type == "zones":
+        zones = builder.AddNamedSystem("zones", ZonesController(
+            path=path, config=config.zones, num_bodies=num_bodies))
+        for name in ("positions_estimated", "track_status", "fault"):
+            builder.Connect(tracker.GetOutputPort(name), zones.GetInputPort(name))
+        return SafetyController(tracker, {"zones": zones},
+                                zones.GetOutputPort("speed_scale_commanded"))
     if config.type != "ssm_override":
         # Decide one control tick after the tracker has processed the newest frame.
         offset = s.latency + t.processing_time + control_period
@@ -257,6 +273,7 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     for name in ("positions_measured", "valid", "sample_time"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")
+    zones = safety.systems.get("zones")
     follower = builder.AddNamedSystem("follower", PathFollower(
         path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
         braking_time_scale=robot.braking_time_scale, period_sec=dt,
@@ -264,12 +281,19 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
         / speed.preprogrammed_speed))
     builder.Connect(safety.command, follower.GetInputPort("speed_scale_commanded"))
     q_port, v_port, plant = _add_robot(builder, robot, follower, dt)
-    if speed is None:
-        builder.Connect(q_port, safety.systems["ee_velocity"].GetInputPort("joint_positions"))
-    else:
-        builder.Connect(follower.GetOutputPort("path_state"), speed.GetInputPort("path_state"))
     systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker, **safety.systems,
                    follower=follower)
+    if "ee_velocity" in safety.systems:
+        builder.Connect(q_port, safety.systems["ee_velocity"].GetInputPort("joint_positions"))
+    for controller in (speed, zones):
+        if controller is not None:
+            builder.Connect(follower.GetOutputPort("path_state"),
+                            controller.GetInputPort("path_state"))
+    if zones is not None:
+        gestures = builder.AddNamedSystem("gestures", GestureSource(
+            events=[(g.time, g.command) for g in scenario.gestures]))
+        builder.Connect(gestures.get_output_port(), zones.GetInputPort("gesture"))
+        systems["gestures"] = gestures
 
     ports = {"q": q_port, "v": v_port}
     for system_name, system in systems.items():
