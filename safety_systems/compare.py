@@ -16,11 +16,18 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.ellipsoids import Ellipsoids, danger_index, robot_ellipsoids
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import MultibodyForces
+
+from safety_systems.ellipsoids import danger_index, robot_ellipsoids
+from safety_systems.evaluation import Thresholds, evaluate
+from safety_systems.joint_path import joint_path_state
+from safety_systems.ssm import directed_speeds
+from safety_systems.ur5e import AddUr5e, tool0_position_and_velocity
 from safety_systems.metrics import task_time
 from safety_systems.scenario import Scenario
 from safety_systems.simulation import Run, simulate
-from safety_systems.speed_alteration import operator_ellipsoids, preprogrammed_speed
+from safety_systems.speed_alteration import operator_ellipsoids_over_time, preprogrammed_speed
 from safety_systems.workcell import body_roles, joint_path
 
 
@@ -29,15 +36,10 @@ def danger_over_run(run: Run) -> np.ndarray:
     sizes = run.scenario.controller.alteration.ellipsoids
     operator_of, is_hand = body_roles(run.scenario)
     robot = robot_ellipsoids(run["q"], sizes.link_radii, sizes.tool_radius, sizes.tool_offset)
-    bodies = run.bodies("operators.positions_true")
-    present = run["operators.present"] > 0.5
-    out = np.zeros(len(run.time))
-    for i in range(len(run.time)):
-        humans = operator_ellipsoids(bodies[i], present[i], operator_of, is_hand, sizes)
-        if humans.centres.shape[0]:
-            r = Ellipsoids(robot.centres[i], robot.rotations[i], robot.semi_axes[i])
-            out[i] = danger_index(r, humans).max()
-    return out
+    humans = operator_ellipsoids_over_time(run.bodies("operators.positions_true"),
+                                           run["operators.present"] > 0.5, operator_of,
+                                           is_hand, sizes)
+    return danger_index(robot, humans).max(axis=(1, 2))
 
 
 def sampled_speed(run: Run) -> tuple[np.ndarray, float]:
@@ -54,6 +56,51 @@ def jerk(speed: np.ndarray, period: float) -> np.ndarray:
     return np.diff(speed, 2) / period**2
 
 
+def inverse_dynamics_torques(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """(T, 6) joint torques of the UR5e model for the given motion (gravity included)."""
+    plant = MultibodyPlant(0.0)
+    AddUr5e(plant)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    forces = MultibodyForces(plant)
+    out = np.empty_like(q)
+    for i in range(len(q)):
+        plant.SetPositions(context, q[i])
+        plant.SetVelocities(context, v[i])
+        out[i] = plant.CalcInverseDynamics(context, a[i], forces)
+    return out
+
+
+def evaluation_of_run(run: Run, *, every: int = 5) -> dict:
+    """Seed 001's metric (``safety_systems.evaluation``) of a run, up to the end of its
+    task (or of the run), sampled every ``every`` control ticks."""
+    finished = task_time(run)
+    elapsed = finished if finished is not None else float(run.time[-1])
+    rows = np.flatnonzero(run.time <= elapsed + 1e-9)[::every]
+    progress = float(run["follower.path_state"][rows[-1], 0])
+    q, v = run["q"][rows], run["v"][rows]
+    a = run["follower.joint_accelerations_desired"][rows]
+    p_tool, v_tool = tool0_position_and_velocity(q, v)
+    bodies = run.bodies("operators.positions_true")[rows]
+    d = np.where(run["operators.present"][rows] > 0.5,
+                 np.linalg.norm(bodies - p_tool[:, None, :], axis=-1), np.inf)
+    nearest = np.argmin(d, axis=1)
+    v_h, v_r = directed_speeds(p_tool, v_tool, bodies, run.bodies("operators.velocities_true")[rows])
+    pick = np.arange(len(rows))
+    path = joint_path(run.scenario.robot)
+    dt = float(run.time[rows[1]] - run.time[rows[0]]) if len(rows) > 1 else 1.0
+    s_ideal = np.arange(0.0, max(progress, dt), dt)
+    q_ideal, _, a_ideal = joint_path_state(path, s_ideal)
+    zones = run.scenario.controller.zones
+    return evaluate(time=run.time[rows], q=q, v=v, a=a,
+                    torques=inverse_dynamics_torques(q, v, a), progress=progress,
+                    elapsed=elapsed, closest=d[pick, nearest],
+                    closing_speed=(v_h + v_r)[pick, nearest], ideal_q=q_ideal,
+                    ideal_a=a_ideal, ideal_duration=max(progress, dt),
+                    thresholds=Thresholds(unsafe=zones.red_distance,
+                                          comfortable=zones.green_distance))
+
+
 def controller_metrics(run: Run) -> dict:
     danger = danger_over_run(run)
     speed, period = sampled_speed(run)
@@ -63,6 +110,7 @@ def controller_metrics(run: Run) -> dict:
         j = j[max(window[0] - 2, 0):max(window[1] - 1, 0)]  # jerk k uses samples k-2..k
     finished = task_time(run)
     return {"max_danger_index": float(danger.max()), "goal_reached": finished is not None,
+            "evaluation": evaluation_of_run(run),
             "goal_time": finished, "jerk_mean": float(j.mean()) if j.size else None,
             "jerk_sd": float(j.std()) if j.size else None,
             "samples": speed.tolist(), "danger_at_samples":
@@ -96,6 +144,13 @@ def markdown_table(rows: list[dict]) -> str:
         pct = "-" if r["jerk_sd_percent"] is None else f"{r['jerk_sd_percent']:.0f}%"
         lines.append(f"| {r['scenario']} | {r['controller']} | {r['max_danger_index']:.4f} | "
                      f"{goal} | {mm(r['jerk_mean'])} | {mm(r['jerk_sd'])} | {pct} |")
+    names = list(rows[0]["evaluation"]) if rows else []
+    lines += ["", "Safety and efficiency evaluation (seed 001, Tables IX-X; scores 0-100):", "",
+              "| scenario | controller | " + " | ".join(n.replace("_", " ") for n in names) + " |",
+              "|---|---|" + "---|" * len(names)]
+    for r in rows:
+        lines.append(f"| {r['scenario']} | {r['controller']} | "
+                     + " | ".join(f"{r['evaluation'][n]:.1f}" for n in names) + " |")
     return "\n".join(lines) + "\n"
 
 

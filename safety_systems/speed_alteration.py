@@ -68,6 +68,31 @@ def operator_ellipsoids(positions: np.ndarray, valid: np.ndarray, operator_of: n
     return concatenate(*parts)
 
 
+FAR = 1e6  # m: where absent bodies' ellipsoids are put, out of every pair's reach
+
+
+def operator_ellipsoids_over_time(positions: np.ndarray, present: np.ndarray,
+                                  operator_of: np.ndarray, is_hand: np.ndarray,
+                                  sizes) -> Ellipsoids:
+    """``operator_ellipsoids`` at every instant at once: positions (T, N, 3), present
+    (T, N). Returns (T, M) ellipsoids with a fixed M; those of absent bodies (and the
+    upper-body model of operators without both hands) are moved ``FAR`` away."""
+    parts, skeleton_hands = [], np.zeros(positions.shape[:2], dtype=bool)
+    if sizes.human == "upper_body":
+        for k in np.unique(operator_of):
+            hands = np.flatnonzero((operator_of == k) & is_hand)
+            if hands.size == 2:
+                both = present[:, hands].all(axis=1)
+                body = human_ellipsoids(positions[:, hands], sizes)
+                parts.append(body.moved(np.where(both, 0.0, FAR)[:, None, None]))
+                skeleton_hands[:, hands] = both[:, None]
+    alone = present & ~skeleton_hands
+    radius = np.where(is_hand, sizes.hand_radius, sizes.head_radius)
+    parts.append(spheres(np.where(alone[..., None], positions, FAR),
+                         np.broadcast_to(radius, alone.shape)))
+    return concatenate(*parts)
+
+
 def robot_at(path, s: np.ndarray, sizes) -> Ellipsoids:
     """The robot's ellipsoids at path positions s (G,)."""
     q = joint_path_state(path, s)[0]

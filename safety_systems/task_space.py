@@ -1,0 +1,319 @@
+"""Task-space scenes for the path planners (seed 001, Sections 2.2 and 3): start, goal,
+static obstacles and planner settings, and the signed distance rho_i to each obstacle.
+
+Typed YAML loaded strictly with :func:`safety_systems.scenario.load_typed` and range
+checked by :func:`validate_scene`; every problem is a
+:class:`safety_systems.scenario.ScenarioError` naming the field. Metres, in the UR5e's
+base frame (base at the origin, z up, the table at z = 0). This module must not use
+``from __future__ import annotations`` (it breaks Drake's YAML loader).
+
+The seed's Task_Space_Mapping (Section 2.2) builds a binary obstacle map from Mask
+R-CNN segmentation; here the obstacles are given as shapes: spheres, axis-aligned boxes
+and vertical cylinders standing on the table.
+"""
+
+import dataclasses as dc
+import math
+import typing
+from pathlib import Path
+
+import numpy as np
+
+from safety_systems.scenario import ScenarioError, load_typed
+from safety_systems.ur5e import DH_D
+
+UR5E_REACH = 0.85  # m, from the shoulder (datasheet reach)
+UR5E_SHOULDER = np.array([0.0, 0.0, DH_D[0]])  # m, base frame
+MAX_EXTENT = 2.0  # m, any coordinate of a scene
+
+
+@dc.dataclass
+class Sphere:
+    """A sphere: ``centre`` (m) and ``radius`` (m)."""
+
+    name: str = ""
+    centre: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    radius: float = 0.03
+
+
+@dc.dataclass
+class Box:
+    """An axis-aligned box: ``centre`` (m) and ``half_sizes`` along x, y, z (m)."""
+
+    name: str = ""
+    centre: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    half_sizes: list[float] = dc.field(default_factory=lambda: [0.03, 0.03, 0.03])
+
+
+@dc.dataclass
+class Cylinder:
+    """A vertical cylinder standing on the table: axis at (``x``, ``y``) (m), from z = 0
+    up to ``height`` (m), of ``radius`` (m)."""
+
+    name: str = ""
+    x: float = 0.0
+    y: float = 0.0
+    radius: float = 0.03
+    height: float = 0.20
+
+
+@dc.dataclass
+class Obstacles:
+    """Static obstacles. Their order (spheres, then boxes, then cylinders) numbers them
+    O1, O2, ... where a name is empty, and is the order the obstacle-count sweep keeps."""
+
+    spheres: list[Sphere] = dc.field(default_factory=list)
+    boxes: list[Box] = dc.field(default_factory=list)
+    cylinders: list[Cylinder] = dc.field(default_factory=list)
+
+
+@dc.dataclass
+class PlannerSettings:
+    """Settings of the three planners and of the path metrics.
+
+    Field (Eqs. 2-4): ``k_att`` K_att, ``k_rep`` K_rep (seed Section 3.1: 0.03, 0.1),
+    ``d_goal`` d*_goal (m, Eq. 2e), ``zeta`` the safety threshold zeta_i of Eq. 3b (m
+    from the obstacle's surface, where repulsion starts; Table VII: 4-6 cm),
+    ``d_factor_n`` the exponent n and ``d_factor`` the flag of Eq. 3a.
+    Descent: ``step`` (m, the largest step), ``max_iterations``; local-minimum escape
+    (IAPF only): ``escape_attempts`` wall-following tries of at most ``escape_steps``
+    steps each, the tangent drawn from ``numpy.random.default_rng(seed)`` when the goal
+    gives none. Optimisation (Eq. 5a): ``omega1`` (per m of length), ``omega2`` (m, per
+    unit of bending energy, which is in 1/m), ``opt_points`` path points.
+    ``clearance``: the hard bound (m from every obstacle's surface) that the IAPF, the
+    optimised path and RRT* all keep (see ``safety_systems.path_optimisation``).
+    ``workspace_margin``: the bounds L(t), U(t) of Section 2.4: the box around start,
+    goal and obstacles grown by this much (m), never below the table (z >= 0).
+    RRT* (OMPL): ``rrt_time`` budget (s), ``rrt_max_iterations`` (None: no cap; a cap
+    makes a seeded run repeatable), ``rrt_range`` (m, the longest edge).
+    Timing: ``max_tool_speed`` (m/s), ``max_tool_acceleration`` (m/s^2) and the arc
+    length spacing (m) at which every path is resampled for its metrics.
+    """
+
+    k_att: float = 0.03
+    k_rep: float = 0.1
+    d_goal: float = 0.10
+    zeta: float = 0.04
+    d_factor_n: float = 2.0
+    d_factor: bool = True
+    step: float = 0.005
+    max_iterations: int = 2000
+    escape_attempts: int = 4
+    escape_steps: int = 600
+    omega1: float = 1.0
+    omega2: float = 0.001
+    opt_points: int = 40
+    clearance: float = 0.02
+    workspace_margin: float = 0.10
+    rrt_time: float = 1.0
+    rrt_max_iterations: typing.Optional[int] = None
+    rrt_range: float = 0.2
+    max_tool_speed: float = 0.25
+    max_tool_acceleration: float = 1.0
+    metric_spacing: float = 0.005
+    seed: int = 0
+
+
+@dc.dataclass
+class TaskScene:
+    """A planning problem: ``start`` and ``goal`` tool positions (m, UR5e base frame),
+    obstacles and planner settings."""
+
+    name: str = ""
+    start: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    goal: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    obstacles: Obstacles = dc.field(default_factory=Obstacles)
+    planner: PlannerSettings = dc.field(default_factory=PlannerSettings)
+
+
+@dc.dataclass(frozen=True)
+class ObstacleSet:
+    """The obstacles as arrays, in the order of :class:`Obstacles` (for vectorised maths)."""
+
+    names: tuple[str, ...]
+    sphere_centres: np.ndarray  # (S, 3)
+    sphere_radii: np.ndarray  # (S,)
+    box_centres: np.ndarray  # (B, 3)
+    box_half_sizes: np.ndarray  # (B, 3)
+    cylinder_axes: np.ndarray  # (C, 2) x, y
+    cylinder_radii: np.ndarray  # (C,)
+    cylinder_heights: np.ndarray  # (C,)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+
+def obstacle_set(obstacles: Obstacles) -> ObstacleSet:
+    """The arrays of ``obstacles``; empty names become O1, O2, ... by position."""
+    o = obstacles
+    given = [s.name for s in o.spheres] + [b.name for b in o.boxes] + [c.name for c in o.cylinders]
+    return ObstacleSet(
+        names=tuple(n or f"O{i + 1}" for i, n in enumerate(given)),
+        sphere_centres=np.array([s.centre for s in o.spheres], dtype=float).reshape(-1, 3),
+        sphere_radii=np.array([s.radius for s in o.spheres], dtype=float),
+        box_centres=np.array([b.centre for b in o.boxes], dtype=float).reshape(-1, 3),
+        box_half_sizes=np.array([b.half_sizes for b in o.boxes], dtype=float).reshape(-1, 3),
+        cylinder_axes=np.array([[c.x, c.y] for c in o.cylinders], dtype=float).reshape(-1, 2),
+        cylinder_radii=np.array([c.radius for c in o.cylinders], dtype=float),
+        cylinder_heights=np.array([c.height for c in o.cylinders], dtype=float))
+
+
+def _box_distance(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed distance of a centred box from offsets q (..., D) - half sizes, and its
+    gradient in q (the sign of the offset is applied by the caller)."""
+    outside = np.maximum(q, 0.0)
+    norm = np.linalg.norm(outside, axis=-1)
+    inside = np.minimum(q.max(axis=-1), 0.0)
+    grad = np.where(norm[..., None] > 0.0, outside / np.where(norm > 0.0, norm, 1.0)[..., None],
+                    (np.arange(q.shape[-1]) == q.argmax(axis=-1)[..., None]).astype(float))
+    return norm + inside, grad
+
+
+def signed_distances(points: np.ndarray, obstacles: ObstacleSet
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """rho_i (P, N): signed distance (m) of each point (P, 3) from each obstacle's
+    surface (negative inside), and its gradient d rho_i / d point (P, N, 3).
+
+    Sphere: |p - c| - r. Box: the exact box distance. Cylinder: the exact distance from
+    a finite vertical cylinder over 0 <= z <= height, a 2-D box distance in (radial,
+    vertical) coordinates. Gradients are one-sided where the distance has a kink (box
+    edges, the cylinder's rim, the centre of a sphere).
+    """
+    p = np.atleast_2d(np.asarray(points, dtype=float))
+    o = obstacles
+    rhos, grads = [], []
+    if len(o.sphere_radii):
+        v = p[:, None, :] - o.sphere_centres[None]
+        r = np.linalg.norm(v, axis=-1)
+        rhos.append(r - o.sphere_radii)
+        safe = np.where(r > 0.0, r, 1.0)[..., None]
+        grads.append(np.where(r[..., None] > 0.0, v / safe, np.array([0.0, 0.0, 1.0])))
+    if len(o.box_centres):
+        v = p[:, None, :] - o.box_centres[None]
+        rho, g = _box_distance(np.abs(v) - o.box_half_sizes[None])
+        rhos.append(rho)
+        grads.append(g * np.where(v < 0.0, -1.0, 1.0))
+    if len(o.cylinder_radii):
+        v = p[:, None, :2] - o.cylinder_axes[None]
+        r = np.linalg.norm(v, axis=-1)
+        half = 0.5 * o.cylinder_heights[None]
+        dz = p[:, None, 2] - half
+        q = np.stack([r - o.cylinder_radii[None], np.abs(dz) - half], axis=-1)
+        rho, g = _box_distance(q)
+        radial = np.where(r[..., None] > 0.0, v / np.where(r > 0.0, r, 1.0)[..., None],
+                          np.array([1.0, 0.0]))
+        vertical = np.where(dz < 0.0, -1.0, 1.0)
+        rhos.append(rho)
+        grads.append(np.concatenate([g[..., :1] * radial, (g[..., 1] * vertical)[..., None]],
+                                    axis=-1))
+    if not rhos:
+        return np.zeros((len(p), 0)), np.zeros((len(p), 0, 3))
+    return np.concatenate(rhos, axis=1), np.concatenate(grads, axis=1)
+
+
+def clearance(points: np.ndarray, obstacles: ObstacleSet) -> np.ndarray:
+    """(P,) the smallest rho_i over the obstacles (m; +inf without obstacles)."""
+    rho, _ = signed_distances(points, obstacles)
+    return rho.min(axis=1) if rho.shape[1] else np.full(len(rho), np.inf)
+
+
+def workspace_bounds(scene: TaskScene) -> tuple[np.ndarray, np.ndarray]:
+    """L, U (3,) each: the box around start, goal and obstacles, grown by the margin;
+    z never below the table."""
+    o = obstacle_set(scene.obstacles)
+    lo = [np.asarray(scene.start), np.asarray(scene.goal)]
+    hi = list(lo)
+    lo += [o.sphere_centres - o.sphere_radii[:, None], o.box_centres - o.box_half_sizes]
+    hi += [o.sphere_centres + o.sphere_radii[:, None], o.box_centres + o.box_half_sizes]
+    r = o.cylinder_radii[:, None]
+    lo.append(np.column_stack([o.cylinder_axes - r, np.zeros(len(r))]))
+    hi.append(np.column_stack([o.cylinder_axes + r, o.cylinder_heights]))
+    m = scene.planner.workspace_margin
+    low = np.vstack([np.reshape(a, (-1, 3)) for a in lo]).min(axis=0) - m
+    high = np.vstack([np.reshape(a, (-1, 3)) for a in hi]).max(axis=0) + m
+    low[2] = max(low[2], 0.0)
+    return low, high
+
+
+def _check(ok: bool, field: str, value: typing.Any, allowed: str) -> None:
+    if not ok:
+        raise ScenarioError(field, value, allowed)
+
+
+def _point(field: str, value: list[float]) -> None:
+    _check(len(value) == 3 and all(math.isfinite(v) and abs(v) <= MAX_EXTENT for v in value),
+           field, value, f"3 finite numbers in m, each within +-{MAX_EXTENT}")
+
+
+def _positive(field: str, value: float, most: float = math.inf) -> None:
+    _check(math.isfinite(value) and 0.0 < value <= most, field, value,
+           "a finite number > 0" + ("" if most == math.inf else f" and <= {most}"))
+
+
+def validate_scene(scene: TaskScene) -> None:
+    """Range checks; raises :class:`ScenarioError` naming the field."""
+    for name in ("start", "goal"):
+        value = getattr(scene, name)
+        _point(name, value)
+        _check(value[2] >= 0.0, name, value, "a point above the table (z >= 0)")
+        reach = float(np.linalg.norm(np.asarray(value) - UR5E_SHOULDER))
+        _check(reach <= UR5E_REACH, name, value,
+               f"a point within the UR5e's reach ({UR5E_REACH} m from the shoulder at "
+               f"z = {UR5E_SHOULDER[2]} m; this one is {reach:.3f} m)")
+    _check(scene.start != scene.goal, "goal", scene.goal, "a point other than the start")
+    o = scene.obstacles
+    for i, s in enumerate(o.spheres):
+        _point(f"obstacles.spheres[{i}].centre", s.centre)
+        _positive(f"obstacles.spheres[{i}].radius", s.radius, MAX_EXTENT)
+    for i, b in enumerate(o.boxes):
+        _point(f"obstacles.boxes[{i}].centre", b.centre)
+        _check(len(b.half_sizes) == 3 and all(math.isfinite(h) and 0.0 < h <= MAX_EXTENT
+                                              for h in b.half_sizes),
+               f"obstacles.boxes[{i}].half_sizes", b.half_sizes, "3 numbers > 0 in m")
+    for i, c in enumerate(o.cylinders):
+        _point(f"obstacles.cylinders[{i}]", [c.x, c.y, 0.0])
+        _positive(f"obstacles.cylinders[{i}].radius", c.radius, MAX_EXTENT)
+        _positive(f"obstacles.cylinders[{i}].height", c.height, MAX_EXTENT)
+    names = obstacle_set(o).names
+    _check(len(set(names)) == len(names), "obstacles", list(names), "unique obstacle names")
+    _validate_planner(scene.planner)
+    obstacles = obstacle_set(o)
+    bound = scene.planner.clearance
+    for name in ("start", "goal"):
+        gap = float(clearance(np.array([getattr(scene, name)]), obstacles)[0])
+        _check(gap >= bound, name, getattr(scene, name),
+               f"a point at least planner.clearance = {bound} m from every obstacle "
+               f"(this one is {gap:.4f} m)")
+
+
+def _validate_planner(p: PlannerSettings) -> None:
+    f = "planner"
+    for name in ("k_att", "k_rep", "d_goal", "zeta", "step", "clearance", "rrt_time",
+                 "rrt_range", "max_tool_speed", "max_tool_acceleration", "metric_spacing"):
+        _positive(f"{f}.{name}", getattr(p, name))
+    _check(p.clearance < p.zeta, f"{f}.clearance", p.clearance,
+           f"less than planner.zeta ({p.zeta} m): the field must act before the bound")
+    _check(p.step <= p.clearance, f"{f}.step", p.step,
+           f"at most planner.clearance ({p.clearance} m)")
+    _check(math.isfinite(p.d_factor_n) and 0.0 <= p.d_factor_n <= 4.0, f"{f}.d_factor_n",
+           p.d_factor_n, "0 to 4")
+    for name, low, high in (("max_iterations", 1, 10**6), ("escape_attempts", 0, 100),
+                            ("escape_steps", 1, 10**5), ("opt_points", 3, 400)):
+        value = getattr(p, name)
+        _check(low <= value <= high, f"{f}.{name}", value, f"an integer from {low} to {high}")
+    for name in ("omega1", "omega2", "workspace_margin"):
+        value = getattr(p, name)
+        _check(math.isfinite(value) and value >= 0.0, f"{f}.{name}", value,
+               "a finite number >= 0")
+    _check(p.omega1 + p.omega2 > 0.0, f"{f}.omega1", p.omega1, "omega1 + omega2 > 0")
+    if p.rrt_max_iterations is not None:
+        _check(p.rrt_max_iterations >= 1, f"{f}.rrt_max_iterations", p.rrt_max_iterations,
+               "an integer >= 1 (or null: no cap)")
+    _check(p.seed >= 0, f"{f}.seed", p.seed, "an integer >= 0")
+
+
+def load_scene(path: str | Path) -> TaskScene:
+    """Load and validate a scene file; raises :class:`ScenarioError`."""
+    scene = load_typed(TaskScene, path)
+    validate_scene(scene)
+    return scene
