@@ -31,8 +31,10 @@ import dataclasses
 
 import numpy as np
 
-SAFETY_WEIGHTS = (0.4, 0.3, 0.3)
-EFFICIENCY_WEIGHTS = (0.3, 0.3, 0.1, 0.3)
+SAFETY_WEIGHTS = {"safe_navigation_efficiency": 0.4, "obstacle_proximity": 0.3,
+                  "time_to_collision": 0.3}
+EFFICIENCY_WEIGHTS = {"task_completion": 0.3, "power_efficiency": 0.3,
+                      "trajectory_smoothness": 0.1, "joint_smoothness": 0.3}
 A, B = 0.8, 0.2
 
 
@@ -99,8 +101,8 @@ def time_to_collision(distance: np.ndarray, closing_speed: np.ndarray, horizon: 
 
 def combine(safety: dict, efficiency: dict) -> dict:
     """The weighted safety, efficiency and overall scores (Section 5)."""
-    s = float(np.dot(SAFETY_WEIGHTS, list(safety.values())))
-    e = float(np.dot(EFFICIENCY_WEIGHTS, list(efficiency.values())))
+    s = sum(w * safety[name] for name, w in SAFETY_WEIGHTS.items())
+    e = sum(w * efficiency[name] for name, w in EFFICIENCY_WEIGHTS.items())
     return {"safety_score": s, "efficiency_score": e, "overall_score": A * s + B * e}
 
 

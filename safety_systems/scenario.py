@@ -650,7 +650,11 @@ def load_scenario(path: str | Path) -> Scenario:
     task = scenario.robot.path.task_path
     if task is not None and not task.points and task.file:
         points_file = Path(path).parent / task.file
-        task.points = load_typed(TaskPoints, points_file).points
+        try:
+            task.points = load_typed(TaskPoints, points_file).points
+        except ScenarioError as e:
+            raise ScenarioError("robot.path.task_path.file", task.file,
+                                f"a YAML file of points: {e}") from None
         _check(len(task.points) >= 2, "robot.path.task_path.file", task.file,
                f"a file with 2 or more points ({points_file})")
     validate_scenario(scenario)

@@ -40,13 +40,15 @@ def recovery_step(k: float, rate: float, target: float, dt: float, *,
 
     Down: at once (the PathFollower's brakes bound the actual slow-down). Up: a
     bounded-jerk profile: the rate of k (path acceleration) moves towards the largest
-    value that still lets it reach 0 by the target, min(max_acceleration,
-    sqrt(2 max_jerk (target - k))), changing by at most max_jerk * dt per step.
-    Returns (k, rate).
+    value from which, lowering it by max_jerk * dt a step, k still stops by the target
+    (r dt / 2 + r^2 / (2 max_jerk) <= target - k), capped at max_acceleration, and
+    changes by at most max_jerk * dt per step. Returns (k, rate).
     """
     if target <= k:
         return target, 0.0
-    wanted = min(max_acceleration, float(np.sqrt(2.0 * max_jerk * (target - k))))
+    half = 0.5 * max_jerk * dt
+    wanted = min(max_acceleration,
+                 float(-half + np.sqrt(half * half + 2.0 * max_jerk * (target - k))))
     rate = min(max(rate + np.clip(wanted - rate, -max_jerk * dt, max_jerk * dt), 0.0),
                max_acceleration)
     return min(k + rate * dt, target), rate
