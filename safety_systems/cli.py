@@ -81,6 +81,26 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _plan(args: argparse.Namespace) -> int:
+    """Plan with IAPF (+ Eq. 5 optimisation), GDA and RRT*; exit 1 when the IAPF does
+    not reach the goal (no ``task_path.yaml`` is written then)."""
+    from safety_systems.plan_report import write_plan
+    from safety_systems.plan_sweeps import SWEEPS
+    from safety_systems.task_space import load_scene
+
+    if args.sweep is not None and args.sweep not in SWEEPS:
+        raise ScenarioError("--sweep", args.sweep, " | ".join(SWEEPS))
+    scene = load_scene(args.scene)
+    report = write_plan(scene, Path(args.out), sweep=args.sweep)
+    rows = {r["planner"]: r for r in report["rows"]}
+    if not args.quiet:
+        from safety_systems.plan_report import markdown_table
+
+        print(markdown_table(report["rows"]), end="")
+        print(f"-> {args.out}")
+    return 0 if rows["IAPF"]["reached_goal"] else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="safety-systems",
@@ -119,6 +139,16 @@ def build_parser() -> argparse.ArgumentParser:
     cmp_.add_argument("--out", required=True, help="output directory")
     cmp_.add_argument("--quiet", action="store_true")
     cmp_.set_defaults(run=_compare)
+    plan = commands.add_parser(
+        "plan", help="plan a tool path around static obstacles with IAPF, GDA and RRT* "
+                     "(seed 001) and write paths, tables, a plot and task_path.yaml "
+                     "(exit 1 if the IAPF does not reach the goal)")
+    plan.add_argument("scene", help="task-space scene YAML file (models/scenes/)")
+    plan.add_argument("--out", required=True, help="output directory")
+    plan.add_argument("--sweep", help="also run one of the seed's sweeps: obstacles, "
+                                      "radius, radii, height, k_att, k_rep, zeta")
+    plan.add_argument("--quiet", action="store_true")
+    plan.set_defaults(run=_plan)
     return parser
 
 

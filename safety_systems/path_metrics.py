@@ -11,6 +11,8 @@ so its figure grows as the sampling gets finer. Paths are therefore compared aft
 resampling at one arc-length spacing (:func:`resample`, ``metric_spacing``).
 """
 
+import itertools
+
 import numpy as np
 
 from safety_systems.task_space import ObstacleSet, clearance
@@ -84,7 +86,7 @@ def dense_points(points: np.ndarray, spacing: float = 0.0005) -> np.ndarray:
     included), for checks between the vertices."""
     p = np.asarray(points, dtype=float)
     out = [p[:1]]
-    for a, b in zip(p[:-1], p[1:]):
+    for a, b in itertools.pairwise(p):
         n = max(1, int(np.ceil(np.linalg.norm(b - a) / spacing)))
         out.append(a + np.linspace(0.0, 1.0, n + 1)[1:, None] * (b - a))
     return np.vstack(out)

@@ -3,14 +3,19 @@ gradient-descent APF it is compared with (the seed's GDA baseline, Section 3).
 
 Both follow F_total (Eq. 4a) from the start in steps of at most ``planner.step``.
 
-- :func:`plan_gda`: plain APF, d_factor off (Eq. 3a's flag False, so F(2) = 0), a
-  fixed step along F_total / |F_total|, no escape. It bounces in and out of the zone
-  where repulsion acts and stops when it stagnates (trapped in a local minimum).
-- :func:`plan_iapf`: the IAPF: d_factor and F(2) as configured; every step a descent
-  step on U_combined (Eq. 1b) along F_total / |F_total|, halved until U decreases and
-  the new point keeps ``planner.clearance`` from every obstacle (so the path does not
-  chatter on the repulsive wall and never breaks the bound); and an escape from local
-  minima.
+- :func:`plan_gda`: plain APF with the GDA's gains (``planner.gda_k_att``,
+  ``gda_k_rep``; the same Eq. 2e attraction and zeta as the IAPF), d_factor off (Eq.
+  3a's flag False, so F(2) = 0), a fixed step along F_total / |F_total|, no escape. It
+  bounces in and out of the zone where repulsion acts and stops when it stagnates
+  (trapped in a local minimum) or at ``planner.max_iterations``.
+- :func:`plan_iapf`: the IAPF: d_factor and F(2) as configured; it follows the flow
+  line of F_total (the path of steepest descent of U_combined, Eq. 1b) with Heun's
+  method, each step as long as ``planner.step`` allows while the force turns by at
+  most 10 degrees over it (so the path is smooth where the repulsion bends it rather
+  than chattering on it), U_combined falls, and the new point keeps
+  ``planner.clearance`` from every obstacle, plus step^2 / (8 clearance), the most a
+  straight step between two such points can dip towards a convex obstacle (so no point
+  of the path breaks the bound); and an escape from local minima.
 
 The seed's "gradient-based recalibration ... to prevent the robot from becoming stuck
 in local minima" (Section 2.3.2, item 2) is not specified. Our reading: where the
@@ -36,7 +41,8 @@ from safety_systems.task_space import TaskScene, clearance, signed_distances
 
 STALL_WINDOW = 20  # steps
 STALL_FRACTION = 0.1  # of STALL_WINDOW full steps
-MIN_STEP_FRACTION = 1.0 / 64.0  # of planner.step: the line search's shortest step
+MIN_STEP_FRACTION = 1.0 / 1024.0  # of planner.step: the shortest step tried
+COS_MAX_TURN = float(np.cos(np.radians(10.0)))  # largest turn of the force within a step
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +60,14 @@ class PlannedPath:
     note: str = ""
 
 
+def guard_distance(clearance: float, step: float) -> float:
+    """The distance (m) at which the end points of a straight step of ``step`` m must
+    stay from every convex obstacle for the whole step to keep ``clearance``: the
+    inflated obstacle curves no tighter than ``clearance``, so a chord dips at most
+    step^2 / (8 clearance) below its ends."""
+    return clearance + step**2 / (8.0 * clearance)
+
+
 def _stalled(path: list[np.ndarray], step: float) -> bool:
     if len(path) <= STALL_WINDOW:
         return False
@@ -67,12 +81,12 @@ def plan_gda(scene: TaskScene) -> PlannedPath:
     ``planner.max_iterations`` steps."""
     began = time.perf_counter()
     p = scene.planner
-    field = field_from_scene(scene, d_factor=False)
+    field = field_from_scene(scene, baseline=True)
     goal = field.goal
     q = np.asarray(scene.start, dtype=float)
     path = [q]
     reached, note = False, "iteration limit"
-    for it in range(p.max_iterations):
+    for _ in range(p.max_iterations):
         to_goal = float(np.linalg.norm(goal - q))
         if to_goal <= p.step:
             path.append(goal.copy())
@@ -89,21 +103,32 @@ def plan_gda(scene: TaskScene) -> PlannedPath:
                        iterations=len(path) - 1, note=note)
 
 
-def _descent_step(q: np.ndarray, u: float, field: Field, step: float, bound: float
-                  ) -> tuple[np.ndarray, float] | None:
-    """One IAPF step: along F_total, halved until U decreases and the bound holds."""
+def _direction(q: np.ndarray, field: Field) -> np.ndarray | None:
     force = total_force(q, field)[0]
     norm = float(np.linalg.norm(force))
-    if norm == 0.0:
+    return force / norm if norm > 0.0 else None
+
+
+def _flow_step(q: np.ndarray, u: float, field: Field, step: float, bound: float
+               ) -> tuple[np.ndarray, float] | None:
+    """One IAPF step along the flow line of F_total (Heun's method on the unit force
+    direction): the longest step of at most ``step`` m, halving, over which the force's
+    direction turns by at most MAX_TURN, that lowers U_combined and keeps the clearance
+    ``bound``; None when no step of at least MIN_STEP_FRACTION of ``step`` does."""
+    d1 = _direction(q, field)
+    if d1 is None:
         return None
-    direction = force / norm
-    s = step
-    while s >= step * MIN_STEP_FRACTION:
-        candidate = q + s * direction
-        u_new = float(total_potential(candidate, field)[0])
-        if u_new < u and clearance(candidate[None], field.obstacles)[0] >= bound:
-            return candidate, u_new
-        s *= 0.5
+    h = step
+    while h >= step * MIN_STEP_FRACTION:
+        d2 = _direction(q + h * d1, field)
+        if d2 is not None and float(d1 @ d2) >= COS_MAX_TURN:
+            mean = d1 + d2
+            candidate = q + h * mean / np.linalg.norm(mean)
+            rho, _ = signed_distances(candidate[None], field.obstacles)
+            u_new = float(total_potential(candidate, field, rho)[0])
+            if u_new < u and rho.min(initial=np.inf) >= bound:
+                return candidate, u_new
+        h *= 0.5
     return None
 
 
@@ -116,6 +141,7 @@ def _escape(q_min: np.ndarray, u_min: float, field: Field, scene: TaskScene,
     k = int(rho[0].argmin())
     normal = grad[0, k]
     hold = max(float(rho[0, k]), p.clearance + p.step)
+    bound = guard_distance(p.clearance, p.step)
     heading = field.goal - q_min
     heading = heading - heading.dot(normal) * normal
     if random_tangent or np.linalg.norm(heading) < 1e-3 * np.linalg.norm(field.goal - q_min):
@@ -131,8 +157,9 @@ def _escape(q_min: np.ndarray, u_min: float, field: Field, scene: TaskScene,
         if np.linalg.norm(tangent) > 1e-9:
             heading = tangent / np.linalg.norm(tangent)
         correction = np.clip(hold - rho[0, k], -p.step, p.step)
-        candidate = q + p.step * heading + correction * normal
-        if clearance(candidate[None], field.obstacles)[0] < p.clearance:
+        move = p.step * heading + correction * normal
+        candidate = q + move * min(1.0, p.step / float(np.linalg.norm(move)))
+        if clearance(candidate[None], field.obstacles)[0] < bound:
             return None
         q = candidate
         walked.append(q)
@@ -154,13 +181,13 @@ def plan_iapf(scene: TaskScene) -> PlannedPath:
     path = [q]
     escapes, attempts, last_escape = 0, 0, 0
     reached, note = False, "iteration limit"
-    for it in range(p.max_iterations):
+    for _ in range(p.max_iterations):
         if np.linalg.norm(goal - q) <= p.step:
             path.append(goal.copy())
             reached, note = True, ""
             break
-        result = _descent_step(q, u, field, min(p.step, float(np.linalg.norm(goal - q))),
-                               p.clearance)
+        result = _flow_step(q, u, field, min(p.step, float(np.linalg.norm(goal - q))),
+                            guard_distance(p.clearance, p.step))
         if result is not None:
             q, u = result
             path.append(q)

@@ -28,13 +28,18 @@ How we read the seed where it is ambiguous:
   when it lies near an obstacle.
 - rho_i is the distance from the obstacle's surface (``task_space.signed_distances``)
   and zeta_i one threshold for every obstacle (``PlannerSettings.zeta``).
-- Units: metres. The seed's gains (K_att = 0.03, K_rep = 0.1) are used unchanged.
-  In metres the repulsion of Eq. 3b rises steeply just inside zeta (1/rho^3 against an
-  attraction of at most K_att d*_goal), so an IAPF path settles a fraction of a
-  millimetre inside zeta of the obstacles it passes.
+- Units: the seed's coordinates are centimetres (``models/scenes/paper.yaml``), and so,
+  we read, are the lengths in its gains: Eqs. 2-3 are evaluated with every length (d,
+  rho, zeta, d*_goal, the d_factor) in ``field_unit`` (default 0.01 m). In metres the
+  same K_att = 0.03 and K_rep = 0.1 would make the repulsion a wall a micrometre inside
+  zeta (it grows as 1/rho^3 against an attraction of K_att d*_goal); in centimetres the
+  field balances a few millimetres inside zeta and the gains shape the path, as the
+  seed's Tables V-VII vary them. Positions, gradients and forces in this module's
+  interface are per metre: grad_q U = (1 / field_unit) grad U in the seed's units.
 """
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -45,7 +50,8 @@ RHO_FLOOR = 1e-6  # m: rho is clamped here so the potential stays finite inside 
 
 @dataclasses.dataclass(frozen=True)
 class Field:
-    """Everything Eqs. 2-4 need: goal (3,) m, gains, thresholds (m) and obstacles."""
+    """Everything Eqs. 2-4 need: goal (3,) m, gains, thresholds (m), obstacles, and the
+    length unit (m) the gains are for."""
 
     goal: np.ndarray
     k_att: float
@@ -55,15 +61,25 @@ class Field:
     n: float
     flag: bool
     obstacles: ObstacleSet
+    unit: float = 1.0
+
+    @functools.cached_property
+    def in_unit(self) -> "Field":
+        """This field with every length divided by ``unit`` (obstacles excepted)."""
+        u = self.unit
+        return dataclasses.replace(self, goal=self.goal / u, d_goal=self.d_goal / u,
+                                   zeta=self.zeta / u, unit=1.0)
 
 
-def field_from_scene(scene: TaskScene, *, d_factor: bool | None = None) -> Field:
-    """The field of a scene; ``d_factor`` overrides the scene's flag (None: as set)."""
+def field_from_scene(scene: TaskScene, *, baseline: bool = False) -> Field:
+    """The IAPF field of a scene, or with ``baseline`` the GDA's: its own gains and no
+    d_factor (Eq. 3a's flag False)."""
     p = scene.planner
-    return Field(goal=np.asarray(scene.goal, dtype=float), k_att=p.k_att, d_goal=p.d_goal,
-                 k_rep=p.k_rep, zeta=p.zeta, n=p.d_factor_n,
-                 flag=p.d_factor if d_factor is None else d_factor,
-                 obstacles=obstacle_set(scene.obstacles))
+    return Field(goal=np.asarray(scene.goal, dtype=float),
+                 k_att=p.gda_k_att if baseline else p.k_att, d_goal=p.d_goal,
+                 k_rep=p.gda_k_rep if baseline else p.k_rep, zeta=p.zeta, n=p.d_factor_n,
+                 flag=False if baseline else p.d_factor,
+                 obstacles=obstacle_set(scene.obstacles), unit=p.field_unit)
 
 
 def goal_distance(q: np.ndarray, goal: np.ndarray) -> np.ndarray:
@@ -117,7 +133,8 @@ def repulsive_potential(rho: np.ndarray, zeta: float, k_rep: float,
 
 def repulsive_forces(q: np.ndarray, rho: np.ndarray, grad_rho: np.ndarray,
                      field: Field) -> tuple[np.ndarray, np.ndarray]:
-    """F(1)_rep,i and F(2)_rep,i (each (P, N, 3)) of Eqs. 3d and 3f.
+    """F(1)_rep,i and F(2)_rep,i (each (P, N, 3)) of Eqs. 3d and 3f, every length (q,
+    rho and the field's) in one unit; ``field.unit`` is not applied here.
 
     F(1) = -d_factor grad of Eq. 3c = K_rep (1/rho - 1/zeta) / rho^2 d_factor grad rho
     (away from the obstacle); F(2) = -1/2 K_rep (1/rho - 1/zeta)^2 grad d_factor
@@ -133,19 +150,26 @@ def repulsive_forces(q: np.ndarray, rho: np.ndarray, grad_rho: np.ndarray,
     return f1, f2
 
 
-def total_potential(q: np.ndarray, field: Field) -> np.ndarray:
-    """Eq. 1b: (P,) U_att + sum_i U_rep,i."""
+def total_potential(q: np.ndarray, field: Field, rho: np.ndarray | None = None
+                    ) -> np.ndarray:
+    """Eq. 1b: (P,) U_att + sum_i U_rep,i at points q (P, 3) m, lengths in field.unit;
+    ``rho`` (P, N): the points' signed distances, if already known."""
     q = np.atleast_2d(q)
-    rho, _ = signed_distances(q, field.obstacles)
-    factor = d_factor(q, field.goal, field.n, field.flag)
-    return (attractive_potential(q, field.goal, field.k_att, field.d_goal)
-            + repulsive_potential(rho, field.zeta, field.k_rep, factor).sum(axis=1))
+    if rho is None:
+        rho, _ = signed_distances(q, field.obstacles)
+    f, u = field.in_unit, field.unit
+    qs = q / u
+    factor = d_factor(qs, f.goal, f.n, f.flag)
+    return (attractive_potential(qs, f.goal, f.k_att, f.d_goal)
+            + repulsive_potential(rho / u, f.zeta, f.k_rep, factor).sum(axis=1))
 
 
 def total_force(q: np.ndarray, field: Field) -> np.ndarray:
-    """Eq. 4a: (P, 3) F_total = F_att + F_rep, F_rep = sum_i (F(1)_i + F(2)_i) (Eq. 3g)."""
+    """Eq. 4a: (P, 3) F_total = F_att + F_rep, F_rep = sum_i (F(1)_i + F(2)_i) (Eq. 3g);
+    -grad of :func:`total_potential` per metre."""
     q = np.atleast_2d(q)
     rho, grad_rho = signed_distances(q, field.obstacles)
-    f1, f2 = repulsive_forces(q, rho, grad_rho, field)
-    return (-attractive_gradient(q, field.goal, field.k_att, field.d_goal)
-            + f1.sum(axis=1) + f2.sum(axis=1))
+    f, u = field.in_unit, field.unit
+    f1, f2 = repulsive_forces(q / u, rho / u, grad_rho, f)
+    return (-attractive_gradient(q / u, f.goal, f.k_att, f.d_goal)
+            + f1.sum(axis=1) + f2.sum(axis=1)) / u

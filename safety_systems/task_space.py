@@ -72,14 +72,19 @@ class PlannerSettings:
     """Settings of the three planners and of the path metrics.
 
     Field (Eqs. 2-4): ``k_att`` K_att, ``k_rep`` K_rep (seed Section 3.1: 0.03, 0.1),
-    ``d_goal`` d*_goal (m, Eq. 2e), ``zeta`` the safety threshold zeta_i of Eq. 3b (m
-    from the obstacle's surface, where repulsion starts; Table VII: 4-6 cm),
-    ``d_factor_n`` the exponent n and ``d_factor`` the flag of Eq. 3a.
+    ``d_goal`` d*_goal (m, Eq. 2e; the seed gives no value, we take 10 cm), ``zeta``
+    the safety threshold zeta_i of Eq. 3b (m from the obstacle's surface, where
+    repulsion starts; Table VII: 4-6 cm), ``d_factor_n`` the exponent n (the seed gives
+    no value; we take 2) and ``d_factor`` the flag of Eq. 3a; ``field_unit`` (m) the
+    unit of every length in Eqs. 2-3 (the seed's centimetres; see
+    ``safety_systems.potential_field``). GDA baseline: ``gda_k_att``, ``gda_k_rep``
+    (Section 3.3: 1/150 and 900, with d_0 = zeta), no d_factor.
     Descent: ``step`` (m, the largest step), ``max_iterations``; local-minimum escape
     (IAPF only): ``escape_attempts`` wall-following tries of at most ``escape_steps``
     steps each, the tangent drawn from ``numpy.random.default_rng(seed)`` when the goal
     gives none. Optimisation (Eq. 5a): ``omega1`` (per m of length), ``omega2`` (m, per
-    unit of bending energy, which is in 1/m), ``opt_points`` path points.
+    unit of bending energy, which is in 1/m), ``opt_points`` control points of the
+    optimised cubic B-spline.
     ``clearance``: the hard bound (m from every obstacle's surface) that the IAPF, the
     optimised path and RRT* all keep (see ``safety_systems.path_optimisation``).
     ``workspace_margin``: the bounds L(t), U(t) of Section 2.4: the box around start,
@@ -88,6 +93,10 @@ class PlannerSettings:
     makes a seeded run repeatable), ``rrt_range`` (m, the longest edge).
     Timing: ``max_tool_speed`` (m/s), ``max_tool_acceleration`` (m/s^2) and the arc
     length spacing (m) at which every path is resampled for its metrics.
+    The seed gives none of the other values; ours: clearance 2 cm (half the smallest
+    zeta of Table VII), omega1 = 1, omega2 = 1 mm (the path stays close to the
+    shortest one and smooth), steps of 5 mm, 0.25 m/s (ISO 10218-1's reduced speed) and
+    1 m/s^2 for the tool.
     """
 
     k_att: float = 0.03
@@ -96,13 +105,16 @@ class PlannerSettings:
     zeta: float = 0.04
     d_factor_n: float = 2.0
     d_factor: bool = True
+    field_unit: float = 0.01
+    gda_k_att: float = 1.0 / 150.0
+    gda_k_rep: float = 900.0
     step: float = 0.005
     max_iterations: int = 2000
     escape_attempts: int = 4
     escape_steps: int = 600
     omega1: float = 1.0
     omega2: float = 0.001
-    opt_points: int = 40
+    opt_points: int = 12
     clearance: float = 0.02
     workspace_margin: float = 0.10
     rrt_time: float = 1.0
@@ -162,11 +174,12 @@ def _box_distance(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Signed distance of a centred box from offsets q (..., D) - half sizes, and its
     gradient in q (the sign of the offset is applied by the caller)."""
     outside = np.maximum(q, 0.0)
-    norm = np.linalg.norm(outside, axis=-1)
-    inside = np.minimum(q.max(axis=-1), 0.0)
-    grad = np.where(norm[..., None] > 0.0, outside / np.where(norm > 0.0, norm, 1.0)[..., None],
-                    (np.arange(q.shape[-1]) == q.argmax(axis=-1)[..., None]).astype(float))
-    return norm + inside, grad
+    norm = np.sqrt((outside * outside).sum(axis=-1))
+    top = q.max(axis=-1)
+    inside_grad = (q == top[..., None]).astype(float)  # the face nearest from inside
+    grad = np.where(norm[..., None] > 0.0, outside / np.maximum(norm, 1e-300)[..., None],
+                    inside_grad / inside_grad.sum(axis=-1, keepdims=True))
+    return norm + np.minimum(top, 0.0), grad
 
 
 def signed_distances(points: np.ndarray, obstacles: ObstacleSet
@@ -184,30 +197,33 @@ def signed_distances(points: np.ndarray, obstacles: ObstacleSet
     rhos, grads = [], []
     if len(o.sphere_radii):
         v = p[:, None, :] - o.sphere_centres[None]
-        r = np.linalg.norm(v, axis=-1)
+        r = np.sqrt((v * v).sum(axis=-1))
         rhos.append(r - o.sphere_radii)
-        safe = np.where(r > 0.0, r, 1.0)[..., None]
-        grads.append(np.where(r[..., None] > 0.0, v / safe, np.array([0.0, 0.0, 1.0])))
+        unit = v / np.maximum(r, 1e-300)[..., None]
+        unit[r == 0.0] = (0.0, 0.0, 1.0)
+        grads.append(unit)
     if len(o.box_centres):
         v = p[:, None, :] - o.box_centres[None]
         rho, g = _box_distance(np.abs(v) - o.box_half_sizes[None])
         rhos.append(rho)
-        grads.append(g * np.where(v < 0.0, -1.0, 1.0))
+        grads.append(np.where(v < 0.0, -g, g))
     if len(o.cylinder_radii):
         v = p[:, None, :2] - o.cylinder_axes[None]
-        r = np.linalg.norm(v, axis=-1)
-        half = 0.5 * o.cylinder_heights[None]
-        dz = p[:, None, 2] - half
-        q = np.stack([r - o.cylinder_radii[None], np.abs(dz) - half], axis=-1)
+        r = np.sqrt((v * v).sum(axis=-1))
+        half = 0.5 * o.cylinder_heights
+        dz = p[:, 2:3] - half
+        q = np.stack([r - o.cylinder_radii, np.abs(dz) - half], axis=-1)
         rho, g = _box_distance(q)
-        radial = np.where(r[..., None] > 0.0, v / np.where(r > 0.0, r, 1.0)[..., None],
-                          np.array([1.0, 0.0]))
-        vertical = np.where(dz < 0.0, -1.0, 1.0)
+        grad = np.empty(rho.shape + (3,))
+        grad[..., :2] = g[..., :1] * v / np.maximum(r, 1e-300)[..., None]
+        grad[..., :2][r == 0.0] = (g[..., 0][r == 0.0])[:, None] * np.array([1.0, 0.0])
+        grad[..., 2] = np.where(dz < 0.0, -g[..., 1], g[..., 1])
         rhos.append(rho)
-        grads.append(np.concatenate([g[..., :1] * radial, (g[..., 1] * vertical)[..., None]],
-                                    axis=-1))
+        grads.append(grad)
     if not rhos:
         return np.zeros((len(p), 0)), np.zeros((len(p), 0, 3))
+    if len(rhos) == 1:
+        return rhos[0], grads[0]
     return np.concatenate(rhos, axis=1), np.concatenate(grads, axis=1)
 
 
@@ -288,7 +304,8 @@ def validate_scene(scene: TaskScene) -> None:
 
 def _validate_planner(p: PlannerSettings) -> None:
     f = "planner"
-    for name in ("k_att", "k_rep", "d_goal", "zeta", "step", "clearance", "rrt_time",
+    for name in ("k_att", "k_rep", "gda_k_att", "gda_k_rep", "field_unit", "d_goal", "zeta",
+                 "step", "clearance", "rrt_time",
                  "rrt_range", "max_tool_speed", "max_tool_acceleration", "metric_spacing"):
         _positive(f"{f}.{name}", getattr(p, name))
     _check(p.clearance < p.zeta, f"{f}.clearance", p.clearance,
@@ -298,7 +315,7 @@ def _validate_planner(p: PlannerSettings) -> None:
     _check(math.isfinite(p.d_factor_n) and 0.0 <= p.d_factor_n <= 4.0, f"{f}.d_factor_n",
            p.d_factor_n, "0 to 4")
     for name, low, high in (("max_iterations", 1, 10**6), ("escape_attempts", 0, 100),
-                            ("escape_steps", 1, 10**5), ("opt_points", 3, 400)):
+                            ("escape_steps", 1, 10**5), ("opt_points", 4, 100)):
         value = getattr(p, name)
         _check(low <= value <= high, f"{f}.{name}", value, f"an integer from {low} to {high}")
     for name in ("omega1", "omega2", "workspace_margin"):
