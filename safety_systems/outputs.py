@@ -14,7 +14,8 @@ from safety_systems.ssm import separation_distances
 
 def commanded_speed(run: Run) -> np.ndarray:
     """(T,) the controller's commanded path speed (k for the SSM override)."""
-    key = "override" if "override.speed_scale_commanded" in run.signals else "speed"
+    key = next(k for k in ("override", "speed", "zones")
+               if f"{k}.speed_scale_commanded" in run.signals)
     return run[f"{key}.speed_scale_commanded"][:, 0]
 
 
@@ -32,7 +33,8 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
     Columns: time (s), k (commanded speed scale), path_rate (sigma), robot_speed (true
     tool speed, m/s); for the SSM override stop_reason (0 none, 1 separation, 2 sensor
     fault, 3 lost track) and S_max (m), for the seed-004 controllers danger_index (the
-    controller's predicted DI); then for each body ``<body>:d_true`` (true distance,
+    controller's predicted DI), for the zones zone (0 green, 1 yellow, 2 red) and
+    closest_distance (m, Eq. 6b); then for each body ``<body>:d_true`` (true distance,
     empty when absent), ``<body>:d_measured`` (the distance the controller saw, empty
     without a track) and, for the SSM override, ``<body>:S`` (the monitor's S_i).
     """
@@ -45,6 +47,9 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
         header += ["stop_reason", "S_max"]
         columns += [run["override.stop_reason"][:, 0],
                     run["override.max_protective_distance"][:, 0]]
+    elif "zones.zone" in run.signals:
+        header += ["zone", "closest_distance"]
+        columns += [run["zones.zone"][:, 0], run["zones.closest_distance"][:, 0]]
     else:
         header.append("danger_index")
         columns.append(run["speed.danger_index"][:, 0])
@@ -105,10 +110,13 @@ def plot_run(run: Run, path: Path) -> None:
     k_axis = bottom.twinx()
     k = commanded_speed(run)
     k_axis.plot(t, k, color="black", label="k (commanded speed / nominal)")
-    if s is None:
+    if "speed.danger_index" in run.signals:
         k_axis.plot(t, run["speed.danger_index"][:, 0], color="purple", label="danger index")
+    if "zones.zone" in run.signals:
+        k_axis.plot(t, run["zones.zone"][:, 0] / 2.0, color="tab:red", lw=0.8,
+                    label="zone (0 green, 0.5 yellow, 1 red)")
     k_axis.set_ylim(min(-0.05, float(k.min()) - 0.05), max(1.05, float(k.max()) + 0.05))
-    k_axis.set_ylabel("commanded speed k, danger index")
+    k_axis.set_ylabel("commanded speed k" + ("" if s is not None else ", DI / zone"))
     lines = bottom.get_legend_handles_labels()
     k_lines = k_axis.get_legend_handles_labels()
     bottom.legend(lines[0] + k_lines[0], lines[1] + k_lines[1], loc="upper right",
@@ -116,7 +124,7 @@ def plot_run(run: Run, path: Path) -> None:
     bottom.grid(alpha=0.3)
     c = run.scenario.controller
     fig.suptitle(f"{run.scenario.name}: SSM speed override (human speed: {c.safety.human_speed})"
-                 if c.type == "ssm_override" else f"{run.scenario.name}: {c.type} speed alteration")
+                 if c.type == "ssm_override" else f"{run.scenario.name}: controller {c.type}")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
