@@ -1,5 +1,7 @@
 """Joint paths from Cartesian tool paths, by Drake's inverse kinematics."""
 
+import functools
+
 import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
@@ -31,6 +33,21 @@ def polyline_path(points: np.ndarray, *, speed: float, rpy: np.ndarray, seed: np
     points = np.asarray(points, dtype=float)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 2:
         raise ValueError(f"points has shape {points.shape}: need (K >= 2, 3) metres")
+    times, qs = _ik_samples(tuple(map(tuple, points.tolist())), float(speed),
+                            tuple(np.asarray(rpy, dtype=float).tolist()),
+                            tuple(np.asarray(seed, dtype=float).tolist()),
+                            float(spacing), int(min_samples), bool(there_and_back))
+    return make_spline_path(times, qs, rest_to_rest=there_and_back, cycles=cycles,
+                            there_and_back=there_and_back)
+
+
+@functools.lru_cache(maxsize=32)
+def _ik_samples(points: tuple, speed: float, rpy: tuple, seed: tuple, spacing: float,
+                min_samples: int, there_and_back: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Sample times and joint positions of ``polyline_path`` (cached: a scenario space
+    builds many scenarios on one path, and each would otherwise solve the same
+    inverse kinematics again)."""
+    points = np.array(points, dtype=float)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
     length = float(arc[-1])
     if not (length > 0.0 and speed > 0.0):
@@ -49,7 +66,7 @@ def polyline_path(points: np.ndarray, *, speed: float, rpy: np.ndarray, seed: np
     plant.Finalize()
     context = plant.CreateDefaultContext()
     tool, world = plant.GetFrameByName("tool0"), plant.world_frame()
-    R_WT = RotationMatrix(RollPitchYaw(np.asarray(rpy, dtype=float)))
+    R_WT = RotationMatrix(RollPitchYaw(np.array(rpy)))
     def solve(p, q_near):
         ik = InverseKinematics(plant, context)
         ik.AddPositionConstraint(tool, np.zeros(3), world, p, p)
@@ -62,7 +79,7 @@ def polyline_path(points: np.ndarray, *, speed: float, rpy: np.ndarray, seed: np
     # The first point: the given seed, else elbow-up seeds facing the point (at q1 = 0
     # the UR arm reaches along -x).
     facing = np.degrees(np.arctan2(targets[0, 1], targets[0, 0])) - 180.0
-    tries = [np.asarray(seed, dtype=float)] + [
+    tries = [np.array(seed)] + [
         np.radians([facing, lift, elbow, -90.0 - lift - elbow, -90.0, 0.0])
         for lift in (-60.0, -90.0, -45.0) for elbow in (100.0, 80.0, 120.0)]
     q_prev = next((q for q in (solve(targets[0], t) for t in tries) if q is not None), None)
@@ -74,8 +91,10 @@ def polyline_path(points: np.ndarray, *, speed: float, rpy: np.ndarray, seed: np
         if q_prev is None:
             raise ValueError(f"path: no inverse kinematics for the tool at {p.tolist()} m")
         qs.append(q_prev)
-    return make_spline_path(times, np.array(qs), rest_to_rest=there_and_back, cycles=cycles,
-                            there_and_back=there_and_back)
+    times, qs = np.array(times), np.array(qs)
+    times.flags.writeable = False
+    qs.flags.writeable = False
+    return times, qs
 
 
 def line_path(start: np.ndarray, goal: np.ndarray, *, speed: float, rpy: np.ndarray,

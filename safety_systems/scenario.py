@@ -647,18 +647,23 @@ def load_scenario(path: str | Path) -> Scenario:
     ``file`` is read here, relative to the scenario file."""
     text = _read(path)
     scenario = _load_typed(Scenario, text, str(path))
-    task = scenario.robot.path.task_path
-    if task is not None and not task.points and task.file:
-        points_file = Path(path).parent / task.file
-        try:
-            task.points = load_typed(TaskPoints, points_file).points
-        except ScenarioError as e:
-            raise ScenarioError("robot.path.task_path.file", task.file,
-                                f"a YAML file of points: {e}") from None
-        _check(len(task.points) >= 2, "robot.path.task_path.file", task.file,
-               f"a file with 2 or more points ({points_file})")
+    read_task_path(scenario.robot, Path(path).parent)
     validate_scenario(scenario)
     return scenario
+
+
+def read_task_path(robot: RobotConfig, folder: Path, prefix: str = "robot") -> None:
+    """Fills a task path's points from its ``file`` (relative to ``folder``)."""
+    task = robot.path.task_path
+    if task is None or task.points or not task.file:
+        return
+    field = f"{prefix}.path.task_path.file"
+    try:
+        task.points = load_typed(TaskPoints, folder / task.file).points
+    except ScenarioError as e:
+        raise ScenarioError(field, task.file, f"a YAML file of points: {e}") from None
+    _check(len(task.points) >= 2, field, task.file,
+           f"a file with 2 or more points ({folder / task.file})")
 
 
 def load_controller_config(path: str | Path) -> ControllerConfig:

@@ -44,6 +44,7 @@ from safety_systems.scenario import (
     ScenarioError,
     Waypoint,
     load_typed,
+    read_task_path,
     validate_scenario,
 )
 from safety_systems.ur5e import tool0_position
@@ -136,6 +137,7 @@ def validate_space(space: ScenarioSpace) -> None:
 
 def load_space(path: str | Path) -> ScenarioSpace:
     space = load_typed(ScenarioSpace, path)
+    read_task_path(space.robot, Path(path).parent)
     validate_space(space)
     return space
 
