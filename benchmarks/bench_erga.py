@@ -54,9 +54,12 @@ def main() -> None:
         one_decision(path, v_pre, sizes, bodies, k)
         times.append(time.perf_counter() - start)
     ms = 1000.0 * float(np.median(times))
+    best = 1000.0 * float(np.min(times))
     print(f"{'measure':44s} {'figure':>10s} {'goal':>8s} {'met':>5s}")
     print(f"{f'one ERGA decision, {pairs} pairs (median)':44s} {ms:8.2f}ms {GOAL_MS:6.0f}ms "
           f"{'yes' if ms <= GOAL_MS else 'NO':>5s}")
+    print(f"{f'one ERGA decision, {pairs} pairs (best)':44s} {best:8.2f}ms {GOAL_MS:6.0f}ms "
+          f"{'yes' if best <= GOAL_MS else 'NO':>5s}")
     print(f"{'share of the 100 ms sampling period':44s} {ms / 1000 / PERIOD:9.1%}")
 
 

@@ -45,19 +45,28 @@ def support(rotations: np.ndarray, semi_axes: np.ndarray, u: np.ndarray) -> np.n
     return np.sqrt(np.sum((semi_axes * local) ** 2, axis=-1))
 
 
+def shape_matrices(e: Ellipsoids) -> np.ndarray:
+    """M = R diag(r^2) R^T of each ellipsoid (..., 3, 3): h(u)^2 = u^T M u."""
+    return np.matmul(e.rotations * (e.semi_axes**2)[..., None, :],
+                     np.swapaxes(e.rotations, -1, -2))
+
+
 def danger_index(a: Ellipsoids, b: Ellipsoids) -> np.ndarray:
     """DI of every pair (a_i, b_j), shape (..., n_a, n_b); Eq. 7 with F as in the module.
 
-    Coincident centres give DI = inf (a collision).
+    With the centre offset x (length d) and u = x / d, h(u) = sqrt(x^T M x) / d, so
+    DI = ((h1 + h2) / d)^2 = (sqrt(x^T M1 x) + sqrt(x^T M2 x))^2 / d^4, which needs no
+    per-pair rotation. Coincident centres give DI = inf (a collision).
     """
-    ca = a.centres[..., :, None, :]
-    cb = b.centres[..., None, :, :]
-    diff = cb - ca
-    d = np.sqrt(np.sum(diff * diff, axis=-1))
-    u = np.divide(diff, d[..., None], out=np.zeros_like(diff), where=d[..., None] > 0.0)
-    h = (support(a.rotations[..., :, None, :, :], a.semi_axes[..., :, None, :], u)
-         + support(b.rotations[..., None, :, :, :], b.semi_axes[..., None, :, :], u))
-    return np.divide(h * h, d * d, out=np.full_like(d, np.inf), where=d > 0.0)
+    diff = b.centres[..., None, :, :] - a.centres[..., :, None, :]  # (..., n_a, n_b, 3)
+    d2 = np.einsum("...i,...i->...", diff, diff)
+    q_a = np.einsum("...i,...i->...", np.matmul(diff, shape_matrices(a)), diff)
+    across = np.swapaxes(diff, -3, -2)  # (..., n_b, n_a, 3)
+    q_b = np.swapaxes(np.einsum("...i,...i->...", np.matmul(across, shape_matrices(b)),
+                                across), -1, -2)
+    root = np.sqrt(q_a)
+    root += np.sqrt(q_b)
+    return np.divide(root * root, d2 * d2, out=np.full_like(d2, np.inf), where=d2 > 0.0)
 
 
 def segment_ellipsoids(start: np.ndarray, end: np.ndarray, radius: np.ndarray) -> Ellipsoids:
@@ -69,10 +78,14 @@ def segment_ellipsoids(start: np.ndarray, end: np.ndarray, radius: np.ndarray) -
     length = np.sqrt(np.sum(axis * axis, axis=-1))
     x = np.divide(axis, length[..., None], out=np.zeros_like(axis), where=length[..., None] > 0)
     x = np.where(length[..., None] > 0, x, [1.0, 0.0, 0.0])
-    helper = np.where(np.abs(x[..., 2:3]) < 0.9, [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
-    y = np.cross(helper, x)
-    y /= np.linalg.norm(y, axis=-1, keepdims=True)
-    z = np.cross(x, y)
+    # y: a unit vector across the segment, e_z x x (or e_x x x near the vertical).
+    x0, x1, x2 = x[..., 0], x[..., 1], x[..., 2]
+    zero = np.zeros_like(x0)
+    y = np.where((np.abs(x2) < 0.9)[..., None], np.stack([-x1, x0, zero], axis=-1),
+                 np.stack([zero, -x2, x1], axis=-1))
+    y /= np.sqrt(np.sum(y * y, axis=-1, keepdims=True))
+    y0, y1, y2 = y[..., 0], y[..., 1], y[..., 2]
+    z = np.stack([x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0], axis=-1)
     rotations = np.stack([x, y, z], axis=-1)  # columns: the ellipsoid's axes in the world
     semi = np.stack(np.broadcast_arrays(0.5 * length + radius, radius, radius), axis=-1)
     return Ellipsoids(0.5 * (start + end), rotations, semi)

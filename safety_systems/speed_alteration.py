@@ -54,11 +54,14 @@ def operator_ellipsoids(positions: np.ndarray, valid: np.ndarray, operator_of: n
     """
     parts, used = [], np.zeros(len(valid), dtype=bool)
     if sizes.human == "upper_body":
-        for k in np.unique(operator_of):
-            hands = np.flatnonzero((operator_of == k) & is_hand & valid)
-            if hands.size == 2:
-                parts.append(human_ellipsoids(positions[hands], sizes))
-                used[hands] = True
+        pairs = [hands for k in np.unique(operator_of)
+                 if (hands := np.flatnonzero((operator_of == k) & is_hand & valid)).size == 2]
+        if pairs:  # every skeleton at once: (operators, 2, 3) -> (operators * 8,)
+            body = human_ellipsoids(positions[np.array(pairs)], sizes)
+            parts.append(Ellipsoids(body.centres.reshape(-1, 3),
+                                    body.rotations.reshape(-1, 3, 3),
+                                    body.semi_axes.reshape(-1, 3)))
+            used[np.concatenate(pairs)] = True
     rest = valid & ~used
     if rest.any():
         radius = np.where(is_hand[rest], sizes.hand_radius, sizes.head_radius)
@@ -120,16 +123,16 @@ def erga_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, v_pre: float, v_p
                P: float, D: float, R: float) -> tuple[float, np.ndarray]:
     """ERGA's choice (Eqs. 11-12) and its best fitness per generation. The Eq. 12
     penalty of each grid cell (pairs taken at their worse end, ``grid_upper``) is
-    summed once; a candidate reads its cell's."""
-    on_cell = danger_penalty(np.maximum(danger[:-1], danger[1:]), R)  # grid_upper's values
-    on_point = danger_penalty(danger, R)
+    summed once; a candidate reads its cell's (on a grid point, the cell above it:
+    never less than the point's own)."""
+    penalty = np.empty(len(grid_speeds))
+    penalty[:-1] = danger_penalty(np.maximum(danger[:-1], danger[1:]), R)
+    penalty[-1] = danger_penalty(danger[-1], R)  # the top grid point
     index = np.arange(len(grid_speeds))
 
     def fitness(v: np.ndarray) -> np.ndarray:
-        x = np.interp(v, grid_speeds, index)
-        lo = np.minimum(np.floor(x).astype(int), len(on_cell) - 1)
-        penalty = np.where(x == np.floor(x), on_point[np.floor(x).astype(int)], on_cell[lo])
-        return speed_terms(v, v_preprogrammed=v_pre, v_previous=v_prev, P=P, D=D) + penalty
+        cell = np.interp(v, grid_speeds, index).astype(int)  # x >= 0: floor
+        return speed_terms(v, v_preprogrammed=v_pre, v_previous=v_prev, P=P, D=D) + penalty[cell]
 
     return erga(fitness, bound=limit, rng=rng, params=params)
 

@@ -67,17 +67,19 @@ def dh_frames(q: np.ndarray) -> np.ndarray:
     shape ``(..., 6)``.
     """
     q = np.asarray(q, dtype=float)
+    ct, st = np.cos(q), np.sin(q)  # (..., 6)
+    ca, sa = np.cos(DH_ALPHA), np.sin(DH_ALPHA)
+    links = np.zeros(q.shape + (4, 4))  # T_1 ... T_6
+    links[..., 0, 0], links[..., 0, 1], links[..., 0, 2] = ct, -st * ca, st * sa
+    links[..., 1, 0], links[..., 1, 1], links[..., 1, 2] = st, ct * ca, -ct * sa
+    links[..., 0, 3], links[..., 1, 3] = DH_A * ct, DH_A * st
+    links[..., 2, 1], links[..., 2, 2], links[..., 2, 3] = sa, ca, DH_D
+    links[..., 3, 3] = 1.0
     frames = np.empty(q.shape[:-1] + (7, 4, 4))
     frames[..., 0, :, :] = np.eye(4)
-    for i in range(NUM_JOINTS):
-        ct, st = np.cos(q[..., i]), np.sin(q[..., i])
-        ca, sa = math.cos(DH_ALPHA[i]), math.sin(DH_ALPHA[i])
-        Ti = np.zeros(q.shape[:-1] + (4, 4))
-        Ti[..., 0, :] = np.stack([ct, -st * ca, st * sa, DH_A[i] * ct], axis=-1)
-        Ti[..., 1, :] = np.stack([st, ct * ca, -ct * sa, DH_A[i] * st], axis=-1)
-        Ti[..., 2, :] = [0.0, sa, ca, DH_D[i]]
-        Ti[..., 3, 3] = 1.0
-        frames[..., i + 1, :, :] = frames[..., i, :, :] @ Ti
+    frames[..., 1, :, :] = links[..., 0, :, :]
+    for i in range(1, NUM_JOINTS):
+        np.matmul(frames[..., i, :, :], links[..., i, :, :], out=frames[..., i + 1, :, :])
     return frames
 
 
