@@ -25,7 +25,7 @@ def separation_distances(p_robot: np.ndarray, p_bodies: np.ndarray) -> np.ndarra
     Returns shape ``(..., N)``.
     """
     diff = np.asarray(p_bodies, dtype=float) - np.asarray(p_robot, dtype=float)[..., None, :]
-    return np.sqrt((diff * diff).sum(axis=-1))
+    return np.sqrt(np.vecdot(diff, diff))
 
 
 def directed_speeds(
@@ -47,17 +47,22 @@ def directed_speeds(
     v_robot = np.asarray(v_robot, dtype=float)[..., None, :]
     v_bodies = np.asarray(v_bodies, dtype=float)
     diff = np.asarray(p_robot, dtype=float)[..., None, :] - np.asarray(p_bodies, dtype=float)
-    dist = np.sqrt((diff * diff).sum(axis=-1))
+    dist = np.sqrt(np.vecdot(diff, diff))
     apart = dist > 1e-12
     # Projections onto body -> robot, divided by the distance where it is defined.
-    v_h = np.divide((v_bodies * diff).sum(axis=-1), dist, out=np.zeros_like(dist), where=apart)
-    v_r = np.divide(-(v_robot * diff).sum(axis=-1), dist, out=np.zeros_like(dist), where=apart)
-    if not apart.all():
-        coincident = ~apart & np.isfinite(dist)
-        v_h = np.where(coincident, np.linalg.norm(v_bodies, axis=-1), v_h)
-        v_r = np.where(coincident, np.linalg.norm(v_robot, axis=-1), v_r)
-        v_h[np.isnan(dist)] = np.nan
-        v_r[np.isnan(dist)] = np.nan
+    if apart.all():
+        inverse = 1.0 / dist
+        return (np.vecdot(v_bodies, diff) * inverse,
+                np.vecdot(v_robot, diff) * -inverse)
+    v_h = np.divide(np.vecdot(v_bodies, diff), dist,
+                    out=np.zeros_like(dist), where=apart)
+    v_r = np.divide(-np.vecdot(v_robot, diff), dist,
+                    out=np.zeros_like(dist), where=apart)
+    coincident = ~apart & np.isfinite(dist)
+    v_h = np.where(coincident, np.linalg.norm(v_bodies, axis=-1), v_h)
+    v_r = np.where(coincident, np.linalg.norm(v_robot, axis=-1), v_r)
+    v_h[np.isnan(dist)] = np.nan
+    v_r[np.isnan(dist)] = np.nan
     return v_h, v_r
 
 
