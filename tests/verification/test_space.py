@@ -255,3 +255,27 @@ def test_assumptions_state_the_limits():
     no_retreat = dc.replace(odd, parameters=dc.replace(odd.parameters,
                                                        retreat_distance=Range(0.0, 0.0)))
     assert "without retreat" in "\n".join(assumptions(no_retreat, CONFIG))
+
+
+def test_space_on_a_task_path_targets_points_of_that_path():
+    """A space whose robot runs a planned task path (read from its file, relative to the
+    space file): the hand goes for where the tool is on that path."""
+    space = load_space(ROOT / "models/spaces/ewaste.yaml")
+    points = np.array(space.robot.path.task_path.points)
+    assert len(points) > 2
+    values = to_point(space, np.zeros(len(free_parameters(space))))
+    values.update(target_phase=0.25, overshoot=0.0)  # half-way along the way out
+    scenario = make_scenario(space, CONFIG, values)
+    target = np.array(scenario.operators[0].waypoints[-1].position)
+    gap = np.linalg.norm(points - target, axis=1).min()
+    assert gap < 0.01  # on the planned polyline (its IK samples are 1 cm apart)
+    assert not np.allclose(target, points[0]) and not np.allclose(target, points[-1])
+
+
+def test_space_task_path_file_errors_name_the_field(tmp_path):
+    text = (ROOT / "models/spaces/ewaste.yaml").read_text().replace(
+        "../scenes/paper_task_path.yaml", "missing.yaml")
+    path = tmp_path / "space.yaml"
+    path.write_text(text)
+    with pytest.raises(ScenarioError, match=r"robot\.path\.task_path\.file"):
+        load_space(path)
