@@ -7,7 +7,9 @@ Prints, each beside its goal:
    and its ratio to the Drake diagram on the same kind of scenarios;
 2. for the seed's configuration over the default space: in how many of ``--seeds``
    searches the falsifier found a counterexample and the median number of closed-loop
-   simulations to the first one, beside uniform random sampling with the same budget
+   simulations to the first one (and the time of the reduced-model ranking of
+   candidates that comes first, not counted as simulations), beside uniform random
+   sampling with the same budget
    (its first violation, in sampling order), and with a longer uniform budget to
    measure its median;
 3. the wall time to prove the iso configuration over the default space (the proof
@@ -16,6 +18,7 @@ Prints, each beside its goal:
 
 import argparse
 import dataclasses
+import inspect
 import statistics
 import tempfile
 import time
@@ -28,7 +31,13 @@ from verification.evaluate_batch import evaluate_many
 from verification.evaluate_drake import evaluate_drake
 from verification.proof import prove
 from verification.runner import Runner
-from verification.search import SearchLog, evaluate_points, falsify, sweep_points
+from verification.search import (
+    SearchLog,
+    danger_scores,
+    evaluate_points,
+    falsify,
+    sweep_points,
+)
 from verification.space import free_parameters, load_space, make_scenario, to_point
 from verification.verify import verify
 
@@ -91,11 +100,16 @@ def first_violations(seeds: int, budget: int, uniform_budget: int) -> None:
     same = sum(v is not None and v <= budget for v in uniform)
     _row(f"seed config: falsifier searches with a counterexample (budget {budget})",
          f"{hits}/{seeds}", f"{seeds}/{seeds}", hits == seeds)
-    _row(f"  uniform random with the same budget", f"{same}/{seeds}", "", None)
+    _row("  uniform random with the same budget", f"{same}/{seeds}", "", None)
     m_f = median(found, budget)
     m_same = median(uniform, budget)
     m_long = median(uniform, max(budget, uniform_budget))
     _row("  median simulations to the first, falsifier", f"{m_f:g}", "<= 10", m_f <= 10)
+    pool = inspect.signature(falsify).parameters["candidates"].default
+    start = time.perf_counter()
+    danger_scores(SPACE, SEED, sweep_points("sobol", pool, d, seed=0))
+    _row(f"  before them: {pool} candidates ranked by a reduced model (not counted)",
+         f"{time.perf_counter() - start:.1f} s", "", None)
     _row(f"  median, uniform random (budget {budget})",
          f"{m_same:g}" + (" (none)" if m_same > budget else ""), "", None)
     _row(f"  median, uniform random (budget {max(budget, uniform_budget)})",

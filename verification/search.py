@@ -5,13 +5,14 @@ Points live in the unit cube over the space's free parameters
 
 - Sweeps: ``grid``, ``sobol``, ``halton``, ``uniform`` and ``corners`` (every vertex).
 - Falsification (:func:`falsify`): candidates from the corners and a Sobol set are
-  ranked by a cheap open-loop *danger score* (no closed-loop simulation: how close the
-  hand's scripted path comes to the tool if the robot kept full speed until the
-  configured monitor, fed the hand as the sensor shows it, would first stop it, and
-  then braked as its stopping data allows; :func:`danger_scores`), and
+  ranked by a cheap *danger score* from a reduced model of the loop, all candidates at
+  once (the hand as the sensor shows it, Eqs. 9-12 on it, sensor faults from late or
+  dropped frames, the robot's path rate through its acceleration limit and braking
+  data; no Kalman filter, no noise, one hand: :func:`danger_scores`), and
   simulated in that order interleaved with plain Sobol order; then CMA-ES (the ``cma``
   package) minimises the closed-loop robustness from the best point found, each
-  population simulated as one batch. The score only orders candidates; every verdict
+  population simulated as one batch. The score only orders candidates and is not
+  counted as a simulation; every verdict and every count of simulations
   rests on closed-loop simulations.
 """
 
@@ -27,14 +28,21 @@ from safety_systems.braking import path_rate_step
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import stack_paths, stacked_position_velocity
 from safety_systems.scenario import ControllerConfig, actual_sensor
-from safety_systems.ssm import directed_speeds, monitor_protective_distances, occlusion_margin
-from safety_systems.ur5e import tool0_position, tool0_position_and_velocity
+from safety_systems.ssm import (
+    directed_speeds,
+    monitor_protective_distances,
+    occlusion_margin,
+    speed_override,
+)
+from safety_systems.ur5e import tool0_position_and_velocity
 from safety_systems.workcell import (
     assumed_stopping,
     braking_table,
+    frame_timeout,
     joint_path,
     scripted_operators,
 )
+from verification.properties import MOVING_SPEED
 from verification.runner import Runner
 from verification.space import (
     ScenarioSpace,
@@ -70,46 +78,67 @@ def sweep_points(method: str, n: int, d: int, *, seed: int = 0) -> np.ndarray:
 
 def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
                   *, step: float = 0.02) -> np.ndarray:
-    """Open-loop danger score of each point, m (lower is more dangerous; see module).
+    """Danger score of each point, m (lower is more dangerous; see module).
 
-    The robot runs its path at full speed until the configured monitor, fed with the
-    first operator's hand as the sensor would show it (one period plus the latency late,
-    frozen and coasting while occluded; for ``estimated`` speeds, the hand's directed
-    speed ``ESTIMATE_LAG`` late), finds it closer than S (Eqs. 9-11) or d_min; then it
-    brakes from full speed. The score is the closest the hand comes to the tool while
-    the tool still moves. Nothing here feeds back: it only orders candidates.
+    A reduced model of the loop, every ``step`` seconds: the configured monitor is fed
+    the first operator's hand as the sensor would show it (one period plus the latency
+    late, frozen and coasting while occluded; for ``estimated`` speeds, the hand's
+    directed speed ``ESTIMATE_LAG`` late) and commands k by Eqs. 9-12; k is 0 while the
+    tracker's newest frame is older than the frame timeout (frames late beyond the
+    configured latency, or dropped). The robot starts at rest and its path rate follows
+    k through ``path_rate_step`` (acceleration limit and braking data). Controllers
+    other than ``ssm_override`` are not modelled (k = 1 but for faults). The Kalman
+    filter, noise and the other bodies are left out.
+    The score is the closest the hand comes to the tool while the tool still moves. It
+    only orders candidates; verdicts rest on the full closed-loop simulations.
     """
     scenarios = [make_scenario(space, config, to_point(space, u)) for u in points]
     n = len(scenarios)
-    path = joint_path(space.robot)
+    cycles = max(sc.robot.cycles for sc in scenarios)
+    path = joint_path(dataclasses.replace(space.robot, cycles=cycles))
+    end = path.cycle_time * cycles
     dt = 1.0 / space.robot.control_rate_hz
+    ticks = max(1, round(step / dt))
     table = braking_table(config)
-    rate, travelled = [1.0], [0.0]  # a stop from full speed, tick by tick
-    while rate[-1] > 0.0:
-        new = float(path_rate_step(rate[-1], 0.0, dt, table=table, acceleration_limit=1.0))
-        travelled.append(travelled[-1] + 0.5 * (rate[-1] + new) * dt)
-        rate.append(new)
-    stop_time = (len(rate) - 1) * dt
-    t = np.arange(0.0, max(s.duration for s in scenarios) + step, step)
-    q, dq, _ = joint_path_state(path, t)
-    tool, tool_v = tool0_position_and_velocity(q, dq)  # full speed: s = t
+    t = np.arange(0.0, max(s.duration for s in scenarios) + step, ticks * dt)
     stack = stack_paths([scripted_operators(sc)[0].path for sc in scenarios])
     f = config.safety
-    delay = 1.0 / config.sensor.rate_hz + np.array([actual_sensor(sc).latency for sc in scenarios])
+    sensors = [actual_sensor(sc) for sc in scenarios]
+    latency = np.array([s.latency for s in sensors])
+    delay = 1.0 / config.sensor.rate_hz + latency
     lag = np.where(f.human_speed == "iso", 0.0, ESTIMATE_LAG)
     occ = np.array([[o.start, o.end] if (o := next(iter(sc.sensor.occlusions), None)) else
                     [np.inf, np.inf] for sc in scenarios])
+    drop = np.array([[d.start, d.end] if (d := next(iter(s.dropouts), None)) else
+                     [np.inf, np.inf] for s in sensors])
+    # The tracker's frames: it looks at offset + j P; the newest frame delivered by then
+    # (captured at i P, delivered latency later, unless dropped) is processed.
+    period = 1.0 / config.sensor.rate_hz
+    offset = config.sensor.latency + config.tracker.processing_time
+    timeout = frame_timeout(config)
+    scale = np.array([sc.robot.braking_time_scale for sc in scenarios])
+
+    def fault(now: float) -> np.ndarray:
+        j = np.floor((now - offset) / period + 1e-9)
+        i = np.floor((offset + j * period - latency) / period + 1e-9)
+        dropped = (i * period >= drop[:, 0]) & (i * period < drop[:, 1])
+        i = np.where(dropped, np.ceil(drop[:, 0] / period - 1e-9) - 1.0, i)
+        return (j < 0) | (i < 0) | (now - i * period > timeout)
+
     t_s, b = assumed_stopping(config)
-    trigger = np.full(n, np.inf)
-    for k, now in enumerate(t):  # the monitor's view at each time, for every candidate
+    s_path, rate = np.zeros(n), np.zeros(n)
+    closest = np.full(n, np.inf)
+    for now in t:  # the monitor's view at each time, for every candidate
+        q, dq, _ = joint_path_state(path, s_path)
+        tool, tool_v = tool0_position_and_velocity(q, dq * rate[:, None])
         seen_at = np.maximum(now - delay, 0.0)
         hidden = (seen_at >= occ[:, 0]) & (seen_at < occ[:, 1])
         base = np.where(hidden, occ[:, 0], seen_at)
         p_b, v_b = stacked_position_velocity(stack, base)
         p_m = p_b + v_b * np.where(hidden, seen_at - base, 0.0)[:, None]
         v_m = stacked_position_velocity(stack, np.maximum(base - lag, 0.0))[1]
-        d = np.linalg.norm(p_m - tool[k], axis=-1)
-        v_h, v_r = directed_speeds(tool[k], tool_v[k], p_m[:, None], v_m[:, None])
+        d = np.linalg.norm(p_m - tool, axis=-1)
+        v_h, v_r = directed_speeds(tool, tool_v, p_m[:, None], v_m[:, None])
         margin = occlusion_margin(np.where(hidden, seen_at - base, 0.0), v_m, f.occlusion_speed)
         S = monitor_protective_distances(
             v_h[:, 0], v_r[:, 0], mode=f.human_speed, reaction_time=f.reaction_time,
@@ -117,18 +146,21 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
             human_uncertainty=f.human_uncertainty + margin,
             robot_uncertainty=f.robot_uncertainty, iso_speed=f.iso_human_speed,
             iso_reduced_speed=f.iso_reduced_human_speed)
-        hit = np.isinf(trigger) & ((d < S) | (d < f.d_min))
-        trigger[hit] = now
-    brake = np.minimum(trigger, t[-1])[:, None]
-    after = np.maximum(t[None] - brake, 0.0)
-    scale = np.array([sc.robot.braking_time_scale for sc in scenarios])[:, None]
-    # Slower brakes stretch the stop in time and (at constant deceleration) in distance.
-    s = np.minimum(t[None], brake) + scale * np.interp(after / scale, np.arange(len(rate)) * dt,
-                                                       travelled)
-    tool_actual = tool0_position(joint_path_state(path, s)[0])
-    hand = np.stack([stacked_position_velocity(stack, now)[0] for now in t], axis=1)
-    d_true = np.linalg.norm(hand - tool_actual, axis=-1)
-    return np.min(np.where(after < stop_time * scale, d_true, np.inf), axis=1)
+        # Other controllers (seed 004's, zones) are not modelled: they keep full speed.
+        k_ssm = (speed_override(d, S, delta_s=f.delta_s, d_min=f.d_min)
+                 if config.type == "ssm_override" else np.ones(n))
+        hand = stacked_position_velocity(stack, np.full(n, now))[0]
+        moving = np.linalg.norm(tool_v, axis=-1) > MOVING_SPEED
+        closest = np.where(moving, np.minimum(closest, np.linalg.norm(hand - tool, axis=-1)),
+                           closest)
+        for k in range(ticks):
+            command = np.where(fault(now + k * dt), 0.0, k_ssm)
+            new = path_rate_step(rate, command, dt, table=table,
+                                 acceleration_limit=space.robot.acceleration_limit,
+                                 time_scale=scale)
+            s_path = np.clip(s_path + 0.5 * (rate + new) * dt, 0.0, end)
+            rate = np.where(s_path >= end, 0.0, new)
+    return closest
 
 
 @dataclasses.dataclass
