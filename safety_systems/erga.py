@@ -90,8 +90,8 @@ def erga(fitness: Callable[[np.ndarray], np.ndarray], *, bound: float,
     """
     if not bound > 0.0:
         raise ValueError(f"bound: got {bound!r}; allowed: a speed > 0")
-    n, g, m, e = params.population, params.generations, params.population - params.elites, \
-        params.elites
+    n, g, e = params.population, params.generations, params.elites
+    m = n - e  # children per generation
     # Every random number of the run at once: tournament picks, crossover mixes and
     # decisions, mutation decisions and values.
     pop = rng.uniform(-bound, bound, n)

@@ -150,21 +150,16 @@ def test_bending_energy_and_length_gradients_match_finite_differences():
     rng = np.random.default_rng(5)
     p = np.cumsum(rng.uniform(0.005, 0.02, size=(12, 3)), axis=0)
     _, grad = bending_energy_and_gradient(p)
-    h = 1e-7
-    numeric = np.zeros_like(p)
-    for i in range(len(p)):
-        for k in range(3):
-            e = np.zeros_like(p)
-            e[i, k] = h
-            numeric[i, k] = (bending_energy(p + e) - bending_energy(p - e)) / (2 * h)
-    np.testing.assert_allclose(grad, numeric, rtol=1e-5, atol=1e-6)
-    numeric_l = np.zeros_like(p)
-    for i in range(len(p)):
-        for k in range(3):
-            e = np.zeros_like(p)
-            e[i, k] = h
-            numeric_l[i, k] = (path_length(p + e) - path_length(p - e)) / (2 * h)
-    np.testing.assert_allclose(length_gradient(p), numeric_l, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(grad, _numeric_gradient(bending_energy, p), rtol=1e-5,
+                               atol=1e-6)
+    np.testing.assert_allclose(length_gradient(p), _numeric_gradient(path_length, p),
+                               rtol=1e-6, atol=1e-9)
+
+
+def _numeric_gradient(f, p, h=1e-7):
+    """Central differences of the scalar f over every entry of the points p (K, 3)."""
+    steps = np.eye(p.size).reshape(p.size, *p.shape) * h
+    return np.array([(f(p + e) - f(p - e)) / (2 * h) for e in steps]).reshape(p.shape)
 
 
 def test_bending_energy_of_a_circular_arc_is_its_integral():

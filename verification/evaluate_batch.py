@@ -67,6 +67,35 @@ def _common(scenarios: list[Scenario], get, what: str):
     return first
 
 
+def dropout_table(sensors: list) -> np.ndarray:
+    """(B, most dropouts, 2) start and end of each sensor's dropped intervals (inf pads)."""
+    drops = np.full((len(sensors), max((len(s.dropouts) for s in sensors), default=0), 2),
+                    np.inf)
+    for b, s in enumerate(sensors):
+        for j, iv in enumerate(s.dropouts):
+            drops[b, j] = (iv.start, iv.end)
+    return drops
+
+
+def delivered_frames(u: float | np.ndarray, latency: np.ndarray, period: float,
+                     drops: np.ndarray) -> np.ndarray:
+    """Index of the frame each sensor (latency (B,), dropped intervals ``drops``, see
+    :func:`dropout_table`) shows at time(s) u, as MocapSensor delivers them: the newest
+    capture at least a latency old that was not dropped (-1: none yet)."""
+    now = u + _TIME_TOL - latency
+    i = np.floor(now / period).astype(int)
+    i = np.where((i + 1) * period <= now, i + 1, i)
+    i = np.where(i * period > now, i - 1, i)
+    for _ in range(drops.shape[1] + 1):  # step back over dropped captures
+        t = i * period
+        inside = (drops[..., 0] <= t[:, None]) & (t[:, None] < drops[..., 1])
+        if not inside.any():
+            break
+        first = np.where(inside, np.ceil(drops[..., 0] / period - 1e-9) - 1, i[:, None])
+        i = np.where(inside.any(axis=1), first.min(axis=1), i).astype(int)
+    return np.maximum(i, -1)
+
+
 class _Cells:
     """The fixed data of a batch: truth, sensor conditions, configuration."""
 
@@ -88,11 +117,7 @@ class _Cells:
         self.seed = _common(scenarios, lambda s: actual_sensor(s).seed, "sensor seed")
         self.latency = np.array([s.latency for s in sensors])
         self.noise = np.array([s.noise_std for s in sensors])
-        d = max((len(s.dropouts) for s in sensors), default=0)
-        self.drops = np.full((self.B, d, 2), np.inf)
-        for b, s in enumerate(sensors):
-            for j, iv in enumerate(s.dropouts):
-                self.drops[b, j] = (iv.start, iv.end)
+        self.drops = dropout_table(sensors)
         # Operators: same shape in every scenario.
         _common(scenarios, lambda s: [(len(o.bodies), len(o.waypoints)) for o in s.operators],
                 "operator shape")
@@ -124,18 +149,7 @@ class _Cells:
 
     def delivered_frame(self, u: float) -> np.ndarray:
         """Index of the frame each scenario's sensor shows at time u (-1: none yet)."""
-        now = u + _TIME_TOL - self.latency
-        i = np.floor(now / self.period).astype(int)
-        i = np.where((i + 1) * self.period <= now, i + 1, i)
-        i = np.where(i * self.period > now, i - 1, i)
-        for _ in range(self.drops.shape[1] + 1):  # step back over dropped captures
-            t = i * self.period
-            inside = (self.drops[..., 0] <= t[:, None]) & (t[:, None] < self.drops[..., 1])
-            if not inside.any():
-                break
-            first = np.where(inside, np.ceil(self.drops[..., 0] / self.period - 1e-9) - 1, i[:, None])
-            i = np.where(inside.any(axis=1), first.min(axis=1), i).astype(int)
-        return np.maximum(i, -1)
+        return delivered_frames(u, self.latency, self.period, self.drops)
 
     def frame(self, rows: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Measured positions (R, N, 3) and valid flags (R, N) of frame ``index`` of the

@@ -42,6 +42,7 @@ from safety_systems.workcell import (
     joint_path,
     scripted_operators,
 )
+from verification.evaluate_batch import delivered_frames, dropout_table
 from verification.properties import MOVING_SPEED
 from verification.runner import Runner
 from verification.space import (
@@ -109,8 +110,7 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
     lag = np.where(f.human_speed == "iso", 0.0, ESTIMATE_LAG)
     occ = np.array([[o.start, o.end] if (o := next(iter(sc.sensor.occlusions), None)) else
                     [np.inf, np.inf] for sc in scenarios])
-    drop = np.array([[d.start, d.end] if (d := next(iter(s.dropouts), None)) else
-                     [np.inf, np.inf] for s in sensors])
+    drops = dropout_table(sensors)
     # The tracker's frames: it looks at offset + j P; the newest frame delivered by then
     # (captured at i P, delivered latency later, unless dropped) is processed.
     period = 1.0 / config.sensor.rate_hz
@@ -120,9 +120,7 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
 
     def fault(now: float) -> np.ndarray:
         j = np.floor((now - offset) / period + 1e-9)
-        i = np.floor((offset + j * period - latency) / period + 1e-9)
-        dropped = (i * period >= drop[:, 0]) & (i * period < drop[:, 1])
-        i = np.where(dropped, np.ceil(drop[:, 0] / period - 1e-9) - 1.0, i)
+        i = delivered_frames(np.full(n, offset + j * period), latency, period, drops)
         return (j < 0) | (i < 0) | (now - i * period > timeout)
 
     t_s, b = assumed_stopping(config)
