@@ -45,10 +45,20 @@ def support(rotations: np.ndarray, semi_axes: np.ndarray, u: np.ndarray) -> np.n
     return np.sqrt(np.sum((semi_axes * local) ** 2, axis=-1))
 
 
-def shape_matrices(e: Ellipsoids) -> np.ndarray:
-    """M = R diag(r^2) R^T of each ellipsoid (..., 3, 3): h(u)^2 = u^T M u."""
-    return np.matmul(e.rotations * (e.semi_axes**2)[..., None, :],
-                     np.swapaxes(e.rotations, -1, -2))
+def scaled_frames(e: Ellipsoids) -> np.ndarray:
+    """S = diag(r) R^T of each ellipsoid (..., 3, 3): h(u)^2 = u^T M u = |S u|^2 with the
+    shape matrix M = R diag(r^2) R^T."""
+    return e.semi_axes[..., :, None] * np.swapaxes(e.rotations, -1, -2)
+
+
+def _quadratic_forms(S: np.ndarray, own: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """x^T M_i x = |S_i (other_j - own_i)|^2 for every pair (..., n_own, n_other): one
+    matrix product per leading index (S_i other_j - S_i own_i)."""
+    n, m = S.shape[-3], other.shape[-2]
+    y = np.matmul(S.reshape(*S.shape[:-3], 3 * n, 3), np.swapaxes(other, -1, -2))
+    y = y.reshape(*y.shape[:-2], n, 3, m)
+    y -= np.matmul(S, own[..., None])
+    return np.einsum("...kj,...kj->...j", y, y)
 
 
 def danger_index(a: Ellipsoids, b: Ellipsoids) -> np.ndarray:
@@ -58,36 +68,45 @@ def danger_index(a: Ellipsoids, b: Ellipsoids) -> np.ndarray:
     DI = ((h1 + h2) / d)^2 = (sqrt(x^T M1 x) + sqrt(x^T M2 x))^2 / d^4, which needs no
     per-pair rotation. Coincident centres give DI = inf (a collision).
     """
-    diff = b.centres[..., None, :, :] - a.centres[..., :, None, :]  # (..., n_a, n_b, 3)
-    d2 = np.einsum("...i,...i->...", diff, diff)
-    q_a = np.einsum("...i,...i->...", np.matmul(diff, shape_matrices(a)), diff)
-    across = np.swapaxes(diff, -3, -2)  # (..., n_b, n_a, 3)
-    q_b = np.swapaxes(np.einsum("...i,...i->...", np.matmul(across, shape_matrices(b)),
-                                across), -1, -2)
-    root = np.sqrt(q_a)
-    root += np.sqrt(q_b)
+    # d^2 from the offsets laid out coordinate-first (..., 3, n_a, n_b).
+    a_t = np.ascontiguousarray(np.swapaxes(a.centres, -1, -2))
+    b_t = np.ascontiguousarray(np.swapaxes(b.centres, -1, -2))
+    diff = b_t[..., :, None, :] - a_t[..., :, :, None]
+    d2 = np.einsum("...kij,...kij->...ij", diff, diff)
+    root = np.sqrt(_quadratic_forms(scaled_frames(a), a.centres, b.centres))
+    root += np.swapaxes(np.sqrt(_quadratic_forms(scaled_frames(b), b.centres, a.centres)),
+                        -1, -2)
     return np.divide(root * root, d2 * d2, out=np.full_like(d2, np.inf), where=d2 > 0.0)
 
 
 def segment_ellipsoids(start: np.ndarray, end: np.ndarray, radius: np.ndarray) -> Ellipsoids:
     """Ellipsoids around segments start -> end (..., 3): centred at the midpoint, semi-axis
-    half the length plus ``radius`` along the segment and ``radius`` across it."""
+    half the length plus ``radius`` along the segment and ``radius`` across it.
+
+    The axes across are completed to a right-handed orthonormal frame by the branch-free
+    construction of Duff et al., "Building an Orthonormal Basis, Revisited" (JCGT 6(1),
+    2017); which pair is picked does not matter, the ellipsoid being round across."""
     start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
-    radius = np.asarray(radius, dtype=float)
     axis = end - start
-    length = np.sqrt(np.sum(axis * axis, axis=-1))
-    x = np.divide(axis, length[..., None], out=np.zeros_like(axis), where=length[..., None] > 0)
-    x = np.where(length[..., None] > 0, x, [1.0, 0.0, 0.0])
-    # y: a unit vector across the segment, e_z x x (or e_x x x near the vertical).
+    length = np.sqrt(np.einsum("...i,...i->...", axis, axis))
+    x = axis / np.where(length > 0.0, length, 1.0)[..., None]
+    x[..., 0] += length == 0.0  # a point: any axis, here e_x
     x0, x1, x2 = x[..., 0], x[..., 1], x[..., 2]
-    zero = np.zeros_like(x0)
-    y = np.where((np.abs(x2) < 0.9)[..., None], np.stack([-x1, x0, zero], axis=-1),
-                 np.stack([zero, -x2, x1], axis=-1))
-    y /= np.sqrt(np.sum(y * y, axis=-1, keepdims=True))
-    y0, y1, y2 = y[..., 0], y[..., 1], y[..., 2]
-    z = np.stack([x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0], axis=-1)
-    rotations = np.stack([x, y, z], axis=-1)  # columns: the ellipsoid's axes in the world
-    semi = np.stack(np.broadcast_arrays(0.5 * length + radius, radius, radius), axis=-1)
+    sign = np.copysign(1.0, x2)
+    a = -1.0 / (sign + x2)
+    b = x0 * x1 * a
+    rotations = np.empty(x.shape + (3,))  # columns: the ellipsoid's axes in the world
+    rotations[..., 0] = x
+    rotations[..., 0, 1] = 1.0 + sign * x0 * x0 * a
+    rotations[..., 1, 1] = sign * b
+    rotations[..., 2, 1] = -sign * x0
+    rotations[..., 0, 2] = b
+    rotations[..., 1, 2] = sign + x1 * x1 * a
+    rotations[..., 2, 2] = -x1
+    radius = np.asarray(radius, dtype=float)
+    semi = np.empty(np.broadcast_shapes(length.shape, radius.shape) + (3,))
+    semi[..., 0] = 0.5 * length + radius
+    semi[..., 1:] = radius[..., None]
     return Ellipsoids(0.5 * (start + end), rotations, semi)
 
 

@@ -102,23 +102,28 @@ def erga(fitness: Callable[[np.ndarray], np.ndarray], *, bound: float,
     # A binary tournament between the individuals ranked a and b (0 = fittest) is won
     # by rank min(a, b); drawing ranks uniformly is drawing individuals uniformly.
     winners = np.minimum(picks[:, 0], picks[:, 1])  # (g, m, 2)
-    # No crossover is the mix a = 1 (the child is its first parent).
-    mix = np.where(cross, mix, 1.0)
+    # No crossover is the mix a = 1 (the child is its first parent). A mutated child is
+    # crossed with a = 1 from its fresh value, which sits in the pool after the ranked
+    # population (pool[n + k m + i] for child i of generation k).
+    mix = np.where(cross & ~mutate, mix, 1.0)
+    winners[..., 0] = np.where(mutate, n + np.arange(g * m).reshape(g, m), winners[..., 0])
+    pool = np.concatenate((np.empty(n), fresh.ravel()))
+    ranked, step = pool[:n], np.empty(m)
     fit = fitness(pop)
     history = np.empty(g)
-    pop_next, fit_next, step = np.empty(n), np.empty(n), np.empty(m)
     for k in range(g):
-        order = np.argsort(fit, kind="stable")
-        ranked = pop[order]
-        parents = ranked[winners[k]]
+        order = fit.argsort(kind="stable")
+        if k:
+            history[k - 1] = fit[order[0]]
+        ranked[:] = pop[order]
+        parents = pool[winners[k]]
         p1, p2 = parents[:, 0], parents[:, 1]
-        children = pop_next[e:]
+        # Elites first, then the children p2 + a (p1 - p2) with a in [0, 1]: between
+        # their parents (to rounding; the decision is clipped to the bound).
+        pop = np.empty(n)
+        pop[:e] = ranked[:e]
         np.multiply(mix[k], np.subtract(p1, p2, out=step), out=step)
-        np.add(p2, step, out=children)
-        np.copyto(children, fresh[k], where=mutate[k])
-        pop_next[:e] = ranked[:e]
-        fit_next[:e] = fit[order[:e]]
-        fit_next[e:] = fitness(children)
-        pop, pop_next, fit, fit_next = pop_next, pop, fit_next, fit
-        history[k] = fit.min()
-    return float(pop[np.argmin(fit)]), history
+        np.add(p2, step, out=pop[e:])
+        fit = fitness(pop)
+    history[-1] = fit.min()
+    return min(max(float(pop[fit.argmin()]), -bound), bound), history

@@ -28,7 +28,12 @@ from safety_systems.ellipsoids import (
     spheres,
     support,
 )
-from safety_systems.erga import ErgaParameters, danger_penalty, erga, speed_terms
+from safety_systems.erga import (
+    ErgaParameters,
+    danger_penalty,
+    erga,
+    speed_terms_polynomial,
+)
 from safety_systems.joint_path import joint_path_state
 from safety_systems.ur5e import tool0_position_and_velocity
 
@@ -128,11 +133,17 @@ def erga_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, v_pre: float, v_p
     penalty = np.empty(len(grid_speeds))
     penalty[:-1] = danger_penalty(np.maximum(danger[:-1], danger[1:]), R)
     penalty[-1] = danger_penalty(danger[-1], R)  # the top grid point
-    index = np.arange(len(grid_speeds))
+    c2, c1, c0 = speed_terms_polynomial(v_preprogrammed=v_pre, v_previous=v_prev, P=P, D=D)
+    # by_cell[i] is the penalty of the cell below grid_speeds[i] plus c0, so that the
+    # right-sided search of v gives v's cell (a grid point's is the cell above it).
+    by_cell = np.concatenate((penalty[:1], penalty)) + c0
 
-    def fitness(v: np.ndarray) -> np.ndarray:
-        cell = np.interp(v, grid_speeds, index).astype(int)  # x >= 0: floor
-        return speed_terms(v, v_preprogrammed=v_pre, v_previous=v_prev, P=P, D=D) + penalty[cell]
+    def fitness(v: np.ndarray) -> np.ndarray:  # Eq. 11 (as c2 v^2 + c1 v + c0) + Eq. 12
+        f = c2 * v
+        f += c1
+        f *= v
+        f += by_cell[grid_speeds.searchsorted(v, side="right")]
+        return f
 
     return erga(fitness, bound=limit, rng=rng, params=params)
 

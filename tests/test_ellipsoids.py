@@ -106,6 +106,18 @@ def test_support_of_axis_aligned_ellipsoid_is_the_semi_axis():
     assert support(np.eye(3), semi, diag) == pytest.approx(np.sqrt((0.09 + 0.04) / 2))
 
 
+@pytest.mark.parametrize("axis", [(0, 0, 1), (0, 0, -1), (1, 0, -1e-17), (1, 0, 0),
+                                  (0, -1, 0), (0, 0, 0)])
+def test_segment_frame_on_the_axes(axis):
+    # Straight up, straight down, a z component of either sign about 0, and a point.
+    e = segment_ellipsoids(np.zeros((1, 3)), np.array([axis], dtype=float), 0.05)
+    R = e.rotations[0]
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    if any(axis):
+        np.testing.assert_allclose(R[:, 0], np.array(axis) / np.linalg.norm(axis))
+
+
 @SETTINGS
 @given(point, point, st.floats(0.01, 0.2))
 def test_segment_ellipsoid(start, end, r):
@@ -115,6 +127,7 @@ def test_segment_ellipsoid(start, end, r):
     np.testing.assert_allclose(e.centres[0], (start + end) / 2, atol=1e-12)
     np.testing.assert_allclose(e.semi_axes[0], [length / 2 + r, r, r], atol=1e-12)
     np.testing.assert_allclose(e.rotations[0].T @ e.rotations[0], np.eye(3), atol=1e-9)
+    assert np.linalg.det(e.rotations[0]) == pytest.approx(1.0)  # right-handed
     assert np.all(_level(e, np.array([start, end])) <= 1.0 + 1e-9)
     if length > 1e-6:  # the long axis lies along the segment, reaching r past each end
         axis = (end - start) / length
