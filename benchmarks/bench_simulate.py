@@ -20,10 +20,9 @@ from pydrake.systems.analysis import Simulator
 
 from safety_systems.scenario import load_scenario
 from safety_systems.ssm import (
-    directed_speeds,
     monitor_protective_distances,
     overall_speed_override,
-    separation_distances,
+    separation_and_directed_speeds,
 )
 from safety_systems.workcell import MakeWorkcell
 
@@ -52,8 +51,7 @@ def monitor_and_override_us(n: int = 10, number: int = 20000) -> float:
     tracked = np.ones(n, dtype=bool)
 
     def once():
-        d = separation_distances(p_R, p_B)
-        v_h, v_r = directed_speeds(p_R, v_R, p_B, v_B)
+        d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, p_B, v_B)
         s = monitor_protective_distances(v_h, v_r, mode="estimated", reaction_time=0.1,
                                          stopping_time=0.53, stopping_distance=0.26)
         return overall_speed_override(d, s, tracked)

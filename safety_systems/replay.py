@@ -1,5 +1,6 @@
 """A self-contained Meshcat recording of a run: the robot, the bodies and their S spheres."""
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,18 @@ BODY_RADIUS = 0.05  # m, drawn size of a tracked body
 _COLORS = ((0.1, 0.5, 0.1), (0.4, 0.8, 0.3), (0.1, 0.3, 0.8), (0.4, 0.7, 1.0), (0.8, 0.4, 0.1))
 
 
+def _quiet_meshcat() -> Meshcat:
+    """A Meshcat for recording only: Drake's "listening for connections" line is not
+    printed, since nothing connects to it (the recording is written as a file)."""
+    logger = logging.getLogger("drake")
+    level = logger.level
+    logger.setLevel(max(level, logging.WARNING))
+    try:
+        return Meshcat()
+    finally:
+        logger.setLevel(level)
+
+
 def replay_html(run: Run, *, meshcat: Meshcat | None = None) -> str:
     """Records the run at ``FRAMES_PER_SECOND`` and returns Meshcat's static HTML.
 
@@ -23,7 +36,7 @@ def replay_html(run: Run, *, meshcat: Meshcat | None = None) -> str:
     translucent sphere of radius S_i (the monitor's protective distance) surrounds its
     tracked position while it has a track (SSM override only).
     """
-    meshcat = meshcat or Meshcat()
+    meshcat = meshcat or _quiet_meshcat()
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
     AddUr5e(plant)

@@ -8,6 +8,8 @@ Seed: Lettera, Costa, Callegari, "A Hybrid Architecture for Safe Human-Robot
 Industrial Tasks", Appl. Sci. 2025 (``shared/seeds/000_*``), Eqs. 1 and 6-12.
 """
 
+import math
+
 import numpy as np
 
 HUMAN_SPEED_MODES = ("estimated", "iso", "estimated_with_floor")
@@ -44,26 +46,36 @@ def directed_speeds(
 
     Returns ``(v_human_directed, v_robot_directed)``, each shape ``(..., N)``.
     """
-    v_robot = np.asarray(v_robot, dtype=float)[..., None, :]
+    return separation_and_directed_speeds(p_robot, v_robot, p_bodies, v_bodies)[1:]
+
+
+def separation_and_directed_speeds(
+    p_robot: np.ndarray,
+    v_robot: np.ndarray,
+    p_bodies: np.ndarray,
+    v_bodies: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eq. 8's distances and Eqs. 6-7's directed speeds at once (they share the offsets):
+    ``(d, v_human_directed, v_robot_directed)``, as :func:`separation_distances` and
+    :func:`directed_speeds` give them."""
+    v_away = np.negative(v_robot, dtype=float)[..., None, :]  # -v_R
     v_bodies = np.asarray(v_bodies, dtype=float)
     diff = np.asarray(p_robot, dtype=float)[..., None, :] - np.asarray(p_bodies, dtype=float)
     dist = np.sqrt(np.vecdot(diff, diff))
-    apart = dist > 1e-12
     # Projections onto body -> robot, divided by the distance where it is defined.
-    if apart.all():
-        inverse = 1.0 / dist
-        return (np.vecdot(v_bodies, diff) * inverse,
-                np.vecdot(v_robot, diff) * -inverse)
+    if np.minimum.reduce(dist, axis=None, initial=np.inf) > 1e-12:  # False with a NaN
+        return dist, np.vecdot(v_bodies, diff) / dist, np.vecdot(v_away, diff) / dist
+    apart = dist > 1e-12
     v_h = np.divide(np.vecdot(v_bodies, diff), dist,
                     out=np.zeros_like(dist), where=apart)
-    v_r = np.divide(-np.vecdot(v_robot, diff), dist,
+    v_r = np.divide(np.vecdot(v_away, diff), dist,
                     out=np.zeros_like(dist), where=apart)
     coincident = ~apart & np.isfinite(dist)
     v_h = np.where(coincident, np.linalg.norm(v_bodies, axis=-1), v_h)
-    v_r = np.where(coincident, np.linalg.norm(v_robot, axis=-1), v_r)
+    v_r = np.where(coincident, np.linalg.norm(v_away, axis=-1), v_r)
     v_h[np.isnan(dist)] = np.nan
     v_r[np.isnan(dist)] = np.nan
-    return v_h, v_r
+    return dist, v_h, v_r
 
 
 def protective_separation_distance(
@@ -83,15 +95,12 @@ def protective_separation_distance(
     term chosen by :func:`human_speed_term` (Eq. 10) and v_R the robot's speed towards
     the body (Eq. 11). B is the stopping distance ``S_S`` (constant in the seed).
     """
-    v_human = np.asarray(v_human, dtype=float)
-    return (
-        v_human * (stopping_time + reaction_time)
-        + np.asarray(v_robot, dtype=float) * reaction_time
-        + stopping_distance
-        + intrusion_distance
-        + human_uncertainty
-        + robot_uncertainty
-    )
+    s = np.asarray(v_human, dtype=float) * (stopping_time + reaction_time)
+    s = s + np.asarray(v_robot, dtype=float) * reaction_time
+    s += stopping_distance + intrusion_distance + robot_uncertainty  # B + C + Z_r
+    if isinstance(human_uncertainty, float | int) and human_uncertainty == 0:
+        return s
+    return s + human_uncertainty  # Z_d, possibly per body
 
 
 def human_speed_term(
@@ -137,14 +146,15 @@ def monitor_protective_distances(
     In ``iso`` mode, ISO 13855's rule is applied: if S computed with 2.0 m/s exceeds
     0.5 m, S is recomputed with 1.6 m/s but not taken below 0.5 m.
     """
-    kwargs = dict(
-        reaction_time=reaction_time,
-        stopping_time=stopping_time,
-        stopping_distance=stopping_distance,
-        intrusion_distance=intrusion_distance,
-        human_uncertainty=human_uncertainty,
-        robot_uncertainty=robot_uncertainty,
-    )
+    if mode == "estimated":  # the seed's (Eq. 10), the common case: S straight away
+        return protective_separation_distance(
+            v_human_directed, v_robot_directed, reaction_time=reaction_time,
+            stopping_time=stopping_time, stopping_distance=stopping_distance,
+            intrusion_distance=intrusion_distance, human_uncertainty=human_uncertainty,
+            robot_uncertainty=robot_uncertainty)
+    kwargs = {"reaction_time": reaction_time, "stopping_time": stopping_time,
+              "stopping_distance": stopping_distance, "intrusion_distance": intrusion_distance,
+              "human_uncertainty": human_uncertainty, "robot_uncertainty": robot_uncertainty}
     v_h = human_speed_term(v_human_directed, mode, iso_speed=iso_speed)
     s = protective_separation_distance(v_h, v_robot_directed, **kwargs)
     if mode == "iso":
@@ -178,6 +188,14 @@ def occlusion_margin(
     return (occlusion_speed + np.nan_to_num(speed)) * np.asarray(unseen_time, dtype=float)
 
 
+# Stand-ins for an infinite S_max (+-): beyond every finite distance, and (dS - 1) times
+# them stays finite, so Eq. 12's arithmetic meets no inf - inf or 0 * inf.
+_S_MAX_CAP = 1e100
+# Where an untracked body is put when the closest body is looked for: beyond every real
+# distance, but short of the cap, so that a faulty body's S_max still stops the robot.
+_NOWHERE = 1e50
+
+
 def speed_override(
     distances: np.ndarray,
     s_max: np.ndarray | float,
@@ -188,24 +206,22 @@ def speed_override(
     """Speed override k per body, seed Eq. 12; shape of ``distances``.
 
     k = 0 if d_i < S_max or d_i < d_min; else 1 if d_i >= dS * S_max; else
-    (d_i - S_max) / (dS * S_max - S_max).
+    (d_i - S_max) / (dS * S_max - S_max). Computed as the ramp (d_i - S_max) /
+    ((dS - 1) S_max) clipped to [0, 1] (1 from d_i = dS * S_max, to rounding), then 0
+    below d_min.
 
     Interpretations: the zero case is tested first (Eq. 12 lists its cases in the
     other order, but then d < d_min would not stop the robot whenever
     d >= dS * S_max, which the text rules out); with S_max <= 0 (every body moving
     away fast under ``estimated`` speeds) the linear band is empty and k = 1 for
-    d >= d_min. Non-finite distances give k = 0 (fail safe).
+    d >= d_min. Non-finite distances and an infinite or NaN S_max give k = 0 (fail
+    safe).
     """
     d = np.asarray(distances, dtype=float)
-    s = np.asarray(s_max, dtype=float)
-    band = (delta_s - 1.0) * np.where(np.isinf(s), 0.0, s)  # S_max = inf: stop (below)
-    # Where the band is empty or infinite the ramp is not used: k is 1 or 0 below.
-    ramp = np.divide(d - s, band, out=np.ones(np.broadcast_shapes(d.shape, s.shape)),
-                     where=(band > 1e-12) & (band < np.inf))
+    s = np.fmax(np.fmin(s_max, _S_MAX_CAP), -_S_MAX_CAP)  # NaN and inf: +cap (stop)
+    ramp = (d - s) / np.maximum((delta_s - 1.0) * s, 1e-12)  # an empty band: a step
     k = np.minimum(np.maximum(ramp, 0.0), 1.0)
-    k[d >= delta_s * s] = 1.0
-    k[~((d >= s) & (d >= d_min) & (d < np.inf))] = 0.0
-    return k
+    return np.where((d >= d_min) & (d < np.inf), k, 0.0)
 
 
 def overall_speed_override(
@@ -220,17 +236,36 @@ def overall_speed_override(
 
     S_max is the largest S_i of the included bodies (Eq. 12 compares each d_i with
     S_max, not with its own S_i). Bodies not included (no track) are ignored; with no
-    included body k = 1. An included body with a non-finite d_i or S_i gives k = 0.
+    included body k = 1. An included body with a non-finite d_i or S_i gives k = 0
+    (S_max is then infinite).
+
+    With one S_max for all bodies Eq. 12 is non-decreasing in d_i, so the minimum over
+    the bodies is k of the closest included body, which is what is computed.
 
     Returns ``(k, s_max)`` with the body axis (last) reduced.
     """
     d = np.asarray(distances, dtype=float)
     s = np.asarray(protective_distances, dtype=float)
     inc = np.asarray(included, dtype=bool)
-    s_inc = np.where(inc, s, -np.inf)
-    s_inc[inc & ~np.isfinite(d)] = np.inf  # a bad distance makes S_max infinite: stop
-    s_inc[np.isnan(s_inc)] = np.inf
+    if d.ndim == 1 and s.ndim == 1 and inc.ndim == 1:  # one robot: plain floats are faster
+        return _overall_speed_override_one(d, s, inc, delta_s, d_min)
+    s_inc = np.where(inc, np.where(np.isfinite(d) & np.isfinite(s), s, np.inf), -np.inf)
     s_max = s_inc.max(axis=-1, initial=-np.inf)
-    k_i = speed_override(d, s_max[..., None], delta_s=delta_s, d_min=d_min)
-    k_i[~inc] = 1.0
-    return k_i.min(axis=-1, initial=1.0), s_max
+    closest = np.where(inc, d, _NOWHERE).min(axis=-1)
+    return speed_override(closest, s_max, delta_s=delta_s, d_min=d_min), s_max
+
+
+def _overall_speed_override_one(d: np.ndarray, s: np.ndarray, inc: np.ndarray,
+                                delta_s: float, d_min: float) -> tuple[np.float64, np.float64]:
+    """``overall_speed_override`` for one robot (1-D arrays), in Python floats: the same
+    rules (the tests hold the two to each other), several times faster for a few bodies."""
+    d_inc, s_inc = d[inc].tolist(), s[inc].tolist()
+    if not d_inc:  # nothing included
+        return np.float64(1.0), np.float64(-math.inf)
+    if not math.isfinite(sum(d_inc) + sum(s_inc)):  # a non-finite d_i or S_i: stop
+        return np.float64(0.0), np.float64(math.inf)
+    s_max, closest = max(s_inc), min(d_inc)
+    if closest < d_min:
+        return np.float64(0.0), np.float64(s_max)
+    ramp = (closest - s_max) / max((delta_s - 1.0) * s_max, 1e-12)
+    return np.float64(min(max(ramp, 0.0), 1.0)), np.float64(s_max)

@@ -12,10 +12,12 @@ from safety_systems.cli import main
 INSPECTION = Path(__file__).parents[1] / "models" / "scenarios" / "inspection.yaml"
 
 
-def test_simulate_writes_every_output(tmp_path, capsys):
+def test_simulate_writes_every_output(tmp_path, capsys, caplog):
     out = tmp_path / "run"
     assert main(["simulate", str(INSPECTION), "--out", str(out), "--duration", "1.5",
                  "--html", "--quiet"]) == 0
+    # Quiet: not even Drake's line about a Meshcat server nobody connects to.
+    assert "listening" not in capsys.readouterr().err + caplog.text
     summary = json.loads((out / "summary.json").read_text())
     for key in ("task_time", "min_separation_while_moving", "contact_while_moving",
                 "stopped_time"):

@@ -9,6 +9,7 @@ from safety_systems.ssm import (
     monitor_protective_distances,
     overall_speed_override,
     protective_separation_distance,
+    separation_and_directed_speeds,
     separation_distances,
     speed_override,
 )
@@ -150,3 +151,56 @@ def test_vectorised_over_batch_matches_loop():
         h1, r1 = directed_speeds(p_R[b], v_R[b], p_B[b], v_B[b])
         np.testing.assert_allclose(v_h[b], h1)
         np.testing.assert_allclose(v_r[b], r1)
+
+
+body_value = st.one_of(st.floats(0.0, 4.0), st.sampled_from([np.inf, np.nan]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(body_value, st.one_of(st.floats(-2.0, 3.0),
+                                                 st.sampled_from([np.inf, -np.inf, np.nan])),
+                          st.booleans()), min_size=1, max_size=8),
+       st.floats(1.0, 4.0), st.floats(0.0, 1.0))
+def test_overall_override_is_the_minimum_over_included_bodies(bodies, delta_s, d_min):
+    # The definition, body by body: S_max over the included bodies (inf if any included
+    # body has a non-finite d or S), then the smallest Eq. 12 k over them.
+    d = np.array([b[0] for b in bodies])
+    s = np.array([b[1] for b in bodies])
+    inc = np.array([b[2] for b in bodies])
+    faulty = inc & ~(np.isfinite(d) & np.isfinite(s))
+    s_max = np.inf if faulty.any() else max(s[inc], default=-np.inf)
+    expected = min((float(speed_override(np.array([d_i]), s_max, delta_s=delta_s,
+                                         d_min=d_min)[0]) for d_i in d[inc]), default=1.0)
+    with np.errstate(invalid="raise", over="raise", divide="raise"):  # no inf - inf inside
+        k, got_s_max = overall_speed_override(d, s, inc, delta_s=delta_s, d_min=d_min)
+    assert got_s_max == s_max
+    assert float(k) == expected
+
+
+def test_overall_override_batched_matches_one_robot_at_a_time():
+    # The batched evaluator's path (2-D) against the Drake system's (one robot, 1-D).
+    rng = np.random.default_rng(3)
+    d = rng.uniform(0.0, 3.0, (400, 5))
+    s = rng.uniform(-1.0, 2.0, (400, 5))
+    inc = rng.random((400, 5)) < 0.7
+    d[rng.random(d.shape) < 0.05] = np.inf
+    d[rng.random(d.shape) < 0.05] = np.nan
+    s[rng.random(s.shape) < 0.05] = np.nan
+    s[rng.random(s.shape) < 0.03] = -np.inf
+    k, s_max = overall_speed_override(d, s, inc, delta_s=1.7, d_min=0.25)
+    for row in range(len(d)):
+        k_one, s_one = overall_speed_override(d[row], s[row], inc[row], delta_s=1.7, d_min=0.25)
+        assert k[row] == k_one
+        assert s_max[row] == s_one
+
+
+def test_separation_with_directed_speeds_gives_eq8_distances():
+    rng = np.random.default_rng(5)
+    p_R, v_R = rng.normal(size=(6, 3)), rng.normal(size=(6, 3))
+    p_B, v_B = rng.normal(size=(6, 4, 3)), rng.normal(size=(6, 4, 3))
+    p_B[0, 1] = p_R[0]  # coincident
+    p_B[2, 3] = np.nan  # a bad frame
+    d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, p_B, v_B)
+    np.testing.assert_array_equal(d, separation_distances(p_R, p_B))
+    assert d[0, 1] == 0.0 and v_h[0, 1] == pytest.approx(np.linalg.norm(v_B[0, 1]))
+    assert np.isnan(v_h[2, 3]) and np.isnan(v_r[2, 3]) and np.isfinite(v_h[2, :3]).all()

@@ -25,6 +25,7 @@ from safety_systems.ssm import (
     monitor_protective_distances,
     occlusion_margin,
     overall_speed_override,
+    separation_and_directed_speeds,
     separation_distances,
 )
 from safety_systems.systems.kalman_tracker import (
@@ -230,8 +231,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         p_R, v_tool = tool0_position_and_velocity(q, dq * rate[:, None])
         v_R = (p_R - p_prev) / dt
         usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
-        d = separation_distances(p_R, est_p)
-        v_h, v_r = directed_speeds(p_R, v_R, est_p, est_v)
+        d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, est_p, est_v)
         z_d = (f.human_uncertainty + f.human_uncertainty_sigmas * std
                + occlusion_margin(unseen, est_v, f.occlusion_speed))
         S = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **s_args)

@@ -8,10 +8,9 @@ from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
     ISO_HUMAN_SPEED,
     ISO_REDUCED_HUMAN_SPEED,
-    directed_speeds,
     monitor_protective_distances,
     occlusion_margin,
-    separation_distances,
+    separation_and_directed_speeds,
 )
 
 # track_status values written by KalmanTracker.
@@ -139,8 +138,7 @@ class SeparationMonitor(LeafSystem):
         usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
         z_d = (self._z_d + self._sigmas * self._std.Eval(context)
                + occlusion_margin(self._unseen.Eval(context), v_B, self._occlusion_speed))
-        d = separation_distances(p_R, p_B)
-        v_h, v_r = directed_speeds(p_R, v_R, p_B, v_B)
+        d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, p_B, v_B)
         s = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **self._s_args)
         out[0] = d
         out[1] = s

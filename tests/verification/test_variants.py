@@ -13,7 +13,7 @@ import pytest
 import safety_systems.systems.separation_monitor as monitor_module
 import verification.evaluate_batch as batch_module
 from safety_systems.scenario import load_controller_config
-from safety_systems.ssm import directed_speeds
+from safety_systems.ssm import separation_and_directed_speeds
 from verification.proof import prove
 from verification.space import Range, load_space
 from verification.verify import verify
@@ -75,11 +75,11 @@ def flipped_sign(monkeypatch):
     """Eqs. 6-7 with the wrong sign: closing in counts as moving away."""
 
     def flipped(*args):
-        v_h, v_r = directed_speeds(*args)
-        return -v_h, -v_r
+        d, v_h, v_r = separation_and_directed_speeds(*args)
+        return d, -v_h, -v_r
 
     for module in (batch_module, monitor_module):
-        monkeypatch.setattr(module, "directed_speeds", flipped)
+        monkeypatch.setattr(module, "separation_and_directed_speeds", flipped)
 
 
 GENTLE = dict(start_distance=(1.0, 2.5), peak_speed=(0.5, 1.2), acceleration=(1.0, 3.0),
