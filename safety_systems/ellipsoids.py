@@ -55,6 +55,11 @@ def _quadratic_forms(S: np.ndarray, own: np.ndarray, other: np.ndarray) -> np.nd
     """x^T M_i x = |S_i (other_j - own_i)|^2 for every pair (..., n_own, n_other): one
     matrix product per leading index (S_i other_j - S_i own_i)."""
     n, m = S.shape[-3], other.shape[-2]
+    if S.ndim == 3 and other.ndim > 2:  # no leading axes here: one product for all of other
+        y = (S.reshape(3 * n, 3) @ other.reshape(-1, 3).T).reshape(n, 3, -1)
+        y -= np.matmul(S, own[..., None])
+        q = np.einsum("nki,nki->ni", y, y).reshape(n, *other.shape[:-2], m)
+        return np.moveaxis(q, 0, -2)
     y = np.matmul(S.reshape(*S.shape[:-3], 3 * n, 3), np.swapaxes(other, -1, -2))
     y = y.reshape(*y.shape[:-2], n, 3, m)
     y -= np.matmul(S, own[..., None])
@@ -139,12 +144,22 @@ def robot_ellipsoids(q: np.ndarray, link_radii, tool_radius: float,
     frames = dh_frames(q)
     origins = frames[..., :3, 3]
     tool = origins[..., 6, :] + tool_offset * frames[..., 6, :3, 2]
-    parts = [spheres(tool[..., None, :], tool_radius)]
-    if len(link_radii):
-        starts = origins[..., [a for a, _ in ROBOT_SEGMENTS], :]
-        ends = origins[..., [b for _, b in ROBOT_SEGMENTS], :]
-        parts.insert(0, segment_ellipsoids(starts, ends, np.asarray(link_radii, dtype=float)))
-    return concatenate(*parts)
+    n = len(link_radii)
+    lead = tool.shape[:-1]
+    centres = np.empty(lead + (n + 1, 3))
+    rotations = np.empty(lead + (n + 1, 3, 3))
+    semi = np.empty(lead + (n + 1, 3))
+    if n:
+        links = segment_ellipsoids(origins[..., [a for a, _ in ROBOT_SEGMENTS], :],
+                                   origins[..., [b for _, b in ROBOT_SEGMENTS], :],
+                                   np.asarray(link_radii, dtype=float))
+        centres[..., :n, :] = links.centres
+        rotations[..., :n, :, :] = links.rotations
+        semi[..., :n, :] = links.semi_axes
+    centres[..., n, :] = tool
+    rotations[..., n, :, :] = np.eye(3)
+    semi[..., n, :] = tool_radius
+    return Ellipsoids(centres, rotations, semi)
 
 
 SHOULDER_WIDTH = 0.40  # m
@@ -167,29 +182,48 @@ def human_ellipsoids(hands: np.ndarray, sizes) -> Ellipsoids:
     Returns 8 ellipsoids: 2 hands, 2 forearms, 2 upper arms, head and torso.
     """
     hands = np.asarray(hands, dtype=float)
-    middle = hands.mean(axis=-2)
-    forward = -middle.copy()
-    forward[..., 2] = 0.0
-    norm = np.linalg.norm(forward, axis=-1, keepdims=True)
-    forward = np.where(norm > 1e-9, forward / np.maximum(norm, 1e-9), [1.0, 0.0, 0.0])
-    up = np.array([0.0, 0.0, 1.0])
-    left = np.cross(up, forward)
-    torso = middle - TORSO_BEHIND_HANDS * forward + TORSO_ABOVE_HANDS * up
+    middle = 0.5 * (hands[..., 0, :] + hands[..., 1, :])
+    # forward: horizontal, from the hands' midpoint towards the base (e_x above it).
+    fx, fy = -middle[..., 0], -middle[..., 1]
+    norm = np.sqrt(fx * fx + fy * fy)
+    level = norm > 1e-9
+    fx = np.where(level, fx / np.where(level, norm, 1.0), 1.0)
+    fy = np.where(level, fy / np.where(level, norm, 1.0), 0.0)
+    lead = middle.shape[:-1]
+    frame = np.zeros(lead + (3, 3))  # columns: forward, left = up x forward, up
+    frame[..., 0, 0], frame[..., 1, 0] = fx, fy
+    frame[..., 0, 1], frame[..., 1, 1] = -fy, fx
+    frame[..., 2, 2] = 1.0
+    forward, left = frame[..., 0], frame[..., 1]
+    torso = middle - TORSO_BEHIND_HANDS * forward
+    torso[..., 2] += TORSO_ABOVE_HANDS
     # Each hand hangs from the shoulder on its own side (arms never cross).
     lateral = np.einsum("...ki,...i->...k", hands - middle[..., None, :], left)
     first_left = (lateral[..., 0] >= lateral[..., 1])[..., None]
     side = np.where(first_left, [0.5, -0.5], [-0.5, 0.5])[..., None] * SHOULDER_WIDTH
-    shoulders = torso[..., None, :] + 0.2 * up + side * left[..., None, :]
+    shoulders = torso[..., None, :] + side * left[..., None, :]
+    shoulders[..., 2] += 0.2
     span = hands - shoulders
-    half = np.minimum(np.linalg.norm(span, axis=-1, keepdims=True) / 2.0, ARM_SEGMENT)
-    elbows = shoulders + 0.5 * span - np.sqrt(np.maximum(ARM_SEGMENT**2 - half**2, 0.0)) * up
-    torso_rot = np.stack([forward, left, np.broadcast_to(up, forward.shape)], axis=-1)
-    return concatenate(
-        spheres(hands, sizes.hand_radius),
-        segment_ellipsoids(elbows, hands, sizes.forearm_radius),
-        segment_ellipsoids(shoulders, elbows, sizes.upper_arm_radius),
-        spheres((torso + 0.55 * up)[..., None, :], sizes.head_radius),
-        Ellipsoids(torso[..., None, :], torso_rot[..., None, :, :],
-                   np.broadcast_to(np.asarray(sizes.torso_semi_axes, dtype=float),
-                                   torso.shape)[..., None, :]),
-    )
+    half = np.minimum(0.5 * np.sqrt(np.einsum("...i,...i->...", span, span)), ARM_SEGMENT)
+    elbows = shoulders + 0.5 * span
+    elbows[..., 2] -= np.sqrt(np.maximum(ARM_SEGMENT**2 - half**2, 0.0))
+    # 2 hands, 2 forearms, 2 upper arms, head, torso; the limbs in one call.
+    limbs = segment_ellipsoids(np.concatenate((elbows, shoulders), axis=-2),
+                               np.concatenate((hands, elbows), axis=-2),
+                               np.array([sizes.forearm_radius] * 2 + [sizes.upper_arm_radius] * 2))
+    centres = np.empty(lead + (8, 3))
+    rotations = np.empty(lead + (8, 3, 3))
+    semi = np.empty(lead + (8, 3))
+    centres[..., :2, :] = hands
+    centres[..., 2:6, :] = limbs.centres
+    centres[..., 6, :] = torso
+    centres[..., 6, 2] += 0.55
+    centres[..., 7, :] = torso
+    rotations[..., [0, 1, 6], :, :] = np.eye(3)
+    rotations[..., 2:6, :, :] = limbs.rotations
+    rotations[..., 7, :, :] = frame
+    semi[..., :2, :] = sizes.hand_radius
+    semi[..., 2:6, :] = limbs.semi_axes
+    semi[..., 6, :] = sizes.head_radius
+    semi[..., 7, :] = sizes.torso_semi_axes
+    return Ellipsoids(centres, rotations, semi)

@@ -71,6 +71,8 @@ def operator_ellipsoids(positions: np.ndarray, valid: np.ndarray, operator_of: n
     if rest.any():
         radius = np.where(is_hand[rest], sizes.hand_radius, sizes.head_radius)
         parts.append(spheres(positions[rest], radius))
+    if len(parts) == 1:
+        return parts[0]
     if not parts:
         return spheres(np.zeros((0, 3)), 0.0)
     return concatenate(*parts)
