@@ -22,6 +22,7 @@ time and distance measured on their own cell, tool and payload.
 """
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -107,6 +108,10 @@ def path_rate_step(
     speed; speed alteration controllers may go faster). Non-finite commands count as 0
     (fail safe). Vectorised.
     """
+    if isinstance(rate, float) and isinstance(commanded, float) and isinstance(time_scale,
+                                                                              float):
+        return _path_rate_step_one(rate, commanded, dt, table, acceleration_limit,
+                                   time_scale, max_rate)
     rate = np.asarray(rate, dtype=float)
     cmd = np.asarray(commanded, dtype=float)
     cmd = np.where(np.isfinite(cmd), np.minimum(np.maximum(cmd, -max_rate), max_rate), 0.0)
@@ -115,6 +120,19 @@ def path_rate_step(
                      acceleration_limit) * dt
     new = rate + np.minimum(np.maximum(cmd - rate, -bound), bound)
     return np.where(rate * new < 0.0, 0.0, new)
+
+
+def _path_rate_step_one(rate: float, cmd: float, dt: float, table: BrakingTable,
+                        acceleration_limit: float, time_scale: float, max_rate: float) -> float:
+    """``path_rate_step`` for one robot, in Python floats (the PathFollower's 500 Hz
+    step): the same rules, held to the vectorised path by the tests."""
+    cmd = min(max(cmd, -max_rate), max_rate) if math.isfinite(cmd) else 0.0
+    if abs(cmd) < abs(rate) or cmd * rate < 0.0:  # slowing: within the brakes
+        bound = float(braking_deceleration(table, rate)) / time_scale * dt
+    else:
+        bound = acceleration_limit * dt
+    new = rate + min(max(cmd - rate, -bound), bound)
+    return 0.0 if rate * new < 0.0 else new
 
 
 def tool_stopping_distance(

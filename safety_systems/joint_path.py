@@ -192,6 +192,8 @@ def joint_path_state(
     """
     if isinstance(path, SplinePath):
         return path.state(s)
+    if isinstance(s, float):
+        return _joint_path_state_one(path, s)
     s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), path.end)
     phase = s - path.cycle_time * np.minimum(np.floor(s / path.cycle_time), path.cycles - 1)
     j = np.searchsorted(path.starts, phase, side="right") - 1
@@ -204,3 +206,21 @@ def joint_path_state(
     dq = (dh / T)[..., None] * delta
     ddq = (ddh / (T * T))[..., None] * delta
     return q, dq, ddq
+
+
+def _joint_path_state_one(path: JointPath, s: float) -> tuple[np.ndarray, np.ndarray,
+                                                                np.ndarray]:
+    """``joint_path_state`` at one s (the PathFollower's tick): the same arithmetic in
+    Python floats up to the joint vectors, held to the vectorised path by the tests."""
+    s = min(max(s, 0.0), path.end)
+    phase = s - path.cycle_time * min(math.floor(s / path.cycle_time), path.cycles - 1)
+    j = int(path.starts.searchsorted(phase, side="right")) - 1
+    T = float(path.durations[j])
+    tau = min((phase - float(path.starts[j])) / T, 1.0)
+    t2 = tau * tau  # the minimum-jerk blend of _blend
+    h = t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2)
+    rest = 1.0 - tau
+    dh = 30.0 * t2 * (rest * rest)  # numpy squares by multiplying; so do we
+    ddh = 60.0 * tau * rest * (1.0 - 2.0 * tau)
+    delta = path.deltas[j]
+    return path.waypoints[j] + h * delta, (dh / T) * delta, (ddh / (T * T)) * delta

@@ -168,3 +168,17 @@ def test_tool_stopping_distance_positive_and_grows_with_rate():
     # Plausible for a UR5e: less than the table's 0.595 m from a 0.85 m arm, more than 5 cm.
     assert 0.05 < got[2] < 0.595
     assert tool_stopping_distance(path, DEFAULT, rate=0.0, starts=10) == 0.0
+
+
+@FIXED
+@given(rate=st.one_of(RATES, st.just(float("nan"))), cmd=COMMANDS,
+       accel=st.floats(0.1, 10.0), scale=st.floats(0.5, 3.0), max_rate=st.floats(0.5, 2.0),
+       uneven=st.booleans())
+def test_one_robot_path_equals_the_vectorised_one(rate, cmd, accel, scale, max_rate, uneven):
+    # Python floats take the PathFollower's scalar path; arrays the batched one.
+    args = {"table": UNEVEN if uneven else DEFAULT, "acceleration_limit": accel,
+            "time_scale": scale, "max_rate": max_rate}
+    one = path_rate_step(float(rate), float(cmd), DT, **args)
+    batched = path_rate_step(np.array([rate]), np.array([cmd]), DT, **args)[0]
+    assert isinstance(one, float)
+    np.testing.assert_array_equal(one, batched)

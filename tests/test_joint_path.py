@@ -133,11 +133,13 @@ def test_s_clipped_to_task():
 
 
 def test_vectorised_equals_scalar():
+    # A float s takes the PathFollower's plain-float path: it must agree to the bit.
     rng = np.random.default_rng(3)
-    s = rng.uniform(-1.0, PATH.end + 1.0, (4, 5))
+    s = rng.uniform(-1.0, PATH.end + 1.0, (40, 5))
+    s[0] = [0.0, PATH.end, PATH.cycle_time, PATH.starts[1], np.nextafter(PATH.starts[2], 0.0)]
     q, dq, ddq = joint_path_state(PATH, s)
-    assert q.shape == dq.shape == ddq.shape == (4, 5, 6)
-    for idx in np.ndindex(4, 5):
+    assert q.shape == dq.shape == ddq.shape == (40, 5, 6)
+    for idx in np.ndindex(40, 5):
         one = joint_path_state(PATH, float(s[idx]))
         assert one[0].shape == (6,)
         for got, want in zip(one, (q[idx], dq[idx], ddq[idx])):
