@@ -184,8 +184,9 @@ def occlusion_margin(
     """
     if occlusion_speed <= 0.0:
         return np.zeros(np.shape(unseen_time))
-    speed = np.sqrt((np.asarray(velocity_estimate, dtype=float) ** 2).sum(axis=-1))
-    return (occlusion_speed + np.nan_to_num(speed)) * np.asarray(unseen_time, dtype=float)
+    v = np.asarray(velocity_estimate, dtype=float)
+    speed = np.fmax(np.sqrt(np.vecdot(v, v)), 0.0)  # no estimate (NaN): 0
+    return (occlusion_speed + speed) * np.asarray(unseen_time, dtype=float)
 
 
 # Stand-ins for an infinite S_max (+-): beyond every finite distance, and (dS - 1) times

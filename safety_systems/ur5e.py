@@ -140,13 +140,17 @@ def tool0_position_and_velocity(
         vl = None if v is None else np.asarray(v, dtype=float).tolist()
         p, pdot = _tool0(q.tolist(), vl, math.cos, math.sin)
         return np.array(p), (None if pdot is None else np.array(pdot))
-    qs = np.moveaxis(q, -1, 0)
-    vs = None if v is None else np.moveaxis(np.asarray(v, dtype=float), -1, 0)
-    p, pdot = _tool0(qs, vs, np.cos, np.sin)
-    p = np.stack(np.broadcast_arrays(*p), axis=-1)
-    if pdot is not None:
-        pdot = np.stack(np.broadcast_arrays(*pdot), axis=-1)
-    return p, pdot
+    v = None if v is None else np.asarray(v, dtype=float)
+    p, pdot = _tool0([q[..., i] for i in range(6)],
+                     None if v is None else [v[..., i] for i in range(6)], np.cos, np.sin)
+    shape = np.broadcast_shapes(q.shape[:-1], () if v is None else v.shape[:-1]) + (3,)
+    position = np.empty(shape)
+    position[..., 0], position[..., 1], position[..., 2] = p
+    if pdot is None:
+        return position, None
+    velocity = np.empty(shape)
+    velocity[..., 0], velocity[..., 1], velocity[..., 2] = pdot
+    return position, velocity
 
 
 def tool0_position(q: np.ndarray) -> np.ndarray:

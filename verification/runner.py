@@ -29,6 +29,12 @@ def _evaluate_chunk(scenarios: list[Scenario]) -> np.ndarray:
     return np.stack([getattr(r, f) for f in FIELDS])
 
 
+def _apply(job: tuple) -> object:
+    """fn(*args) of a job (fn, args) (runs in a worker)."""
+    fn, args = job
+    return fn(*args)
+
+
 def scenario_key(scenario: Scenario) -> str:
     """A stable key of a scenario's content (its YAML text, without its name)."""
     text = dump_scenario(dataclasses.replace(scenario, name=""))
@@ -111,18 +117,26 @@ class Runner:
         self._bar.update(len(scenarios))
         return np.array([self.cache.values[k] for k in keys]).reshape(len(scenarios), -1)
 
+    def map(self, fn, arguments: list[tuple]) -> list:
+        """[fn(*a) for a in arguments], on the runner's workers; ``fn`` a module-level
+        function, its arguments picklable (no Drake objects)."""
+        return list(self._run(_apply, [(fn, a) for a in arguments]))
+
     def _map(self, chunks):
-        if not chunks:
+        return self._run(_evaluate_chunk, chunks)
+
+    def _run(self, fn, items):
+        if not items:
             return iter(())
         if self.scheduler is not None:
             if self._client is None:
                 from dask.distributed import Client
 
                 self._client = Client(self.scheduler)
-            futures = self._client.map(_evaluate_chunk, chunks, pure=False)
+            futures = self._client.map(fn, items, pure=False)
             return (f.result() for f in futures)
-        if self.workers <= 1 or len(chunks) == 1:
-            return (_evaluate_chunk(c) for c in chunks)
+        if self.workers <= 1 or len(items) == 1:
+            return (fn(c) for c in items)
         if self._pool is None:
             self._pool = ProcessPoolExecutor(max_workers=self.workers)
-        return self._pool.map(_evaluate_chunk, chunks)
+        return self._pool.map(fn, items)

@@ -78,7 +78,23 @@ def sweep_points(method: str, n: int, d: int, *, seed: int = 0) -> np.ndarray:
 
 
 def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
-                  *, step: float = 0.02) -> np.ndarray:
+                  *, step: float = 0.02, runner: Runner | None = None) -> np.ndarray:
+    """``_danger_scores`` of the points, split over the runner's workers if given (the
+    same scores: every part runs to the horizon of the whole set)."""
+    robot_path = joint_path(space.robot)
+    scenarios = [make_scenario(space, config, to_point(space, u), path=robot_path,
+                               validate=False) for u in points]
+    horizon = (max(s.duration for s in scenarios), max(s.robot.cycles for s in scenarios))
+    parts = 1 if runner is None else max(1, min(runner.workers, len(points) // 256))
+    if parts == 1:
+        return _danger_scores(space, config, points, step, horizon, scenarios)
+    chunks = np.array_split(np.asarray(points), parts)
+    return np.concatenate(runner.map(_danger_scores, [(space, config, c, step, horizon)
+                                                      for c in chunks]))
+
+
+def _danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
+                   step: float, horizon: tuple[float, int], scenarios=None) -> np.ndarray:
     """Danger score of each point, m (lower is more dangerous; see module).
 
     A reduced model of the loop, every ``step`` seconds: the configured monitor is fed
@@ -93,15 +109,18 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
     The score is the closest the hand comes to the tool while the tool still moves. It
     only orders candidates; verdicts rest on the full closed-loop simulations.
     """
-    scenarios = [make_scenario(space, config, to_point(space, u)) for u in points]
+    if scenarios is None:
+        robot_path = joint_path(space.robot)
+        scenarios = [make_scenario(space, config, to_point(space, u), path=robot_path,
+                                   validate=False) for u in points]
     n = len(scenarios)
-    cycles = max(sc.robot.cycles for sc in scenarios)
+    duration, cycles = horizon
     path = joint_path(dataclasses.replace(space.robot, cycles=cycles))
     end = path.cycle_time * cycles
     dt = 1.0 / space.robot.control_rate_hz
     ticks = max(1, round(step / dt))
     table = braking_table(config)
-    t = np.arange(0.0, max(s.duration for s in scenarios) + step, ticks * dt)
+    t = np.arange(0.0, duration + step, ticks * dt)
     stack = stack_paths([scripted_operators(sc)[0].path for sc in scenarios])
     f = config.safety
     sensors = [actual_sensor(sc) for sc in scenarios]
@@ -118,9 +137,15 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
     timeout = frame_timeout(config)
     scale = np.array([sc.robot.braking_time_scale for sc in scenarios])
 
+    frames: dict[float, np.ndarray] = {}  # tracker look j -> frame index per candidate
+
     def fault(now: float) -> np.ndarray:
-        j = np.floor((now - offset) / period + 1e-9)
-        i = delivered_frames(np.full(n, offset + j * period), latency, period, drops)
+        j = math.floor((now - offset) / period + 1e-9)
+        if j not in frames:
+            frames.clear()
+            frames[j] = delivered_frames(np.full(n, offset + j * period), latency, period,
+                                         drops)
+        i = frames[j]
         return (j < 0) | (i < 0) | (now - i * period > timeout)
 
     t_s, b = assumed_stopping(config)
@@ -202,7 +227,7 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         return log
     sobol = sweep_points("sobol", candidates, d, seed=seed)
     pool = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)), sobol])
-    ranked = pool[np.argsort(danger_scores(space, config, pool), kind="stable")]
+    ranked = pool[np.argsort(danger_scores(space, config, pool, runner=runner), kind="stable")]
     queue = _interleave(ranked, sobol, 4)
 
     def done() -> bool:

@@ -199,10 +199,15 @@ def approach_times(peak_speed: float, acceleration: float, length: float) -> flo
 
 
 def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[str, float],
-                  *, name: str = "sample") -> Scenario:
-    """The scenario of one point of the space (``values`` by parameter name)."""
+                  *, name: str = "sample", path=None, validate: bool = True) -> Scenario:
+    """The scenario of one point of the space (``values`` by parameter name).
+
+    ``path``: the space robot's joint path, if the caller has it already (building it is
+    most of the cost for many points). ``validate=False`` skips the range checks, for
+    candidates that are only ranked, never simulated (simulated ones are made again
+    with the checks)."""
     v = values
-    path = joint_path(space.robot)
+    path = joint_path(space.robot) if path is None else path
     onset = space.settle_time + v["onset_phase"] * path.cycle_time
     target = tool0_position(joint_path_state(path, v["target_phase"] * path.cycle_time)[0])
     n_ops = int(round(v["operators"]))
@@ -240,7 +245,8 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
                        cycles=int(math.ceil(duration / path.cycle_time)) + 1)
     scenario = Scenario(name=name, duration=duration, contact_distance=space.contact_distance,
                         robot=robot, controller=config, sensor=sensor, operators=operators)
-    validate_scenario(scenario)
+    if validate:
+        validate_scenario(scenario)
     return scenario
 
 

@@ -43,6 +43,13 @@ def test_danger_score_orders_a_lunge_into_the_path_before_a_hand_far_away():
     assert scores[1] < scores[0]
 
 
+def test_danger_scores_split_over_workers_are_the_same():
+    points = sweep_points("sobol", 512, D, seed=3)
+    with Runner(workers=2) as runner:  # two parts of 256, each run to the common horizon
+        split = danger_scores(SPACE, SEED_CONFIG, points, runner=runner)
+    np.testing.assert_array_equal(split, danger_scores(SPACE, SEED_CONFIG, points))
+
+
 @pytest.fixture(scope="module")
 def seed_search():
     with Runner(workers=1) as runner:
