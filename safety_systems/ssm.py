@@ -185,7 +185,7 @@ def occlusion_margin(
     if occlusion_speed <= 0.0:
         return np.zeros(np.shape(unseen_time))
     v = np.asarray(velocity_estimate, dtype=float)
-    speed = np.fmax(np.sqrt(np.vecdot(v, v)), 0.0)  # no estimate (NaN): 0
+    speed = np.fmax(np.sqrt((v * v).sum(axis=-1)), 0.0)  # no estimate (NaN): 0
     return (occlusion_speed + speed) * np.asarray(unseen_time, dtype=float)
 
 
