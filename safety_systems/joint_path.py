@@ -110,12 +110,13 @@ def default_joint_path(cycles: int = 1) -> JointPath:
     return make_joint_path(np.radians(DEFAULT_WAYPOINTS_DEG), DEFAULT_DURATIONS, cycles=cycles)
 
 
-def _blend(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Minimum-jerk blend h, h', h'' on tau in [0, 1]."""
+def _blend(tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Minimum-jerk blend h, h', h'' on tau in [0, 1] (arrays or one float)."""
     t2 = tau * tau
+    rest = 1.0 - tau
     h = t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2)
-    dh = 30.0 * t2 * (1.0 - tau) ** 2
-    ddh = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
+    dh = 30.0 * t2 * (rest * rest)  # a product, not ** 2: the same for floats and arrays
+    ddh = 60.0 * tau * rest * (1.0 - 2.0 * tau)
     return h, dh, ddh
 
 
@@ -217,10 +218,6 @@ def _joint_path_state_one(path: JointPath, s: float) -> tuple[np.ndarray, np.nda
     j = int(path.starts.searchsorted(phase, side="right")) - 1
     T = float(path.durations[j])
     tau = min((phase - float(path.starts[j])) / T, 1.0)
-    t2 = tau * tau  # the minimum-jerk blend of _blend
-    h = t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2)
-    rest = 1.0 - tau
-    dh = 30.0 * t2 * (rest * rest)  # numpy squares by multiplying; so do we
-    ddh = 60.0 * tau * rest * (1.0 - 2.0 * tau)
+    h, dh, ddh = _blend(tau)
     delta = path.deltas[j]
     return path.waypoints[j] + h * delta, (dh / T) * delta, (ddh / (T * T)) * delta
