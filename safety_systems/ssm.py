@@ -189,6 +189,26 @@ def occlusion_margin(
     return (occlusion_speed + speed) * np.asarray(unseen_time, dtype=float)
 
 
+def human_uncertainty(
+    base: float,
+    sigmas: float,
+    position_std: np.ndarray,
+    unseen_time: np.ndarray,
+    velocity_estimate: np.ndarray,
+    occlusion_speed: float,
+) -> np.ndarray | float:
+    """Z_d of each body, metres: the configured ``base``, plus ``sigmas`` standard
+    deviations of the track's position, plus :func:`occlusion_margin`. Terms that are
+    switched off (``sigmas`` 0, ``occlusion_speed`` 0) are not computed, so the seed's
+    constant Z_d stays the float ``base``."""
+    z_d = base
+    if sigmas:
+        z_d = z_d + sigmas * np.asarray(position_std, dtype=float)
+    if occlusion_speed > 0.0:
+        z_d = z_d + occlusion_margin(unseen_time, velocity_estimate, occlusion_speed)
+    return z_d
+
+
 # Stand-ins for an infinite S_max (+-): beyond every finite distance, and (dS - 1) times
 # them stays finite, so Eq. 12's arithmetic meets no inf - inf or 0 * inf.
 _S_MAX_CAP = 1e100

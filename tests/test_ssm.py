@@ -6,7 +6,9 @@ from hypothesis import strategies as st
 from safety_systems.ssm import (
     directed_speeds,
     human_speed_term,
+    human_uncertainty,
     monitor_protective_distances,
+    occlusion_margin,
     overall_speed_override,
     protective_separation_distance,
     separation_and_directed_speeds,
@@ -204,3 +206,14 @@ def test_separation_with_directed_speeds_gives_eq8_distances():
     np.testing.assert_array_equal(d, separation_distances(p_R, p_B))
     assert d[0, 1] == 0.0 and v_h[0, 1] == pytest.approx(np.linalg.norm(v_B[0, 1]))
     assert np.isnan(v_h[2, 3]) and np.isnan(v_r[2, 3]) and np.isfinite(v_h[2, :3]).all()
+
+
+def test_human_uncertainty_adds_only_the_terms_switched_on():
+    std = np.array([0.01, np.nan])  # the second body has no track
+    unseen = np.array([0.2, 0.0])
+    v = np.array([[0.3, 0.4, 0.0], [np.nan] * 3])
+    assert human_uncertainty(0.05, 0.0, std, unseen, v, 0.0) == 0.05  # the seed's constant
+    np.testing.assert_allclose(human_uncertainty(0.05, 3.0, std, unseen, v, 0.0)[0], 0.08)
+    both = human_uncertainty(0.05, 3.0, std, unseen, v, 2.0)
+    np.testing.assert_allclose(both[0], 0.05 + 0.03 + (2.0 + 0.5) * 0.2)
+    np.testing.assert_array_equal(both, 0.05 + 3.0 * std + occlusion_margin(unseen, v, 2.0))

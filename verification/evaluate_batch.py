@@ -22,8 +22,8 @@ from safety_systems.operator_paths import stack_paths, stacked_position_velocity
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.ssm import (
     directed_speeds,
+    human_uncertainty,
     monitor_protective_distances,
-    occlusion_margin,
     overall_speed_override,
     separation_and_directed_speeds,
     separation_distances,
@@ -232,8 +232,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         v_R = (p_R - p_prev) / dt
         usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
         d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, est_p, est_v)
-        z_d = (f.human_uncertainty + f.human_uncertainty_sigmas * std
-               + occlusion_margin(unseen, est_v, f.occlusion_speed))
+        z_d = human_uncertainty(f.human_uncertainty, f.human_uncertainty_sigmas, std, unseen,
+                                est_v, f.occlusion_speed)
         S = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **s_args)
         d[~usable] = np.nan
         S[~usable] = np.nan

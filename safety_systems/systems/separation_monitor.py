@@ -8,8 +8,8 @@ from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
     ISO_HUMAN_SPEED,
     ISO_REDUCED_HUMAN_SPEED,
+    human_uncertainty,
     monitor_protective_distances,
-    occlusion_margin,
     separation_and_directed_speeds,
 )
 
@@ -136,11 +136,8 @@ class SeparationMonitor(LeafSystem):
         v_B = self._v_B.Eval(context).reshape(n, 3)
         status = self._status.Eval(context)
         usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
-        z_d = self._z_d  # Z_d, grown by the track's uncertainty and unseen time if asked
-        if self._sigmas:
-            z_d = z_d + self._sigmas * self._std.Eval(context)
-        if self._occlusion_speed > 0.0:
-            z_d = z_d + occlusion_margin(self._unseen.Eval(context), v_B, self._occlusion_speed)
+        z_d = human_uncertainty(self._z_d, self._sigmas, self._std.Eval(context),
+                                self._unseen.Eval(context), v_B, self._occlusion_speed)
         d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, p_B, v_B)
         s = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **self._s_args)
         out[0] = d
