@@ -17,6 +17,7 @@ Points live in the unit cube over the space's free parameters
 """
 
 import dataclasses
+import functools
 import itertools
 import math
 
@@ -87,15 +88,15 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
     horizon = (max(s.duration for s in scenarios), max(s.robot.cycles for s in scenarios))
     parts = 1 if runner is None else max(1, min(runner.workers, len(points) // 256))
     if parts == 1:
-        return _danger_scores(space, config, points, step, horizon, scenarios)
-    chunks = np.array_split(np.asarray(points), parts)
-    return np.concatenate(runner.map(_danger_scores, [(space, config, c, step, horizon)
-                                                      for c in chunks]))
+        return _danger_scores(space, config, scenarios, step, horizon)
+    cuts = np.array_split(np.arange(len(scenarios)), parts)
+    return np.concatenate(runner.map(_danger_scores, [
+        (space, config, scenarios[c[0]:c[-1] + 1], step, horizon) for c in cuts]))
 
 
-def _danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
-                   step: float, horizon: tuple[float, int], scenarios=None) -> np.ndarray:
-    """Danger score of each point, m (lower is more dangerous; see module).
+def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: list,
+                   step: float, horizon: tuple[float, int]) -> np.ndarray:
+    """Danger score of each candidate scenario, m (lower is more dangerous; see module).
 
     A reduced model of the loop, every ``step`` seconds: the configured monitor is fed
     the first operator's hand as the sensor would show it (one period plus the latency
@@ -105,14 +106,11 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nd
     configured latency, or dropped). The robot starts at rest and its path rate follows
     k through ``path_rate_step`` (acceleration limit and braking data). Controllers
     other than ``ssm_override`` are not modelled (k = 1 but for faults). The Kalman
-    filter, noise and the other bodies are left out.
+    filter, noise and the other bodies are left out. ``horizon``: (duration, cycles)
+    to run to.
     The score is the closest the hand comes to the tool while the tool still moves. It
     only orders candidates; verdicts rest on the full closed-loop simulations.
     """
-    if scenarios is None:
-        robot_path = joint_path(space.robot)
-        scenarios = [make_scenario(space, config, to_point(space, u), path=robot_path,
-                                   validate=False) for u in points]
     n = len(scenarios)
     duration, cycles = horizon
     path = joint_path(dataclasses.replace(space.robot, cycles=cycles))
@@ -137,15 +135,14 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nd
     timeout = frame_timeout(config)
     scale = np.array([sc.robot.braking_time_scale for sc in scenarios])
 
-    frames: dict[float, np.ndarray] = {}  # tracker look j -> frame index per candidate
+    @functools.lru_cache(maxsize=1)  # ticks between two tracker looks share the frame
+    def frame_seen(j: int) -> np.ndarray:
+        """Index of the frame the tracker's look j processes, per candidate."""
+        return delivered_frames(np.full(n, offset + j * period), latency, period, drops)
 
     def fault(now: float) -> np.ndarray:
         j = math.floor((now - offset) / period + 1e-9)
-        if j not in frames:
-            frames.clear()
-            frames[j] = delivered_frames(np.full(n, offset + j * period), latency, period,
-                                         drops)
-        i = frames[j]
+        i = frame_seen(j)
         return (j < 0) | (i < 0) | (now - i * period > timeout)
 
     t_s, b = assumed_stopping(config)
