@@ -20,7 +20,9 @@ conservative: DI >= 1 can also mean "close, and not proven apart".
 """
 
 import dataclasses
+import math
 
+import numba
 import numpy as np
 
 from safety_systems.ur5e import dh_frames
@@ -51,37 +53,50 @@ def scaled_frames(e: Ellipsoids) -> np.ndarray:
     return e.semi_axes[..., :, None] * np.swapaxes(e.rotations, -1, -2)
 
 
-def _quadratic_forms(S: np.ndarray, own: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """x^T M_i x = |S_i (other_j - own_i)|^2 for every pair (..., n_own, n_other): one
-    matrix product per leading index (S_i other_j - S_i own_i)."""
-    n, m = S.shape[-3], other.shape[-2]
-    if S.ndim == 3 and other.ndim > 2:  # no leading axes here: one product for all of other
-        y = (S.reshape(3 * n, 3) @ other.reshape(-1, 3).T).reshape(n, 3, -1)
-        y -= np.matmul(S, own[..., None])
-        q = np.einsum("nki,nki->ni", y, y).reshape(n, *other.shape[:-2], m)
-        return np.moveaxis(q, 0, -2)
-    y = np.matmul(S.reshape(*S.shape[:-3], 3 * n, 3), np.swapaxes(other, -1, -2))
-    y = y.reshape(*y.shape[:-2], n, 3, m)
-    y -= np.matmul(S, own[..., None])
-    return np.einsum("...kj,...kj->...j", y, y)
+@numba.njit(cache=True)
+def _danger_pairs(ca, Sa, cb, Sb, out):
+    """out[l, i, j] = DI of (a_li, b_lj) from centres (L, n, 3) and scaled frames
+    (L, n, 3, 3), compiled: (|S_a x| + |S_b x|)^2 / d^4 with x the centre offset."""
+    for lead in range(ca.shape[0]):
+        for i in range(ca.shape[1]):
+            for j in range(cb.shape[1]):
+                x0 = cb[lead, j, 0] - ca[lead, i, 0]
+                x1 = cb[lead, j, 1] - ca[lead, i, 1]
+                x2 = cb[lead, j, 2] - ca[lead, i, 2]
+                d2 = x0 * x0 + x1 * x1 + x2 * x2
+                if not d2 > 0.0:  # coincident (or undefined) centres: a collision
+                    out[lead, i, j] = np.inf
+                    continue
+                qa = 0.0
+                qb = 0.0
+                for k in range(3):
+                    ya = Sa[lead, i, k, 0] * x0 + Sa[lead, i, k, 1] * x1 + Sa[lead, i, k, 2] * x2
+                    yb = Sb[lead, j, k, 0] * x0 + Sb[lead, j, k, 1] * x1 + Sb[lead, j, k, 2] * x2
+                    qa += ya * ya
+                    qb += yb * yb
+                root = np.sqrt(qa) + np.sqrt(qb)
+                out[lead, i, j] = root * root / (d2 * d2)
 
 
 def danger_index(a: Ellipsoids, b: Ellipsoids) -> np.ndarray:
     """DI of every pair (a_i, b_j), shape (..., n_a, n_b); Eq. 7 with F as in the module.
 
-    With the centre offset x (length d) and u = x / d, h(u) = sqrt(x^T M x) / d, so
-    DI = ((h1 + h2) / d)^2 = (sqrt(x^T M1 x) + sqrt(x^T M2 x))^2 / d^4, which needs no
-    per-pair rotation. Coincident centres give DI = inf (a collision).
+    With the centre offset x (length d) and u = x / d, h(u) = |S x| / d (S = diag(r) R^T,
+    :func:`scaled_frames`), so DI = ((h1 + h2) / d)^2 = (|S_1 x| + |S_2 x|)^2 / d^4,
+    which needs no per-pair rotation; the pairs are looped over in compiled code.
+    Coincident (or NaN) centres give DI = inf (a collision).
     """
-    # d^2 from the offsets laid out coordinate-first (..., 3, n_a, n_b).
-    a_t = np.ascontiguousarray(np.swapaxes(a.centres, -1, -2))
-    b_t = np.ascontiguousarray(np.swapaxes(b.centres, -1, -2))
-    diff = b_t[..., :, None, :] - a_t[..., :, :, None]
-    d2 = np.einsum("...kij,...kij->...ij", diff, diff)
-    root = np.sqrt(_quadratic_forms(scaled_frames(a), a.centres, b.centres))
-    root += np.swapaxes(np.sqrt(_quadratic_forms(scaled_frames(b), b.centres, a.centres)),
-                        -1, -2)
-    return np.divide(root * root, d2 * d2, out=np.full_like(d2, np.inf), where=d2 > 0.0)
+    lead = np.broadcast_shapes(a.centres.shape[:-2], b.centres.shape[:-2])
+    n_a, n_b = a.centres.shape[-2], b.centres.shape[-2]
+
+    def flat(e: Ellipsoids, n: int) -> tuple[np.ndarray, np.ndarray]:
+        c = np.broadcast_to(e.centres, lead + (n, 3)).reshape(-1, n, 3)
+        S = np.broadcast_to(scaled_frames(e), lead + (n, 3, 3)).reshape(-1, n, 3, 3)
+        return np.ascontiguousarray(c, dtype=float), np.ascontiguousarray(S, dtype=float)
+
+    out = np.empty((math.prod(lead), n_a, n_b))
+    _danger_pairs(*flat(a, n_a), *flat(b, n_b), out)
+    return out.reshape(lead + (n_a, n_b))
 
 
 def segment_ellipsoids(start: np.ndarray, end: np.ndarray, radius: np.ndarray) -> Ellipsoids:

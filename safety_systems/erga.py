@@ -15,13 +15,17 @@ keeps the two best (elites), fills the rest with children of parents chosen by b
 tournament (the seed does not say how parents are chosen; ties go to the individual
 ranked first by a stable sort), crossed with probability
 0.8 by uniform arithmetic crossover (child = a p1 + (1 - a) p2, a ~ U(0, 1)) and
-mutated with probability 0.1 by redrawing uniformly ("random" mutation). Everything is
-vectorised over the population; randomness comes from an explicit numpy Generator.
+mutated with probability 0.1 by redrawing uniformly ("random" mutation). Randomness
+comes from an explicit numpy Generator, every number of a run drawn up front. :func:`erga`
+takes any fitness vectorised over the population; the controller's fitness (Eq. 11 as a
+polynomial plus Eq. 12's penalty per grid cell) runs the same generations compiled with
+numba (:func:`erga_piecewise_quadratic`; a test holds the two equal bit for bit).
 """
 
 import dataclasses
 from collections.abc import Callable
 
+import numba
 import numpy as np
 
 
@@ -80,20 +84,14 @@ def speed_objective(v: np.ndarray, *, v_preprogrammed: float, v_previous: float,
             + danger_penalty(danger, R))
 
 
-def erga(fitness: Callable[[np.ndarray], np.ndarray], *, bound: float,
-         rng: np.random.Generator, params: ErgaParameters = ErgaParameters()
-         ) -> tuple[float, np.ndarray]:
-    """Minimises ``fitness`` (vectorised over a population) over [-bound, bound].
-
-    Returns the best speed and the best fitness after each generation (for plots like
-    the seed's Fig. 11(d)).
-    """
+def _plan(bound: float, rng: np.random.Generator, params: ErgaParameters):
+    """Every random number of a run, drawn at once: the initial population, and per
+    generation the parents' pool indices (``winners`` (g, m, 2): tournament winners by
+    rank, a mutated child's first parent being its fresh value) and the mixes (g, m)."""
     if not bound > 0.0:
         raise ValueError(f"bound: got {bound!r}; allowed: a speed > 0")
     n, g, e = params.population, params.generations, params.elites
     m = n - e  # children per generation
-    # Every random number of the run at once: tournament picks, crossover mixes and
-    # decisions, mutation decisions and values.
     pop = rng.uniform(-bound, bound, n)
     picks = rng.integers(0, n, (g, 2, m, 2))
     mix, cross, mutate, fresh = rng.uniform(0.0, 1.0, (4, g, m))
@@ -108,6 +106,21 @@ def erga(fitness: Callable[[np.ndarray], np.ndarray], *, bound: float,
     mix = np.where(cross & ~mutate, mix, 1.0)
     winners[..., 0] = np.where(mutate, n + np.arange(g * m).reshape(g, m), winners[..., 0])
     pool = np.concatenate((np.empty(n), fresh.ravel()))
+    return pop, winners, mix, pool
+
+
+def erga(fitness: Callable[[np.ndarray], np.ndarray], *, bound: float,
+         rng: np.random.Generator, params: ErgaParameters = ErgaParameters()
+         ) -> tuple[float, np.ndarray]:
+    """Minimises ``fitness`` (vectorised over a population) over [-bound, bound].
+
+    Returns the best speed and the best fitness after each generation (for plots like
+    the seed's Fig. 11(d)). :func:`erga_piecewise_quadratic` runs the same generations
+    compiled, for the fitness the controller uses.
+    """
+    pop, winners, mix, pool = _plan(bound, rng, params)
+    n, g, e = params.population, params.generations, params.elites
+    m = n - e
     ranked, step = pool[:n], np.empty(m)
     fit = fitness(pop)
     history = np.empty(g)
@@ -127,3 +140,60 @@ def erga(fitness: Callable[[np.ndarray], np.ndarray], *, bound: float,
         fit = fitness(pop)
     history[-1] = fit.min()
     return min(max(float(pop[fit.argmin()]), -bound), bound), history
+
+
+def piecewise_quadratic(v: np.ndarray, c2: float, c1: float, breaks: np.ndarray,
+                        by_cell: np.ndarray) -> np.ndarray:
+    """(c2 v + c1) v + by_cell[i], i the number of ``breaks`` (ascending) <= v: Eq. 11 as
+    a polynomial plus a per-cell constant (Eq. 12's penalty and c0) -- the fitness of
+    :func:`erga_piecewise_quadratic`, in numpy."""
+    v = np.asarray(v, dtype=float)
+    return (c2 * v + c1) * v + by_cell[breaks.searchsorted(v, side="right")]
+
+
+@numba.njit(cache=True)
+def _fill_fitness(pop, c2, c1, breaks, by_cell, out):  # piecewise_quadratic, compiled
+    for i in range(pop.size):
+        v = pop[i]
+        out[i] = (c2 * v + c1) * v + by_cell[np.searchsorted(breaks, v, side="right")]
+
+
+@numba.njit(cache=True)
+def _evolve(pop, winners, mix, pool, elites, c2, c1, breaks, by_cell):
+    """The generations of :func:`erga` (same operations, same order), compiled, with
+    :func:`piecewise_quadratic` as the fitness."""
+    n = pop.size
+    g, m = mix.shape
+    pop = pop.copy()
+    fit = np.empty(n)
+    _fill_fitness(pop, c2, c1, breaks, by_cell, fit)
+    history = np.empty(g)
+    for k in range(g):
+        order = np.argsort(fit, kind="mergesort")  # stable
+        if k:
+            history[k - 1] = fit[order[0]]
+        for i in range(n):
+            pool[i] = pop[order[i]]
+        pop[:elites] = pool[:elites]
+        for i in range(m):
+            p1 = pool[winners[k, i, 0]]
+            p2 = pool[winners[k, i, 1]]
+            pop[elites + i] = p2 + mix[k, i] * (p1 - p2)
+        _fill_fitness(pop, c2, c1, breaks, by_cell, fit)
+    best = np.argmin(fit)
+    history[g - 1] = fit[best]
+    return pop[best], history
+
+
+def erga_piecewise_quadratic(*, c2: float, c1: float, breaks: np.ndarray,
+                             by_cell: np.ndarray, bound: float, rng: np.random.Generator,
+                             params: ErgaParameters = ErgaParameters()
+                             ) -> tuple[float, np.ndarray]:
+    """:func:`erga` of :func:`piecewise_quadratic` (``breaks`` ascending, ``by_cell`` one
+    longer), compiled: the same random numbers and operations, so the same result as
+    ``erga(lambda v: piecewise_quadratic(v, c2, c1, breaks, by_cell), ...)`` (tested)."""
+    pop, winners, mix, pool = _plan(bound, rng, params)
+    best, history = _evolve(pop, winners, mix, pool, params.elites, float(c2), float(c1),
+                            np.ascontiguousarray(breaks, dtype=float),
+                            np.ascontiguousarray(by_cell, dtype=float))
+    return min(max(float(best), -bound), bound), history

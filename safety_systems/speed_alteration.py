@@ -31,7 +31,7 @@ from safety_systems.ellipsoids import (
 from safety_systems.erga import (
     ErgaParameters,
     danger_penalty,
-    erga,
+    erga_piecewise_quadratic,
     speed_terms_polynomial,
 )
 from safety_systems.joint_path import joint_path_state
@@ -140,14 +140,9 @@ def erga_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, v_pre: float, v_p
     # right-sided search of v gives v's cell (a grid point's is the cell above it).
     by_cell = np.concatenate((penalty[:1], penalty)) + c0
 
-    def fitness(v: np.ndarray) -> np.ndarray:  # Eq. 11 (as c2 v^2 + c1 v + c0) + Eq. 12
-        f = c2 * v
-        f += c1
-        f *= v
-        f += by_cell[grid_speeds.searchsorted(v, side="right")]
-        return f
-
-    return erga(fitness, bound=limit, rng=rng, params=params)
+    # Eq. 11 (as c2 v^2 + c1 v + c0) + Eq. 12, run compiled.
+    return erga_piecewise_quadratic(c2=c2, c1=c1, breaks=grid_speeds, by_cell=by_cell,
+                                    bound=limit, rng=rng, params=params)
 
 
 def hwang_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, danger_now: np.ndarray,

@@ -93,6 +93,33 @@ def test_danger_index_is_symmetric(seed, n, m):
     np.testing.assert_allclose(ab, ba.T, rtol=1e-12)
 
 
+def test_danger_index_broadcasts_leading_axes_pair_by_pair():
+    # a with leading axes (4, 2), b with (2,) only: every pair equals the definition
+    # ((h_a(u) + h_b(u)) / d)^2 with the support functions along the centre offset.
+    rng = np.random.default_rng(11)
+    a = Ellipsoids(rng.uniform(-0.3, 0.3, (4, 2, 3, 3)),
+                   Rotation.random(24, random_state=rng).as_matrix().reshape(4, 2, 3, 3, 3),
+                   rng.uniform(0.02, 0.3, (4, 2, 3, 3)))
+    b = _random_ellipsoids(rng, 5)
+    b = Ellipsoids(np.stack([b.centres, b.centres + 0.1]), np.stack([b.rotations] * 2),
+                   np.stack([b.semi_axes] * 2))
+    di = danger_index(a, b)
+    assert di.shape == (4, 2, 3, 5)
+    for i, j, k, m in np.ndindex(di.shape):
+        x = b.centres[j, m] - a.centres[i, j, k]
+        d = np.linalg.norm(x)
+        h = (support(a.rotations[i, j, k], a.semi_axes[i, j, k], x / d)
+             + support(b.rotations[j, m], b.semi_axes[j, m], x / d))
+        assert di[i, j, k, m] == pytest.approx((h / d) ** 2, rel=1e-12)
+
+
+def test_danger_index_of_undefined_centres_is_a_collision():
+    a = spheres([[np.nan, 0.0, 0.0], [0.0, 0.0, 0.0]], 0.05)
+    di = danger_index(a, spheres([[1.0, 0.0, 0.0]], 0.05))[:, 0]
+    assert di[0] == np.inf
+    assert di[1] == pytest.approx(0.01, rel=1e-12)
+
+
 def test_support_of_axis_aligned_ellipsoid_is_the_semi_axis():
     semi = np.array([0.3, 0.2, 0.1])
     for i, u in enumerate(np.eye(3)):

@@ -3,7 +3,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.erga import ErgaParameters, erga, speed_objective
+from safety_systems.erga import (
+    ErgaParameters,
+    erga,
+    erga_piecewise_quadratic,
+    piecewise_quadratic,
+    speed_objective,
+)
 from safety_systems.scenario import ScenarioError, scenario_from_text
 
 SETTINGS = settings(derandomize=True, max_examples=30, deadline=None)
@@ -67,6 +73,36 @@ def test_history_is_non_increasing(seed, elites, centre, generations):
     assert history.shape == (generations,)
     assert np.all(np.diff(history) <= 0.0)
     assert bumpy(np.array(v)) == history[-1]
+
+
+@SETTINGS
+@given(st.integers(0, 2**32 - 1), st.integers(2, 60), st.integers(0, 1), st.integers(1, 30),
+       st.floats(0.0, 1.0), st.floats(0.0, 1.0), st.floats(0.01, 0.5))
+def test_compiled_run_equals_reference(seed, population, elites, generations, crossover,
+                                       mutation, bound):
+    # The controller's compiled generations give, bit for bit, what erga gives with the
+    # same fitness written in numpy: same draws, same operations, same order.
+    rng = np.random.default_rng(seed)
+    breaks = np.sort(rng.uniform(-bound, bound, 7))
+    by_cell = rng.uniform(0.0, 3.0, 8)
+    c2, c1 = rng.uniform(0.5, 5.0), rng.uniform(-1.0, 1.0)
+    params = ErgaParameters(population=population, generations=generations,
+                            crossover=crossover, mutation=mutation, elites=elites)
+    v, history = erga(lambda x: piecewise_quadratic(x, c2, c1, breaks, by_cell), bound=bound,
+                      rng=np.random.default_rng(seed), params=params)
+    w, compiled = erga_piecewise_quadratic(c2=c2, c1=c1, breaks=breaks, by_cell=by_cell,
+                                           bound=bound, rng=np.random.default_rng(seed),
+                                           params=params)
+    assert v == w
+    np.testing.assert_array_equal(history, compiled)
+
+
+def test_piecewise_quadratic_cells():
+    breaks, by_cell = np.array([-0.1, 0.1]), np.array([10.0, 20.0, 30.0])
+    # (2 v + 1) v plus the cell's constant; a break belongs to the cell above it.
+    np.testing.assert_allclose(piecewise_quadratic(np.array([-0.2, -0.1, 0.0, 0.1]), 2.0, 1.0,
+                                                   breaks, by_cell),
+                               [-0.12 + 10.0, -0.08 + 20.0, 20.0, 0.12 + 30.0])
 
 
 @pytest.mark.parametrize("kwargs, field", [
