@@ -10,6 +10,7 @@ Industrial Tasks", Appl. Sci. 2025 (``shared/seeds/000_*``), Eqs. 1 and 6-12.
 
 import math
 
+import numba
 import numpy as np
 
 HUMAN_SPEED_MODES = ("estimated", "iso", "estimated_with_floor")
@@ -21,13 +22,59 @@ ISO_REDUCED_HUMAN_SPEED = 1.6
 ISO_REDUCED_SPEED_THRESHOLD = 0.5
 
 
+@numba.njit(cache=True)
+def _separation_rows(p_R, v_R, p_B, v_B, out, speeds):
+    """Eq. 8's d and (if ``speeds``) Eqs. 6-7's directed speeds of rows (L, 3) / (L, N, 3)
+    into out[0], out[1], out[2] (L, N), compiled (see
+    :func:`separation_and_directed_speeds`)."""
+    d, v_h, v_r = out[0], out[min(1, out.shape[0] - 1)], out[out.shape[0] - 1]
+    for row in range(p_B.shape[0]):
+        for i in range(p_B.shape[1]):
+            x0 = p_R[row, 0] - p_B[row, i, 0]  # body -> robot
+            x1 = p_R[row, 1] - p_B[row, i, 1]
+            x2 = p_R[row, 2] - p_B[row, i, 2]
+            dist = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+            d[row, i] = dist
+            if not speeds:
+                continue
+            h0, h1, h2 = v_B[row, i, 0], v_B[row, i, 1], v_B[row, i, 2]
+            r0, r1, r2 = -v_R[row, 0], -v_R[row, 1], -v_R[row, 2]
+            if dist > 1e-12:
+                v_h[row, i] = (h0 * x0 + h1 * x1 + h2 * x2) / dist
+                v_r[row, i] = (r0 * x0 + r1 * x1 + r2 * x2) / dist
+            elif not math.isnan(dist):  # coincident: the full magnitudes (worst case)
+                v_h[row, i] = np.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+                v_r[row, i] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+            else:  # a NaN position
+                v_h[row, i] = np.nan
+                v_r[row, i] = np.nan
+
+
+def _rows(robot: np.ndarray, bodies: np.ndarray, *more: np.ndarray):
+    """Robot arrays (..., 3) and body arrays (..., N, 3) broadcast to one leading shape and
+    flattened to rows (L, 3) and (L, N, 3); returns the leading shape and the arrays (views
+    where no broadcasting is needed)."""
+    arrays = [np.asarray(x, dtype=float) for x in (robot, bodies, *more)]
+    leads = [x.shape[:x.ndim - 1 - (k % 2)] for k, x in enumerate(arrays)]
+    lead = leads[0] if all(a == leads[0] for a in leads) else np.broadcast_shapes(*leads)
+    rows = []
+    for x, own in zip(arrays, leads):
+        tail = x.shape[len(own):]
+        if own != lead:
+            x = np.broadcast_to(x, lead + tail)
+        rows.append(x.reshape((-1,) + tail))
+    return lead, rows
+
+
 def separation_distances(p_robot: np.ndarray, p_bodies: np.ndarray) -> np.ndarray:
     """Euclidean distance from the robot point to every body, seed Eq. 8.
 
     Returns shape ``(..., N)``.
     """
-    diff = np.asarray(p_bodies, dtype=float) - np.asarray(p_robot, dtype=float)[..., None, :]
-    return np.sqrt(np.vecdot(diff, diff))
+    lead, (p_R, p_B) = _rows(p_robot, p_bodies)
+    d = np.empty((1,) + p_B.shape[:2])
+    _separation_rows(p_R, p_R, p_B, p_B, d, False)
+    return d[0].reshape(lead + d.shape[2:])
 
 
 def directed_speeds(
@@ -57,25 +104,41 @@ def separation_and_directed_speeds(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Eq. 8's distances and Eqs. 6-7's directed speeds at once (they share the offsets):
     ``(d, v_human_directed, v_robot_directed)``, as :func:`separation_distances` and
-    :func:`directed_speeds` give them."""
-    v_away = np.negative(v_robot, dtype=float)[..., None, :]  # -v_R
-    v_bodies = np.asarray(v_bodies, dtype=float)
-    diff = np.asarray(p_robot, dtype=float)[..., None, :] - np.asarray(p_bodies, dtype=float)
-    dist = np.sqrt(np.vecdot(diff, diff))
-    # Projections onto body -> robot, divided by the distance where it is defined.
-    if np.minimum.reduce(dist, axis=None, initial=np.inf) > 1e-12:  # False with a NaN
-        return dist, np.vecdot(v_bodies, diff) / dist, np.vecdot(v_away, diff) / dist
-    apart = dist > 1e-12
-    v_h = np.divide(np.vecdot(v_bodies, diff), dist,
-                    out=np.zeros_like(dist), where=apart)
-    v_r = np.divide(np.vecdot(v_away, diff), dist,
-                    out=np.zeros_like(dist), where=apart)
-    coincident = ~apart & np.isfinite(dist)
-    v_h = np.where(coincident, np.linalg.norm(v_bodies, axis=-1), v_h)
-    v_r = np.where(coincident, np.linalg.norm(v_away, axis=-1), v_r)
-    v_h[np.isnan(dist)] = np.nan
-    v_r[np.isnan(dist)] = np.nan
-    return dist, v_h, v_r
+    :func:`directed_speeds` give them; a NaN body position gives NaN everywhere. The
+    pairs are looped over in compiled code (numba), any leading axes flattened."""
+    p_R, v_R = np.asarray(p_robot, dtype=float), np.asarray(v_robot, dtype=float)
+    p_B, v_B = np.asarray(p_bodies, dtype=float), np.asarray(v_bodies, dtype=float)
+    if p_R.ndim == 1 and v_R.ndim == 1 and p_B.ndim == 2 and v_B.ndim == 2:
+        out = np.empty((3, 1, p_B.shape[0]))  # one robot, the common case: no copies
+        _separation_rows(p_R[None], v_R[None], p_B[None], v_B[None], out, True)
+        return out[0, 0], out[1, 0], out[2, 0]
+    lead, (p_R, p_B, v_R, v_B) = _rows(p_R, p_B, v_R, v_B)
+    out = np.empty((3,) + p_B.shape[:2])
+    _separation_rows(p_R, v_R, p_B, v_B, out, True)
+    shape = lead + out.shape[2:]
+    return out[0].reshape(shape), out[1].reshape(shape), out[2].reshape(shape)
+
+
+_MODE_CODES = {mode: code for code, mode in enumerate(HUMAN_SPEED_MODES)}
+
+
+@numba.njit(cache=True)
+def _protective_kernel(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced, out):
+    """S of every element (flat arrays; ``z_d`` of length 1 or of the outputs), compiled:
+    ((v_H (T_s + T_r) + v_R T_r) + (B + C + Z_r)) + Z_d, with v_H by ``mode`` (the index in
+    ``HUMAN_SPEED_MODES``) and ISO 13855's 1.6 m/s rule in ``iso`` mode."""
+    one_z = z_d.size == 1
+    for i in range(out.size):
+        z = z_d[0] if one_z else z_d[i]
+        v = v_h[i]
+        if mode == 1 or (mode == 2 and v < iso):  # with_floor: the larger (NaN stays NaN)
+            v = iso
+        s = v * t_sr + v_r[i] * t_r + const + z
+        if mode == 1 and s > ISO_REDUCED_SPEED_THRESHOLD:
+            s = iso_reduced * t_sr + v_r[i] * t_r + const + z
+            if s < ISO_REDUCED_SPEED_THRESHOLD:  # noqa: PLR1730 (max() would drop a NaN)
+                s = ISO_REDUCED_SPEED_THRESHOLD
+        out[i] = s
 
 
 def protective_separation_distance(
@@ -92,15 +155,15 @@ def protective_separation_distance(
     """Protective separation distance S_i, seed Eqs. 9-11 (ISO/TS 15066 Eq. 1).
 
     S_i = v_H (T_s + T_r) + v_R T_r + B + C + Z_d + Z_r, where v_H is the human speed
-    term chosen by :func:`human_speed_term` (Eq. 10) and v_R the robot's speed towards
-    the body (Eq. 11). B is the stopping distance ``S_S`` (constant in the seed).
+    (Eq. 10) and v_R the robot's speed towards the body (Eq. 11). B is the stopping
+    distance ``S_S`` (constant in the seed). :func:`monitor_protective_distances` with
+    ``mode="estimated"``.
     """
-    s = np.asarray(v_human, dtype=float) * (stopping_time + reaction_time)
-    s = s + np.asarray(v_robot, dtype=float) * reaction_time
-    s += stopping_distance + intrusion_distance + robot_uncertainty  # B + C + Z_r
-    if isinstance(human_uncertainty, float | int) and human_uncertainty == 0:
-        return s
-    return s + human_uncertainty  # Z_d, possibly per body
+    return monitor_protective_distances(
+        v_human, v_robot, mode="estimated", reaction_time=reaction_time,
+        stopping_time=stopping_time, stopping_distance=stopping_distance,
+        intrusion_distance=intrusion_distance, human_uncertainty=human_uncertainty,
+        robot_uncertainty=robot_uncertainty)
 
 
 def human_speed_term(
@@ -114,7 +177,7 @@ def human_speed_term(
     - ``estimated``: the Kalman filter's directed speed, as the seed does (Eq. 10);
       negative when the body moves away, which lowers S.
     - ``iso``: the constant ``iso_speed`` of ISO/TS 15066 Eq. 1 (2.0 m/s); the 1.6 m/s
-      reduction is applied by :func:`iso_protective_separation_distance`.
+      reduction is applied by :func:`monitor_protective_distances`.
     - ``estimated_with_floor``: the larger of the two.
     """
     v = np.asarray(v_human_directed, dtype=float)
@@ -141,32 +204,30 @@ def monitor_protective_distances(
     iso_speed: float = ISO_HUMAN_SPEED,
     iso_reduced_speed: float = ISO_REDUCED_HUMAN_SPEED,
 ) -> np.ndarray:
-    """S_i for every body under a human-speed ``mode`` (see :func:`human_speed_term`).
+    """S_i (Eqs. 9-11) for every body under a human-speed ``mode`` (the speed
+    :func:`human_speed_term` gives), in compiled code.
 
     In ``iso`` mode, ISO 13855's rule is applied: if S computed with 2.0 m/s exceeds
     0.5 m, S is recomputed with 1.6 m/s but not taken below 0.5 m.
     """
-    if mode == "estimated":  # the seed's (Eq. 10), the common case: S straight away
-        return protective_separation_distance(
-            v_human_directed, v_robot_directed, reaction_time=reaction_time,
-            stopping_time=stopping_time, stopping_distance=stopping_distance,
-            intrusion_distance=intrusion_distance, human_uncertainty=human_uncertainty,
-            robot_uncertainty=robot_uncertainty)
-    kwargs = {"reaction_time": reaction_time, "stopping_time": stopping_time,
-              "stopping_distance": stopping_distance, "intrusion_distance": intrusion_distance,
-              "human_uncertainty": human_uncertainty, "robot_uncertainty": robot_uncertainty}
-    v_h = human_speed_term(v_human_directed, mode, iso_speed=iso_speed)
-    s = protective_separation_distance(v_h, v_robot_directed, **kwargs)
-    if mode == "iso":
-        s_reduced = protective_separation_distance(
-            np.full_like(v_h, iso_reduced_speed), v_robot_directed, **kwargs
-        )
-        s = np.where(
-            s > ISO_REDUCED_SPEED_THRESHOLD,
-            np.maximum(s_reduced, ISO_REDUCED_SPEED_THRESHOLD),
-            s,
-        )
-    return s
+    code = _MODE_CODES.get(mode)
+    if code is None:
+        raise ValueError(f"human_speed mode {mode!r} is not one of {HUMAN_SPEED_MODES}")
+    v_h = np.asarray(v_human_directed, dtype=float)
+    v_r = np.asarray(v_robot_directed, dtype=float)
+    z_d = np.asarray(human_uncertainty, dtype=float)
+    shape = v_h.shape
+    if v_r.shape != shape or (z_d.ndim and z_d.shape != shape):
+        shape = np.broadcast_shapes(v_h.shape, v_r.shape, z_d.shape)
+        v_h, v_r = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (v_h, v_r))
+    z_d = z_d.reshape(1) if z_d.size == 1 else np.ascontiguousarray(
+        np.broadcast_to(z_d, shape)).reshape(-1)
+    out = np.empty(shape)
+    _protective_kernel(v_h.reshape(-1), v_r.reshape(-1), z_d, code,
+                       stopping_time + reaction_time, reaction_time,
+                       stopping_distance + intrusion_distance + robot_uncertainty,
+                       iso_speed, iso_reduced_speed, out.reshape(-1))
+    return out
 
 
 def occlusion_margin(
@@ -217,6 +278,48 @@ _S_MAX_CAP = 1e100
 _NOWHERE = 1e50
 
 
+@numba.njit(cache=True)
+def _eq12(d, s_max, delta_s, d_min):
+    """Eq. 12 for one distance (see :func:`speed_override`), compiled."""
+    s = _S_MAX_CAP if math.isnan(s_max) else min(max(s_max, -_S_MAX_CAP), _S_MAX_CAP)
+    if not (d >= d_min and d < np.inf):  # also NaN
+        return 0.0
+    ramp = (d - s) / max((delta_s - 1.0) * s, 1e-12)  # an empty band: a step
+    if math.isnan(ramp):
+        return 0.0
+    return min(max(ramp, 0.0), 1.0)
+
+
+@numba.njit(cache=True)
+def _eq12_elements(d, s_max, delta_s, d_min, out):
+    one_s = s_max.size == 1
+    for i in range(out.size):
+        out[i] = _eq12(d[i], s_max[0] if one_s else s_max[i], delta_s, d_min)
+
+
+@numba.njit(cache=True)
+def _override_rows(d, s, inc, delta_s, d_min, k, s_max):
+    """k and S_max of every row (L, N) (see :func:`overall_speed_override`), compiled."""
+    for row in range(d.shape[0]):
+        included, faulty = False, False
+        top, closest = -np.inf, np.inf
+        for i in range(d.shape[1]):
+            if not inc[row, i]:
+                continue
+            included = True
+            if not (np.isfinite(d[row, i]) and np.isfinite(s[row, i])):
+                faulty = True
+            else:
+                top = max(top, s[row, i])
+                closest = min(closest, d[row, i])
+        if not included:
+            k[row], s_max[row] = 1.0, -np.inf
+        elif faulty:  # a non-finite d_i or S_i: stop
+            k[row], s_max[row] = 0.0, np.inf
+        else:
+            k[row], s_max[row] = _eq12(closest, top, delta_s, d_min), top
+
+
 def speed_override(
     distances: np.ndarray,
     s_max: np.ndarray | float,
@@ -239,10 +342,13 @@ def speed_override(
     safe).
     """
     d = np.asarray(distances, dtype=float)
-    s = np.fmax(np.fmin(s_max, _S_MAX_CAP), -_S_MAX_CAP)  # NaN and inf: +cap (stop)
-    ramp = (d - s) / np.maximum((delta_s - 1.0) * s, 1e-12)  # an empty band: a step
-    k = np.minimum(np.maximum(ramp, 0.0), 1.0)
-    return np.where((d >= d_min) & (d < np.inf), k, 0.0)
+    s = np.asarray(s_max, dtype=float)
+    shape = np.broadcast_shapes(d.shape, s.shape)
+    d = np.ascontiguousarray(np.broadcast_to(d, shape)).reshape(-1)
+    s = s.reshape(1) if s.size == 1 else np.ascontiguousarray(np.broadcast_to(s, shape)).reshape(-1)
+    out = np.empty(shape)
+    _eq12_elements(d, s, float(delta_s), float(d_min), out.reshape(-1))
+    return out
 
 
 def overall_speed_override(
@@ -261,32 +367,20 @@ def overall_speed_override(
     (S_max is then infinite).
 
     With one S_max for all bodies Eq. 12 is non-decreasing in d_i, so the minimum over
-    the bodies is k of the closest included body, which is what is computed.
+    the bodies is k of the closest included body, which is what is computed (in
+    compiled code, row by row over any leading axes).
 
     Returns ``(k, s_max)`` with the body axis (last) reduced.
     """
     d = np.asarray(distances, dtype=float)
     s = np.asarray(protective_distances, dtype=float)
     inc = np.asarray(included, dtype=bool)
-    if d.ndim == 1 and s.ndim == 1 and inc.ndim == 1:  # one robot: plain floats are faster
-        return _overall_speed_override_one(d, s, inc, delta_s, d_min)
-    s_inc = np.where(inc, np.where(np.isfinite(d) & np.isfinite(s), s, np.inf), -np.inf)
-    s_max = s_inc.max(axis=-1, initial=-np.inf)
-    closest = np.where(inc, d, _NOWHERE).min(axis=-1)
-    return speed_override(closest, s_max, delta_s=delta_s, d_min=d_min), s_max
-
-
-def _overall_speed_override_one(d: np.ndarray, s: np.ndarray, inc: np.ndarray,
-                                delta_s: float, d_min: float) -> tuple[np.float64, np.float64]:
-    """``overall_speed_override`` for one robot (1-D arrays), in Python floats: the same
-    rules (the tests hold the two to each other), several times faster for a few bodies."""
-    d_inc, s_inc = d[inc].tolist(), s[inc].tolist()
-    if not d_inc:  # nothing included
-        return np.float64(1.0), np.float64(-math.inf)
-    if not math.isfinite(sum(d_inc) + sum(s_inc)):  # a non-finite d_i or S_i: stop
-        return np.float64(0.0), np.float64(math.inf)
-    s_max, closest = max(s_inc), min(d_inc)
-    if closest < d_min:
-        return np.float64(0.0), np.float64(s_max)
-    ramp = (closest - s_max) / max((delta_s - 1.0) * s_max, 1e-12)
-    return np.float64(min(max(ramp, 0.0), 1.0)), np.float64(s_max)
+    shape = d.shape
+    if s.shape != shape or inc.shape != shape:
+        shape = np.broadcast_shapes(d.shape, s.shape, inc.shape)
+        d, s, inc = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (d, s, inc))
+    lead = shape[:-1]
+    k, s_max = np.empty((2, math.prod(lead)))
+    _override_rows(d.reshape(-1, shape[-1]), s.reshape(-1, shape[-1]),
+                   inc.reshape(-1, shape[-1]), float(delta_s), float(d_min), k, s_max)
+    return k.reshape(lead)[()], s_max.reshape(lead)[()]  # one robot: scalars
