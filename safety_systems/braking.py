@@ -22,8 +22,8 @@ time and distance measured on their own cell, tool and payload.
 """
 
 import dataclasses
-import math
 
+import numba
 import numpy as np
 
 UR5_SHOULDER_STOP_TIME = 0.530  # s, stop category 0, 100 % speed (UR5/CB3 manual, App. A)
@@ -88,6 +88,30 @@ def stopping_distance(table: BrakingTable, speed: np.ndarray | float) -> np.ndar
                      np.r_[0.0, table.stopping_distance])
 
 
+@numba.njit(cache=True)
+def _path_rate_kernel(rate, cmd, time_scale, dt, fractions, deceleration, acceleration_limit,
+                      max_rate, out):
+    """:func:`path_rate_step` element by element (``cmd``, ``time_scale`` of length 1 or of
+    the output), compiled."""
+    one_cmd, one_scale = cmd.size == 1, time_scale.size == 1
+    for i in range(out.size):
+        r = rate[i]
+        c = cmd[0] if one_cmd else cmd[i]
+        c = min(max(c, -max_rate), max_rate) if np.isfinite(c) else 0.0
+        if abs(c) < abs(r) or c * r < 0.0:  # slowing: within the brakes
+            scale = time_scale[0] if one_scale else time_scale[i]
+            bound = np.interp(abs(r), fractions, deceleration) / scale * dt
+        else:
+            bound = acceleration_limit * dt
+        step = c - r  # clipped to [-bound, bound]; a NaN stays NaN (min/max would drop it)
+        if step < -bound:  # noqa: PLR1730
+            step = -bound
+        if step > bound:  # noqa: PLR1730
+            step = bound
+        new = r + step
+        out[i] = 0.0 if r * new < 0.0 else new
+
+
 def path_rate_step(
     rate: np.ndarray | float,
     commanded: np.ndarray | float,
@@ -106,33 +130,24 @@ def path_rate_step(
     A command of the other sign first brings sigma to rest (it never crosses zero
     within one tick). Commands are clipped to [-max_rate, max_rate] (1: the nominal
     speed; speed alteration controllers may go faster). Non-finite commands count as 0
-    (fail safe). Vectorised.
+    (fail safe). Compiled; shape of ``rate`` (a float for floats: the PathFollower's tick).
     """
-    if isinstance(rate, float) and isinstance(commanded, float) and isinstance(time_scale,
-                                                                              float):
-        return _path_rate_step_one(rate, commanded, dt, table, acceleration_limit,
-                                   time_scale, max_rate)
-    rate = np.asarray(rate, dtype=float)
-    cmd = np.asarray(commanded, dtype=float)
-    cmd = np.where(np.isfinite(cmd), np.minimum(np.maximum(cmd, -max_rate), max_rate), 0.0)
-    slowing = (np.abs(cmd) < np.abs(rate)) | (cmd * rate < 0.0)
-    bound = np.where(slowing, braking_deceleration(table, rate) / time_scale,
-                     acceleration_limit) * dt
-    new = rate + np.minimum(np.maximum(cmd - rate, -bound), bound)
-    return np.where(rate * new < 0.0, 0.0, new)
-
-
-def _path_rate_step_one(rate: float, cmd: float, dt: float, table: BrakingTable,
-                        acceleration_limit: float, time_scale: float, max_rate: float) -> float:
-    """``path_rate_step`` for one robot, in Python floats (the PathFollower's 500 Hz
-    step): the same rules, held to the vectorised path by the tests."""
-    cmd = min(max(cmd, -max_rate), max_rate) if math.isfinite(cmd) else 0.0
-    if abs(cmd) < abs(rate) or cmd * rate < 0.0:  # slowing: within the brakes
-        bound = float(braking_deceleration(table, rate)) / time_scale * dt
-    else:
-        bound = acceleration_limit * dt
-    new = rate + min(max(cmd - rate, -bound), bound)
-    return 0.0 if rate * new < 0.0 else new
+    one = isinstance(rate, float)
+    r = np.asarray(rate, dtype=float)
+    c = np.asarray(commanded, dtype=float)
+    scale = np.asarray(time_scale, dtype=float)
+    shape = np.broadcast_shapes(r.shape, c.shape, scale.shape)
+    if r.shape != shape:
+        r = np.broadcast_to(r, shape)
+    if c.size != 1 and c.shape != shape:
+        c = np.broadcast_to(c, shape)
+    if scale.size != 1 and scale.shape != shape:
+        scale = np.broadcast_to(scale, shape)
+    out = np.empty(shape)
+    _path_rate_kernel(r.reshape(-1), c.reshape(-1), scale.reshape(-1), float(dt),
+                      table.speed_fraction, table.deceleration, float(acceleration_limit),
+                      float(max_rate), out.reshape(-1))
+    return float(out[()]) if one and not shape else out
 
 
 def tool_stopping_distance(

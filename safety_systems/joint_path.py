@@ -11,6 +11,7 @@ sigma = ds/dt (1 = nominal speed). All functions are vectorised over ``s``.
 import dataclasses
 import math
 
+import numba
 import numpy as np
 from scipy.interpolate import CubicSpline
 
@@ -110,8 +111,9 @@ def default_joint_path(cycles: int = 1) -> JointPath:
     return make_joint_path(np.radians(DEFAULT_WAYPOINTS_DEG), DEFAULT_DURATIONS, cycles=cycles)
 
 
+@numba.njit(cache=True)
 def _blend(tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Minimum-jerk blend h, h', h'' on tau in [0, 1] (arrays or one float)."""
+    """Minimum-jerk blend h, h', h'' on tau in [0, 1] (arrays or one float); compiled."""
     t2 = tau * tau
     rest = 1.0 - tau
     h = t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2)
@@ -183,41 +185,37 @@ def make_spline_path(s_samples: np.ndarray, q_samples: np.ndarray, *, rest_to_re
     return path
 
 
+@numba.njit(cache=True)
+def _joint_path_kernel(s, starts, durations, waypoints, deltas, cycle_time, cycles, out):
+    """:func:`joint_path_state` of a JointPath at every s (flat) into out (3, len(s), 6),
+    compiled."""
+    end = cycle_time * cycles
+    for r in range(s.size):
+        x = min(max(s[r], 0.0), end)
+        phase = x - cycle_time * min(math.floor(x / cycle_time), cycles - 1)
+        j = np.searchsorted(starts, phase, side="right") - 1
+        T = durations[j]
+        h, dh, ddh = _blend(min((phase - starts[j]) / T, 1.0))
+        dh, ddh = dh / T, ddh / (T * T)
+        for i in range(6):
+            out[0, r, i] = waypoints[j, i] + h * deltas[j, i]
+            out[1, r, i] = dh * deltas[j, i]
+            out[2, r, i] = ddh * deltas[j, i]
+
+
 def joint_path_state(
     path: JointPath | SplinePath, s: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q(s), dq/ds and d2q/ds2 at path parameter(s) s (clipped to [0, end]).
 
     ``s`` of shape ``S`` gives three arrays of shape ``S + (6,)``: radians, radians per
-    second of nominal time, and radians per second squared.
+    second of nominal time, and radians per second squared. Compiled for a JointPath.
     """
     if isinstance(path, SplinePath):
         return path.state(s)
-    if isinstance(s, float):
-        return _joint_path_state_one(path, s)
-    s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), path.end)
-    phase = s - path.cycle_time * np.minimum(np.floor(s / path.cycle_time), path.cycles - 1)
-    j = np.searchsorted(path.starts, phase, side="right") - 1
-    T = path.durations[j]
-    tau = np.minimum((phase - path.starts[j]) / T, 1.0)
-    h, dh, ddh = _blend(tau)
-    w0 = path.waypoints[j]
-    delta = path.deltas[j]
-    q = w0 + h[..., None] * delta
-    dq = (dh / T)[..., None] * delta
-    ddq = (ddh / (T * T))[..., None] * delta
-    return q, dq, ddq
-
-
-def _joint_path_state_one(path: JointPath, s: float) -> tuple[np.ndarray, np.ndarray,
-                                                                np.ndarray]:
-    """``joint_path_state`` at one s (the PathFollower's tick): the same arithmetic in
-    Python floats up to the joint vectors, held to the vectorised path by the tests."""
-    s = min(max(s, 0.0), path.end)
-    phase = s - path.cycle_time * min(math.floor(s / path.cycle_time), path.cycles - 1)
-    j = int(path.starts.searchsorted(phase, side="right")) - 1
-    T = float(path.durations[j])
-    tau = min((phase - float(path.starts[j])) / T, 1.0)
-    h, dh, ddh = _blend(tau)
-    delta = path.deltas[j]
-    return path.waypoints[j] + h * delta, (dh / T) * delta, (ddh / (T * T)) * delta
+    s = np.asarray(s, dtype=float)
+    out = np.empty((3, s.size, 6))
+    _joint_path_kernel(s.reshape(-1), path.starts, path.durations, path.waypoints, path.deltas,
+                       float(path.cycle_time), float(path.cycles), out)
+    shape = s.shape + (6,)
+    return out[0].reshape(shape), out[1].reshape(shape), out[2].reshape(shape)

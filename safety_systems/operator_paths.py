@@ -19,6 +19,7 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
+import numba
 import numpy as np
 
 MAX_BODIES_PER_OPERATOR = 3
@@ -238,21 +239,47 @@ def stack_paths(paths: Sequence[OperatorPath]) -> PathStack:
     return PathStack(**arrays, max_acceleration=np.array([p.max_acceleration for p in paths]))
 
 
+@numba.njit(cache=True)
+def _stacked_rows(departures, ta, tc, vp, lengths, a_max, directions, waypoints, t, out):
+    """:func:`stacked_position_velocity` compiled: path p at time t[p] into out[0, p]
+    (position) and out[1, p] (velocity), by :func:`_segment_progress`'s rules."""
+    for p in range(t.size):
+        k = -1
+        for j in range(departures.shape[1]):
+            if departures[p, j] <= t[p]:
+                k += 1
+        if k < 0:  # the first departure is to come: at the first waypoint, at rest
+            for i in range(3):
+                out[0, p, i] = waypoints[p, 0, i] + 0.0 * directions[p, 0, i]
+                out[1, p, i] = 0.0 * directions[p, 0, i]
+            continue
+        a, t_a, t_c, v_p = a_max[p], ta[p, k], tc[p, k], vp[p, k]
+        total = 2.0 * t_a + t_c
+        tau = min(max(t[p] - departures[p, k], 0.0), total)
+        rest = total - tau
+        if tau < t_a:
+            dist, speed = 0.5 * a * (tau * tau), a * tau
+        elif tau < t_a + t_c:
+            dist, speed = 0.5 * a * (t_a * t_a) + v_p * (tau - t_a), v_p
+        else:
+            dist, speed = lengths[p, k] - 0.5 * a * (rest * rest), a * rest
+        for i in range(3):
+            out[0, p, i] = waypoints[p, k, i] + dist * directions[p, k, i]
+            out[1, p, i] = speed * directions[p, k, i]
+
+
 def stacked_position_velocity(
     stack: PathStack, t: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Positions and velocities (P, 3) of every stacked path's reference point at time t
-    (a scalar, or one time per path, shape (P,))."""
-    t = np.asarray(t, dtype=float)
-    k = np.count_nonzero(stack.departure_times <= t[..., None], axis=1) - 1
-    before = k < 0
-    k = np.maximum(k, 0)
-    rows = np.arange(k.size)
-    s, v = _segment_progress(t - stack.departure_times[rows, k], stack.accel_durations[rows, k],
-                             stack.cruise_durations[rows, k], stack.peak_speeds[rows, k],
-                             stack.lengths[rows, k], stack.max_acceleration, before)
-    u = stack.directions[rows, k]
-    return stack.waypoint_positions[rows, k] + s[:, None] * u, v[:, None] * u
+    (a scalar, or one time per path, shape (P,)); compiled (numba)."""
+    P = stack.max_acceleration.size
+    t = np.broadcast_to(np.asarray(t, dtype=float), (P,))
+    out = np.empty((2, P, 3))
+    _stacked_rows(stack.departure_times, stack.accel_durations, stack.cruise_durations,
+                  stack.peak_speeds, stack.lengths, stack.max_acceleration, stack.directions,
+                  stack.waypoint_positions, t, out)
+    return out[0], out[1]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -149,7 +149,7 @@ def _one_joint_path(delta=1.0, duration=1.0):
 
 def test_tool_stopping_distance_on_a_circle_by_hand():
     delta, duration = 1.0, 1.0
-    # At q2..q6 = 0: u = a2 + a3, n = d4 + d6 (ur5e._tool0), radius hypot(u, n).
+    # At q2..q6 = 0: u = a2 + a3, n = d4 + d6 (ur5e._tool0_rows), radius hypot(u, n).
     radius = math.hypot(DH_A[1] + DH_A[2], DH_D[3] + DH_D[5])
     for rate in (1.0, 0.5):
         # Constant deceleration 1/0.53: the stop covers rate^2 * 0.53 / 2 s of path
