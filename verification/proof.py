@@ -44,12 +44,12 @@ and distance grow with it).
 import dataclasses
 import math
 
+import numba
 import numpy as np
 import z3
 
 from safety_systems.braking import braking_deceleration, path_rate_step
 from safety_systems.joint_path import JointPath, joint_path_state
-from safety_systems.kalman import process_noise, transition_matrix
 from safety_systems.scenario import ControllerConfig
 from safety_systems.systems.kalman_tracker import MIN_MEASUREMENT_STD
 from safety_systems.ur5e import DH_A, DH_D, tool0_position_and_velocity
@@ -145,7 +145,7 @@ def estimate_error_coefficients(config: ControllerConfig, space: ScenarioSpace,
     for g in range(0, gap + 1):
         for kind in ("dropout", "occlusion"):
             for start in range(settle, settle + settle_frames):
-                a, b = _error_run(R, q2, v0, period, g, kind, start,
+                a, b = _error_run(R, q2, v0, period, g, kind == "occlusion", start,
                                   start + g + settle_frames)
                 alpha, beta = max(alpha, a), max(beta, b)
             if g == 0:
@@ -153,39 +153,51 @@ def estimate_error_coefficients(config: ControllerConfig, space: ScenarioSpace,
     return alpha, beta
 
 
-def _error_run(R, q2, v0, period, gap, kind, start, horizon):
-    """Worst error coefficients along one frame pattern (per axis; see above)."""
-    P = np.diag([R, v0 * v0])  # after the first measurement: x = [z, 0]
-    E = np.array([1.0, 0.0])  # error bound = E . (n, v_max)
-    V = np.array([0.0, 0.0])  # |v estimate| bound (the body starts at rest)
-    worst = E.copy()
+@numba.njit(cache=True)
+def _error_run(R, q2, v0, period, gap, occlusion, start, horizon):
+    """Worst error coefficients along one frame pattern (per axis; see above), compiled.
+
+    One axis of the tracker's filter: covariance P = [[p, c], [c, w]] of (position,
+    velocity), predicted by :func:`_predict` and updated with gain (k_p, k_v) =
+    P[:, 0] / (p + R); E bounds the position error by E . (n, v_max), V the velocity
+    estimate's magnitude the same way."""
+    p, c, w = R, 0.0, v0 * v0  # after the first measurement: x = [z, 0]
+    e_n, e_v = 1.0, 0.0  # error bound = E . (n, v_max)
+    m_n, m_v = 0.0, 0.0  # |v estimate| bound (the body starts at rest)
+    worst_n, worst_v = e_n, e_v
     j, pending = 1, 0.0
     while j < horizon:
         if start <= j < start + gap:
-            if kind == "occlusion":  # coast: predict only
-                P = _predict(P, period, q2)
-                E = E + (V + np.array([0.0, 1.0])) * period
+            if occlusion:  # coast: predict only
+                p, c, w = _predict(p, c, w, period, q2)
+                e_n, e_v = e_n + (m_n + 0.0) * period, e_v + (m_v + 1.0) * period
             else:
                 pending += period  # dropout: no frame, no step
             j += 1
             continue
         dt = period + pending
         pending = 0.0
-        P = _predict(P, dt, q2)
-        E_prior = E + (V + np.array([0.0, 1.0])) * dt
-        k_p, k_v = P[0, 0] / (P[0, 0] + R), P[1, 0] / (P[0, 0] + R)
-        V = abs(1.0 - k_v * dt) * V + abs(k_v) * (E + np.array([1.0, dt]))
-        E = (1.0 - k_p) * E_prior + k_p * np.array([1.0, 0.0])
-        P = P - np.outer(P[:, 0], P[0, :]) / (P[0, 0] + R)
-        worst = np.maximum(worst, E)
+        p, c, w = _predict(p, c, w, dt, q2)
+        prior_n, prior_v = e_n + (m_n + 0.0) * dt, e_v + (m_v + 1.0) * dt
+        k_p, k_v = p / (p + R), c / (p + R)
+        m_n = abs(1.0 - k_v * dt) * m_n + abs(k_v) * (e_n + 1.0)
+        m_v = abs(1.0 - k_v * dt) * m_v + abs(k_v) * (e_v + dt)
+        e_n = (1.0 - k_p) * prior_n + k_p * 1.0
+        e_v = (1.0 - k_p) * prior_v + k_p * 0.0
+        s = p + R
+        p, c, w = p - p * p / s, c - c * p / s, w - c * c / s
+        worst_n, worst_v = max(worst_n, e_n), max(worst_v, e_v)
         j += 1
-    return float(worst[0]), float(worst[1])
+    return worst_n, worst_v
 
 
-def _predict(P, dt, q2):
-    F = transition_matrix(dt)[np.ix_([0, 3], [0, 3])]
-    Q = process_noise(dt, q2)[np.ix_([0, 3], [0, 3])]
-    return F @ P @ F.T + Q
+@numba.njit(cache=True)
+def _predict(p, c, w, dt, q2):
+    """One axis of Eq. 2-4's prediction F P F^T + Q, F = [[1, dt], [0, 1]] and
+    Q = diag(dt^2, q2) (the (0, 3) block of ``transition_matrix`` and ``process_noise``;
+    a test holds the two to each other): P = [[p, c], [c, w]] -> (p, c, w)."""
+    fp, fc = p + dt * c, c + dt * w  # first row of F P
+    return fp + dt * fc + dt * dt, fc, w + q2
 
 
 def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
