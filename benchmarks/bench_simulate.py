@@ -5,7 +5,10 @@
 Prints the real-time factor of the inspection scenario in kinematic and dynamic mode
 (simulated seconds per wall-clock second, best of N runs; building the diagram is not
 timed) and the cost of one monitor + override evaluation for 10 tracked bodies as plain
-functions, each beside its goal. Run it pinned to one core for the one-core figure
+functions, each beside its goal. Beside the real-time factors it prints Drake's own
+floor on this machine: the same 500 Hz clock driving one, and two chained, Python
+LeafSystems that do nothing (one periodic update each), which bounds what any diagram
+of Python systems at 500 Hz can reach. Run it pinned to one core for the one-core figure
 (e.g. ``taskset -c 0 python benchmarks/bench_simulate.py``).
 """
 
@@ -17,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
 from safety_systems.scenario import load_scenario
 from safety_systems.ssm import (
@@ -37,6 +41,46 @@ def real_time_factor(mode: str, duration: float, repeats: int) -> float:
     best = np.inf
     for _ in range(repeats):
         simulator = Simulator(MakeWorkcell(scenario).diagram)
+        simulator.Initialize()
+        start = time.perf_counter()
+        simulator.AdvanceTo(duration)
+        best = min(best, time.perf_counter() - start)
+    return duration / best
+
+
+class _Idle(LeafSystem):
+    """A system that does nothing at 500 Hz: one discrete state, one periodic update
+    copying its input (or its state) forward, one output."""
+
+    def __init__(self, chained: bool):
+        super().__init__()
+        self._state = self.DeclareDiscreteState(1)
+        self._input = self.DeclareVectorInputPort("u", 1) if chained else None
+        self.DeclarePeriodicDiscreteUpdateEvent(0.002, 0.0, self._update)
+        self.DeclareVectorOutputPort("y", 1, self._output)
+
+    def _update(self, context, discrete):
+        source = self._input.Eval(context) if self._input else context.get_discrete_state(
+            self._state).value()
+        discrete.set_value(self._state, source)
+
+    def _output(self, context, output):
+        output.SetFromVector(context.get_discrete_state(self._state).value())
+
+
+def idle_floor(systems: int, duration: float, repeats: int) -> float:
+    """Real-time factor of ``systems`` chained do-nothing Python systems at 500 Hz."""
+    builder = DiagramBuilder()
+    previous = None
+    for _ in range(systems):
+        system = builder.AddSystem(_Idle(chained=previous is not None))
+        if previous is not None:
+            builder.Connect(previous.get_output_port(), system.get_input_port())
+        previous = system
+    diagram = builder.Build()
+    best = np.inf
+    for _ in range(repeats):
+        simulator = Simulator(diagram)
         simulator.Initialize()
         start = time.perf_counter()
         simulator.AdvanceTo(duration)
@@ -70,6 +114,10 @@ def main() -> None:
         rtf = real_time_factor(mode, args.duration, args.repeats)
         print(f"{'real-time factor, ' + mode + ' mode':44s} {rtf:9.1f}x {goal:9.0f}x "
               f"{rtf / goal:12.2f}")
+    for systems in (1, 2):
+        rtf = idle_floor(systems, args.duration, args.repeats)
+        print(f"{f'  floor: {systems} idle Python system(s) at 500 Hz':44s} {rtf:9.1f}x "
+              f"{'':>10s} {rtf / GOALS['kinematic']:12.2f}")
     us = monitor_and_override_us()
     print(f"{'monitor + override, 10 bodies (plain fns)':44s} {us:8.1f}us "
           f"{MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")

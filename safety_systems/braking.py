@@ -89,27 +89,35 @@ def stopping_distance(table: BrakingTable, speed: np.ndarray | float) -> np.ndar
 
 
 @numba.njit(cache=True)
+def rate_step_one(r, c, time_scale, dt, fractions, deceleration, acceleration_limit,
+                  max_rate):
+    """:func:`path_rate_step` of one rate r and command c (the braking table as its
+    ``speed_fraction`` and ``deceleration`` arrays), compiled and callable from other
+    compiled code."""
+    c = min(max(c, -max_rate), max_rate) if np.isfinite(c) else 0.0
+    if abs(c) < abs(r) or c * r < 0.0:  # slowing: within the brakes
+        bound = np.interp(abs(r), fractions, deceleration) / time_scale * dt
+    else:
+        bound = acceleration_limit * dt
+    step = c - r  # clipped to [-bound, bound]; a NaN stays NaN (min/max would drop it)
+    if step < -bound:  # noqa: PLR1730
+        step = -bound
+    if step > bound:  # noqa: PLR1730
+        step = bound
+    new = r + step
+    return 0.0 if r * new < 0.0 else new
+
+
+@numba.njit(cache=True)
 def _path_rate_kernel(rate, cmd, time_scale, dt, fractions, deceleration, acceleration_limit,
                       max_rate, out):
-    """:func:`path_rate_step` element by element (``cmd``, ``time_scale`` of length 1 or of
-    the output), compiled."""
+    """:func:`rate_step_one` element by element (``cmd``, ``time_scale`` of length 1 or of
+    the output)."""
     one_cmd, one_scale = cmd.size == 1, time_scale.size == 1
     for i in range(out.size):
-        r = rate[i]
-        c = cmd[0] if one_cmd else cmd[i]
-        c = min(max(c, -max_rate), max_rate) if np.isfinite(c) else 0.0
-        if abs(c) < abs(r) or c * r < 0.0:  # slowing: within the brakes
-            scale = time_scale[0] if one_scale else time_scale[i]
-            bound = np.interp(abs(r), fractions, deceleration) / scale * dt
-        else:
-            bound = acceleration_limit * dt
-        step = c - r  # clipped to [-bound, bound]; a NaN stays NaN (min/max would drop it)
-        if step < -bound:  # noqa: PLR1730
-            step = -bound
-        if step > bound:  # noqa: PLR1730
-            step = bound
-        new = r + step
-        out[i] = 0.0 if r * new < 0.0 else new
+        out[i] = rate_step_one(rate[i], cmd[0] if one_cmd else cmd[i],
+                               time_scale[0] if one_scale else time_scale[i], dt, fractions,
+                               deceleration, acceleration_limit, max_rate)
 
 
 def path_rate_step(

@@ -23,31 +23,34 @@ ISO_REDUCED_SPEED_THRESHOLD = 0.5
 
 
 @numba.njit(cache=True)
+def separation_pair(p_R, v_R, p_B, v_B):
+    """(d, v_human_directed, v_robot_directed) of one body (Eqs. 6-8; 3-vectors), compiled
+    and callable from other compiled code (see :func:`separation_and_directed_speeds`)."""
+    x0, x1, x2 = p_R[0] - p_B[0], p_R[1] - p_B[1], p_R[2] - p_B[2]  # body -> robot
+    dist = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    h0, h1, h2 = v_B[0], v_B[1], v_B[2]
+    r0, r1, r2 = -v_R[0], -v_R[1], -v_R[2]
+    if dist > 1e-12:
+        return dist, (h0 * x0 + h1 * x1 + h2 * x2) / dist, (r0 * x0 + r1 * x1 + r2 * x2) / dist
+    if not math.isnan(dist):  # coincident: the full magnitudes (worst case)
+        return dist, np.sqrt(h0 * h0 + h1 * h1 + h2 * h2), np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    return dist, np.nan, np.nan  # a NaN position
+
+
+@numba.njit(cache=True)
 def _separation_rows(p_R, v_R, p_B, v_B, out, speeds):
     """Eq. 8's d and (if ``speeds``) Eqs. 6-7's directed speeds of rows (L, 3) / (L, N, 3)
-    into out[0], out[1], out[2] (L, N), compiled (see
-    :func:`separation_and_directed_speeds`)."""
-    d, v_h, v_r = out[0], out[min(1, out.shape[0] - 1)], out[out.shape[0] - 1]
+    into out[0], out[1], out[2] (L, N), compiled."""
     for row in range(p_B.shape[0]):
         for i in range(p_B.shape[1]):
-            x0 = p_R[row, 0] - p_B[row, i, 0]  # body -> robot
-            x1 = p_R[row, 1] - p_B[row, i, 1]
-            x2 = p_R[row, 2] - p_B[row, i, 2]
-            dist = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
-            d[row, i] = dist
-            if not speeds:
-                continue
-            h0, h1, h2 = v_B[row, i, 0], v_B[row, i, 1], v_B[row, i, 2]
-            r0, r1, r2 = -v_R[row, 0], -v_R[row, 1], -v_R[row, 2]
-            if dist > 1e-12:
-                v_h[row, i] = (h0 * x0 + h1 * x1 + h2 * x2) / dist
-                v_r[row, i] = (r0 * x0 + r1 * x1 + r2 * x2) / dist
-            elif not math.isnan(dist):  # coincident: the full magnitudes (worst case)
-                v_h[row, i] = np.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
-                v_r[row, i] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-            else:  # a NaN position
-                v_h[row, i] = np.nan
-                v_r[row, i] = np.nan
+            if speeds:
+                out[0, row, i], out[1, row, i], out[2, row, i] = separation_pair(
+                    p_R[row], v_R[row], p_B[row, i], v_B[row, i])
+            else:
+                x0 = p_R[row, 0] - p_B[row, i, 0]
+                x1 = p_R[row, 1] - p_B[row, i, 1]
+                x2 = p_R[row, 2] - p_B[row, i, 2]
+                out[0, row, i] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
 
 
 def _rows(robot: np.ndarray, bodies: np.ndarray, *more: np.ndarray):
@@ -123,22 +126,29 @@ _MODE_CODES = {mode: code for code, mode in enumerate(HUMAN_SPEED_MODES)}
 
 
 @numba.njit(cache=True)
+def protective_one(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced):
+    """S of one body, compiled and callable from other compiled code:
+    ((v_H (T_s + T_r) + v_R T_r) + (B + C + Z_r)) + Z_d with ``t_sr`` = T_s + T_r and
+    ``const`` = B + C + Z_r, v_H by ``mode`` (its index in ``HUMAN_SPEED_MODES``) and
+    ISO 13855's 1.6 m/s rule in ``iso`` mode (see :func:`monitor_protective_distances`)."""
+    if mode == 1 or (mode == 2 and v_h < iso):  # with_floor: the larger (NaN stays NaN)
+        v_h = iso
+    s = v_h * t_sr + v_r * t_r + const + z_d
+    if mode == 1 and s > ISO_REDUCED_SPEED_THRESHOLD:
+        s = iso_reduced * t_sr + v_r * t_r + const + z_d
+        if s < ISO_REDUCED_SPEED_THRESHOLD:  # noqa: PLR1730 (max() would drop a NaN)
+            s = ISO_REDUCED_SPEED_THRESHOLD
+    return s
+
+
+@numba.njit(cache=True)
 def _protective_kernel(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced, out):
-    """S of every element (flat arrays; ``z_d`` of length 1 or of the outputs), compiled:
-    ((v_H (T_s + T_r) + v_R T_r) + (B + C + Z_r)) + Z_d, with v_H by ``mode`` (the index in
-    ``HUMAN_SPEED_MODES``) and ISO 13855's 1.6 m/s rule in ``iso`` mode."""
+    """:func:`protective_one` of every element (flat arrays; ``z_d`` of length 1 or of the
+    outputs)."""
     one_z = z_d.size == 1
     for i in range(out.size):
-        z = z_d[0] if one_z else z_d[i]
-        v = v_h[i]
-        if mode == 1 or (mode == 2 and v < iso):  # with_floor: the larger (NaN stays NaN)
-            v = iso
-        s = v * t_sr + v_r[i] * t_r + const + z
-        if mode == 1 and s > ISO_REDUCED_SPEED_THRESHOLD:
-            s = iso_reduced * t_sr + v_r[i] * t_r + const + z
-            if s < ISO_REDUCED_SPEED_THRESHOLD:  # noqa: PLR1730 (max() would drop a NaN)
-                s = ISO_REDUCED_SPEED_THRESHOLD
-        out[i] = s
+        out[i] = protective_one(v_h[i], v_r[i], z_d[0] if one_z else z_d[i], mode, t_sr, t_r,
+                                const, iso, iso_reduced)
 
 
 def protective_separation_distance(
@@ -298,26 +308,32 @@ def _eq12_elements(d, s_max, delta_s, d_min, out):
 
 
 @numba.njit(cache=True)
-def _override_rows(d, s, inc, delta_s, d_min, k, s_max):
-    """k and S_max of every row (L, N) (see :func:`overall_speed_override`), compiled."""
-    for row in range(d.shape[0]):
-        included, faulty = False, False
-        top, closest = -np.inf, np.inf
-        for i in range(d.shape[1]):
-            if not inc[row, i]:
-                continue
-            included = True
-            if not (np.isfinite(d[row, i]) and np.isfinite(s[row, i])):
-                faulty = True
-            else:
-                top = max(top, s[row, i])
-                closest = min(closest, d[row, i])
-        if not included:
-            k[row], s_max[row] = 1.0, -np.inf
-        elif faulty:  # a non-finite d_i or S_i: stop
-            k[row], s_max[row] = 0.0, np.inf
+def override_row(d, s, inc, delta_s, d_min):
+    """(k, S_max) of one robot from its bodies' d, S and included flags (N,), compiled and
+    callable from other compiled code (see :func:`overall_speed_override`)."""
+    included, faulty = False, False
+    top, closest = -np.inf, np.inf
+    for i in range(d.size):
+        if not inc[i]:
+            continue
+        included = True
+        if not (np.isfinite(d[i]) and np.isfinite(s[i])):
+            faulty = True
         else:
-            k[row], s_max[row] = _eq12(closest, top, delta_s, d_min), top
+            top = max(top, s[i])
+            closest = min(closest, d[i])
+    if not included:
+        return 1.0, -np.inf
+    if faulty:  # a non-finite d_i or S_i: stop
+        return 0.0, np.inf
+    return _eq12(closest, top, delta_s, d_min), top
+
+
+@numba.njit(cache=True)
+def _override_rows(d, s, inc, delta_s, d_min, k, s_max):
+    """:func:`override_row` of every row (L, N)."""
+    for row in range(d.shape[0]):
+        k[row], s_max[row] = override_row(d[row], s[row], inc[row], delta_s, d_min)
 
 
 def speed_override(

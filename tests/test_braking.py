@@ -175,7 +175,7 @@ def test_tool_stopping_distance_positive_and_grows_with_rate():
        accel=st.floats(0.1, 10.0), scale=st.floats(0.5, 3.0), max_rate=st.floats(0.5, 2.0),
        uneven=st.booleans())
 def test_one_robot_path_equals_the_vectorised_one(rate, cmd, accel, scale, max_rate, uneven):
-    # Python floats take the PathFollower's scalar path; arrays the batched one.
+    # Python floats (the PathFollower's tick) give a float, arrays an array: the same rules.
     args = {"table": UNEVEN if uneven else DEFAULT, "acceleration_limit": accel,
             "time_scale": scale, "max_rate": max_rate}
     one = path_rate_step(float(rate), float(cmd), DT, **args)

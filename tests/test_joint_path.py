@@ -133,7 +133,7 @@ def test_s_clipped_to_task():
 
 
 def test_vectorised_equals_scalar():
-    # A float s takes the PathFollower's plain-float path: it must agree to the bit.
+    # A float s (the PathFollower's tick) gives what the same s in an array gives, to the bit.
     rng = np.random.default_rng(3)
     s = rng.uniform(-1.0, PATH.end + 1.0, (40, 5))
     s[0] = [0.0, PATH.end, PATH.cycle_time, PATH.starts[1], np.nextafter(PATH.starts[2], 0.0)]

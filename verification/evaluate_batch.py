@@ -1,32 +1,36 @@
-"""Breadth: step many scenarios at once in numpy, through the same maths as the diagram.
+"""Breadth: step many scenarios at once, through the same maths as the diagram.
 
 :func:`evaluate_batch` reproduces the Drake workcell (kinematic mode) tick by tick for a
 batch of scenarios that share the robot, the controller configuration and the shape of
 their operators (number of operators, bodies and waypoints), as the scenarios of one
 space do. It calls the functions the LeafSystems wrap: ``operator_paths`` (truth),
 the MocapSensor's capture and noise rules, ``KalmanTracker.track_step``, ``ssm``
-(Eqs. 6-12), ``braking.path_rate_step``, ``joint_path_state`` and ``tool0_position``.
-Event order follows the diagram: a tracker update at time u is seen by the first
-control tick after u; outputs at a tick are computed from the state before that tick's
-updates, as Drake's loggers record them. ``tests/verification`` checks the two agree.
+(Eqs. 6-12), the braking model's rate step, ``joint_path_state`` and
+``tool0_position_and_velocity``; the hot ones are compiled (numba), and one compiled
+tick (:func:`_tick`) strings the monitor, the override, the properties and the
+follower's update together from the product's compiled functions. Event order follows
+the diagram: a tracker update at time u is seen by the first control tick after u;
+outputs at a tick are computed from the state before that tick's updates, as Drake's
+loggers record them. ``tests/verification`` checks the two agree.
 """
 
 import dataclasses
 import math
 
+import numba
 import numpy as np
 
-from safety_systems.braking import path_rate_step
+from safety_systems.braking import rate_step_one
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import stack_paths, stacked_position_velocity
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.ssm import (
-    directed_speeds,
+    HUMAN_SPEED_MODES,
     human_uncertainty,
-    monitor_protective_distances,
-    overall_speed_override,
+    override_row,
+    protective_one,
     separation_and_directed_speeds,
-    separation_distances,
+    separation_pair,
 )
 from safety_systems.systems.kalman_tracker import (
     MIN_MEASUREMENT_STD,
@@ -175,6 +179,67 @@ class _Cells:
         return p, valid
 
 
+@numba.njit(cache=True)
+def _tick(t, dt, live, p_R, v_tool, d_est, vh_est, vr_est, status, z_d, t_frame, timeout,
+          monitor, delta_s, d_min, p_H, v_H, present, truth_s, end, brake_scale, braking, s,
+          rate, min_sep, prot_time, prot_deep, s_row, usable):
+    """One control tick of every scenario, as the diagram runs it (compiled; the maths
+    are the product's own compiled functions):
+
+    - SeparationMonitor and SpeedOverride on the tracker's estimates: from their d and
+      directed speeds (Eqs. 6-8, computed by the caller) S (Eqs. 9-11, ``monitor`` =
+      (mode, T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced) with Z_d per body
+      ``z_d``), k (Eq. 12) over the usable tracks, 0 for a lost track or a frame older
+      than ``timeout``;
+    - the properties on the truth at this tick (``verification.properties``): the
+      smallest separation while the tool moves, and time and depth inside the true-speed
+      S (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
+    - the PathFollower's update: path rate by the braking model (``braking`` = speed
+      fractions, decelerations, acceleration limit), path parameter s by the trapezoid
+      rule, stopping at the ends.
+    """
+    mode, t_sr, t_r, const, iso, iso_reduced = monitor
+    fractions, deceleration, acceleration = braking
+    for b in range(p_R.shape[0]):
+        lost = False
+        for i in range(d_est.shape[1]):
+            lost = lost or status[b, i] == TRACK_LOST
+            usable[i] = status[b, i] == TRACK_TRACKING or status[b, i] == TRACK_COASTING
+            s_row[i] = protective_one(vh_est[b, i], vr_est[b, i], z_d[b, i], mode, t_sr, t_r,
+                                      const, iso, iso_reduced)
+        k = override_row(d_est[b], s_row, usable, delta_s, d_min)[0]
+        if lost or not t - t_frame[b] <= timeout:
+            k = 0.0
+        # The properties, on the true state at this tick.
+        v0, v1, v2 = v_tool[b, 0], v_tool[b, 1], v_tool[b, 2]
+        moving = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2) > MOVING_SPEED and live[b]
+        closest, deepest = np.inf, -np.inf
+        for i in range(p_H.shape[1]):
+            if not present[b, i]:
+                continue
+            sep, vh_true, vr_true = separation_pair(p_R[b], v_tool[b], p_H[b, i], v_H[b, i])
+            closest = min(closest, sep)
+            if moving:
+                deepest = max(deepest, protective_one(
+                    vh_true, vr_true, truth_s[3], 0, truth_s[0], truth_s[1], truth_s[2], 0.0,
+                    0.0) - sep)
+        if moving:
+            min_sep[b] = min(min_sep[b], closest)
+            if deepest > 0.0:
+                prot_time[b] += dt
+            prot_deep[b] = max(prot_deep[b], deepest)
+        # Updates at this tick: the follower (PathFollower._step).
+        new = rate_step_one(rate[b], k, brake_scale[b], dt, fractions, deceleration,
+                            acceleration, 1.0)
+        s_new = s[b] + 0.5 * (rate[b] + new) * dt
+        if s[b] >= end[b]:
+            s[b], rate[b] = end[b], 0.0
+        elif s_new >= end[b] or s_new <= 0.0:
+            s[b], rate[b] = min(max(s_new, 0.0), end[b]), 0.0
+        else:
+            s[b], rate[b] = s_new, new
+
+
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     """Closed-loop figures of every scenario (kinematic robot)."""
     if any(s.controller.type != "ssm_override" for s in scenarios):
@@ -185,10 +250,9 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     cfg = c.config
     f, tr = cfg.safety, cfg.tracker
     t_s, b_stop = assumed_stopping(cfg)
-    s_args = dict(mode=f.human_speed, reaction_time=f.reaction_time, stopping_time=t_s,
-                  stopping_distance=b_stop, intrusion_distance=f.intrusion_distance,
-                  robot_uncertainty=f.robot_uncertainty, iso_speed=f.iso_human_speed,
-                  iso_reduced_speed=f.iso_reduced_human_speed)
+    monitor = (HUMAN_SPEED_MODES.index(f.human_speed), t_s + f.reaction_time, f.reaction_time,
+               b_stop + f.intrusion_distance + f.robot_uncertainty, f.iso_human_speed,
+               f.iso_reduced_human_speed)
     m_std = cfg.sensor.noise_std if tr.measurement_std is None else tr.measurement_std
     t_args = dict(measurement_std=max(m_std, MIN_MEASUREMENT_STD),
                   velocity_process_noise=tr.velocity_process_noise,
@@ -196,7 +260,14 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                   max_coast_time=tr.max_coast_time, exit_radius=tr.exit_radius)
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
-    prot_args = protective_args(scenarios[0])
+    truth = protective_args(scenarios[0])  # the true-speed S of the property
+    truth_s = (truth["stopping_time"] + truth["reaction_time"], truth["reaction_time"],
+               truth["stopping_distance"] + truth["intrusion_distance"]
+               + truth["robot_uncertainty"], truth["human_uncertainty"])
+    braking = (c.table.speed_fraction, c.table.deceleration, c.accel)
+    scratch = (np.empty(N), np.empty(N, dtype=bool))
+    z_fixed = not (f.human_uncertainty_sigmas or f.occlusion_speed > 0.0)
+    z_d = np.full((B, N), float(f.human_uncertainty))
 
     s = np.zeros(B)
     rate = np.zeros(B)
@@ -229,43 +300,16 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
             j += 1
         q, dq, _ = joint_path_state(c.path, s)
         p_R, v_tool = tool0_position_and_velocity(q, dq * rate[:, None])
-        v_R = (p_R - p_prev) / dt
-        usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
-        d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, est_p, est_v)
-        z_d = human_uncertainty(f.human_uncertainty, f.human_uncertainty_sigmas, std, unseen,
-                                est_v, f.occlusion_speed)
-        S = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **s_args)
-        d[~usable] = np.nan
-        S[~usable] = np.nan
-        k_cmd, _ = overall_speed_override(d, S, usable, delta_s=f.delta_s, d_min=f.d_min)
-        stop = np.any(status == TRACK_LOST, axis=1) | ~(t - t_frame <= timeout)
-        k_cmd = np.where(stop, 0.0, k_cmd)
-
-        # The properties, on the true state at this tick.
-        live = k <= c.ticks
+        if not z_fixed:
+            z_d = np.ascontiguousarray(np.broadcast_to(human_uncertainty(
+                f.human_uncertainty, f.human_uncertainty_sigmas, std, unseen, est_v,
+                f.occlusion_speed), (B, N)))
+        d, v_h, v_r = separation_and_directed_speeds(p_R, (p_R - p_prev) / dt, est_p, est_v)
         p_H, v_H, present = c.truth(t)
-        sep = np.where(present, separation_distances(p_R, p_H), np.nan)
-        moving = (np.linalg.norm(v_tool, axis=1) > MOVING_SPEED) & live
-        closest = np.min(np.where(np.isnan(sep), np.inf, sep), axis=1)
-        min_sep = np.where(moving, np.minimum(min_sep, closest), min_sep)
-        if np.any(moving & present.any(axis=1)):
-            vh_true, vr_true = directed_speeds(p_R, v_tool, p_H, v_H)
-            s_true = monitor_protective_distances(vh_true, vr_true, mode="estimated",
-                                                  **prot_args)
-            intrusion = np.where(present & moving[:, None], s_true - sep, -np.inf)
-            deepest = intrusion.max(axis=1)
-            prot_time += np.where(deepest > 0.0, dt, 0.0)
-            prot_deep = np.maximum(prot_deep, deepest)
-
-        # Updates at this tick: the follower (PathFollower._step) and Eq. 5's memory.
-        new = path_rate_step(rate, k_cmd, dt, table=c.table, acceleration_limit=c.accel,
-                             time_scale=c.brake_scale)
-        s_new = s + 0.5 * (rate + new) * dt
-        done = s >= c.end
-        clamp = (s_new >= c.end) | (s_new <= 0.0)
-        s = np.where(done, c.end, np.where(clamp, np.minimum(np.maximum(s_new, 0.0), c.end), s_new))
-        rate = np.where(done | clamp, 0.0, new)
-        p_prev = p_R
+        _tick(t, dt, k <= c.ticks, p_R, v_tool, d, v_h, v_r, status, z_d, t_frame, timeout,
+              monitor, f.delta_s, f.d_min, p_H, v_H, present, truth_s, c.end, c.brake_scale,
+              braking, s, rate, min_sep, prot_time, prot_deep, *scratch)
+        p_prev = p_R  # Eq. 5's memory
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        prot_time, prot_deep)
 
