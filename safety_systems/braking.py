@@ -22,6 +22,7 @@ time and distance measured on their own cell, tool and payload.
 """
 
 import dataclasses
+import math
 
 import numba
 import numpy as np
@@ -88,15 +89,32 @@ def stopping_distance(table: BrakingTable, speed: np.ndarray | float) -> np.ndar
                      np.r_[0.0, table.stopping_distance])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _interp_one(x, xp, fp):
+    """``np.interp`` of one x (same arithmetic: slope (x - xp_j) + fp_j, the end values
+    beyond the ends); numba's own is several times slower for one value."""
+    n = xp.size
+    if math.isnan(x):
+        return np.nan
+    if x <= xp[0]:
+        return fp[0]
+    if x >= xp[n - 1]:
+        return fp[n - 1]
+    j = 0
+    while xp[j + 1] <= x:  # the cell xp[j] <= x < xp[j + 1] (tables are short)
+        j += 1
+    return (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (x - xp[j]) + fp[j]
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def rate_step_one(r, c, time_scale, dt, fractions, deceleration, acceleration_limit,
                   max_rate):
     """:func:`path_rate_step` of one rate r and command c (the braking table as its
     ``speed_fraction`` and ``deceleration`` arrays), compiled and callable from other
     compiled code."""
-    c = min(max(c, -max_rate), max_rate) if np.isfinite(c) else 0.0
+    c = min(max(c, -max_rate), max_rate) if math.isfinite(c) else 0.0
     if abs(c) < abs(r) or c * r < 0.0:  # slowing: within the brakes
-        bound = np.interp(abs(r), fractions, deceleration) / time_scale * dt
+        bound = _interp_one(abs(r), fractions, deceleration) / time_scale * dt
     else:
         bound = acceleration_limit * dt
     step = c - r  # clipped to [-bound, bound]; a NaN stays NaN (min/max would drop it)

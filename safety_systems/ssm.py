@@ -22,7 +22,7 @@ ISO_REDUCED_HUMAN_SPEED = 1.6
 ISO_REDUCED_SPEED_THRESHOLD = 0.5
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def separation_pair(p_R, v_R, p_B, v_B):
     """(d, v_human_directed, v_robot_directed) of one body (Eqs. 6-8; 3-vectors), compiled
     and callable from other compiled code (see :func:`separation_and_directed_speeds`)."""
@@ -125,7 +125,7 @@ def separation_and_directed_speeds(
 _MODE_CODES = {mode: code for code, mode in enumerate(HUMAN_SPEED_MODES)}
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def protective_one(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced):
     """S of one body, compiled and callable from other compiled code:
     ((v_H (T_s + T_r) + v_R T_r) + (B + C + Z_r)) + Z_d with ``t_sr`` = T_s + T_r and
@@ -288,7 +288,7 @@ _S_MAX_CAP = 1e100
 _NOWHERE = 1e50
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def _eq12(d, s_max, delta_s, d_min):
     """Eq. 12 for one distance (see :func:`speed_override`), compiled."""
     s = _S_MAX_CAP if math.isnan(s_max) else min(max(s_max, -_S_MAX_CAP), _S_MAX_CAP)
@@ -307,7 +307,7 @@ def _eq12_elements(d, s_max, delta_s, d_min, out):
         out[i] = _eq12(d[i], s_max[0] if one_s else s_max[i], delta_s, d_min)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def override_row(d, s, inc, delta_s, d_min):
     """(k, S_max) of one robot from its bodies' d, S and included flags (N,), compiled and
     callable from other compiled code (see :func:`overall_speed_override`)."""

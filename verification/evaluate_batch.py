@@ -14,12 +14,15 @@ outputs at a tick are computed from the state before that tick's updates, as Dra
 loggers record them. ``tests/verification`` checks the two agree.
 """
 
+import contextlib
 import dataclasses
 import math
+from pathlib import Path
 
 import numba
 import numpy as np
 
+from safety_systems import braking, ssm
 from safety_systems.braking import rate_step_one
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import stack_paths, stacked_position_velocity
@@ -179,6 +182,29 @@ class _Cells:
         return p, valid
 
 
+def _drop_stale_tick_build() -> None:
+    """numba keys the disk cache of :func:`_tick` (compiling it takes seconds) on this
+    file alone, so after a change to the compiled functions it inlines (``ssm``,
+    ``braking``) it would load a stale build: drop that build when those files changed."""
+    cache = Path(__file__).parent / "__pycache__"
+    stamp = " ".join(f"{p.stat().st_mtime_ns}:{p.stat().st_size}"
+                     for p in (Path(ssm.__file__), Path(braking.__file__)))
+    mark = cache / "evaluate_batch._tick.depends"
+    try:
+        if mark.read_text() == stamp:
+            return
+        for build in cache.glob("evaluate_batch._tick-*"):
+            build.unlink(missing_ok=True)
+        mark.write_text(stamp)
+    except OSError:  # no cache folder yet (numba makes it), or a read-only install
+        with contextlib.suppress(OSError):
+            cache.mkdir(exist_ok=True)
+            mark.write_text(stamp)
+
+
+_drop_stale_tick_build()
+
+
 @numba.njit(cache=True)
 def _tick(t, dt, live, p_R, v_tool, d_est, vh_est, vr_est, status, z_d, t_frame, timeout,
           monitor, delta_s, d_min, p_H, v_H, present, truth_s, end, brake_scale, braking, s,
@@ -296,7 +322,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                                          z.reshape(-1, 3), valid.ravel(), **t_args)
                 t_frame[rows] = index[rows] * c.period
                 x, status, std, unseen = track_estimates(tracks.reshape(B, N, TRACK_SLOT))
-                est_p, est_v = x[..., :3], x[..., 3:]
+                est_p, est_v = np.ascontiguousarray(x[..., :3]), np.ascontiguousarray(x[..., 3:])
+                status = np.ascontiguousarray(status)  # one layout: one compiled _tick
             j += 1
         q, dq, _ = joint_path_state(c.path, s)
         p_R, v_tool = tool0_position_and_velocity(q, dq * rate[:, None])
