@@ -7,6 +7,7 @@ from hypothesis import strategies as st
 
 from safety_systems.braking import (
     BrakingTable,
+    _interp_one,
     braking_deceleration,
     default_braking_table,
     path_rate_step,
@@ -182,3 +183,15 @@ def test_one_robot_path_equals_the_vectorised_one(rate, cmd, accel, scale, max_r
     batched = path_rate_step(np.array([rate]), np.array([cmd]), DT, **args)[0]
     assert isinstance(one, float)
     np.testing.assert_array_equal(one, batched)
+
+
+@pytest.mark.parametrize("table", [DEFAULT, UNEVEN])
+def test_one_value_interpolation_is_numpys(table):
+    # The compiled rate step reads the braking table by _interp_one: np.interp's values,
+    # bit for bit, at the rows, between them, beyond both ends and for non-finite speeds.
+    rng = np.random.default_rng(2)
+    x = np.r_[rng.uniform(-0.5, 1.5, 2000), table.speed_fraction, 0.0,
+              np.nextafter(table.speed_fraction, 2.0), np.nan, np.inf, -np.inf]
+    want = np.interp(x, table.speed_fraction, table.deceleration)
+    got = np.array([_interp_one(v, table.speed_fraction, table.deceleration) for v in x])
+    np.testing.assert_array_equal(got, want)
