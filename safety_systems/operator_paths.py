@@ -14,7 +14,6 @@ so the batched verifier can evaluate many instants at once; scalar times take a 
 because the simulation calls them at the robot rate.
 """
 
-import bisect
 import dataclasses
 import math
 from collections.abc import Sequence
@@ -51,8 +50,6 @@ class OperatorPath:
     accel_durations: np.ndarray  # (M-1,)
     cruise_durations: np.ndarray  # (M-1,)
     peak_speeds: np.ndarray  # (M-1,)
-    # The same data as plain Python floats, for the scalar fast path (see _scalar_state).
-    segment_table: tuple = dataclasses.field(repr=False, default=())
 
     @property
     def durations(self) -> np.ndarray:
@@ -120,27 +117,7 @@ def make_operator_path(
                 f"waypoint {k + 1}: reaching it needs {needed[k]:.4f} s but only "
                 f"{given[k]:.4f} s are given before waypoint {k + 2} departs"
             )
-    rest = tuple(float(x) for x in p[0]) + (0.0, 0.0, 0.0)
-    table = (
-        tuple(float(x) for x in t[1:]),
-        rest,
-        tuple(
-            (
-                float(t[k + 1]),
-                float(accel[k]),
-                float(cruise[k]),
-                float(peak[k]),
-                float(lengths[k]),
-                float(max_acceleration),
-                tuple(float(x) for x in p[k]),
-                tuple(float(x) for x in directions[k]),
-                tuple(float(x) for x in p[k + 1]) + (0.0, 0.0, 0.0),
-            )
-            for k in range(lengths.size)
-        ),
-    )
     return OperatorPath(
-        segment_table=table,
         waypoint_times=_frozen(t),
         waypoint_positions=_frozen(p),
         max_speed=float(max_speed),
@@ -154,66 +131,26 @@ def make_operator_path(
     )
 
 
-def _scalar_state(path: OperatorPath, t: float) -> tuple[float, ...]:
-    """(x, y, z, vx, vy, vz) at a scalar time, in plain floats (the per-tick fast path)."""
-    k = bisect.bisect_right(path.segment_table[0], t) - 1
-    if k < 0:
-        return path.segment_table[1]
-    depart, ta, tc, vp, length, a, p0, u, p1 = path.segment_table[2][k]
-    total = 2.0 * ta + tc
-    tau = t - depart
-    if tau >= total:
-        return p1
-    if tau < ta:
-        s, v = 0.5 * a * tau * tau, a * tau
-    elif tau < ta + tc:
-        s, v = 0.5 * a * ta * ta + vp * (tau - ta), vp
-    else:
-        rest = total - tau
-        s, v = length - 0.5 * a * rest * rest, a * rest
-    return (p0[0] + s * u[0], p0[1] + s * u[1], p0[2] + s * u[2], v * u[0], v * u[1], v * u[2])
-
-
 def operator_position_velocity(
     path: OperatorPath, t: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Reference-point position (metres) and velocity (metres per second) at time(s) t.
 
     A scalar t gives two (3,) arrays; an array of shape (T,) gives two (T, 3) arrays.
+    Compiled (:func:`_path_rows`).
     """
-    if np.ndim(t) == 0:
-        state = np.array(_scalar_state(path, float(t)))
-        return state[:3], state[3:]
     t = np.asarray(t, dtype=float)
-    if path.departure_times.size == 0:
-        p0 = np.broadcast_to(path.waypoint_positions[0], t.shape + (3,)).copy()
-        return p0, np.zeros(t.shape + (3,))
-    k = np.searchsorted(path.departure_times, t, side="right") - 1
-    before = k < 0
-    k = np.maximum(k, 0)
-    s, v = _segment_progress(t - path.departure_times[k], path.accel_durations[k],
-                             path.cruise_durations[k], path.peak_speeds[k], path.lengths[k],
-                             path.max_acceleration, before)
-    u = path.directions[k]
-    return path.waypoint_positions[k] + s[..., None] * u, v[..., None] * u
-
-
-def _segment_progress(tau, ta, tc, vp, length, a, before):
-    """Distance along and speed on a trapezoidal segment ``tau`` seconds after departure
-    (clipped to the segment); zero where ``before`` (the first departure is to come)."""
-    total = 2.0 * ta + tc
-    tau = np.minimum(np.maximum(tau, 0.0), total)
-    rest = total - tau
-    accelerating, cruising = tau < ta, tau < ta + tc
-    s = np.where(accelerating, 0.5 * a * tau**2,
-                 np.where(cruising, 0.5 * a * ta**2 + vp * (tau - ta), length - 0.5 * a * rest**2))
-    v = np.where(accelerating, a * tau, np.where(cruising, vp, a * rest))
-    return np.where(before, 0.0, s), np.where(before, 0.0, v)
+    stack = stack_paths([path])
+    out = np.empty((2, t.size, 3))
+    _path_rows(stack.departure_times, stack.accel_durations, stack.cruise_durations,
+               stack.peak_speeds, stack.lengths, stack.max_acceleration, stack.directions,
+               stack.waypoint_positions, np.zeros(t.size, dtype=np.intp), t.reshape(-1), out)
+    return out[0].reshape(t.shape + (3,)), out[1].reshape(t.shape + (3,))
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class PathStack:
-    """P operator paths with the same number of waypoints, stacked for batch evaluation.
+    """P operator paths stacked for batch evaluation (see :func:`stack_paths`).
 
     Every array has the paths on its first axis (see ``OperatorPath`` for the fields).
     """
@@ -229,33 +166,49 @@ class PathStack:
 
 
 def stack_paths(paths: Sequence[OperatorPath]) -> PathStack:
-    """Stacks paths that all have the same number of waypoints (>= 2)."""
-    sizes = {p.waypoint_positions.shape[0] for p in paths}
-    if len(sizes) != 1 or sizes == {1}:
-        raise ValueError(f"paths have {sorted(sizes)} waypoints: need one common count >= 2")
-    fields = ("departure_times", "accel_durations", "cruise_durations", "peak_speeds",
-              "lengths", "directions", "waypoint_positions")
-    arrays = {f: np.stack([getattr(p, f) for p in paths]) for f in fields}
-    return PathStack(**arrays, max_acceleration=np.array([p.max_acceleration for p in paths]))
+    """Stacks paths for batch evaluation. Paths with fewer waypoints are padded with
+    segments that never depart (departure at +inf), so they rest at their last
+    waypoint as they do alone."""
+    segments = max(1, max(p.departure_times.size for p in paths))
+
+    def pad(a: np.ndarray, value: float) -> np.ndarray:  # (segments, ...) per path
+        extra = segments - a.shape[0]
+        return np.concatenate([a, np.full((extra,) + a.shape[1:], value)]) if extra else a
+
+    arrays = {f: np.stack([pad(getattr(p, f), math.inf if f == "departure_times" else 0.0)
+                           for p in paths])
+              for f in ("departure_times", "accel_durations", "cruise_durations",
+                        "peak_speeds", "lengths", "directions")}
+    waypoints = np.stack([np.concatenate([p.waypoint_positions, np.repeat(
+        p.waypoint_positions[-1:], segments + 1 - len(p.waypoint_positions), axis=0)])
+        for p in paths])
+    return PathStack(**arrays, waypoint_positions=waypoints,
+                     max_acceleration=np.array([p.max_acceleration for p in paths]))
 
 
 @numba.njit(cache=True)
-def _stacked_rows(departures, ta, tc, vp, lengths, a_max, directions, waypoints, t, out):
-    """:func:`stacked_position_velocity` compiled: path p at time t[p] into out[0, p]
-    (position) and out[1, p] (velocity), by :func:`_segment_progress`'s rules."""
-    for p in range(t.size):
+def _path_rows(departures, ta, tc, vp, lengths, a_max, directions, waypoints, which, t, out):
+    """Position out[0, r] and velocity out[1, r] of path ``which[r]`` of a stack (see
+    :class:`PathStack`) at time t[r], compiled: on its current segment (the last one
+    departed; at the first waypoint, at rest, before that) the distance and speed of
+    the trapezoidal profile ``tau`` = t - departure seconds in (clipped to the segment):
+    a tau^2 / 2 and a tau while accelerating, then cruising at the peak speed, then the
+    length minus a rest^2 / 2 and a rest while braking (rest = time to the segment's end).
+    """
+    for r in range(t.size):
+        p = which[r]
         k = -1
         for j in range(departures.shape[1]):
-            if departures[p, j] <= t[p]:
+            if departures[p, j] <= t[r]:
                 k += 1
         if k < 0:  # the first departure is to come: at the first waypoint, at rest
             for i in range(3):
-                out[0, p, i] = waypoints[p, 0, i] + 0.0 * directions[p, 0, i]
-                out[1, p, i] = 0.0 * directions[p, 0, i]
+                out[0, r, i] = waypoints[p, 0, i] + 0.0 * directions[p, 0, i]
+                out[1, r, i] = 0.0 * directions[p, 0, i]
             continue
         a, t_a, t_c, v_p = a_max[p], ta[p, k], tc[p, k], vp[p, k]
         total = 2.0 * t_a + t_c
-        tau = min(max(t[p] - departures[p, k], 0.0), total)
+        tau = min(max(t[r] - departures[p, k], 0.0), total)
         rest = total - tau
         if tau < t_a:
             dist, speed = 0.5 * a * (tau * tau), a * tau
@@ -264,8 +217,8 @@ def _stacked_rows(departures, ta, tc, vp, lengths, a_max, directions, waypoints,
         else:
             dist, speed = lengths[p, k] - 0.5 * a * (rest * rest), a * rest
         for i in range(3):
-            out[0, p, i] = waypoints[p, k, i] + dist * directions[p, k, i]
-            out[1, p, i] = speed * directions[p, k, i]
+            out[0, r, i] = waypoints[p, k, i] + dist * directions[p, k, i]
+            out[1, r, i] = speed * directions[p, k, i]
 
 
 def stacked_position_velocity(
@@ -274,11 +227,12 @@ def stacked_position_velocity(
     """Positions and velocities (P, 3) of every stacked path's reference point at time t
     (a scalar, or one time per path, shape (P,)); compiled (numba)."""
     P = stack.max_acceleration.size
-    t = np.broadcast_to(np.asarray(t, dtype=float), (P,))
+    t = np.asarray(t, dtype=float)
+    t = np.full(P, float(t)) if t.ndim == 0 else np.broadcast_to(t, (P,))
     out = np.empty((2, P, 3))
-    _stacked_rows(stack.departure_times, stack.accel_durations, stack.cruise_durations,
-                  stack.peak_speeds, stack.lengths, stack.max_acceleration, stack.directions,
-                  stack.waypoint_positions, t, out)
+    _path_rows(stack.departure_times, stack.accel_durations, stack.cruise_durations,
+               stack.peak_speeds, stack.lengths, stack.max_acceleration, stack.directions,
+               stack.waypoint_positions, np.arange(P), t, out)
     return out[0], out[1]
 
 
@@ -332,6 +286,7 @@ class BodyLayout:
     offsets: np.ndarray  # (N, 3) metres
     enter_times: np.ndarray  # (K,) seconds
     leave_times: np.ndarray  # (K,) seconds
+    paths: "PathStack | None" = None  # the K operators' paths, stacked
 
 
 def body_layout(operators: Sequence[ScriptedOperator]) -> BodyLayout:
@@ -343,6 +298,7 @@ def body_layout(operators: Sequence[ScriptedOperator]) -> BodyLayout:
         offsets=_frozen(np.concatenate([op.body_offsets for op in operators])),
         enter_times=_frozen([op.enter_time for op in operators]),
         leave_times=_frozen([op.leave_time for op in operators]),
+        paths=stack_paths([op.path for op in operators]),
     )
 
 
@@ -361,11 +317,12 @@ def operators_bodies_state(
         layout = body_layout(operators)
     if np.ndim(t) == 0:
         t = float(t)
-        ops = np.array([_scalar_state(op.path, t) for op in operators])[layout.operator_index]
+        p, v = stacked_position_velocity(layout.paths, t)  # every operator at once
+        p, v = p[layout.operator_index], v[layout.operator_index]
         inside = (t >= layout.enter_times) & (t < layout.leave_times)
         return (
-            (ops[:, :3] + layout.offsets).ravel(),
-            ops[:, 3:].ravel(),
+            (p + layout.offsets).ravel(),
+            v.ravel(),
             inside[layout.operator_index].astype(float),
         )
     states = [operator_position_velocity(op.path, t) for op in operators]
