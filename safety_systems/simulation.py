@@ -55,13 +55,13 @@ def simulate_workcell(workcell: Workcell, *, duration: float | None = None,
             t = min(t + step, duration)
             simulator.AdvanceTo(t)
             bar.update(round(t, 3) - bar.n)
-    signals = {}
-    time = None
-    for key, logger in workcell.loggers.items():
-        log = logger.FindLog(context)
-        if time is None:
-            time = log.sample_times().copy()
-        signals[key] = log.data().T.copy()
+    if workcell.logger is None:
+        time, data = np.zeros(0), np.zeros((0, 0))
+    else:
+        log = workcell.logger.FindLog(context)
+        time, data = log.sample_times().copy(), log.data().T
+    signals = {key: data[:, cols].copy() if data.size else np.zeros((time.size, 0))
+               for key, cols in workcell.columns.items()}
     return Run(scenario, workcell.body_names, time, signals)
 
 

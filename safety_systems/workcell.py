@@ -198,14 +198,16 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
 
 @dataclasses.dataclass
 class Workcell:
-    """A built workcell: the diagram, its named systems and its loggers by signal name."""
+    """A built workcell: the diagram, its named systems, and the one logger of every
+    logged signal with each signal's columns in it (``"system.port"``, ``"q"``, ``"v"``)."""
 
     diagram: Diagram
     scenario: Scenario
     path: JointPath
     body_names: list[str]
     systems: dict
-    loggers: dict
+    logger: VectorLogSink | None
+    columns: dict[str, slice]
     plant: MultibodyPlant | None = None
 
 
@@ -305,16 +307,27 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
         unknown = logged - set(ports)
         if unknown:
             raise ValueError(f"logged: unknown signals {sorted(unknown)}; allowed: {sorted(ports)}")
-    loggers = {}
-    for key, port in ports.items():
-        if logged is not None and key not in logged:
-            continue
-        logger = builder.AddNamedSystem(f"log {key}", VectorLogSink(port.size(), dt))
-        builder.Connect(port, logger.get_input_port())
-        loggers[key] = logger
+    # One logger for every signal: a multiplexer of the logged ports into one sink (one
+    # publish event per tick instead of one per signal), split by column when read.
+    keys = [key for key in ports if (logged is None or key in logged) and ports[key].size()]
+    sizes = [ports[key].size() for key in keys]
+    columns, start = {}, 0
+    for key, size in zip(keys, sizes):
+        columns[key] = slice(start, start + size)
+        start += size
+    logger = None
+    if keys:
+        mux = builder.AddNamedSystem("log signals", Multiplexer(sizes))
+        for i, key in enumerate(keys):
+            builder.Connect(ports[key], mux.get_input_port(i))
+        logger = builder.AddNamedSystem("log", VectorLogSink(start, dt))
+        builder.Connect(mux.get_output_port(), logger.get_input_port())
+    for key in ports:  # empty signals (no bodies) log no columns
+        if (logged is None or key in logged) and key not in columns:
+            columns[key] = slice(start, start)
     diagram = builder.Build()
     diagram.set_name("workcell")
-    return Workcell(diagram, scenario, path, names, systems, loggers, plant)
+    return Workcell(diagram, scenario, path, names, systems, logger, columns, plant)
 
 
 def control_ticks(duration: float, period: float) -> int:
