@@ -8,7 +8,8 @@ timed) and the cost of one monitor + override evaluation for 10 tracked bodies a
 functions, each beside its goal. Beside the real-time factors it prints Drake's own
 floor on this machine: the same 500 Hz clock driving one, and two chained, Python
 LeafSystems that do nothing (one periodic update each), which bounds what any diagram
-of Python systems at 500 Hz can reach. Run it pinned to one core for the one-core figure
+of Python systems at 500 Hz can reach, and the dynamic mode's UR5e plant with its
+inverse-dynamics controller alone (no Python system), which bounds the dynamic mode. Run it pinned to one core for the one-core figure
 (e.g. ``taskset -c 0 python benchmarks/bench_simulate.py``).
 """
 
@@ -19,16 +20,21 @@ import timeit
 from pathlib import Path
 
 import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import Simulator
+from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import ConstantVectorSource
 
+from safety_systems.joint_path import default_joint_path, joint_path_state
 from safety_systems.scenario import load_scenario
 from safety_systems.ssm import (
     monitor_protective_distances,
     overall_speed_override,
     separation_and_directed_speeds,
 )
-from safety_systems.workcell import MakeWorkcell
+from safety_systems.ur5e import AddUr5e
+from safety_systems.workcell import DYNAMIC_KD, DYNAMIC_KP, MakeWorkcell
 
 SCENARIO = Path(__file__).parents[1] / "models" / "scenarios" / "inspection.yaml"
 GOALS = {"kinematic": 100.0, "dynamic": 15.0}  # x real time
@@ -88,6 +94,38 @@ def idle_floor(systems: int, duration: float, repeats: int) -> float:
     return duration / best
 
 
+def plant_floor(duration: float, repeats: int) -> float:
+    """Real-time factor of the dynamic mode's plant and inverse-dynamics controller alone,
+    holding the first waypoint (all C++)."""
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(MultibodyPlant(time_step=0.002))
+    AddUr5e(plant)
+    plant.Finalize()
+    model = MultibodyPlant(time_step=0.002)
+    AddUr5e(model)
+    model.Finalize()
+    control = builder.AddSystem(InverseDynamicsController(
+        model, kp=np.full(6, DYNAMIC_KP), ki=np.zeros(6), kd=np.full(6, DYNAMIC_KD),
+        has_reference_acceleration=True))
+    q0 = joint_path_state(default_joint_path(), 0.0)[0]
+    state = builder.AddSystem(ConstantVectorSource(np.r_[q0, np.zeros(6)]))
+    acceleration = builder.AddSystem(ConstantVectorSource(np.zeros(6)))
+    builder.Connect(state.get_output_port(), control.get_input_port_desired_state())
+    builder.Connect(acceleration.get_output_port(),
+                    control.get_input_port_desired_acceleration())
+    builder.Connect(plant.get_state_output_port(), control.get_input_port_estimated_state())
+    builder.Connect(control.get_output_port_control(), plant.get_actuation_input_port())
+    diagram = builder.Build()
+    best = np.inf
+    for _ in range(repeats):
+        simulator = Simulator(diagram)
+        simulator.Initialize()
+        start = time.perf_counter()
+        simulator.AdvanceTo(duration)
+        best = min(best, time.perf_counter() - start)
+    return duration / best
+
+
 def monitor_and_override_us(n: int = 10, number: int = 20000) -> float:
     rng = np.random.default_rng(0)
     p_R, v_R = rng.normal(size=3), rng.normal(size=3)
@@ -118,6 +156,9 @@ def main() -> None:
         rtf = idle_floor(systems, args.duration, args.repeats)
         print(f"{f'  floor: {systems} idle Python system(s) at 500 Hz':44s} {rtf:9.1f}x "
               f"{'':>10s} {rtf / GOALS['kinematic']:12.2f}")
+    rtf = plant_floor(args.duration, args.repeats)
+    print(f"{'  floor: dynamic plant + inverse dynamics only':44s} {rtf:9.1f}x "
+          f"{'':>10s} {rtf / GOALS['dynamic']:12.2f}")
     us = monitor_and_override_us()
     print(f"{'monitor + override, 10 bodies (plain fns)':44s} {us:8.1f}us "
           f"{MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")

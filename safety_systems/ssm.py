@@ -230,13 +230,13 @@ def monitor_protective_distances(
     if v_r.shape != shape or (z_d.ndim and z_d.shape != shape):
         shape = np.broadcast_shapes(v_h.shape, v_r.shape, z_d.shape)
         v_h, v_r = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (v_h, v_r))
-    z_d = z_d.reshape(1) if z_d.size == 1 else np.ascontiguousarray(
-        np.broadcast_to(z_d, shape)).reshape(-1)
+        if z_d.size != 1:
+            z_d = np.ascontiguousarray(np.broadcast_to(z_d, shape))
     out = np.empty(shape)
-    _protective_kernel(v_h.reshape(-1), v_r.reshape(-1), z_d, code,
+    _protective_kernel(v_h.ravel(), v_r.ravel(), z_d.ravel(), code,
                        stopping_time + reaction_time, reaction_time,
                        stopping_distance + intrusion_distance + robot_uncertainty,
-                       iso_speed, iso_reduced_speed, out.reshape(-1))
+                       iso_speed, iso_reduced_speed, out.ravel())
     return out
 
 
@@ -391,6 +391,9 @@ def overall_speed_override(
     d = np.asarray(distances, dtype=float)
     s = np.asarray(protective_distances, dtype=float)
     inc = np.asarray(included, dtype=bool)
+    if d.ndim == 1 and s.shape == d.shape and inc.shape == d.shape:  # one robot
+        k, s_max = override_row(d, s, inc, float(delta_s), float(d_min))
+        return np.float64(k), np.float64(s_max)
     shape = d.shape
     if s.shape != shape or inc.shape != shape:
         shape = np.broadcast_shapes(d.shape, s.shape, inc.shape)
