@@ -2,12 +2,14 @@
 
 State x = [p, p_dot] (metres, metres per second), measurement y = p (metres).
 ``predict``/``update`` are the single-body reference built on filterpy;
-``batch_predict``/``batch_update`` are the same equations in numpy over a leading batch
-axis (bodies, scenarios), used by the KalmanTracker system and by the batched verifier.
+``batch_predict``/``batch_update`` are the same equations over a leading batch axis
+(bodies, scenarios), compiled with numba, used by the KalmanTracker system and by the
+batched verifier.
 Tests check the two agree. A missing measurement (None, NaN or masked out) means
 predict only.
 """
 
+import numba
 import numpy as np
 from filterpy.kalman import predict as _filterpy_predict
 from filterpy.kalman import update as _filterpy_update
@@ -71,14 +73,100 @@ def update(
     return _filterpy_update(x, P, np.asarray(z, dtype=float), R, measurement_matrix())
 
 
+@numba.njit(cache=True)
+def _predict_rows(x, P, F, Q, x_out, P_out):
+    """Rows of F x and F P F^T + Q (all arrays 2-D/3-D per row), compiled."""
+    for b in range(x.shape[0]):
+        for i in range(6):
+            acc = 0.0
+            for j in range(6):
+                acc += F[b, i, j] * x[b, j]
+            x_out[b, i] = acc
+        for i in range(6):  # F P into P_out's row scratch, then (F P) F^T + Q
+            for j in range(6):
+                fp_ij = 0.0
+                for k in range(6):
+                    fp_ij += F[b, i, k] * P[b, k, j]
+                P_out[b, i, j] = fp_ij
+        for i in range(6):
+            row = P_out[b, i].copy()
+            for j in range(6):
+                acc = 0.0
+                for k in range(6):
+                    acc += row[k] * F[b, j, k]
+                P_out[b, i, j] = acc + Q[b, i, j]
+
+
+def _rows3(a: np.ndarray, n: int, shape: tuple) -> np.ndarray:
+    """``a`` of shape ``shape`` or (n,) + ``shape``, as a contiguous (n,) + ``shape`` array."""
+    a = np.asarray(a, dtype=float)
+    return np.ascontiguousarray(np.broadcast_to(a, (n,) + shape))
+
+
 def batch_predict(
     x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """``predict`` over a leading batch axis: x (B, 6), P (B, 6, 6), F and Q (6, 6) or
-    (B, 6, 6). Returns new arrays."""
-    x_new = np.einsum("...ij,...j->...i", F, x)
-    P_new = F @ P @ np.swapaxes(F, -1, -2) + Q
+    (B, 6, 6). Returns new arrays (compiled)."""
+    x = np.ascontiguousarray(x, dtype=float)
+    n = x.shape[0]
+    x_new, P_new = np.empty((n, 6)), np.empty((n, 6, 6))
+    _predict_rows(x, _rows3(P, n, (6, 6)), _rows3(F, n, (6, 6)), _rows3(Q, n, (6, 6)), x_new,
+                  P_new)
     return x_new, P_new
+
+
+@numba.njit(cache=True)
+def _update_rows(x, P, z, R, mask, x_out, P_out):
+    """Rows of the Joseph-form update with H = [I3, O3] (see :func:`batch_update`),
+    compiled; rows not in ``mask`` are copied."""
+    S, S_inv, K, A = np.empty((3, 3)), np.empty((3, 3)), np.empty((6, 3)), np.empty((6, 6))
+    for b in range(x.shape[0]):
+        if not mask[b]:
+            x_out[b] = x[b]
+            P_out[b] = P[b]
+            continue
+        for i in range(3):
+            for j in range(3):
+                S[i, j] = P[b, i, j] + R[b, i, j]
+        # S^-1 by cofactors (S is symmetric positive definite, 3 x 3).
+        c00 = S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]
+        c01 = S[1, 2] * S[2, 0] - S[1, 0] * S[2, 2]
+        c02 = S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0]
+        det = S[0, 0] * c00 + S[0, 1] * c01 + S[0, 2] * c02
+        S_inv[0, 0], S_inv[1, 0], S_inv[2, 0] = c00 / det, c01 / det, c02 / det
+        S_inv[0, 1] = (S[0, 2] * S[2, 1] - S[0, 1] * S[2, 2]) / det
+        S_inv[1, 1] = (S[0, 0] * S[2, 2] - S[0, 2] * S[2, 0]) / det
+        S_inv[2, 1] = (S[0, 1] * S[2, 0] - S[0, 0] * S[2, 1]) / det
+        S_inv[0, 2] = (S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]) / det
+        S_inv[1, 2] = (S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]) / det
+        S_inv[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
+        for i in range(6):  # K = P H^T S^-1
+            for j in range(3):
+                acc = 0.0
+                for k in range(3):
+                    acc += P[b, i, k] * S_inv[k, j]
+                K[i, j] = acc
+        for i in range(6):  # x + K (z - H x)
+            acc = x[b, i]
+            for k in range(3):
+                acc += K[i, k] * (z[b, k] - x[b, k])
+            x_out[b, i] = acc
+        for i in range(6):  # A = (I - K H) P = P - K P[:3]
+            for j in range(6):
+                acc = P[b, i, j]
+                for k in range(3):
+                    acc -= K[i, k] * P[b, k, j]
+                A[i, j] = acc
+        for i in range(6):  # A (I - K H)^T + K R K^T
+            for j in range(6):
+                acc = A[i, j]
+                for k in range(3):
+                    acc -= A[i, k] * K[j, k]
+                for k in range(3):
+                    for m in range(3):
+                        acc += K[i, k] * R[b, k, m] * K[j, m]
+                P_out[b, i, j] = acc
 
 
 def batch_update(
@@ -96,22 +184,16 @@ def batch_update(
         R: (3, 3) or (B, 3, 3) measurement covariance, metres squared.
         valid_mask: (B,) bool, rows to update; others are returned unchanged.
 
-    Returns new arrays (Joseph form, as filterpy).
+    Returns new arrays (Joseph form, as filterpy; compiled).
     """
-    z = np.asarray(z, dtype=float)
+    x = np.ascontiguousarray(x, dtype=float)
+    z = np.ascontiguousarray(z, dtype=float)
+    n = x.shape[0]
     mask = np.all(np.isfinite(z), axis=-1)
     if valid_mask is not None:
         mask &= np.asarray(valid_mask, dtype=bool)
-    S = P[..., :3, :3] + R
-    PHt = P[..., :, :3]
-    # K = P H^T S^-1 (S symmetric): solve S K^T = (P H^T)^T.
-    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
-    y = np.where(mask[..., None], z - x[..., :3], 0.0)
-    x_new = x + np.einsum("...ij,...j->...i", K, y)
-    I_KH = np.broadcast_to(np.eye(6), P.shape).copy()
-    I_KH[..., :, :3] -= K
-    P_new = I_KH @ P @ np.swapaxes(I_KH, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
-    P_new = np.where(mask[..., None, None], P_new, P)
+    x_new, P_new = np.empty((n, 6)), np.empty((n, 6, 6))
+    _update_rows(x, _rows3(P, n, (6, 6)), z, _rows3(R, n, (3, 3)), mask, x_new, P_new)
     return x_new, P_new
 
 
