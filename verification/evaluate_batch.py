@@ -182,27 +182,25 @@ class _Cells:
         return p, valid
 
 
-def _drop_stale_tick_build() -> None:
+def _drop_stale_tick_build(cache: Path, depends: tuple[Path, ...]) -> None:
     """numba keys the disk cache of :func:`_tick` (compiling it takes seconds) on this
     file alone, so after a change to the compiled functions it inlines (``ssm``,
-    ``braking``) it would load a stale build: drop that build when those files changed."""
-    cache = Path(__file__).parent / "__pycache__"
-    stamp = " ".join(f"{p.stat().st_mtime_ns}:{p.stat().st_size}"
-                     for p in (Path(ssm.__file__), Path(braking.__file__)))
+    ``braking``: ``depends``) it would load a stale build: drop the builds in ``cache``
+    when those files changed since the last look."""
+    stamp = " ".join(f"{p.stat().st_mtime_ns}:{p.stat().st_size}" for p in depends)
     mark = cache / "evaluate_batch._tick.depends"
-    try:
+    with contextlib.suppress(OSError):  # no mark yet: as good as changed
         if mark.read_text() == stamp:
             return
+    with contextlib.suppress(OSError):  # a read-only install: numba caches elsewhere
         for build in cache.glob("evaluate_batch._tick-*"):
             build.unlink(missing_ok=True)
+        cache.mkdir(exist_ok=True)
         mark.write_text(stamp)
-    except OSError:  # no cache folder yet (numba makes it), or a read-only install
-        with contextlib.suppress(OSError):
-            cache.mkdir(exist_ok=True)
-            mark.write_text(stamp)
 
 
-_drop_stale_tick_build()
+_drop_stale_tick_build(Path(__file__).parent / "__pycache__",
+                       (Path(ssm.__file__), Path(braking.__file__)))
 
 
 @numba.njit(cache=True)
