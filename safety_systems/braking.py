@@ -126,6 +126,23 @@ def rate_step_one(r, c, time_scale, dt, fractions, deceleration, acceleration_li
     return 0.0 if r * new < 0.0 else new
 
 
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def path_step_one(s, rate, cmd, end, time_scale, dt, fractions, deceleration,
+                  acceleration_limit, max_rate):
+    """One tick of the PathFollower: the new path parameter and rate (s, sigma) from
+    (s, sigma) and the command: sigma by :func:`rate_step_one`, s by the trapezoid rule,
+    both held at the ends (s in [0, end], sigma 0 there). Compiled; shared by the
+    PathFollower system and the batched evaluator."""
+    if s >= end:
+        return end, 0.0
+    new = rate_step_one(rate, cmd, time_scale, dt, fractions, deceleration,
+                        acceleration_limit, max_rate)
+    s_new = s + 0.5 * (rate + new) * dt
+    if s_new >= end or s_new <= 0.0:
+        return min(max(s_new, 0.0), end), 0.0
+    return s_new, new
+
+
 @numba.njit(cache=True)
 def _path_rate_kernel(rate, cmd, time_scale, dt, fractions, deceleration, acceleration_limit,
                       max_rate, out):

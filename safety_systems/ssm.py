@@ -283,9 +283,6 @@ def human_uncertainty(
 # Stand-ins for an infinite S_max (+-): beyond every finite distance, and (dS - 1) times
 # them stays finite, so Eq. 12's arithmetic meets no inf - inf or 0 * inf.
 _S_MAX_CAP = 1e100
-# Where an untracked body is put when the closest body is looked for: beyond every real
-# distance, but short of the cap, so that a faulty body's S_max still stops the robot.
-_NOWHERE = 1e50
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element

@@ -218,12 +218,12 @@ def _sensor_intervals(scenario: Scenario) -> tuple[list, list]:
     return occlusions, [(d.start, d.end) for d in s.dropouts]
 
 
-def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollower,
-               dt: float) -> tuple[OutputPort, OutputPort, MultibodyPlant | None]:
-    """Adds the robot in its mode; returns its joint position and velocity ports."""
-    if robot.mode == "kinematic":
-        return (follower.GetOutputPort("joint_positions_desired"),
-                follower.GetOutputPort("joint_velocities_desired"), None)
+def AddUr5eWithInverseDynamics(builder: DiagramBuilder, dt: float
+                               ) -> tuple[MultibodyPlant, InverseDynamicsController]:
+    """Adds the dynamic mode's UR5e plant (time step ``dt``) and its inverse-dynamics
+    controller (gains ``DYNAMIC_KP``, ``DYNAMIC_KD``), the plant's state fed back and the
+    controller driving the actuators; left to connect: the controller's desired state and
+    desired acceleration."""
     plant = builder.AddNamedSystem("plant", MultibodyPlant(time_step=dt))
     AddUr5e(plant)
     plant.Finalize()
@@ -233,14 +233,24 @@ def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollow
     controller = builder.AddNamedSystem("inverse_dynamics", InverseDynamicsController(
         model, kp=np.full(6, DYNAMIC_KP), ki=np.zeros(6), kd=np.full(6, DYNAMIC_KD),
         has_reference_acceleration=True))
+    builder.Connect(plant.get_state_output_port(), controller.get_input_port_estimated_state())
+    builder.Connect(controller.get_output_port_control(), plant.get_actuation_input_port())
+    return plant, controller
+
+
+def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollower,
+               dt: float) -> tuple[OutputPort, OutputPort, MultibodyPlant | None]:
+    """Adds the robot in its mode; returns its joint position and velocity ports."""
+    if robot.mode == "kinematic":
+        return (follower.GetOutputPort("joint_positions_desired"),
+                follower.GetOutputPort("joint_velocities_desired"), None)
+    plant, controller = AddUr5eWithInverseDynamics(builder, dt)
     desired = builder.AddNamedSystem("desired_state", Multiplexer([6, 6]))
     builder.Connect(follower.GetOutputPort("joint_positions_desired"), desired.get_input_port(0))
     builder.Connect(follower.GetOutputPort("joint_velocities_desired"), desired.get_input_port(1))
     builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
     builder.Connect(follower.GetOutputPort("joint_accelerations_desired"),
                     controller.get_input_port_desired_acceleration())
-    builder.Connect(plant.get_state_output_port(), controller.get_input_port_estimated_state())
-    builder.Connect(controller.get_output_port_control(), plant.get_actuation_input_port())
     split = builder.AddNamedSystem("joint_state", Demultiplexer([6, 6]))
     builder.Connect(plant.get_state_output_port(), split.get_input_port())
     return split.get_output_port(0), split.get_output_port(1), plant

@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from safety_systems import braking, ssm
-from safety_systems.braking import rate_step_one
+from safety_systems.braking import path_step_one
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import stack_paths, stacked_position_velocity
 from safety_systems.scenario import Scenario, actual_sensor
@@ -205,7 +205,7 @@ _drop_stale_tick_build(Path(__file__).parent / "__pycache__",
 
 @numba.njit(cache=True)
 def _tick(t, dt, live, p_R, v_tool, d_est, vh_est, vr_est, status, z_d, t_frame, timeout,
-          monitor, delta_s, d_min, p_H, v_H, present, truth_s, end, brake_scale, braking, s,
+          monitor, delta_s, d_min, p_H, v_H, present, truth_s, end, brake_scale, brakes, s,
           rate, min_sep, prot_time, prot_deep, s_row, usable):
     """One control tick of every scenario, as the diagram runs it (compiled; the maths
     are the product's own compiled functions):
@@ -218,12 +218,11 @@ def _tick(t, dt, live, p_R, v_tool, d_est, vh_est, vr_est, status, z_d, t_frame,
     - the properties on the truth at this tick (``verification.properties``): the
       smallest separation while the tool moves, and time and depth inside the true-speed
       S (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
-    - the PathFollower's update: path rate by the braking model (``braking`` = speed
-      fractions, decelerations, acceleration limit), path parameter s by the trapezoid
-      rule, stopping at the ends.
+    - the PathFollower's update (``braking.path_step_one``; ``brakes`` = speed
+      fractions, decelerations, acceleration limit).
     """
     mode, t_sr, t_r, const, iso, iso_reduced = monitor
-    fractions, deceleration, acceleration = braking
+    fractions, deceleration, acceleration = brakes
     for b in range(p_R.shape[0]):
         lost = False
         for i in range(d_est.shape[1]):
@@ -253,15 +252,8 @@ def _tick(t, dt, live, p_R, v_tool, d_est, vh_est, vr_est, status, z_d, t_frame,
                 prot_time[b] += dt
             prot_deep[b] = max(prot_deep[b], deepest)
         # Updates at this tick: the follower (PathFollower._step).
-        new = rate_step_one(rate[b], k, brake_scale[b], dt, fractions, deceleration,
-                            acceleration, 1.0)
-        s_new = s[b] + 0.5 * (rate[b] + new) * dt
-        if s[b] >= end[b]:
-            s[b], rate[b] = end[b], 0.0
-        elif s_new >= end[b] or s_new <= 0.0:
-            s[b], rate[b] = min(max(s_new, 0.0), end[b]), 0.0
-        else:
-            s[b], rate[b] = s_new, new
+        s[b], rate[b] = path_step_one(s[b], rate[b], k, end[b], brake_scale[b], dt, fractions,
+                                      deceleration, acceleration, 1.0)
 
 
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
@@ -288,7 +280,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     truth_s = (truth["stopping_time"] + truth["reaction_time"], truth["reaction_time"],
                truth["stopping_distance"] + truth["intrusion_distance"]
                + truth["robot_uncertainty"], truth["human_uncertainty"])
-    braking = (c.table.speed_fraction, c.table.deceleration, c.accel)
+    brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     scratch = (np.empty(N), np.empty(N, dtype=bool))
     z_fixed = not (f.human_uncertainty_sigmas or f.occlusion_speed > 0.0)
     z_d = np.full((B, N), float(f.human_uncertainty))
@@ -333,7 +325,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         p_H, v_H, present = c.truth(t)
         _tick(t, dt, k <= c.ticks, p_R, v_tool, d, v_h, v_r, status, z_d, t_frame, timeout,
               monitor, f.delta_s, f.d_min, p_H, v_H, present, truth_s, c.end, c.brake_scale,
-              braking, s, rate, min_sep, prot_time, prot_deep, *scratch)
+              brakes, s, rate, min_sep, prot_time, prot_deep, *scratch)
         p_prev = p_R  # Eq. 5's memory
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        prot_time, prot_deep)

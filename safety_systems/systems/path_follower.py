@@ -4,7 +4,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem, ValueProducer
 
-from safety_systems.braking import BrakingTable, path_rate_step
+from safety_systems.braking import BrakingTable, path_step_one
 from safety_systems.joint_path import JointPath, joint_path_state
 
 
@@ -52,6 +52,7 @@ class PathFollower(LeafSystem):
         self._accel, self._dt = float(acceleration_limit), float(period_sec)
         self._brake_scale = float(braking_time_scale)
         self._max_rate = float(max_rate)
+        self._fractions, self._deceleration = braking.speed_fraction, braking.deceleration
         # State: s, sigma, dsigma/dt over the last tick.
         self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, 0.0]))
         self._cmd = self.DeclareVectorInputPort("speed_scale_commanded", 1)
@@ -82,13 +83,9 @@ class PathFollower(LeafSystem):
         if s >= end:
             discrete_state.set_value(self._state, [end, 0.0, 0.0])
             return
-        cmd = self._cmd.Eval(context)[0]
-        new = float(path_rate_step(rate, cmd, self._dt, table=self._table,
-                                   acceleration_limit=self._accel, time_scale=self._brake_scale,
-                                   max_rate=self._max_rate))
-        s_new = s + 0.5 * (rate + new) * self._dt
-        if s_new >= end or s_new <= 0.0:
-            s_new, new = min(max(s_new, 0.0), end), 0.0
+        s_new, new = path_step_one(s, rate, float(self._cmd.Eval(context)[0]), end,
+                                   self._brake_scale, self._dt, self._fractions,
+                                   self._deceleration, self._accel, self._max_rate)
         discrete_state.set_value(self._state, [s_new, new, (new - rate) / self._dt])
 
     def _calc_reference(self, context: Context, value: AbstractValue) -> None:
