@@ -95,15 +95,17 @@ def _interp_one(x, xp, fp):
     beyond the ends); numba's own is several times slower for one value."""
     n = xp.size
     if math.isnan(x):
-        return np.nan
-    if x <= xp[0]:
-        return fp[0]
-    if x >= xp[n - 1]:
-        return fp[n - 1]
-    j = 0
-    while xp[j + 1] <= x:  # the cell xp[j] <= x < xp[j + 1] (tables are short)
-        j += 1
-    return (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (x - xp[j]) + fp[j]
+        y = np.nan
+    elif x <= xp[0]:
+        y = fp[0]
+    elif x >= xp[n - 1]:
+        y = fp[n - 1]
+    else:
+        j = 0
+        while xp[j + 1] <= x:  # the cell xp[j] <= x < xp[j + 1] (tables are short)
+            j += 1
+        y = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (x - xp[j]) + fp[j]
+    return y  # one exit (see operator_paths.path_point_one)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -134,13 +136,14 @@ def path_step_one(s, rate, cmd, end, time_scale, dt, fractions, deceleration,
     both held at the ends (s in [0, end], sigma 0 there). Compiled; shared by the
     PathFollower system and the batched evaluator."""
     if s >= end:
-        return end, 0.0
-    new = rate_step_one(rate, cmd, time_scale, dt, fractions, deceleration,
-                        acceleration_limit, max_rate)
-    s_new = s + 0.5 * (rate + new) * dt
-    if s_new >= end or s_new <= 0.0:
-        return min(max(s_new, 0.0), end), 0.0
-    return s_new, new
+        s_new, new = end, 0.0
+    else:
+        new = rate_step_one(rate, cmd, time_scale, dt, fractions, deceleration,
+                            acceleration_limit, max_rate)
+        s_new = s + 0.5 * (rate + new) * dt
+        if s_new >= end or s_new <= 0.0:
+            s_new, new = min(max(s_new, 0.0), end), 0.0
+    return s_new, new  # one exit (see operator_paths.path_point_one)
 
 
 @numba.njit(cache=True)

@@ -13,6 +13,8 @@ import math
 
 import numba
 import numpy as np
+from numba.core import types
+from numba.extending import overload
 from scipy.interpolate import CubicSpline
 
 from safety_systems.ur5e import JOINT_VELOCITY_LIMIT
@@ -185,22 +187,94 @@ def make_spline_path(s_samples: np.ndarray, q_samples: np.ndarray, *, rest_to_re
     return path
 
 
-@numba.njit(cache=True)
-def _joint_path_kernel(s, starts, durations, waypoints, deltas, cycle_time, cycles, out):
-    """:func:`joint_path_state` of a JointPath at every s (flat) into out (3, len(s), 6),
-    compiled."""
-    end = cycle_time * cycles
-    for r in range(s.size):
-        x = min(max(s[r], 0.0), end)
-        phase = x - cycle_time * min(math.floor(x / cycle_time), cycles - 1)
+def path_arrays(path: JointPath | SplinePath) -> tuple:
+    """What compiled code reads a path from (see :func:`path_state_one`): a JointPath as
+    (cycle_time, cycles, starts, durations, waypoints, deltas), a SplinePath as
+    (cycle_time, cycles, breakpoints, coefficients (4, m, 6), one-way duration,
+    there-and-back). Made once per path."""
+    arrays = path.__dict__.get("_compiled_arrays")
+    if arrays is None:
+        if isinstance(path, SplinePath):
+            arrays = (float(path.cycle_time), float(path.cycles),
+                      np.ascontiguousarray(path.spline.x, dtype=float),
+                      np.ascontiguousarray(path.spline.c, dtype=float), float(path.duration),
+                      bool(path.there_and_back))
+        else:
+            arrays = (float(path.cycle_time), float(path.cycles), path.starts, path.durations,
+                      path.waypoints, path.deltas)
+        path.__dict__["_compiled_arrays"] = arrays  # a cache beside the frozen fields
+    return arrays
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _spline_piece(c, i, j, u):
+    """Value, first and second derivative of the cubic piece i, joint j, at offset u from
+    its breakpoint, with scipy's PPoly arithmetic (terms c_k u^k times a falling factorial
+    summed from the constant up, the powers of u accumulated term by term), so the
+    values equal ``CubicSpline``'s bit for bit. Written out: loops here made every
+    compiled caller several times slower, even where the spline is not used."""
+    u2 = u * u
+    value = ((0.0 + c[3, i, j]) + c[2, i, j] * u) + c[1, i, j] * u2 + c[0, i, j] * (u2 * u)
+    slope = (0.0 + c[2, i, j]) + c[1, i, j] * u * 2.0 + c[0, i, j] * u2 * 3.0
+    curvature = (0.0 + c[1, i, j] * 2.0) + c[0, i, j] * u * 6.0
+    return value, slope, curvature
+
+
+def path_state_one(s, arrays, q, dq, ddq):
+    """q(s), dq/ds and d2q/ds2 at one path parameter s (clipped to [0, end]) into q, dq,
+    ddq (6,); compiled code only, ``arrays`` from :func:`path_arrays`.
+
+    A JointPath: its segment's minimum-jerk blend. A SplinePath: its cubic piece, the way
+    back running the spline backwards (dq/ds negated), as ``SplinePath.state``. The kind
+    is chosen when compiling (by the arrays' types), not at run time: a run-time branch
+    between the two made every compiled caller several times slower (numba then keeps
+    reference counting of the arrays in the hot loop).
+    """
+    raise NotImplementedError("path_state_one runs in compiled code; use joint_path_state")
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _phase(s, cycle_time, cycles):
+    """The path parameter s clipped to [0, end], as the time into its cycle."""
+    x = min(max(s, 0.0), cycle_time * cycles)
+    return x - cycle_time * min(math.floor(x / cycle_time), cycles - 1)
+
+
+@overload(path_state_one, inline="always")  # no call (and array refcounts) per element
+def _path_state_one(s, arrays, q, dq, ddq):
+    if isinstance(arrays[3], types.Array) and arrays[3].ndim == 3:  # a SplinePath
+        def spline(s, arrays, q, dq, ddq):
+            cycle_time, cycles, breaks, coeffs, duration, there_and_back = arrays
+            phase = _phase(s, cycle_time, cycles)
+            back = there_and_back and phase > duration
+            u = 2.0 * duration - phase if back else phase
+            # The piece breaks[i] <= u < breaks[i + 1]; the last one at the far end.
+            i = min(max(np.searchsorted(breaks, u, side="right") - 1, 0), breaks.size - 2)
+            offset = u - breaks[i]
+            for j in range(6):
+                q[j], slope, ddq[j] = _spline_piece(coeffs, i, j, offset)
+                dq[j] = -slope if back else slope
+        return spline
+
+    def joint(s, arrays, q, dq, ddq):
+        cycle_time, cycles, starts, durations, waypoints, deltas = arrays
+        phase = _phase(s, cycle_time, cycles)
         j = np.searchsorted(starts, phase, side="right") - 1
         T = durations[j]
         h, dh, ddh = _blend(min((phase - starts[j]) / T, 1.0))
         dh, ddh = dh / T, ddh / (T * T)
         for i in range(6):
-            out[0, r, i] = waypoints[j, i] + h * deltas[j, i]
-            out[1, r, i] = dh * deltas[j, i]
-            out[2, r, i] = ddh * deltas[j, i]
+            q[i] = waypoints[j, i] + h * deltas[j, i]
+            dq[i] = dh * deltas[j, i]
+            ddq[i] = ddh * deltas[j, i]
+    return joint
+
+
+@numba.njit(cache=True)
+def _joint_path_kernel(s, arrays, out):
+    """:func:`path_state_one` at every s (flat) into out (3, len(s), 6)."""
+    for r in range(s.size):
+        path_state_one(s[r], arrays, out[0, r], out[1, r], out[2, r])
 
 
 def joint_path_state(
@@ -209,13 +283,11 @@ def joint_path_state(
     """q(s), dq/ds and d2q/ds2 at path parameter(s) s (clipped to [0, end]).
 
     ``s`` of shape ``S`` gives three arrays of shape ``S + (6,)``: radians, radians per
-    second of nominal time, and radians per second squared. Compiled for a JointPath.
+    second of nominal time, and radians per second squared. Compiled (either kind of
+    path; :func:`path_state_one`).
     """
-    if isinstance(path, SplinePath):
-        return path.state(s)
     s = np.asarray(s, dtype=float)
     out = np.empty((3, s.size, 6))
-    _joint_path_kernel(s.reshape(-1), path.starts, path.durations, path.waypoints, path.deltas,
-                       float(path.cycle_time), float(path.cycles), out)
+    _joint_path_kernel(s.reshape(-1), path_arrays(path), out)
     shape = s.shape + (6,)
     return out[0].reshape(shape), out[1].reshape(shape), out[2].reshape(shape)

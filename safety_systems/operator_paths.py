@@ -186,39 +186,48 @@ def stack_paths(paths: Sequence[OperatorPath]) -> PathStack:
                      max_acceleration=np.array([p.max_acceleration for p in paths]))
 
 
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def path_point_one(departures, ta, tc, vp, lengths, a_max, directions, waypoints, p, t):
+    """Position and velocity (6 floats) of path ``p`` of a stack (see :class:`PathStack`)
+    at time t, compiled and callable from other compiled code: on its current segment
+    (the last one departed; at the first waypoint, at rest, before that) the distance and
+    speed of the trapezoidal profile ``tau`` = t - departure seconds in (clipped to the
+    segment): a tau^2 / 2 and a tau while accelerating, then cruising at the peak speed,
+    then the length minus a rest^2 / 2 and a rest while braking (rest = time to the
+    segment's end). One exit: a return per branch made callers' loops several times
+    slower (numba then keeps reference counting of the arrays in them)."""
+    k = -1
+    for j in range(departures.shape[1]):
+        if departures[p, j] <= t:
+            k += 1
+    waiting = k < 0  # the first departure is to come: at the first waypoint, at rest
+    k = max(k, 0)
+    a, t_a, t_c, v_p = a_max[p], ta[p, k], tc[p, k], vp[p, k]
+    total = 2.0 * t_a + t_c
+    tau = min(max(t - departures[p, k], 0.0), total)
+    rest = total - tau
+    if waiting:
+        dist, speed = 0.0, 0.0
+    elif tau < t_a:
+        dist, speed = 0.5 * a * (tau * tau), a * tau
+    elif tau < t_a + t_c:
+        dist, speed = 0.5 * a * (t_a * t_a) + v_p * (tau - t_a), v_p
+    else:
+        dist, speed = lengths[p, k] - 0.5 * a * (rest * rest), a * rest
+    return (waypoints[p, k, 0] + dist * directions[p, k, 0],
+            waypoints[p, k, 1] + dist * directions[p, k, 1],
+            waypoints[p, k, 2] + dist * directions[p, k, 2], speed * directions[p, k, 0],
+            speed * directions[p, k, 1], speed * directions[p, k, 2])
+
+
 @numba.njit(cache=True)
 def _path_rows(departures, ta, tc, vp, lengths, a_max, directions, waypoints, which, t, out):
-    """Position out[0, r] and velocity out[1, r] of path ``which[r]`` of a stack (see
-    :class:`PathStack`) at time t[r], compiled: on its current segment (the last one
-    departed; at the first waypoint, at rest, before that) the distance and speed of
-    the trapezoidal profile ``tau`` = t - departure seconds in (clipped to the segment):
-    a tau^2 / 2 and a tau while accelerating, then cruising at the peak speed, then the
-    length minus a rest^2 / 2 and a rest while braking (rest = time to the segment's end).
-    """
+    """:func:`path_point_one` of path ``which[r]`` at time t[r] into out[0, r] (position)
+    and out[1, r] (velocity)."""
     for r in range(t.size):
-        p = which[r]
-        k = -1
-        for j in range(departures.shape[1]):
-            if departures[p, j] <= t[r]:
-                k += 1
-        if k < 0:  # the first departure is to come: at the first waypoint, at rest
-            for i in range(3):
-                out[0, r, i] = waypoints[p, 0, i] + 0.0 * directions[p, 0, i]
-                out[1, r, i] = 0.0 * directions[p, 0, i]
-            continue
-        a, t_a, t_c, v_p = a_max[p], ta[p, k], tc[p, k], vp[p, k]
-        total = 2.0 * t_a + t_c
-        tau = min(max(t[r] - departures[p, k], 0.0), total)
-        rest = total - tau
-        if tau < t_a:
-            dist, speed = 0.5 * a * (tau * tau), a * tau
-        elif tau < t_a + t_c:
-            dist, speed = 0.5 * a * (t_a * t_a) + v_p * (tau - t_a), v_p
-        else:
-            dist, speed = lengths[p, k] - 0.5 * a * (rest * rest), a * rest
-        for i in range(3):
-            out[0, r, i] = waypoints[p, k, i] + dist * directions[p, k, i]
-            out[1, r, i] = speed * directions[p, k, i]
+        (out[0, r, 0], out[0, r, 1], out[0, r, 2], out[1, r, 0], out[1, r, 1],
+         out[1, r, 2]) = path_point_one(departures, ta, tc, vp, lengths, a_max, directions,
+                                        waypoints, which[r], t[r])
 
 
 def stacked_position_velocity(

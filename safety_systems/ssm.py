@@ -31,10 +31,12 @@ def separation_pair(p_R, v_R, p_B, v_B):
     h0, h1, h2 = v_B[0], v_B[1], v_B[2]
     r0, r1, r2 = -v_R[0], -v_R[1], -v_R[2]
     if dist > 1e-12:
-        return dist, (h0 * x0 + h1 * x1 + h2 * x2) / dist, (r0 * x0 + r1 * x1 + r2 * x2) / dist
-    if not math.isnan(dist):  # coincident: the full magnitudes (worst case)
-        return dist, np.sqrt(h0 * h0 + h1 * h1 + h2 * h2), np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-    return dist, np.nan, np.nan  # a NaN position
+        v_h, v_r = (h0 * x0 + h1 * x1 + h2 * x2) / dist, (r0 * x0 + r1 * x1 + r2 * x2) / dist
+    elif not math.isnan(dist):  # coincident: the full magnitudes (worst case)
+        v_h, v_r = np.sqrt(h0 * h0 + h1 * h1 + h2 * h2), np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    else:  # a NaN position
+        v_h, v_r = np.nan, np.nan
+    return dist, v_h, v_r  # one exit (see operator_paths.path_point_one)
 
 
 @numba.njit(cache=True)
@@ -320,10 +322,12 @@ def override_row(d, s, inc, delta_s, d_min):
             top = max(top, s[i])
             closest = min(closest, d[i])
     if not included:
-        return 1.0, -np.inf
-    if faulty:  # a non-finite d_i or S_i: stop
-        return 0.0, np.inf
-    return _eq12(closest, top, delta_s, d_min), top
+        k, top = 1.0, -np.inf
+    elif faulty:  # a non-finite d_i or S_i: stop
+        k, top = 0.0, np.inf
+    else:
+        k = _eq12(closest, top, delta_s, d_min)
+    return k, top  # one exit (see operator_paths.path_point_one)
 
 
 @numba.njit(cache=True)

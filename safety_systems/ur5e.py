@@ -92,10 +92,10 @@ def dh_forward_kinematics(q: np.ndarray) -> np.ndarray:
     return dh_frames(q)[..., 6, :, :]
 
 
-@numba.njit(cache=True)
-def _tool0_rows(q, v, out, with_velocity):
-    """Closed-form tool0 position (and velocity if ``with_velocity``) of rows q, v (L, 6)
-    into out[0], out[1] (L, 3), compiled.
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def tool0_one(q, v):
+    """Closed-form tool0 position and velocity (6 floats: p, then J(q) v) of one joint
+    position q and velocity v (6,), compiled and callable from other compiled code.
 
     Joints 2-4 are parallel, so in the frame turned by q1 the tool lies at
     u = a2 c2 + a3 c23 + d5 s234 - d6 s5 c234 (horizontal), w = a2 s2 + a3 s23
@@ -103,31 +103,33 @@ def _tool0_rows(q, v, out, with_velocity):
     p = (c1 u + s1 n, s1 u - c1 n, d1 + w). The velocity is its time derivative.
     """
     a2, a3, d1, d4, d5, d6 = DH_A[1], DH_A[2], DH_D[0], DH_D[3], DH_D[4], DH_D[5]
+    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
+    c1, s1, c2, s2 = math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2)
+    c5, s5 = math.cos(q5), math.sin(q5)
+    c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
+    c234, s234 = math.cos(q2 + q3 + q4), math.sin(q2 + q3 + q4)
+    u = a2 * c2 + a3 * c23 + d5 * s234 - d6 * s5 * c234
+    w = a2 * s2 + a3 * s23 - d5 * c234 - d6 * s5 * s234
+    n = d4 + d6 * c5
+    v1, v2, v3, v4, v5 = v[0], v[1], v[2], v[3], v[4]
+    v23 = v2 + v3
+    v234 = v23 + v4
+    du = -a2 * s2 * v2 - a3 * s23 * v23 + d5 * c234 * v234
+    du -= d6 * (c5 * c234 * v5 - s5 * s234 * v234)
+    dw = a2 * c2 * v2 + a3 * c23 * v23 + d5 * s234 * v234
+    dw -= d6 * (c5 * s234 * v5 + s5 * c234 * v234)
+    dn = -d6 * s5 * v5
+    return (c1 * u + s1 * n, s1 * u - c1 * n, d1 + w,
+            -s1 * v1 * u + c1 * du + c1 * v1 * n + s1 * dn,
+            c1 * v1 * u + s1 * du + s1 * v1 * n - c1 * dn, dw)
+
+
+@numba.njit(cache=True)
+def _tool0_rows(q, v, out):
+    """:func:`tool0_one` of rows q, v (L, 6) into out[0], out[1] (L, 3)."""
     for row in range(q.shape[0]):
-        q1, q2, q3, q4, q5 = q[row, 0], q[row, 1], q[row, 2], q[row, 3], q[row, 4]
-        c1, s1, c2, s2 = math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2)
-        c5, s5 = math.cos(q5), math.sin(q5)
-        c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
-        c234, s234 = math.cos(q2 + q3 + q4), math.sin(q2 + q3 + q4)
-        u = a2 * c2 + a3 * c23 + d5 * s234 - d6 * s5 * c234
-        w = a2 * s2 + a3 * s23 - d5 * c234 - d6 * s5 * s234
-        n = d4 + d6 * c5
-        out[0, row, 0] = c1 * u + s1 * n
-        out[0, row, 1] = s1 * u - c1 * n
-        out[0, row, 2] = d1 + w
-        if not with_velocity:
-            continue
-        v1, v2, v3, v4, v5 = v[row, 0], v[row, 1], v[row, 2], v[row, 3], v[row, 4]
-        v23 = v2 + v3
-        v234 = v23 + v4
-        du = -a2 * s2 * v2 - a3 * s23 * v23 + d5 * c234 * v234
-        du -= d6 * (c5 * c234 * v5 - s5 * s234 * v234)
-        dw = a2 * c2 * v2 + a3 * c23 * v23 + d5 * s234 * v234
-        dw -= d6 * (c5 * s234 * v5 + s5 * c234 * v234)
-        dn = -d6 * s5 * v5
-        out[1, row, 0] = -s1 * v1 * u + c1 * du + c1 * v1 * n + s1 * dn
-        out[1, row, 1] = c1 * v1 * u + s1 * du + s1 * v1 * n - c1 * dn
-        out[1, row, 2] = dw
+        (out[0, row, 0], out[0, row, 1], out[0, row, 2], out[1, row, 0], out[1, row, 1],
+         out[1, row, 2]) = tool0_one(q[row], v[row])
 
 
 def tool0_position_and_velocity(
@@ -142,7 +144,7 @@ def tool0_position_and_velocity(
     q = np.asarray(q, dtype=float)
     if q.ndim == 1 and v is not None and np.ndim(v) == 1:  # one configuration (500 Hz)
         out = np.empty((2, 1, 3))
-        _tool0_rows(q[None], np.asarray(v, dtype=float)[None], out, True)
+        _tool0_rows(q[None], np.asarray(v, dtype=float)[None], out)
         return out[0, 0], out[1, 0]
     if v is None:
         lead, v_rows = q.shape[:-1], None
@@ -156,8 +158,8 @@ def tool0_position_and_velocity(
     if q.shape != lead + (6,):
         q = np.broadcast_to(q, lead + (6,))
     q_rows = q.reshape(-1, 6)
-    out = np.empty((1 if v is None else 2, q_rows.shape[0], 3))
-    _tool0_rows(q_rows, q_rows if v_rows is None else v_rows, out, v is not None)
+    out = np.empty((2, q_rows.shape[0], 3))
+    _tool0_rows(q_rows, q_rows if v_rows is None else v_rows, out)
     return out[0].reshape(lead + (3,)), (None if v is None else out[1].reshape(lead + (3,)))
 
 

@@ -22,17 +22,17 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from safety_systems import braking, ssm
+import safety_systems.joint_path
+from safety_systems import braking, operator_paths, ssm, ur5e
 from safety_systems.braking import path_step_one
-from safety_systems.joint_path import joint_path_state
-from safety_systems.operator_paths import stack_paths, stacked_position_velocity
+from safety_systems.joint_path import path_arrays, path_state_one
+from safety_systems.operator_paths import path_point_one, stack_paths, stacked_position_velocity
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
     human_uncertainty,
     override_row,
     protective_one,
-    separation_and_directed_speeds,
     separation_pair,
 )
 from safety_systems.systems.kalman_tracker import (
@@ -43,7 +43,7 @@ from safety_systems.systems.kalman_tracker import (
 )
 from safety_systems.systems.mocap_sensor import _TIME_TOL
 from safety_systems.systems.separation_monitor import TRACK_COASTING, TRACK_LOST, TRACK_TRACKING
-from safety_systems.ur5e import tool0_position_and_velocity
+from safety_systems.ur5e import tool0_one
 from safety_systems.workcell import (
     assumed_stopping,
     braking_table,
@@ -183,77 +183,112 @@ class _Cells:
 
 
 def _drop_stale_tick_build(cache: Path, depends: tuple[Path, ...]) -> None:
-    """numba keys the disk cache of :func:`_tick` (compiling it takes seconds) on this
-    file alone, so after a change to the compiled functions it inlines (``ssm``,
-    ``braking``: ``depends``) it would load a stale build: drop the builds in ``cache``
-    when those files changed since the last look."""
+    """numba keys the disk cache of :func:`_advance` (compiling it takes seconds) on this
+    file alone, so after a change to the compiled functions it inlines from other files
+    (``depends``) it would load a stale build: drop the builds in ``cache`` when those
+    files changed since the last look."""
     stamp = " ".join(f"{p.stat().st_mtime_ns}:{p.stat().st_size}" for p in depends)
-    mark = cache / "evaluate_batch._tick.depends"
+    mark = cache / "evaluate_batch._advance.depends"
     with contextlib.suppress(OSError):  # no mark yet: as good as changed
         if mark.read_text() == stamp:
             return
     with contextlib.suppress(OSError):  # a read-only install: numba caches elsewhere
-        for build in cache.glob("evaluate_batch._tick-*"):
+        for build in cache.glob("evaluate_batch._advance-*"):
             build.unlink(missing_ok=True)
         cache.mkdir(exist_ok=True)
         mark.write_text(stamp)
 
 
-_drop_stale_tick_build(Path(__file__).parent / "__pycache__",
-                       (Path(ssm.__file__), Path(braking.__file__)))
+_drop_stale_tick_build(Path(__file__).parent / "__pycache__", tuple(
+    Path(m.__file__) for m in (ssm, braking, safety_systems.joint_path, ur5e, operator_paths)))
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def monitor_pair(p_R, v_R, p_B, v_B):
+    """The SeparationMonitor's d and directed speeds of one tracked body (Eqs. 6-8): the
+    product's ``separation_pair`` (a seam for the broken-variant test, which rebuilds
+    :func:`_advance` with the sign flipped here)."""
+    return separation_pair(p_R, v_R, p_B, v_B)
 
 
 @numba.njit(cache=True)
-def _tick(t, dt, live, p_R, v_tool, d_est, vh_est, vr_est, status, z_d, t_frame, timeout,
-          monitor, delta_s, d_min, p_H, v_H, present, truth_s, end, brake_scale, brakes, s,
-          rate, min_sep, prot_time, prot_deep, s_row, usable):
-    """One control tick of every scenario, as the diagram runs it (compiled; the maths
-    are the product's own compiled functions):
+def _advance(k0, k1, dt, last, path, stack, op_index, offsets, enter, leave, est_p, est_v,
+             status, z_d, t_frame, timeout, monitor, delta_s, d_min, truth_s, end, brake_scale,
+             brakes, s, rate, p_prev, min_sep, prot_time, prot_deep):
+    """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
+    tracker updates (the tracker's outputs est_p, est_v, status, z_d, t_frame are fixed
+    meanwhile); compiled, from the product's compiled functions. At each tick:
 
-    - SeparationMonitor and SpeedOverride on the tracker's estimates: from their d and
-      directed speeds (Eqs. 6-8, computed by the caller) S (Eqs. 9-11, ``monitor`` =
-      (mode, T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced) with Z_d per body
-      ``z_d``), k (Eq. 12) over the usable tracks, 0 for a lost track or a frame older
-      than ``timeout``;
-    - the properties on the truth at this tick (``verification.properties``): the
-      smallest separation while the tool moves, and time and depth inside the true-speed
-      S (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
+    - the robot from the PathFollower's state (s, sigma): q and dq/ds by
+      ``path_state_one`` (``path`` from ``joint_path.path_arrays``), tool0 and J(q) dq/ds
+      sigma by ``tool0_one``; the EndEffectorVelocity's Eq. 5 (p - p_prev) / dt;
+    - SeparationMonitor and SpeedOverride on the estimates: d and directed speeds
+      (Eqs. 6-8, :func:`monitor_pair`), S (Eqs. 9-11, ``monitor`` = (mode, T_s + T_r,
+      T_r, B + C + Z_r, v_iso, v_iso_reduced) with Z_d per body ``z_d``), k (Eq. 12)
+      over the usable tracks, 0 for a lost track or a frame older than ``timeout``;
+    - the properties on the truth (``verification.properties``; bodies by
+      ``path_point_one`` of their operator's path in ``stack`` plus their offsets,
+      present from ``enter`` to ``leave``): the smallest separation while the tool moves
+      and a scenario's ticks last (k <= ``last``), and time and depth inside the
+      true-speed S (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
     - the PathFollower's update (``braking.path_step_one``; ``brakes`` = speed
       fractions, decelerations, acceleration limit).
     """
     mode, t_sr, t_r, const, iso, iso_reduced = monitor
     fractions, deceleration, acceleration = brakes
-    for b in range(p_R.shape[0]):
-        lost = False
-        for i in range(d_est.shape[1]):
-            lost = lost or status[b, i] == TRACK_LOST
-            usable[i] = status[b, i] == TRACK_TRACKING or status[b, i] == TRACK_COASTING
-            s_row[i] = protective_one(vh_est[b, i], vr_est[b, i], z_d[b, i], mode, t_sr, t_r,
-                                      const, iso, iso_reduced)
-        k = override_row(d_est[b], s_row, usable, delta_s, d_min)[0]
-        if lost or not t - t_frame[b] <= timeout:
-            k = 0.0
-        # The properties, on the true state at this tick.
-        v0, v1, v2 = v_tool[b, 0], v_tool[b, 1], v_tool[b, 2]
-        moving = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2) > MOVING_SPEED and live[b]
-        closest, deepest = np.inf, -np.inf
-        for i in range(p_H.shape[1]):
-            if not present[b, i]:
-                continue
-            sep, vh_true, vr_true = separation_pair(p_R[b], v_tool[b], p_H[b, i], v_H[b, i])
-            closest = min(closest, sep)
+    departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
+    B, N, K = est_p.shape[0], est_p.shape[1], enter.shape[1]
+    q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    p_R, v_tool, v_R, p_H, v_H = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    d, s_row, usable = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
+    for b in range(B):
+        for k in range(k0, k1):
+            t = k * dt
+            path_state_one(s[b], path, q, dq, ddq)
+            for j in range(6):
+                v_joint[j] = dq[j] * rate[b]
+            p_R[0], p_R[1], p_R[2], v_tool[0], v_tool[1], v_tool[2] = tool0_one(q, v_joint)
+            for j in range(3):
+                v_R[j] = (p_R[j] - p_prev[b, j]) / dt
+            # SeparationMonitor and SpeedOverride on the tracker's estimates.
+            lost = False
+            for i in range(N):
+                lost = lost or status[b, i] == TRACK_LOST
+                usable[i] = status[b, i] == TRACK_TRACKING or status[b, i] == TRACK_COASTING
+                d[i], v_h, v_r = monitor_pair(p_R, v_R, est_p[b, i], est_v[b, i])
+                s_row[i] = protective_one(v_h, v_r, z_d[b, i], mode, t_sr, t_r, const, iso,
+                                          iso_reduced)
+            k_override = override_row(d, s_row, usable, delta_s, d_min)[0]
+            if lost or not t - t_frame[b] <= timeout:
+                k_override = 0.0
+            # The properties, on the true state at this tick.
+            v0, v1, v2 = v_tool[0], v_tool[1], v_tool[2]
+            moving = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2) > MOVING_SPEED and k <= last[b]
+            closest, deepest = np.inf, -np.inf
+            for i in range(N):
+                o = op_index[i]
+                if not (t >= enter[b, o] and t < leave[b, o]):
+                    continue
+                x0, x1, x2, v_H[0], v_H[1], v_H[2] = path_point_one(
+                    departures, ta, tc, vp, lengths, a_max, directions, waypoints, b * K + o, t)
+                p_H[0], p_H[1], p_H[2] = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
+                                          x2 + offsets[b, i, 2])
+                sep, vh_true, vr_true = separation_pair(p_R, v_tool, p_H, v_H)
+                closest = min(closest, sep)
+                if moving:
+                    deepest = max(deepest, protective_one(
+                        vh_true, vr_true, truth_s[3], 0, truth_s[0], truth_s[1], truth_s[2],
+                        0.0, 0.0) - sep)
             if moving:
-                deepest = max(deepest, protective_one(
-                    vh_true, vr_true, truth_s[3], 0, truth_s[0], truth_s[1], truth_s[2], 0.0,
-                    0.0) - sep)
-        if moving:
-            min_sep[b] = min(min_sep[b], closest)
-            if deepest > 0.0:
-                prot_time[b] += dt
-            prot_deep[b] = max(prot_deep[b], deepest)
-        # Updates at this tick: the follower (PathFollower._step).
-        s[b], rate[b] = path_step_one(s[b], rate[b], k, end[b], brake_scale[b], dt, fractions,
-                                      deceleration, acceleration, 1.0)
+                min_sep[b] = min(min_sep[b], closest)
+                if deepest > 0.0:
+                    prot_time[b] += dt
+                prot_deep[b] = max(prot_deep[b], deepest)
+            # Updates at this tick: the follower (PathFollower._step), Eq. 5's memory.
+            s[b], rate[b] = path_step_one(s[b], rate[b], k_override, end[b], brake_scale[b], dt,
+                                          fractions, deceleration, acceleration, 1.0)
+            for j in range(3):
+                p_prev[b, j] = p_R[j]
 
 
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
@@ -281,7 +316,10 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                truth["stopping_distance"] + truth["intrusion_distance"]
                + truth["robot_uncertainty"], truth["human_uncertainty"])
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
-    scratch = (np.empty(N), np.empty(N, dtype=bool))
+    path = path_arrays(c.path)
+    st = c.stack
+    stack = (st.departure_times, st.accel_durations, st.cruise_durations, st.peak_speeds,
+             st.lengths, st.max_acceleration, st.directions, st.waypoint_positions)
     z_fixed = not (f.human_uncertainty_sigmas or f.occlusion_speed > 0.0)
     z_d = np.full((B, N), float(f.human_uncertainty))
 
@@ -298,35 +336,37 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     min_sep = np.full(B, np.inf)
     prot_time = np.zeros(B)
     prot_deep = np.zeros(B)
-    j = 0
-    for k in range(int(c.ticks.max()) + 1):
-        t = k * dt
-        while update_offset + j * update_period < t - _EVENT_TOL:
-            u = update_offset + j * update_period
-            index = c.delivered_frame(u)
-            rows = np.flatnonzero((index >= 0) & (index * c.period > t_frame))
-            if rows.size:
-                z, valid = c.frame(rows, index[rows])
-                sel = (rows[:, None] * N + np.arange(N)).ravel()
-                tracks[sel] = track_step(tracks[sel], np.repeat(index[rows] * c.period, N),
-                                         z.reshape(-1, 3), valid.ravel(), **t_args)
-                t_frame[rows] = index[rows] * c.period
-                x, status, std, unseen = track_estimates(tracks.reshape(B, N, TRACK_SLOT))
-                est_p, est_v = np.ascontiguousarray(x[..., :3]), np.ascontiguousarray(x[..., 3:])
-                status = np.ascontiguousarray(status)  # one layout: one compiled _tick
-            j += 1
-        q, dq, _ = joint_path_state(c.path, s)
-        p_R, v_tool = tool0_position_and_velocity(q, dq * rate[:, None])
-        if not z_fixed:
+    last = int(c.ticks.max())
+    k, j = 0, 0
+    while k <= last:
+        # The ticks before tracker update j: those not later than it (within the tolerance).
+        u = update_offset + j * update_period
+        stop = k
+        while stop <= last and not u < stop * dt - _EVENT_TOL:
+            stop += 1
+        if not z_fixed:  # Z_d from the tracker's outputs, fixed between its updates
             z_d = np.ascontiguousarray(np.broadcast_to(human_uncertainty(
                 f.human_uncertainty, f.human_uncertainty_sigmas, std, unseen, est_v,
                 f.occlusion_speed), (B, N)))
-        d, v_h, v_r = separation_and_directed_speeds(p_R, (p_R - p_prev) / dt, est_p, est_v)
-        p_H, v_H, present = c.truth(t)
-        _tick(t, dt, k <= c.ticks, p_R, v_tool, d, v_h, v_r, status, z_d, t_frame, timeout,
-              monitor, f.delta_s, f.d_min, p_H, v_H, present, truth_s, c.end, c.brake_scale,
-              brakes, s, rate, min_sep, prot_time, prot_deep, *scratch)
-        p_prev = p_R  # Eq. 5's memory
+        _advance(k, stop, dt, c.ticks, path, stack, c.op_index, c.offsets, c.enter, c.leave,
+                 est_p, est_v, status, z_d, t_frame, timeout, monitor, f.delta_s, f.d_min,
+                 truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, min_sep, prot_time,
+                 prot_deep)
+        k = stop
+        if k > last:
+            break
+        index = c.delivered_frame(u)
+        rows = np.flatnonzero((index >= 0) & (index * c.period > t_frame))
+        if rows.size:
+            z, valid = c.frame(rows, index[rows])
+            sel = (rows[:, None] * N + np.arange(N)).ravel()
+            tracks[sel] = track_step(tracks[sel], np.repeat(index[rows] * c.period, N),
+                                     z.reshape(-1, 3), valid.ravel(), **t_args)
+            t_frame[rows] = index[rows] * c.period
+            x, status, std, unseen = track_estimates(tracks.reshape(B, N, TRACK_SLOT))
+            est_p, est_v = np.ascontiguousarray(x[..., :3]), np.ascontiguousarray(x[..., 3:])
+            status = np.ascontiguousarray(status)  # one layout: one compiled _advance
+        j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        prot_time, prot_deep)
 

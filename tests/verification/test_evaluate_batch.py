@@ -70,14 +70,14 @@ def test_batch_rejects_mixed_shapes():
 
 
 def test_tick_build_dropped_when_what_it_inlines_changes(tmp_path):
-    # numba keys _tick's disk cache on its own file; a change to ssm.py or braking.py
-    # (the compiled code it inlines) must drop that build, and only then.
+    # numba keys _advance's disk cache on its own file; a change to a file whose compiled
+    # code it inlines (ssm.py, braking.py, ...) must drop that build, and only then.
     from verification.evaluate_batch import _drop_stale_tick_build
 
     cache, dep = tmp_path / "__pycache__", tmp_path / "ssm.py"
     dep.write_text("a")
     _drop_stale_tick_build(cache, (dep,))  # first look: no folder yet, it is made
-    build = cache / "evaluate_batch._tick-208.py311.nbi"
+    build = cache / "evaluate_batch._advance-208.py311.nbi"
     build.write_text("build")
     other = cache / "evaluate_batch.other-10.py311.nbi"
     other.write_text("other")
@@ -87,6 +87,6 @@ def test_tick_build_dropped_when_what_it_inlines_changes(tmp_path):
     _drop_stale_tick_build(cache, (dep,))
     assert not build.exists() and other.exists()
     build.write_text("build")  # a build beside no mark (made before the mark existed)
-    (cache / "evaluate_batch._tick.depends").unlink()
+    (cache / "evaluate_batch._advance.depends").unlink()
     _drop_stale_tick_build(cache, (dep,))
     assert not build.exists()

@@ -7,13 +7,15 @@ diagram by ``verify``.
 """
 
 import dataclasses
+import types
 
+import numba
 import pytest
 
 import safety_systems.systems.separation_monitor as monitor_module
 import verification.evaluate_batch as batch_module
 from safety_systems.scenario import load_controller_config
-from safety_systems.ssm import separation_and_directed_speeds
+from safety_systems.ssm import separation_and_directed_speeds, separation_pair
 from verification.proof import prove
 from verification.space import Range, load_space
 from verification.verify import verify
@@ -72,14 +74,25 @@ def test_braking_weaker_than_the_stopping_data_says(tmp_path):
 
 @pytest.fixture
 def flipped_sign(monkeypatch):
-    """Eqs. 6-7 with the wrong sign: closing in counts as moving away."""
+    """Eqs. 6-7 with the wrong sign: closing in counts as moving away. The diagram's
+    SeparationMonitor calls the Python function; the batched evaluator's compiled ticks
+    are rebuilt from their own source with the monitor's pair flipped."""
 
     def flipped(*args):
         d, v_h, v_r = separation_and_directed_speeds(*args)
         return d, -v_h, -v_r
 
-    for module in (batch_module, monitor_module):
-        monkeypatch.setattr(module, "separation_and_directed_speeds", flipped)
+    monkeypatch.setattr(monitor_module, "separation_and_directed_speeds", flipped)
+
+    @numba.njit(inline="always")
+    def flipped_pair(p_R, v_R, p_B, v_B):
+        d, v_h, v_r = separation_pair(p_R, v_R, p_B, v_B)
+        return d, -v_h, -v_r
+
+    source = batch_module._advance.py_func
+    rebuilt = types.FunctionType(source.__code__, {**source.__globals__,
+                                                   "monitor_pair": flipped_pair})
+    monkeypatch.setattr(batch_module, "_advance", numba.njit(rebuilt))
 
 
 GENTLE = dict(start_distance=(1.0, 2.5), peak_speed=(0.5, 1.2), acceleration=(1.0, 3.0),
