@@ -73,28 +73,35 @@ def update(
     return _filterpy_update(x, P, np.asarray(z, dtype=float), R, measurement_matrix())
 
 
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def predict_one(x, P, F, Q, x_out, P_out, FP):
+    """F x and F P F^T + Q of one body (x (6,), P, F, Q (6, 6)) into x_out, P_out, with
+    FP (6, 6) as scratch; compiled and callable from other compiled code."""
+    for i in range(6):
+        acc = 0.0
+        for j in range(6):
+            acc += F[i, j] * x[j]
+        x_out[i] = acc
+    for i in range(6):
+        for j in range(6):
+            fp_ij = 0.0
+            for k in range(6):
+                fp_ij += F[i, k] * P[k, j]
+            FP[i, j] = fp_ij
+    for i in range(6):
+        for j in range(6):
+            acc = 0.0
+            for k in range(6):
+                acc += FP[i, k] * F[j, k]
+            P_out[i, j] = acc + Q[i, j]
+
+
 @numba.njit(cache=True)
 def _predict_rows(x, P, F, Q, x_out, P_out):
-    """Rows of F x and F P F^T + Q (all arrays 2-D/3-D per row), compiled."""
+    """:func:`predict_one` of every row (all arrays 2-D/3-D per row)."""
+    FP = np.empty((6, 6))
     for b in range(x.shape[0]):
-        for i in range(6):
-            acc = 0.0
-            for j in range(6):
-                acc += F[b, i, j] * x[b, j]
-            x_out[b, i] = acc
-        for i in range(6):  # F P into P_out's row scratch, then (F P) F^T + Q
-            for j in range(6):
-                fp_ij = 0.0
-                for k in range(6):
-                    fp_ij += F[b, i, k] * P[b, k, j]
-                P_out[b, i, j] = fp_ij
-        for i in range(6):
-            row = P_out[b, i].copy()
-            for j in range(6):
-                acc = 0.0
-                for k in range(6):
-                    acc += row[k] * F[b, j, k]
-                P_out[b, i, j] = acc + Q[b, i, j]
+        predict_one(x[b], P[b], F[b], Q[b], x_out[b], P_out[b], FP)
 
 
 def _rows3(a: np.ndarray, n: int, shape: tuple) -> np.ndarray:
@@ -116,57 +123,64 @@ def batch_predict(
     return x_new, P_new
 
 
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def update_one(x, P, z, R, x_out, P_out, S, S_inv, K, A):
+    """The Joseph-form update with H = [I3, O3] of one body (see :func:`batch_update`)
+    into x_out, P_out, with S, S_inv (3, 3), K (6, 3), A (6, 6) as scratch; compiled
+    and callable from other compiled code."""
+    for i in range(3):
+        for j in range(3):
+            S[i, j] = P[i, j] + R[i, j]
+    # S^-1 by cofactors (S is symmetric positive definite, 3 x 3).
+    c00 = S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]
+    c01 = S[1, 2] * S[2, 0] - S[1, 0] * S[2, 2]
+    c02 = S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0]
+    det = S[0, 0] * c00 + S[0, 1] * c01 + S[0, 2] * c02
+    S_inv[0, 0], S_inv[1, 0], S_inv[2, 0] = c00 / det, c01 / det, c02 / det
+    S_inv[0, 1] = (S[0, 2] * S[2, 1] - S[0, 1] * S[2, 2]) / det
+    S_inv[1, 1] = (S[0, 0] * S[2, 2] - S[0, 2] * S[2, 0]) / det
+    S_inv[2, 1] = (S[0, 1] * S[2, 0] - S[0, 0] * S[2, 1]) / det
+    S_inv[0, 2] = (S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]) / det
+    S_inv[1, 2] = (S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]) / det
+    S_inv[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
+    for i in range(6):  # K = P H^T S^-1
+        for j in range(3):
+            acc = 0.0
+            for k in range(3):
+                acc += P[i, k] * S_inv[k, j]
+            K[i, j] = acc
+    for i in range(6):  # x + K (z - H x)
+        acc = x[i]
+        for k in range(3):
+            acc += K[i, k] * (z[k] - x[k])
+        x_out[i] = acc
+    for i in range(6):  # A = (I - K H) P = P - K P[:3]
+        for j in range(6):
+            acc = P[i, j]
+            for k in range(3):
+                acc -= K[i, k] * P[k, j]
+            A[i, j] = acc
+    for i in range(6):  # A (I - K H)^T + K R K^T
+        for j in range(6):
+            acc = A[i, j]
+            for k in range(3):
+                acc -= A[i, k] * K[j, k]
+            for k in range(3):
+                for m in range(3):
+                    acc += K[i, k] * R[k, m] * K[j, m]
+            P_out[i, j] = acc
+
+
 @numba.njit(cache=True)
 def _update_rows(x, P, z, R, mask, x_out, P_out):
-    """Rows of the Joseph-form update with H = [I3, O3] (see :func:`batch_update`),
-    compiled; rows not in ``mask`` are copied."""
+    """:func:`update_one` of the rows in ``mask``; the others are copied."""
     S, S_inv, K, A = np.empty((3, 3)), np.empty((3, 3)), np.empty((6, 3)), np.empty((6, 6))
     for b in range(x.shape[0]):
-        if not mask[b]:
+        if mask[b]:
+            update_one(x[b], P[b], z[b], R[b], x_out[b], P_out[b], S, S_inv, K, A)
+        else:
             x_out[b] = x[b]
             P_out[b] = P[b]
-            continue
-        for i in range(3):
-            for j in range(3):
-                S[i, j] = P[b, i, j] + R[b, i, j]
-        # S^-1 by cofactors (S is symmetric positive definite, 3 x 3).
-        c00 = S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]
-        c01 = S[1, 2] * S[2, 0] - S[1, 0] * S[2, 2]
-        c02 = S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0]
-        det = S[0, 0] * c00 + S[0, 1] * c01 + S[0, 2] * c02
-        S_inv[0, 0], S_inv[1, 0], S_inv[2, 0] = c00 / det, c01 / det, c02 / det
-        S_inv[0, 1] = (S[0, 2] * S[2, 1] - S[0, 1] * S[2, 2]) / det
-        S_inv[1, 1] = (S[0, 0] * S[2, 2] - S[0, 2] * S[2, 0]) / det
-        S_inv[2, 1] = (S[0, 1] * S[2, 0] - S[0, 0] * S[2, 1]) / det
-        S_inv[0, 2] = (S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]) / det
-        S_inv[1, 2] = (S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]) / det
-        S_inv[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
-        for i in range(6):  # K = P H^T S^-1
-            for j in range(3):
-                acc = 0.0
-                for k in range(3):
-                    acc += P[b, i, k] * S_inv[k, j]
-                K[i, j] = acc
-        for i in range(6):  # x + K (z - H x)
-            acc = x[b, i]
-            for k in range(3):
-                acc += K[i, k] * (z[b, k] - x[b, k])
-            x_out[b, i] = acc
-        for i in range(6):  # A = (I - K H) P = P - K P[:3]
-            for j in range(6):
-                acc = P[b, i, j]
-                for k in range(3):
-                    acc -= K[i, k] * P[b, k, j]
-                A[i, j] = acc
-        for i in range(6):  # A (I - K H)^T + K R K^T
-            for j in range(6):
-                acc = A[i, j]
-                for k in range(3):
-                    acc -= A[i, k] * K[j, k]
-                for k in range(3):
-                    for m in range(3):
-                        acc += K[i, k] * R[b, k, m] * K[j, m]
-                P_out[b, i, j] = acc
 
 
 def batch_update(

@@ -14,10 +14,8 @@ outputs at a tick are computed from the state before that tick's updates, as Dra
 loggers record them. ``tests/verification`` checks the two agree.
 """
 
-import contextlib
 import dataclasses
 import math
-from pathlib import Path
 
 import numba
 import numpy as np
@@ -25,8 +23,9 @@ import numpy as np
 import safety_systems.joint_path
 from safety_systems import braking, operator_paths, ssm, ur5e
 from safety_systems.braking import path_step_one
+from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.joint_path import path_arrays, path_state_one
-from safety_systems.operator_paths import path_point_one, stack_paths, stacked_position_velocity
+from safety_systems.operator_paths import path_point_one, stack_paths
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
@@ -38,8 +37,9 @@ from safety_systems.ssm import (
 from safety_systems.systems.kalman_tracker import (
     MIN_MEASUREMENT_STD,
     TRACK_SLOT,
-    track_estimates,
-    track_step,
+    _estimate_rows,
+    _track_rows,
+    position_std,
 )
 from safety_systems.systems.mocap_sensor import _TIME_TOL
 from safety_systems.systems.separation_monitor import TRACK_COASTING, TRACK_LOST, TRACK_TRACKING
@@ -131,7 +131,10 @@ class _Cells:
                 "operator shape")
         ops = [scripted_operators(s) for s in scenarios]
         self.K = len(ops[0])
-        self.stack = stack_paths([o.path for row in ops for o in row])
+        st = stack_paths([o.path for row in ops for o in row])
+        self.stack_arrays = (st.departure_times, st.accel_durations, st.cruise_durations,
+                             st.peak_speeds, st.lengths, st.max_acceleration, st.directions,
+                             st.waypoint_positions)
         layout = [np.repeat(np.arange(self.K), [o.num_bodies for o in ops[0]])]
         self.op_index = layout[0]
         self.N = self.op_index.size
@@ -145,16 +148,6 @@ class _Cells:
             for j, oc in enumerate(s.occlusions):
                 self.occ[b, j] = (names.index(oc.body), oc.start, oc.end)
 
-    def truth(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """True body positions and velocities (B, N, 3) and presence (B, N) at time(s) t
-        (scalar, or one per scenario)."""
-        t = np.broadcast_to(np.asarray(t, dtype=float), (self.B,))
-        p, v = stacked_position_velocity(self.stack, np.repeat(t, self.K))
-        p = p.reshape(self.B, self.K, 3)[:, self.op_index] + self.offsets
-        v = v.reshape(self.B, self.K, 3)[:, self.op_index]
-        present = (t[:, None] >= self.enter) & (t[:, None] < self.leave)
-        return p, v, present[:, self.op_index]
-
     def delivered_frame(self, u: float) -> np.ndarray:
         """Index of the frame each scenario's sensor shows at time u (-1: none yet)."""
         return delivered_frames(u, self.latency, self.period, self.drops)
@@ -162,45 +155,43 @@ class _Cells:
     def frame(self, rows: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Measured positions (R, N, 3) and valid flags (R, N) of frame ``index`` of the
         scenarios ``rows``, as MocapSensor captures them."""
-        t = index * self.period
-        times = np.full(self.B, 0.0)
-        times[rows] = t
-        p, _, present = self.truth(times)
-        p, present = p[rows].copy(), present[rows]
-        occluded = np.zeros_like(present)
-        for j in range(self.occ.shape[1]):
-            body, start, end = self.occ[rows, j].T
-            hit = (start <= t) & (t < end)
-            occluded[hit, body[hit].astype(int)] = True
+        p, valid = np.empty((rows.size, self.N, 3)), np.empty((rows.size, self.N), dtype=bool)
+        _capture(self.stack_arrays, self.op_index, self.offsets, self.enter, self.leave,
+                 self.occ, rows, index * self.period, p, valid)
         noisy = self.noise[rows] > 0.0
         for k in np.unique(index[noisy]):  # MocapSensor's noise depends on (seed, frame)
             unit = np.random.default_rng([self.seed, int(k)]).standard_normal(3 * self.N)
             hit = noisy & (index == k)
             p[hit] += self.noise[rows[hit], None, None] * unit.reshape(self.N, 3)
-        valid = present & ~occluded
         p[~valid] = np.nan
         return p, valid
 
 
-def _drop_stale_tick_build(cache: Path, depends: tuple[Path, ...]) -> None:
-    """numba keys the disk cache of :func:`_advance` (compiling it takes seconds) on this
-    file alone, so after a change to the compiled functions it inlines from other files
-    (``depends``) it would load a stale build: drop the builds in ``cache`` when those
-    files changed since the last look."""
-    stamp = " ".join(f"{p.stat().st_mtime_ns}:{p.stat().st_size}" for p in depends)
-    mark = cache / "evaluate_batch._advance.depends"
-    with contextlib.suppress(OSError):  # no mark yet: as good as changed
-        if mark.read_text() == stamp:
-            return
-    with contextlib.suppress(OSError):  # a read-only install: numba caches elsewhere
-        for build in cache.glob("evaluate_batch._advance-*"):
-            build.unlink(missing_ok=True)
-        cache.mkdir(exist_ok=True)
-        mark.write_text(stamp)
+@numba.njit(cache=True)
+def _capture(stack, op_index, offsets, enter, leave, occ, rows, times, p, valid):
+    """True body positions p (R, N, 3) of the scenarios ``rows`` at the capture times
+    ``times`` (R,) and whether the MocapSensor sees them (``valid``: present and not in
+    an occlusion interval of ``occ`` (B, ., 3): body, start, end); compiled, bodies by
+    ``path_point_one`` of their operator's path plus their offsets."""
+    departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
+    K = enter.shape[1]
+    for r in range(rows.size):
+        b, t = rows[r], times[r]
+        for i in range(op_index.size):
+            o = op_index[i]
+            x0, x1, x2, _, _, _ = path_point_one(departures, ta, tc, vp, lengths, a_max,
+                                                 directions, waypoints, b * K + o, t)
+            p[r, i, 0], p[r, i, 1], p[r, i, 2] = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
+                                                  x2 + offsets[b, i, 2])
+            seen = t >= enter[b, o] and t < leave[b, o]
+            for j in range(occ.shape[1]):
+                if occ[b, j, 1] <= t < occ[b, j, 2] and occ[b, j, 0] == i:
+                    seen = False
+            valid[r, i] = seen
 
 
-_drop_stale_tick_build(Path(__file__).parent / "__pycache__", tuple(
-    Path(m.__file__) for m in (ssm, braking, safety_systems.joint_path, ur5e, operator_paths)))
+# Its compiled functions inline compiled code from these modules (see compiled_cache).
+drop_stale_builds(__file__, (ssm, braking, safety_systems.joint_path, ur5e, operator_paths))
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -305,10 +296,6 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                b_stop + f.intrusion_distance + f.robot_uncertainty, f.iso_human_speed,
                f.iso_reduced_human_speed)
     m_std = cfg.sensor.noise_std if tr.measurement_std is None else tr.measurement_std
-    t_args = dict(measurement_std=max(m_std, MIN_MEASUREMENT_STD),
-                  velocity_process_noise=tr.velocity_process_noise,
-                  initial_velocity_std=tr.initial_velocity_std,
-                  max_coast_time=tr.max_coast_time, exit_radius=tr.exit_radius)
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
     truth = protective_args(scenarios[0])  # the true-speed S of the property
@@ -317,9 +304,6 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                + truth["robot_uncertainty"], truth["human_uncertainty"])
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     path = path_arrays(c.path)
-    st = c.stack
-    stack = (st.departure_times, st.accel_durations, st.cruise_durations, st.peak_speeds,
-             st.lengths, st.max_acceleration, st.directions, st.waypoint_positions)
     z_fixed = not (f.human_uncertainty_sigmas or f.occlusion_speed > 0.0)
     z_d = np.full((B, N), float(f.human_uncertainty))
 
@@ -327,6 +311,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     rate = np.zeros(B)
     p_prev = np.full((B, 3), np.nan)
     tracks = np.zeros((B * N, TRACK_SLOT))
+    track_args = (max(m_std, MIN_MEASUREMENT_STD), tr.velocity_process_noise,
+                  tr.initial_velocity_std, tr.max_coast_time, tr.exit_radius)
     t_frame = np.full(B, -np.inf)
     est_p = np.full((B, N, 3), np.nan)
     est_v = np.full((B, N, 3), np.nan)
@@ -348,7 +334,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
             z_d = np.ascontiguousarray(np.broadcast_to(human_uncertainty(
                 f.human_uncertainty, f.human_uncertainty_sigmas, std, unseen, est_v,
                 f.occlusion_speed), (B, N)))
-        _advance(k, stop, dt, c.ticks, path, stack, c.op_index, c.offsets, c.enter, c.leave,
+        _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_index, c.offsets, c.enter, c.leave,
                  est_p, est_v, status, z_d, t_frame, timeout, monitor, f.delta_s, f.d_min,
                  truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, min_sep, prot_time,
                  prot_deep)
@@ -360,12 +346,13 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         if rows.size:
             z, valid = c.frame(rows, index[rows])
             sel = (rows[:, None] * N + np.arange(N)).ravel()
-            tracks[sel] = track_step(tracks[sel], np.repeat(index[rows] * c.period, N),
-                                     z.reshape(-1, 3), valid.ravel(), **t_args)
+            _track_rows(tracks, sel, np.repeat(index[rows] * c.period, N), z.reshape(-1, 3),
+                        valid.ravel(), *track_args)  # KalmanTracker's track_step
             t_frame[rows] = index[rows] * c.period
-            x, status, std, unseen = track_estimates(tracks.reshape(B, N, TRACK_SLOT))
-            est_p, est_v = np.ascontiguousarray(x[..., :3]), np.ascontiguousarray(x[..., 3:])
-            status = np.ascontiguousarray(status)  # one layout: one compiled _advance
+            _estimate_rows(tracks, sel, est_p.reshape(-1, 3), est_v.reshape(-1, 3),
+                           status.reshape(-1), unseen.reshape(-1))
+            if not z_fixed:
+                std = position_std(tracks.reshape(B, N, TRACK_SLOT))
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        prot_time, prot_deep)

@@ -1,16 +1,21 @@
 """KalmanTracker: one constant-velocity Kalman filter per tracked body (seed Eqs. 2-4)."""
 
+import math
+
+import numba
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem, ValueProducer
-
-from safety_systems.kalman import (
-    batch_predict,
-    batch_update,
-    initial_covariance,
-    process_noise,
-    transition_matrix,
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiscreteValues,
+    LeafSystem,
+    ValueProducer,
 )
+
+from safety_systems import kalman
+from safety_systems.compiled_cache import drop_stale_builds
+from safety_systems.kalman import predict_one, update_one
 from safety_systems.systems.separation_monitor import (
     TRACK_COASTING,
     TRACK_LOST,
@@ -22,6 +27,68 @@ from safety_systems.systems.separation_monitor import (
 _X, _P, _STATUS, _T_LAST, _T_SEEN = slice(0, 6), slice(6, 42), 42, 43, 44
 TRACK_SLOT = 45
 MIN_MEASUREMENT_STD = 1e-6  # m; keeps R positive definite for a noise-free sensor
+
+# Its compiled functions inline kalman's (see compiled_cache).
+drop_stale_builds(__file__, (kalman,))
+
+
+@numba.njit(cache=True)
+def _track_rows(tracks, rows, frame_time, z, valid, measurement_std, velocity_process_noise,
+                initial_velocity_std, max_coast_time, exit_radius):
+    """:func:`track_step` of the track rows ``rows`` of ``tracks`` (in place), their frame
+    times, measurements (R, 3) and valid flags (R,); compiled. F and Q are Eqs. 2 and 4
+    as ``kalman.transition_matrix`` and ``kalman.process_noise`` build them, R = std^2 I3,
+    a new track's covariance as ``kalman.initial_covariance``."""
+    F, Q, R = np.eye(6), np.zeros((6, 6)), np.zeros((3, 3))
+    m2 = measurement_std**2
+    for i in range(3):
+        R[i, i] = m2
+        Q[i + 3, i + 3] = velocity_process_noise
+    x, P, x_prior, P_prior = np.empty(6), np.empty((6, 6)), np.empty(6), np.empty((6, 6))
+    FP, S, S_inv, K, A = (np.empty((6, 6)), np.empty((3, 3)), np.empty((3, 3)),
+                          np.empty((6, 3)), np.empty((6, 6)))
+    for r in range(rows.size):
+        track, t = tracks[rows[r]], frame_time[r]
+        status = track[_STATUS]
+        active = status == TRACK_TRACKING or status == TRACK_COASTING
+        seen = (valid[r] and math.isfinite(z[r, 0]) and math.isfinite(z[r, 1])
+                and math.isfinite(z[r, 2]))
+        if active:  # Eqs. 2 and 4, then Eq. 3 if measured
+            dt = t - track[_T_LAST]
+            for i in range(3):
+                F[i, i + 3] = dt
+                Q[i, i] = dt * dt
+            for i in range(6):
+                x[i] = track[i]
+                for j in range(6):
+                    P[i, j] = track[6 + 6 * i + j]
+            predict_one(x, P, F, Q, x_prior, P_prior, FP)
+            if seen:
+                update_one(x_prior, P_prior, z[r], R, x, P, S, S_inv, K, A)
+            else:
+                x[:] = x_prior
+                P[:] = P_prior
+            for i in range(6):
+                track[i] = x[i]
+                for j in range(6):
+                    track[6 + 6 * i + j] = P[i, j]
+            track[_T_LAST] = t
+        elif seen:  # a new track at the measurement, velocity unknown
+            for i in range(3):
+                track[i], track[i + 3] = z[r, i], 0.0
+            for i in range(36):
+                track[6 + i] = 0.0
+            for i in range(3):
+                track[6 + 7 * i] = m2
+                track[6 + 7 * (i + 3)] = initial_velocity_std**2
+            track[_T_LAST] = t
+        if seen:
+            track[_STATUS], track[_T_SEEN] = TRACK_TRACKING, t
+        elif active:
+            track[_STATUS] = TRACK_COASTING
+            if t - track[_T_SEEN] > max_coast_time:
+                outside = np.hypot(track[0], track[1]) > exit_radius
+                track[_STATUS] = TRACK_NONE if outside else TRACK_LOST
 
 
 def track_step(
@@ -48,37 +115,36 @@ def track_step(
     lost until its body is seen again. ``frame_time`` is the frame's capture time, s:
     one for all rows, or one per row (the batched verifier steps many cells at once).
     """
-    out = tracks.copy()
-    frame_time = np.broadcast_to(np.asarray(frame_time, dtype=float), out.shape[:1])
-    status = out[:, _STATUS]
-    active = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
-    valid = np.asarray(valid, dtype=bool) & np.all(np.isfinite(z), axis=1)
-    if np.any(active):
-        idx = np.flatnonzero(active)
-        dt = frame_time[idx] - out[idx, _T_LAST]
-        F, Q = transition_matrix(dt), process_noise(dt, velocity_process_noise)
-        x, P = batch_predict(out[idx, _X], out[idx, _P].reshape(-1, 6, 6), F, Q)
-        R = np.eye(3) * measurement_std**2
-        x, P = batch_update(x, P, z[idx], R, valid_mask=valid[idx])
-        out[idx, _X] = x
-        out[idx, _P] = P.reshape(-1, 36)
-        out[idx, _T_LAST] = frame_time[idx]
-    start = valid & ~active
-    if np.any(start):
-        out[start, _X] = np.hstack([z[start], np.zeros((int(start.sum()), 3))])
-        out[start, _P] = initial_covariance(
-            measurement_std, initial_velocity_std, (int(start.sum()),)).reshape(-1, 36)
-        out[start, _T_LAST] = frame_time[start]
-    out[valid, _STATUS] = TRACK_TRACKING
-    out[valid, _T_SEEN] = frame_time[valid]
-    coasting = active & ~valid
-    out[coasting, _STATUS] = TRACK_COASTING
-    expired = coasting & (frame_time - out[:, _T_SEEN] > max_coast_time)
-    if np.any(expired):
-        outside = np.hypot(out[:, 0], out[:, 1]) > exit_radius
-        out[expired & outside, _STATUS] = TRACK_NONE
-        out[expired & ~outside, _STATUS] = TRACK_LOST
+    out = np.array(tracks, dtype=float, order="C")
+    rows = np.arange(out.shape[0])
+    frame_time = np.ascontiguousarray(np.broadcast_to(np.asarray(frame_time, dtype=float),
+                                                      rows.shape))
+    _track_rows(out, rows, frame_time, np.ascontiguousarray(z, dtype=float),
+                np.ascontiguousarray(valid, dtype=bool), float(measurement_std),
+                float(velocity_process_noise), float(initial_velocity_std),
+                float(max_coast_time), float(exit_radius))
     return out
+
+
+@numba.njit(cache=True)
+def _estimate_rows(tracks, rows, p, v, status, unseen):
+    """The outputs of the track rows ``rows`` (see :func:`track_estimates`, all but the
+    position std) into the same rows of p, v (., 3), status and unseen (.); compiled."""
+    for r in range(rows.size):
+        row = rows[r]
+        track = tracks[row]
+        status[row] = track[_STATUS]
+        none = track[_STATUS] == TRACK_NONE
+        for i in range(3):
+            p[row, i] = np.nan if none else track[i]
+            v[row, i] = np.nan if none else track[i + 3]
+        unseen[row] = 0.0 if none else track[_T_LAST] - track[_T_SEEN]
+
+
+def position_std(tracks: np.ndarray) -> np.ndarray:
+    """Root of the largest eigenvalue of each (..., 45) track's position covariance, m."""
+    P_pos = tracks[..., _P].reshape(tracks.shape[:-1] + (6, 6))[..., :3, :3]
+    return np.sqrt(np.maximum(np.linalg.eigvalsh(P_pos)[..., -1], 0.0))
 
 
 def track_estimates(
@@ -88,13 +154,13 @@ def track_estimates(
     a track), status (...), position std (...), the root of the largest eigenvalue of
     the position covariance in metres, and unseen time (...), the seconds between the
     track's last measurement and its newest frame (0 when seen in it or untracked)."""
-    status = tracks[..., _STATUS]
-    none = status == TRACK_NONE
-    x = np.where(none[..., None], np.nan, tracks[..., _X])
-    P_pos = tracks[..., _P].reshape(tracks.shape[:-1] + (6, 6))[..., :3, :3]
-    std = np.sqrt(np.maximum(np.linalg.eigvalsh(P_pos)[..., -1], 0.0))
-    unseen = np.where(none, 0.0, tracks[..., _T_LAST] - tracks[..., _T_SEEN])
-    return x, status, std, unseen
+    lead = tracks.shape[:-1]
+    flat = np.ascontiguousarray(tracks, dtype=float).reshape(-1, TRACK_SLOT)
+    n = flat.shape[0]
+    p, v, status, unseen = np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n)
+    _estimate_rows(flat, np.arange(n), p, v, status, unseen)
+    x = np.concatenate([p, v], axis=1).reshape(lead + (6,))
+    return x, status.reshape(lead), position_std(tracks), unseen.reshape(lead)
 
 
 class KalmanTracker(LeafSystem):

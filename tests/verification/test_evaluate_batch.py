@@ -67,26 +67,3 @@ def test_batch_rejects_mixed_shapes():
     two = make_scenario(SPACE, config, dict(to_point(SPACE, np.full(14, 0.5)), operators=2.0))
     with pytest.raises(ValueError, match="operator shape"):
         evaluate_batch([one, two])
-
-
-def test_tick_build_dropped_when_what_it_inlines_changes(tmp_path):
-    # numba keys _advance's disk cache on its own file; a change to a file whose compiled
-    # code it inlines (ssm.py, braking.py, ...) must drop that build, and only then.
-    from verification.evaluate_batch import _drop_stale_tick_build
-
-    cache, dep = tmp_path / "__pycache__", tmp_path / "ssm.py"
-    dep.write_text("a")
-    _drop_stale_tick_build(cache, (dep,))  # first look: no folder yet, it is made
-    build = cache / "evaluate_batch._advance-208.py311.nbi"
-    build.write_text("build")
-    other = cache / "evaluate_batch.other-10.py311.nbi"
-    other.write_text("other")
-    _drop_stale_tick_build(cache, (dep,))  # nothing changed: kept
-    assert build.exists()
-    dep.write_text("changed")
-    _drop_stale_tick_build(cache, (dep,))
-    assert not build.exists() and other.exists()
-    build.write_text("build")  # a build beside no mark (made before the mark existed)
-    (cache / "evaluate_batch._advance.depends").unlink()
-    _drop_stale_tick_build(cache, (dep,))
-    assert not build.exists()
