@@ -93,21 +93,10 @@ def dh_forward_kinematics(q: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def tool0_one(q, v):
-    """Closed-form tool0 position and velocity (6 floats: p, then J(q) v) of one joint
-    position q and velocity v (6,), compiled and callable from other compiled code.
-
-    Joints 2-4 are parallel, so in the frame turned by q1 the tool lies at
-    u = a2 c2 + a3 c23 + d5 s234 - d6 s5 c234 (horizontal), w = a2 s2 + a3 s23
-    - d5 c234 - d6 s5 s234 (vertical), n = d4 + d6 c5 (along joint 2's axis); then
-    p = (c1 u + s1 n, s1 u - c1 n, d1 + w). The velocity is its time derivative.
-    """
+def _tool0_from_trig(trig, v):
+    """:func:`tool0_one` from trig = (cos, sin) of q1, q2, q2 + q3, q2 + q3 + q4, q5."""
     a2, a3, d1, d4, d5, d6 = DH_A[1], DH_A[2], DH_D[0], DH_D[3], DH_D[4], DH_D[5]
-    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
-    c1, s1, c2, s2 = math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2)
-    c5, s5 = math.cos(q5), math.sin(q5)
-    c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
-    c234, s234 = math.cos(q2 + q3 + q4), math.sin(q2 + q3 + q4)
+    c1, s1, c2, s2, c23, s23, c234, s234, c5, s5 = trig
     u = a2 * c2 + a3 * c23 + d5 * s234 - d6 * s5 * c234
     w = a2 * s2 + a3 * s23 - d5 * c234 - d6 * s5 * s234
     n = d4 + d6 * c5
@@ -122,6 +111,46 @@ def tool0_one(q, v):
     return (c1 * u + s1 * n, s1 * u - c1 * n, d1 + w,
             -s1 * v1 * u + c1 * du + c1 * v1 * n + s1 * dn,
             c1 * v1 * u + s1 * du + s1 * v1 * n - c1 * dn, dw)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def tool0_one(q, v):
+    """Closed-form tool0 position and velocity (6 floats: p, then J(q) v) of one joint
+    position q and velocity v (6,), compiled and callable from other compiled code.
+
+    Joints 2-4 are parallel, so in the frame turned by q1 the tool lies at
+    u = a2 c2 + a3 c23 + d5 s234 - d6 s5 c234 (horizontal), w = a2 s2 + a3 s23
+    - d5 c234 - d6 s5 s234 (vertical), n = d4 + d6 c5 (along joint 2's axis); then
+    p = (c1 u + s1 n, s1 u - c1 n, d1 + w). The velocity is its time derivative.
+    """
+    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
+    return _tool0_from_trig((math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2),
+                             math.cos(q2 + q3), math.sin(q2 + q3), math.cos(q2 + q3 + q4),
+                             math.sin(q2 + q3 + q4), math.cos(q5), math.sin(q5)), v)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _cos_sin(angle, memo, j):
+    """cos and sin of ``angle``, reusing those in memo[3 j: 3 j + 3] (angle, cos, sin)
+    when the angle is the same (not for 0: its sign would be lost)."""
+    if angle != memo[3 * j] or angle == 0.0:  # a NaN memo never matches
+        memo[3 * j], memo[3 * j + 1], memo[3 * j + 2] = angle, math.cos(angle), math.sin(angle)
+    return memo[3 * j + 1], memo[3 * j + 2]
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def tool0_one_memo(q, v, memo):
+    """:func:`tool0_one`, equal bit for bit, keeping the cosines and sines of its five
+    angles in ``memo`` (15,) (NaN at first) to reuse them at the next call with the same
+    angle: a robot at rest, or joints that do not move in a path segment, costs no
+    trigonometry (most of :func:`tool0_one`'s cost)."""
+    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
+    c1, s1 = _cos_sin(q1, memo, 0)
+    c2, s2 = _cos_sin(q2, memo, 1)
+    c23, s23 = _cos_sin(q2 + q3, memo, 2)
+    c234, s234 = _cos_sin(q2 + q3 + q4, memo, 3)
+    c5, s5 = _cos_sin(q5, memo, 4)
+    return _tool0_from_trig((c1, s1, c2, s2, c23, s23, c234, s234, c5, s5), v)
 
 
 @numba.njit(cache=True)

@@ -43,7 +43,7 @@ from safety_systems.systems.kalman_tracker import (
 )
 from safety_systems.systems.mocap_sensor import _TIME_TOL
 from safety_systems.systems.separation_monitor import TRACK_COASTING, TRACK_LOST, TRACK_TRACKING
-from safety_systems.ur5e import tool0_one
+from safety_systems.ur5e import tool0_one_memo
 from safety_systems.workcell import (
     assumed_stopping,
     braking_table,
@@ -137,6 +137,7 @@ class _Cells:
                              st.waypoint_positions)
         layout = [np.repeat(np.arange(self.K), [o.num_bodies for o in ops[0]])]
         self.op_index = layout[0]
+        self.op_first = np.searchsorted(self.op_index, np.arange(self.K + 1))  # bodies by operator
         self.N = self.op_index.size
         self.offsets = np.stack([np.concatenate([o.body_offsets for o in row]) for row in ops])
         self.enter = np.array([[o.enter_time for o in row] for row in ops])
@@ -203,9 +204,9 @@ def monitor_pair(p_R, v_R, p_B, v_B):
 
 
 @numba.njit(cache=True)
-def _advance(k0, k1, dt, last, path, stack, op_index, offsets, enter, leave, est_p, est_v,
+def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
              status, z_d, t_frame, timeout, monitor, delta_s, d_min, truth_s, end, brake_scale,
-             brakes, s, rate, p_prev, min_sep, prot_time, prot_deep):
+             brakes, s, rate, p_prev, trig, min_sep, prot_time, prot_deep):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the tracker's outputs est_p, est_v, status, z_d, t_frame are fixed
     meanwhile); compiled, from the product's compiled functions. At each tick:
@@ -219,7 +220,8 @@ def _advance(k0, k1, dt, last, path, stack, op_index, offsets, enter, leave, est
       over the usable tracks, 0 for a lost track or a frame older than ``timeout``;
     - the properties on the truth (``verification.properties``; bodies by
       ``path_point_one`` of their operator's path in ``stack`` plus their offsets,
-      present from ``enter`` to ``leave``): the smallest separation while the tool moves
+      present from ``enter`` to ``leave``; operator o's bodies are op_first[o] to
+      op_first[o + 1] - 1): the smallest separation while the tool moves
       and a scenario's ticks last (k <= ``last``), and time and depth inside the
       true-speed S (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
     - the PathFollower's update (``braking.path_step_one``; ``brakes`` = speed
@@ -232,13 +234,14 @@ def _advance(k0, k1, dt, last, path, stack, op_index, offsets, enter, leave, est
     q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
     p_R, v_tool, v_R, p_H, v_H = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     d, s_row, usable = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
-    for b in range(B):
-        for k in range(k0, k1):
-            t = k * dt
+    for k in range(k0, k1):  # scenarios inside: independent work the CPU can overlap
+        t = k * dt
+        for b in range(B):
             path_state_one(s[b], path, q, dq, ddq)
             for j in range(6):
                 v_joint[j] = dq[j] * rate[b]
-            p_R[0], p_R[1], p_R[2], v_tool[0], v_tool[1], v_tool[2] = tool0_one(q, v_joint)
+            p_R[0], p_R[1], p_R[2], v_tool[0], v_tool[1], v_tool[2] = tool0_one_memo(
+                q, v_joint, trig[b])
             for j in range(3):
                 v_R[j] = (p_R[j] - p_prev[b, j]) / dt
             # SeparationMonitor and SpeedOverride on the tracker's estimates.
@@ -255,22 +258,22 @@ def _advance(k0, k1, dt, last, path, stack, op_index, offsets, enter, leave, est
             # The properties, on the true state at this tick.
             v0, v1, v2 = v_tool[0], v_tool[1], v_tool[2]
             moving = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2) > MOVING_SPEED and k <= last[b]
-            closest, deepest = np.inf, -np.inf
-            for i in range(N):
-                o = op_index[i]
-                if not (t >= enter[b, o] and t < leave[b, o]):
-                    continue
-                x0, x1, x2, v_H[0], v_H[1], v_H[2] = path_point_one(
-                    departures, ta, tc, vp, lengths, a_max, directions, waypoints, b * K + o, t)
-                p_H[0], p_H[1], p_H[2] = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
-                                          x2 + offsets[b, i, 2])
-                sep, vh_true, vr_true = separation_pair(p_R, v_tool, p_H, v_H)
-                closest = min(closest, sep)
-                if moving:
-                    deepest = max(deepest, protective_one(
-                        vh_true, vr_true, truth_s[3], 0, truth_s[0], truth_s[1], truth_s[2],
-                        0.0, 0.0) - sep)
-            if moving:
+            if moving:  # (they count only while the tool moves)
+                closest, deepest = np.inf, -np.inf
+                for o in range(K):  # each operator's point once, then its bodies
+                    if not (t >= enter[b, o] and t < leave[b, o]):
+                        continue
+                    x0, x1, x2, v_H[0], v_H[1], v_H[2] = path_point_one(
+                        departures, ta, tc, vp, lengths, a_max, directions, waypoints,
+                        b * K + o, t)
+                    for i in range(op_first[o], op_first[o + 1]):
+                        p_H[0], p_H[1], p_H[2] = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
+                                                  x2 + offsets[b, i, 2])
+                        sep, vh_true, vr_true = separation_pair(p_R, v_tool, p_H, v_H)
+                        closest = min(closest, sep)
+                        deepest = max(deepest, protective_one(
+                            vh_true, vr_true, truth_s[3], 0, truth_s[0], truth_s[1],
+                            truth_s[2], 0.0, 0.0) - sep)
                 min_sep[b] = min(min_sep[b], closest)
                 if deepest > 0.0:
                     prot_time[b] += dt
@@ -310,6 +313,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     s = np.zeros(B)
     rate = np.zeros(B)
     p_prev = np.full((B, 3), np.nan)
+    trig = np.full((B, 15), np.nan)  # tool0_one_memo's memory
     tracks = np.zeros((B * N, TRACK_SLOT))
     track_args = (max(m_std, MIN_MEASUREMENT_STD), tr.velocity_process_noise,
                   tr.initial_velocity_std, tr.max_coast_time, tr.exit_radius)
@@ -334,10 +338,10 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
             z_d = np.ascontiguousarray(np.broadcast_to(human_uncertainty(
                 f.human_uncertainty, f.human_uncertainty_sigmas, std, unseen, est_v,
                 f.occlusion_speed), (B, N)))
-        _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_index, c.offsets, c.enter, c.leave,
+        _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter, c.leave,
                  est_p, est_v, status, z_d, t_frame, timeout, monitor, f.delta_s, f.d_min,
-                 truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, min_sep, prot_time,
-                 prot_deep)
+                 truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, trig, min_sep,
+                 prot_time, prot_deep)
         k = stop
         if k > last:
             break
