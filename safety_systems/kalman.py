@@ -1,12 +1,13 @@
 """Constant-velocity linear Kalman filter for tracked bodies (seed Section 5.1, Eqs. 2-4).
 
 State x = [p, p_dot] (metres, metres per second), measurement y = p (metres).
-``predict``/``update`` are the single-body reference built on filterpy;
-``batch_predict``/``batch_update`` are the same equations over a leading batch axis
-(bodies, scenarios), compiled with numba, used by the KalmanTracker system and by the
-batched verifier.
-Tests check the two agree. A missing measurement (None, NaN or masked out) means
-predict only.
+``predict``/``update`` are the single-body reference built on filterpy. The filter is
+isotropic (Q of Eq. 4, R = std^2 I3 and a new track's covariance treat the three axes
+alike, and every frame measures all three or none), so its 6 x 6 covariance is the same
+2 x 2 (position, velocity) covariance on each axis: ``axis_predict``/``axis_update`` are
+that axis' equations, compiled (numba), used by the KalmanTracker system and the
+batched verifier and held to filterpy's 6-D filter by the tests. A missing measurement
+(None or NaN) means predict only.
 """
 
 import numba
@@ -74,141 +75,26 @@ def update(
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def predict_one(x, P, F, Q, x_out, P_out, FP):
-    """F x and F P F^T + Q of one body (x (6,), P, F, Q (6, 6)) into x_out, P_out, with
-    FP (6, 6) as scratch; compiled and callable from other compiled code."""
-    for i in range(6):
-        acc = 0.0
-        for j in range(6):
-            acc += F[i, j] * x[j]
-        x_out[i] = acc
-    for i in range(6):
-        for j in range(6):
-            fp_ij = 0.0
-            for k in range(6):
-                fp_ij += F[i, k] * P[k, j]
-            FP[i, j] = fp_ij
-    for i in range(6):
-        for j in range(6):
-            acc = 0.0
-            for k in range(6):
-                acc += FP[i, k] * F[j, k]
-            P_out[i, j] = acc + Q[i, j]
-
-
-@numba.njit(cache=True)
-def _predict_rows(x, P, F, Q, x_out, P_out):
-    """:func:`predict_one` of every row (all arrays 2-D/3-D per row)."""
-    FP = np.empty((6, 6))
-    for b in range(x.shape[0]):
-        predict_one(x[b], P[b], F[b], Q[b], x_out[b], P_out[b], FP)
-
-
-def _rows3(a: np.ndarray, n: int, shape: tuple) -> np.ndarray:
-    """``a`` of shape ``shape`` or (n,) + ``shape``, as a contiguous (n,) + ``shape`` array."""
-    a = np.asarray(a, dtype=float)
-    return np.ascontiguousarray(np.broadcast_to(a, (n,) + shape))
-
-
-def batch_predict(
-    x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """``predict`` over a leading batch axis: x (B, 6), P (B, 6, 6), F and Q (6, 6) or
-    (B, 6, 6). Returns new arrays (compiled)."""
-    x = np.ascontiguousarray(x, dtype=float)
-    n = x.shape[0]
-    x_new, P_new = np.empty((n, 6)), np.empty((n, 6, 6))
-    _predict_rows(x, _rows3(P, n, (6, 6)), _rows3(F, n, (6, 6)), _rows3(Q, n, (6, 6)), x_new,
-                  P_new)
-    return x_new, P_new
+def axis_predict(p, c, w, dt, q2):
+    """One axis of Eqs. 2 and 4's prediction F P F^T + Q, F = [[1, dt], [0, 1]] and
+    Q = diag(dt^2, q2) (the (0, 3) block of ``transition_matrix`` and ``process_noise``):
+    the axis' covariance P = [[p, c], [c, w]] of (position, velocity) -> (p, c, w).
+    Compiled and callable from other compiled code."""
+    fp, fc = p + dt * c, c + dt * w  # first row of F P
+    return fp + dt * fc + dt * dt, fc, w + q2
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def update_one(x, P, z, R, x_out, P_out, S, S_inv, K, A):
-    """The Joseph-form update with H = [I3, O3] of one body (see :func:`batch_update`)
-    into x_out, P_out, with S, S_inv (3, 3), K (6, 3), A (6, 6) as scratch; compiled
-    and callable from other compiled code."""
-    for i in range(3):
-        for j in range(3):
-            S[i, j] = P[i, j] + R[i, j]
-    # S^-1 by cofactors (S is symmetric positive definite, 3 x 3).
-    c00 = S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]
-    c01 = S[1, 2] * S[2, 0] - S[1, 0] * S[2, 2]
-    c02 = S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0]
-    det = S[0, 0] * c00 + S[0, 1] * c01 + S[0, 2] * c02
-    S_inv[0, 0], S_inv[1, 0], S_inv[2, 0] = c00 / det, c01 / det, c02 / det
-    S_inv[0, 1] = (S[0, 2] * S[2, 1] - S[0, 1] * S[2, 2]) / det
-    S_inv[1, 1] = (S[0, 0] * S[2, 2] - S[0, 2] * S[2, 0]) / det
-    S_inv[2, 1] = (S[0, 1] * S[2, 0] - S[0, 0] * S[2, 1]) / det
-    S_inv[0, 2] = (S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]) / det
-    S_inv[1, 2] = (S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]) / det
-    S_inv[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
-    for i in range(6):  # K = P H^T S^-1
-        for j in range(3):
-            acc = 0.0
-            for k in range(3):
-                acc += P[i, k] * S_inv[k, j]
-            K[i, j] = acc
-    for i in range(6):  # x + K (z - H x)
-        acc = x[i]
-        for k in range(3):
-            acc += K[i, k] * (z[k] - x[k])
-        x_out[i] = acc
-    for i in range(6):  # A = (I - K H) P = P - K P[:3]
-        for j in range(6):
-            acc = P[i, j]
-            for k in range(3):
-                acc -= K[i, k] * P[k, j]
-            A[i, j] = acc
-    for i in range(6):  # A (I - K H)^T + K R K^T
-        for j in range(6):
-            acc = A[i, j]
-            for k in range(3):
-                acc -= A[i, k] * K[j, k]
-            for k in range(3):
-                for m in range(3):
-                    acc += K[i, k] * R[k, m] * K[j, m]
-            P_out[i, j] = acc
-
-
-@numba.njit(cache=True)
-def _update_rows(x, P, z, R, mask, x_out, P_out):
-    """:func:`update_one` of the rows in ``mask``; the others are copied."""
-    S, S_inv, K, A = np.empty((3, 3)), np.empty((3, 3)), np.empty((6, 3)), np.empty((6, 6))
-    for b in range(x.shape[0]):
-        if mask[b]:
-            update_one(x[b], P[b], z[b], R[b], x_out[b], P_out[b], S, S_inv, K, A)
-        else:
-            x_out[b] = x[b]
-            P_out[b] = P[b]
-
-
-def batch_update(
-    x: np.ndarray,
-    P: np.ndarray,
-    z: np.ndarray,
-    R: np.ndarray,
-    valid_mask: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """``update`` over a leading batch axis with H of Eq. 3.
-
-    Args:
-        x: (B, 6) prior states. P: (B, 6, 6) prior covariances.
-        z: (B, 3) measured positions, metres (rows with NaN count as missing).
-        R: (3, 3) or (B, 3, 3) measurement covariance, metres squared.
-        valid_mask: (B,) bool, rows to update; others are returned unchanged.
-
-    Returns new arrays (Joseph form, as filterpy; compiled).
-    """
-    x = np.ascontiguousarray(x, dtype=float)
-    z = np.ascontiguousarray(z, dtype=float)
-    n = x.shape[0]
-    mask = np.all(np.isfinite(z), axis=-1)
-    if valid_mask is not None:
-        mask &= np.asarray(valid_mask, dtype=bool)
-    x_new, P_new = np.empty((n, 6)), np.empty((n, 6, 6))
-    _update_rows(x, _rows3(P, n, (6, 6)), z, _rows3(R, n, (3, 3)), mask, x_new, P_new)
-    return x_new, P_new
+def axis_update(p, c, w, r):
+    """One axis of Eq. 3's update, H = [1, 0] and measurement variance r, in Joseph form
+    (as filterpy): the gains (k_p, k_v) = P H^T / (p + r) and the new (p, c, w) of
+    (I - K H) P (I - K H)^T + r K K^T. Compiled and callable from other compiled code."""
+    s = p + r
+    k_p, k_v = p / s, c / s
+    a = 1.0 - k_p
+    b = c - k_v * p  # (I - K H) P's lower-left entry
+    return (k_p, k_v, a * p * a + r * k_p * k_p, -(a * p) * k_v + a * c + r * k_p * k_v,
+            -b * k_v + (w - k_v * c) + r * k_v * k_v)
 
 
 def initial_covariance(

@@ -48,13 +48,19 @@ import numba
 import numpy as np
 import z3
 
+from safety_systems import kalman
 from safety_systems.braking import braking_deceleration, path_rate_step
+from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.joint_path import JointPath, joint_path_state
+from safety_systems.kalman import axis_predict
 from safety_systems.scenario import ControllerConfig
 from safety_systems.systems.kalman_tracker import MIN_MEASUREMENT_STD
 from safety_systems.ur5e import DH_A, DH_D, tool0_position_and_velocity
 from safety_systems.workcell import assumed_stopping, braking_table, frame_timeout, joint_path
 from verification.space import ScenarioSpace
+
+# Its compiled functions inline kalman's (see compiled_cache).
+drop_stale_builds(__file__, (kalman,))
 
 # Longest distance from any joint axis to the tool flange, bounded by the link lengths.
 REACH_BOUND = sum(abs(a) for a in DH_A) + sum(DH_D[1:])
@@ -158,7 +164,7 @@ def _error_run(R, q2, v0, period, gap, occlusion, start, horizon):
     """Worst error coefficients along one frame pattern (per axis; see above), compiled.
 
     One axis of the tracker's filter: covariance P = [[p, c], [c, w]] of (position,
-    velocity), predicted by :func:`_predict` and updated with gain (k_p, k_v) =
+    velocity), predicted by ``kalman.axis_predict`` and updated with gain (k_p, k_v) =
     P[:, 0] / (p + R); E bounds the position error by E . (n, v_max), V the velocity
     estimate's magnitude the same way."""
     p, c, w = R, 0.0, v0 * v0  # after the first measurement: x = [z, 0]
@@ -169,7 +175,7 @@ def _error_run(R, q2, v0, period, gap, occlusion, start, horizon):
     while j < horizon:
         if start <= j < start + gap:
             if occlusion:  # coast: predict only
-                p, c, w = _predict(p, c, w, period, q2)
+                p, c, w = axis_predict(p, c, w, period, q2)
                 e_n, e_v = e_n + (m_n + 0.0) * period, e_v + (m_v + 1.0) * period
             else:
                 pending += period  # dropout: no frame, no step
@@ -177,7 +183,7 @@ def _error_run(R, q2, v0, period, gap, occlusion, start, horizon):
             continue
         dt = period + pending
         pending = 0.0
-        p, c, w = _predict(p, c, w, dt, q2)
+        p, c, w = axis_predict(p, c, w, dt, q2)
         prior_n, prior_v = e_n + (m_n + 0.0) * dt, e_v + (m_v + 1.0) * dt
         k_p, k_v = p / (p + R), c / (p + R)
         m_n = abs(1.0 - k_v * dt) * m_n + abs(k_v) * (e_n + 1.0)
@@ -189,15 +195,6 @@ def _error_run(R, q2, v0, period, gap, occlusion, start, horizon):
         worst_n, worst_v = max(worst_n, e_n), max(worst_v, e_v)
         j += 1
     return worst_n, worst_v
-
-
-@numba.njit(cache=True)
-def _predict(p, c, w, dt, q2):
-    """One axis of Eq. 2-4's prediction F P F^T + Q, F = [[1, dt], [0, 1]] and
-    Q = diag(dt^2, q2) (the (0, 3) block of ``transition_matrix`` and ``process_noise``;
-    a test holds the two to each other): P = [[p, c], [c, w]] -> (p, c, w)."""
-    fp, fc = p + dt * c, c + dt * w  # first row of F P
-    return fp + dt * fc + dt * dt, fc, w + q2
 
 
 def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:

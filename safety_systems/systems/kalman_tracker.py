@@ -15,7 +15,7 @@ from pydrake.systems.framework import (
 
 from safety_systems import kalman
 from safety_systems.compiled_cache import drop_stale_builds
-from safety_systems.kalman import predict_one, update_one
+from safety_systems.kalman import axis_predict, axis_update
 from safety_systems.systems.separation_monitor import (
     TRACK_COASTING,
     TRACK_LOST,
@@ -36,17 +36,11 @@ drop_stale_builds(__file__, (kalman,))
 def _track_rows(tracks, rows, frame_time, z, valid, measurement_std, velocity_process_noise,
                 initial_velocity_std, max_coast_time, exit_radius):
     """:func:`track_step` of the track rows ``rows`` of ``tracks`` (in place), their frame
-    times, measurements (R, 3) and valid flags (R,); compiled. F and Q are Eqs. 2 and 4
-    as ``kalman.transition_matrix`` and ``kalman.process_noise`` build them, R = std^2 I3,
-    a new track's covariance as ``kalman.initial_covariance``."""
-    F, Q, R = np.eye(6), np.zeros((6, 6)), np.zeros((3, 3))
-    m2 = measurement_std**2
-    for i in range(3):
-        R[i, i] = m2
-        Q[i + 3, i + 3] = velocity_process_noise
-    x, P, x_prior, P_prior = np.empty(6), np.empty((6, 6)), np.empty(6), np.empty((6, 6))
-    FP, S, S_inv, K, A = (np.empty((6, 6)), np.empty((3, 3)), np.empty((3, 3)),
-                          np.empty((6, 3)), np.empty((6, 6)))
+    times, measurements (R, 3) and valid flags (R,); compiled. The filter is isotropic
+    (see ``kalman``): one axis' covariance is predicted (Eqs. 2 and 4) and updated
+    (Eq. 3) and the 6 x 6 covariance rebuilt from it; a new track's covariance is
+    ``kalman.initial_covariance``."""
+    r2 = measurement_std**2
     for r in range(rows.size):
         track, t = tracks[rows[r]], frame_time[r]
         status = track[_STATUS]
@@ -55,33 +49,28 @@ def _track_rows(tracks, rows, frame_time, z, valid, measurement_std, velocity_pr
                 and math.isfinite(z[r, 2]))
         if active:  # Eqs. 2 and 4, then Eq. 3 if measured
             dt = t - track[_T_LAST]
-            for i in range(3):
-                F[i, i + 3] = dt
-                Q[i, i] = dt * dt
-            for i in range(6):
-                x[i] = track[i]
-                for j in range(6):
-                    P[i, j] = track[6 + 6 * i + j]
-            predict_one(x, P, F, Q, x_prior, P_prior, FP)
+            p, c, w = axis_predict(track[6], track[6 + 3], track[6 + 21], dt,
+                                   velocity_process_noise)
             if seen:
-                update_one(x_prior, P_prior, z[r], R, x, P, S, S_inv, K, A)
-            else:
-                x[:] = x_prior
-                P[:] = P_prior
-            for i in range(6):
-                track[i] = x[i]
-                for j in range(6):
-                    track[6 + 6 * i + j] = P[i, j]
+                k_p, k_v, p, c, w = axis_update(p, c, w, r2)
+            for i in range(3):
+                track[i] += dt * track[i + 3]
+                if seen:
+                    innovation = z[r, i] - track[i]
+                    track[i] += k_p * innovation
+                    track[i + 3] += k_v * innovation
             track[_T_LAST] = t
         elif seen:  # a new track at the measurement, velocity unknown
+            p, c, w = r2, 0.0, initial_velocity_std**2
             for i in range(3):
                 track[i], track[i + 3] = z[r, i], 0.0
+            track[_T_LAST] = t
+        if active or seen:
             for i in range(36):
                 track[6 + i] = 0.0
-            for i in range(3):
-                track[6 + 7 * i] = m2
-                track[6 + 7 * (i + 3)] = initial_velocity_std**2
-            track[_T_LAST] = t
+            for i in range(3):  # [[p I3, c I3], [c I3, w I3]]
+                track[6 + 7 * i], track[6 + 7 * (i + 3)] = p, w
+                track[6 + 6 * i + i + 3], track[6 + 6 * (i + 3) + i] = c, c
         if seen:
             track[_STATUS], track[_T_SEEN] = TRACK_TRACKING, t
         elif active:

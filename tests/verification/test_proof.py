@@ -9,13 +9,12 @@ import pytest
 
 from safety_systems.braking import BrakingTable, path_rate_step, tool_stopping_distance
 from safety_systems.joint_path import joint_path_state
-from safety_systems.kalman import process_noise, transition_matrix
+from safety_systems.kalman import axis_predict, process_noise, transition_matrix
 from safety_systems.scenario import BrakingConfig, load_controller_config
 from safety_systems.systems.kalman_tracker import MIN_MEASUREMENT_STD, TRACK_SLOT, track_step
 from safety_systems.ur5e import tool0_position_and_velocity
 from safety_systems.workcell import braking_table, frame_timeout, joint_path
 from verification.proof import (
-    _predict,
     braking_is_monotone,
     estimate_error_coefficients,
     prove,
@@ -176,13 +175,14 @@ def _motions(rng, rows, frames, settle, period, v_max, a_max, substeps=10):
 
 @pytest.mark.parametrize("dt, q2", [(0.05, 0.05), (0.35, 2.0), (1e-3, 0.0)])
 def test_one_axis_prediction_is_the_filters(dt, q2):
-    # The proof's per-axis prediction equals the (x, v_x) block of Eqs. 2 and 4 in 6-D.
+    # The per-axis prediction (the tracker's and the proof's) equals the (x, v_x) block of
+    # Eqs. 2 and 4 in 6-D.
     rng = np.random.default_rng(1)
     a = rng.normal(size=(6, 6))
     P = a @ a.T
     F, Q = transition_matrix(dt), process_noise(dt, q2)
     want = (F @ P @ F.T + Q)[np.ix_([0, 3], [0, 3])]
-    p, c, w = _predict(P[0, 0], P[0, 3], P[3, 3], dt, q2)
+    p, c, w = axis_predict(P[0, 0], P[0, 3], P[3, 3], dt, q2)
     np.testing.assert_allclose([[p, c], [c, w]], want, rtol=1e-12, atol=1e-15)
 
 
