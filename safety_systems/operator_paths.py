@@ -311,6 +311,27 @@ def body_layout(operators: Sequence[ScriptedOperator]) -> BodyLayout:
     )
 
 
+@numba.njit(cache=True)
+def _bodies_state_at(departures, ta, tc, vp, lengths, a_max, directions, waypoints,
+                     operator_index, offsets, enter_times, leave_times, t):
+    """:func:`operators_bodies_state` at one time t, compiled: every operator's reference
+    point by :func:`_path_rows`, plus each body's offset; present while
+    enter_time <= t < leave_time."""
+    P = a_max.size
+    ref = np.empty((2, P, 3))
+    _path_rows(departures, ta, tc, vp, lengths, a_max, directions, waypoints, np.arange(P),
+               np.full(P, t), ref)
+    n = operator_index.size
+    p, v, present = np.empty(3 * n), np.empty(3 * n), np.empty(n)
+    for b in range(n):
+        k = operator_index[b]
+        for i in range(3):
+            p[3 * b + i] = ref[0, k, i] + offsets[b, i]
+            v[3 * b + i] = ref[1, k, i]
+        present[b] = 1.0 if (t >= enter_times[k] and t < leave_times[k]) else 0.0
+    return p, v, present
+
+
 def operators_bodies_state(
     operators: Sequence[ScriptedOperator],
     t: float | np.ndarray,
@@ -324,16 +345,12 @@ def operators_bodies_state(
     """
     if layout is None:
         layout = body_layout(operators)
-    if np.ndim(t) == 0:
-        t = float(t)
-        p, v = stacked_position_velocity(layout.paths, t)  # every operator at once
-        p, v = p[layout.operator_index], v[layout.operator_index]
-        inside = (t >= layout.enter_times) & (t < layout.leave_times)
-        return (
-            (p + layout.offsets).ravel(),
-            v.ravel(),
-            inside[layout.operator_index].astype(float),
-        )
+    if np.ndim(t) == 0:  # one time (the OperatorMotion system, 500 Hz): compiled
+        s = layout.paths
+        return _bodies_state_at(s.departure_times, s.accel_durations, s.cruise_durations,
+                                s.peak_speeds, s.lengths, s.max_acceleration, s.directions,
+                                s.waypoint_positions, layout.operator_index, layout.offsets,
+                                layout.enter_times, layout.leave_times, float(t))
     states = [operator_position_velocity(op.path, t) for op in operators]
     p = np.stack([s[0] for s in states], axis=-2)[..., layout.operator_index, :]
     v = np.stack([s[1] for s in states], axis=-2)[..., layout.operator_index, :]

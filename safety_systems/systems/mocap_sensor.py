@@ -4,7 +4,14 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiscreteValues,
+    LeafSystem,
+    ValueProducer,
+)
 
 MIN_PERIOD_SEC = 1.0 / 1000.0  # OptiTrack frame rates: 20 Hz up to 1000 Hz (seed Sec. 4.1)
 MAX_PERIOD_SEC = 1.0 / 20.0
@@ -105,12 +112,27 @@ class MocapSensor(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(
             period_sec=period_sec, offset_sec=0.0, update=self._capture
         )
-        deps = {self.time_ticket(), self.xd_ticket()}
-        self.DeclareVectorOutputPort(
-            "positions_measured", BasicVector(3 * n), self._calc_positions, deps
+        # The delivered frame, computed once for the three outputs. It depends on time
+        # only through the latency: with one slot (no latency) the newest frame is the
+        # delivered one, so it changes only at captures and is not recomputed every time
+        # a downstream system asks at a new time.
+        deps = {self.xd_ticket()}
+        if self._num_slots > 1:
+            deps.add(self.time_ticket())
+        self._frame = self.DeclareCacheEntry(
+            description="delivered frame",
+            value_producer=ValueProducer(
+                allocate=AbstractValue.Make(np.zeros(self._slot)).Clone,
+                calc=self._calc_frame,
+            ),
+            prerequisites_of_calc=deps,
         )
-        self.DeclareVectorOutputPort("valid", BasicVector(n), self._calc_valid, deps)
-        self.DeclareVectorOutputPort("sample_time", BasicVector(1), self._calc_time, deps)
+        ticket = {self._frame.ticket()}
+        self.DeclareVectorOutputPort(
+            "positions_measured", BasicVector(3 * n), self._calc_positions, ticket
+        )
+        self.DeclareVectorOutputPort("valid", BasicVector(n), self._calc_valid, ticket)
+        self.DeclareVectorOutputPort("sample_time", BasicVector(1), self._calc_time, ticket)
 
     @property
     def num_slots(self) -> int:
@@ -143,11 +165,14 @@ class MocapSensor(LeafSystem):
                 return frames[start : start + self._slot]
         return frames[: self._slot]  # unreachable: the oldest slot is delivered or empty
 
+    def _calc_frame(self, context: Context, value: AbstractValue) -> None:
+        value.get_mutable_value()[:] = self._delivered(context)
+
     def _calc_positions(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(self._delivered(context)[1 : 1 + 3 * self._n])
+        output.SetFromVector(self._frame.Eval(context)[1 : 1 + 3 * self._n])
 
     def _calc_valid(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(self._delivered(context)[1 + 3 * self._n :])
+        output.SetFromVector(self._frame.Eval(context)[1 + 3 * self._n :])
 
     def _calc_time(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(self._delivered(context)[:1])
+        output.SetFromVector(self._frame.Eval(context)[:1])

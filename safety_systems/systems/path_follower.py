@@ -1,8 +1,7 @@
 """PathFollower: runs the cyclic joint path at the commanded speed, within the brakes."""
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem, ValueProducer
+from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
 from safety_systems.braking import BrakingTable, path_step_one
 from safety_systems.joint_path import JointPath, joint_path_state
@@ -15,7 +14,10 @@ class PathFollower(LeafSystem):
     braking model allows (:func:`safety_systems.braking.path_rate_step`), and
     s advances by the mean of the old and new rates times the period. At the end of the
     task (s = ``path.end``) the robot rests; s never goes below 0. The outputs are the
-    braked joint reference: q(s), v = q'(s) sigma and a = q''(s) sigma^2 + q'(s) dsigma/dt.
+    braked joint reference: q(s), v = q'(s) sigma and a = q''(s) sigma^2 + q'(s) dsigma/dt,
+    with dsigma/dt the change of sigma over the last tick. Each tick computes them with
+    the new (s, sigma) and keeps them in the discrete state, one group per output port,
+    so the ports are the state itself (no Python call when they are read).
 
     .. pydrake_system::
 
@@ -53,49 +55,38 @@ class PathFollower(LeafSystem):
         self._brake_scale = float(braking_time_scale)
         self._max_rate = float(max_rate)
         self._fractions, self._deceleration = braking.speed_fraction, braking.deceleration
-        # State: s, sigma, dsigma/dt over the last tick.
-        self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, 0.0]))
+        # State: path_state [s, sigma, finished] and the reference q, v, a at it.
+        self._path_state = self.DeclareDiscreteState(np.array([0.0, 0.0, 0.0]))
+        self._reference = [self.DeclareDiscreteState(row)
+                           for row in self._reference_at(0.0, 0.0, 0.0)]
         self._cmd = self.DeclareVectorInputPort("speed_scale_commanded", 1)
         self.DeclarePeriodicDiscreteUpdateEvent(period_sec=period_sec, offset_sec=0.0,
                                                 update=self._step)
-        self._ref = self.DeclareCacheEntry(
-            description="reference",
-            value_producer=ValueProducer(allocate=AbstractValue.Make(np.zeros((3, 6))).Clone,
-                                         calc=self._calc_reference),
-            prerequisites_of_calc={self.xd_ticket()},
-        )
-        for row, name in enumerate(("joint_positions_desired", "joint_velocities_desired",
-                                    "joint_accelerations_desired")):
-            self.DeclareVectorOutputPort(
-                name, 6, lambda c, o, r=row: o.SetFromVector(self._ref.Eval(c)[r]),
-                prerequisites_of_calc={self._ref.ticket()},
-            )
-        self.DeclareVectorOutputPort("path_state", 3, self._calc_path_state,
-                                     prerequisites_of_calc={self.xd_ticket()})
+        for group, name in zip(self._reference, ("joint_positions_desired",
+                                                 "joint_velocities_desired",
+                                                 "joint_accelerations_desired")):
+            self.DeclareStateOutputPort(name, group)
+        self.DeclareStateOutputPort("path_state", self._path_state)
 
     @property
     def path(self) -> JointPath:
         return self._path
 
     def _step(self, context: Context, discrete_state: DiscreteValues) -> None:
-        s, rate, _ = context.get_discrete_state(self._state).get_value()
+        s, rate, _ = context.get_discrete_state(self._path_state).value()
         end = self._path.end
         if s >= end:
-            discrete_state.set_value(self._state, [end, 0.0, 0.0])
-            return
-        s_new, new = path_step_one(s, rate, float(self._cmd.Eval(context)[0]), end,
-                                   self._brake_scale, self._dt, self._fractions,
-                                   self._deceleration, self._accel, self._max_rate)
-        discrete_state.set_value(self._state, [s_new, new, (new - rate) / self._dt])
+            s_new, new, rate_dot = end, 0.0, 0.0
+        else:
+            s_new, new = path_step_one(s, rate, float(self._cmd.Eval(context)[0]), end,
+                                       self._brake_scale, self._dt, self._fractions,
+                                       self._deceleration, self._accel, self._max_rate)
+            rate_dot = (new - rate) / self._dt
+        discrete_state.set_value(self._path_state, [s_new, new, float(s_new >= end)])
+        for group, row in zip(self._reference, self._reference_at(s_new, new, rate_dot)):
+            discrete_state.set_value(group, row)
 
-    def _calc_reference(self, context: Context, value: AbstractValue) -> None:
-        s, rate, rate_dot = context.get_discrete_state(self._state).get_value()
+    def _reference_at(self, s: float, rate: float, rate_dot: float) -> tuple:
+        """(q, v, a) of the braked reference at path parameter s and rate sigma."""
         q, dq, ddq = joint_path_state(self._path, s)
-        out = value.get_mutable_value()
-        out[0] = q
-        out[1] = dq * rate
-        out[2] = ddq * rate * rate + dq * rate_dot
-
-    def _calc_path_state(self, context: Context, output: BasicVector) -> None:
-        s, rate, _ = context.get_discrete_state(self._state).get_value()
-        output.SetFromVector([s, rate, float(s >= self._path.end)])
+        return q, dq * rate, ddq * rate * rate + dq * rate_dot
