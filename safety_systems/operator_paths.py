@@ -314,20 +314,17 @@ def body_layout(operators: Sequence[ScriptedOperator]) -> BodyLayout:
 @numba.njit(cache=True)
 def _bodies_state_at(departures, ta, tc, vp, lengths, a_max, directions, waypoints,
                      operator_index, offsets, enter_times, leave_times, t):
-    """:func:`operators_bodies_state` at one time t, compiled: every operator's reference
-    point by :func:`_path_rows`, plus each body's offset; present while
+    """:func:`operators_bodies_state` at one time t, compiled: each operator's reference
+    point by :func:`path_point_one`, plus each body's offset; present while
     enter_time <= t < leave_time."""
-    P = a_max.size
-    ref = np.empty((2, P, 3))
-    _path_rows(departures, ta, tc, vp, lengths, a_max, directions, waypoints, np.arange(P),
-               np.full(P, t), ref)
     n = operator_index.size
     p, v, present = np.empty(3 * n), np.empty(3 * n), np.empty(n)
     for b in range(n):
         k = operator_index[b]
-        for i in range(3):
-            p[3 * b + i] = ref[0, k, i] + offsets[b, i]
-            v[3 * b + i] = ref[1, k, i]
+        x0, x1, x2, v[3 * b], v[3 * b + 1], v[3 * b + 2] = path_point_one(
+            departures, ta, tc, vp, lengths, a_max, directions, waypoints, k, t)
+        p[3 * b], p[3 * b + 1], p[3 * b + 2] = (x0 + offsets[b, 0], x1 + offsets[b, 1],
+                                                x2 + offsets[b, 2])
         present[b] = 1.0 if (t >= enter_times[k] and t < leave_times[k]) else 0.0
     return p, v, present
 

@@ -249,12 +249,15 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
             for i in range(N):
                 lost = lost or status[b, i] == TRACK_LOST
                 usable[i] = status[b, i] == TRACK_TRACKING or status[b, i] == TRACK_COASTING
-                d[i], v_h, v_r = monitor_pair(p_R, v_R, est_p[b, i], est_v[b, i])
-                s_row[i] = protective_one(v_h, v_r, z_d[b, i], mode, t_sr, t_r, const, iso,
-                                          iso_reduced)
-            k_override = override_row(d, s_row, usable, delta_s, d_min)[0]
-            if lost or not t - t_frame[b] <= timeout:
+            if lost or not t - t_frame[b] <= timeout:  # stop; d and S are not needed
                 k_override = 0.0
+            else:
+                for i in range(N):
+                    if usable[i]:  # (the override reads only these)
+                        d[i], v_h, v_r = monitor_pair(p_R, v_R, est_p[b, i], est_v[b, i])
+                        s_row[i] = protective_one(v_h, v_r, z_d[b, i], mode, t_sr, t_r, const,
+                                                  iso, iso_reduced)
+                k_override = override_row(d, s_row, usable, delta_s, d_min)[0]
             # The properties, on the true state at this tick.
             v0, v1, v2 = v_tool[0], v_tool[1], v_tool[2]
             moving = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2) > MOVING_SPEED and k <= last[b]
