@@ -3,15 +3,17 @@
 :func:`evaluate_batch` reproduces the Drake workcell (kinematic mode) tick by tick for a
 batch of scenarios that share the robot, the controller configuration and the shape of
 their operators (number of operators, bodies and waypoints), as the scenarios of one
-space do. It calls the functions the LeafSystems wrap: ``operator_paths`` (truth),
-the MocapSensor's capture and noise rules, ``KalmanTracker.track_step``, ``ssm``
-(Eqs. 6-12), the braking model's rate step, ``joint_path_state`` and
-``tool0_position_and_velocity``; the hot ones are compiled (numba), and one compiled
-tick (:func:`_tick`) strings the monitor, the override, the properties and the
-follower's update together from the product's compiled functions. Event order follows
-the diagram: a tracker update at time u is seen by the first control tick after u;
-outputs at a tick are computed from the state before that tick's updates, as Drake's
-loggers record them. ``tests/verification`` checks the two agree.
+space do. It runs the compiled functions the LeafSystems wrap, in compiled loops: at
+each tracker update the MocapSensor's capture (:func:`_capture`; its noise rule in
+numpy) and the KalmanTracker's rows (``kalman_tracker._track_rows``, Eqs. 2-4), and
+between two updates every control tick of every scenario in :func:`_advance`: the
+joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_one_memo``), Eq. 5,
+the monitor and the override (``ssm``: Eqs. 6-12), the properties on the operators'
+truth (``operator_paths.path_point_one``) and the follower's braked step
+(``braking.path_step_one``). Event order follows the diagram: a tracker update at time
+u is seen by the first control tick after u; outputs at a tick are computed from the
+state before that tick's updates, as Drake's loggers record them.
+``tests/verification`` checks the two agree.
 """
 
 import dataclasses
@@ -213,7 +215,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
 
     - the robot from the PathFollower's state (s, sigma): q and dq/ds by
       ``path_state_one`` (``path`` from ``joint_path.path_arrays``), tool0 and J(q) dq/ds
-      sigma by ``tool0_one``; the EndEffectorVelocity's Eq. 5 (p - p_prev) / dt;
+      sigma by ``tool0_one_memo`` (each scenario's trigonometry kept in ``trig``); the
+      EndEffectorVelocity's Eq. 5 (p - p_prev) / dt;
     - SeparationMonitor and SpeedOverride on the estimates: d and directed speeds
       (Eqs. 6-8, :func:`monitor_pair`), S (Eqs. 9-11, ``monitor`` = (mode, T_s + T_r,
       T_r, B + C + Z_r, v_iso, v_iso_reduced) with Z_d per body ``z_d``), k (Eq. 12)
