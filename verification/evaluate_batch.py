@@ -344,9 +344,9 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
             z_d = np.ascontiguousarray(np.broadcast_to(human_uncertainty(
                 f.human_uncertainty, f.human_uncertainty_sigmas, std, unseen, est_v,
                 f.occlusion_speed), (B, N)))
-        _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter, c.leave,
-                 est_p, est_v, status, z_d, t_frame, timeout, monitor, f.delta_s, f.d_min,
-                 truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, trig, min_sep,
+        _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter,
+                 c.leave, est_p, est_v, status, z_d, t_frame, timeout, monitor, f.delta_s,
+                 f.d_min, truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, trig, min_sep,
                  prot_time, prot_deep)
         k = stop
         if k > last:
