@@ -72,6 +72,31 @@ def segment_profile(
     return accel, np.maximum(cruise, 0.0), peak
 
 
+def _segments(t: np.ndarray, p: np.ndarray, max_speed: np.ndarray,
+              max_acceleration: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Segments of P paths at once (times t (P, M), positions p (P, M, 3), limits (P,)):
+    lengths, unit directions (zero for zero-length segments), accel, cruise and peak
+    speed (see :func:`segment_profile`), each (P, M - 1[, 3]). Raises ValueError if a
+    segment cannot finish before the next waypoint's departure."""
+    delta = np.diff(p, axis=1)
+    lengths = np.linalg.norm(delta, axis=2)
+    directions = np.divide(
+        delta, lengths[..., None], out=np.zeros_like(delta), where=lengths[..., None] > 0.0
+    )
+    accel, cruise, peak = segment_profile(lengths, max_speed[:, None], max_acceleration[:, None])
+    needed = 2.0 * accel + cruise
+    given = np.diff(t, axis=1)[:, 1:]  # segment k (to waypoint k+1) must end by t_{k+2}
+    late = needed[:, :given.shape[1]] > given + 1e-12
+    if np.any(late):
+        path, k = np.argwhere(late)[0]
+        which = f" (path {path})" if t.shape[0] > 1 else ""
+        raise ValueError(
+            f"waypoint {k + 1}{which}: reaching it needs {needed[path, k]:.4f} s but only "
+            f"{given[path, k]:.4f} s are given before waypoint {k + 2} departs"
+        )
+    return lengths, directions, accel, cruise, peak
+
+
 def make_operator_path(
     times: Sequence[float] | np.ndarray,
     positions: Sequence[Sequence[float]] | np.ndarray,
@@ -103,20 +128,9 @@ def make_operator_path(
     for name, value in (("max_speed", max_speed), ("max_acceleration", max_acceleration)):
         if not (math.isfinite(value) and value > 0.0):
             raise ValueError(f"{name}={value}: must be finite and > 0")
-    delta = np.diff(p, axis=0)
-    lengths = np.linalg.norm(delta, axis=1)
-    directions = np.divide(
-        delta, lengths[:, None], out=np.zeros_like(delta), where=lengths[:, None] > 0.0
-    )
-    accel, cruise, peak = segment_profile(lengths, max_speed, max_acceleration)
-    needed = 2.0 * accel + cruise
-    given = np.diff(t)[1:]  # segment k (to waypoint k+1) must end by t_{k+2}
-    for k in range(given.size):
-        if needed[k] > given[k] + 1e-12:
-            raise ValueError(
-                f"waypoint {k + 1}: reaching it needs {needed[k]:.4f} s but only "
-                f"{given[k]:.4f} s are given before waypoint {k + 2} departs"
-            )
+    lengths, directions, accel, cruise, peak = (a[0] for a in _segments(
+        t[None], p[None], np.array([max_speed], dtype=float),
+        np.array([max_acceleration], dtype=float)))
     return OperatorPath(
         waypoint_times=_frozen(t),
         waypoint_positions=_frozen(p),
@@ -184,6 +198,30 @@ def stack_paths(paths: Sequence[OperatorPath]) -> PathStack:
         for p in paths])
     return PathStack(**arrays, waypoint_positions=waypoints,
                      max_acceleration=np.array([p.max_acceleration for p in paths]))
+
+
+def stack_operator_paths(times: np.ndarray, positions: np.ndarray, max_speed: np.ndarray,
+                         max_acceleration: np.ndarray) -> PathStack:
+    """The :class:`PathStack` of P paths with the same number of waypoints, built at once
+    (times (P, M), positions (P, M, 3), limits (P,)), equal to ``stack_paths`` of their
+    ``make_operator_path``s and checked as it checks them."""
+    t, p = np.asarray(times, dtype=float), np.asarray(positions, dtype=float)
+    v, a = np.asarray(max_speed, dtype=float), np.asarray(max_acceleration, dtype=float)
+    P, M = t.shape
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(p)) and p.shape == (P, M, 3)):
+        raise ValueError(f"positions has shape {p.shape}, times {t.shape}: need finite "
+                         f"(P, M, 3) metres and (P, M) seconds")
+    if np.any(np.diff(t, axis=1) <= 0.0):
+        raise ValueError(f"times of path {np.argwhere(np.diff(t, axis=1) <= 0.0)[0][0]}: "
+                         "must be strictly increasing")
+    if not (np.all(np.isfinite(v) & (v > 0.0)) and np.all(np.isfinite(a) & (a > 0.0))):
+        raise ValueError("max_speed and max_acceleration: must be finite and > 0")
+    lengths, directions, accel, cruise, peak = _segments(t, p, v, a)
+    if M == 1:  # no segment: one that never departs (as stack_paths pads)
+        return stack_paths([make_operator_path(t[i], p[i], v[i], a[i]) for i in range(P)])
+    return PathStack(departure_times=np.ascontiguousarray(t[:, 1:]), accel_durations=accel,
+                     cruise_durations=cruise, peak_speeds=peak, lengths=lengths,
+                     directions=directions, waypoint_positions=p, max_acceleration=a)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element

@@ -1,3 +1,4 @@
+import dataclasses
 import math
 
 import numpy as np
@@ -12,6 +13,8 @@ from safety_systems.operator_paths import (
     operator_position_velocity,
     operators_bodies_state,
     segment_profile,
+    stack_operator_paths,
+    stack_paths,
 )
 
 FIXED = settings(derandomize=True, deadline=None, max_examples=40)
@@ -228,3 +231,23 @@ def test_bodies_state_vectorised_matches_scalar_and_layout():
 def test_scripted_operator_rejects_bad_input(kwargs, match):
     with pytest.raises(ValueError, match=match):
         ScriptedOperator(path=_path(), **kwargs)
+
+
+@pytest.mark.parametrize("waypoints", [1, 2, 4, 6])
+def test_paths_stacked_at_once_equal_the_stacked_paths(waypoints):
+    rng = np.random.default_rng(waypoints)
+    P = 40
+    t = np.cumsum(rng.uniform(6.0, 7.0, (P, waypoints)), axis=1)
+    p = rng.normal(size=(P, waypoints, 3)) * 0.5
+    p[::7, 1:2] = p[::7, 0:1]  # zero-length segments
+    v, a = rng.uniform(0.5, 2.0, P), rng.uniform(1.0, 5.0, P)
+    at_once = stack_operator_paths(t, p, v, a)
+    one_by_one = stack_paths([make_operator_path(t[i], p[i], v[i], a[i]) for i in range(P)])
+    for field in dataclasses.fields(one_by_one):
+        np.testing.assert_array_equal(getattr(at_once, field.name),
+                                      getattr(one_by_one, field.name))
+    # The same checks: a segment that cannot finish before the next departure.
+    if waypoints > 2:
+        t[3, 2:] -= t[3, 2] - t[3, 1] - 0.01  # 0.01 s from waypoint 1 to waypoint 2
+        with pytest.raises(ValueError, match=r"waypoint 1 \(path 3\): reaching it needs"):
+            stack_operator_paths(t, p, v, a)

@@ -27,7 +27,7 @@ from safety_systems import braking, operator_paths, ssm, ur5e
 from safety_systems.braking import path_step_one
 from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.joint_path import path_arrays, path_state_one
-from safety_systems.operator_paths import path_point_one, stack_paths
+from safety_systems.operator_paths import path_point_one, stack_operator_paths
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
@@ -51,7 +51,6 @@ from safety_systems.workcell import (
     braking_table,
     frame_timeout,
     joint_path,
-    scripted_operators,
 )
 from verification.evaluate_drake import protective_args
 from verification.properties import MOVING_SPEED
@@ -131,19 +130,29 @@ class _Cells:
         # Operators: same shape in every scenario.
         _common(scenarios, lambda s: [(len(o.bodies), len(o.waypoints)) for o in s.operators],
                 "operator shape")
-        ops = [scripted_operators(s) for s in scenarios]
-        self.K = len(ops[0])
-        st = stack_paths([o.path for row in ops for o in row])
+        # Every operator's path at once, equal to stack_paths of their scripted_operators.
+        specs = [o for s in scenarios for o in s.operators]
+        self.K = len(scenarios[0].operators)
+        st = stack_operator_paths(
+            [[w.time for w in o.waypoints] for o in specs],
+            [[w.position for w in o.waypoints] for o in specs],
+            [o.max_speed for o in specs], [o.max_acceleration for o in specs])
         self.stack_arrays = (st.departure_times, st.accel_durations, st.cruise_durations,
                              st.peak_speeds, st.lengths, st.max_acceleration, st.directions,
                              st.waypoint_positions)
-        layout = [np.repeat(np.arange(self.K), [o.num_bodies for o in ops[0]])]
-        self.op_index = layout[0]
+        self.op_index = np.repeat(np.arange(self.K),
+                                  [len(o.bodies) for o in scenarios[0].operators])
         self.op_first = np.searchsorted(self.op_index, np.arange(self.K + 1))  # bodies by operator
         self.N = self.op_index.size
-        self.offsets = np.stack([np.concatenate([o.body_offsets for o in row]) for row in ops])
-        self.enter = np.array([[o.enter_time for o in row] for row in ops])
-        self.leave = np.array([[o.leave_time for o in row] for row in ops])
+        self.offsets = np.array([[b.offset for o in s.operators for b in o.bodies]
+                                 for s in scenarios], dtype=float).reshape(self.B, self.N, 3)
+        self.enter = np.array([[o.enter_time for o in s.operators] for s in scenarios],
+                              dtype=float).reshape(self.B, self.K)
+        self.leave = np.array([[o.leave_time for o in s.operators] for s in scenarios],
+                              dtype=float).reshape(self.B, self.K)
+        if not (np.all(np.isfinite(self.offsets)) and np.all(self.leave > self.enter)):
+            raise ValueError("evaluate_batch: body offsets must be finite and every operator "
+                             "must leave after entering (see ScriptedOperator)")
         names = [f"{o.name}/{b.name}" for o in scenarios[0].operators for b in o.bodies]
         o = max((len(s.occlusions) for s in sensors), default=0)
         self.occ = np.full((self.B, o, 3), np.inf)  # body index, start, end
