@@ -86,23 +86,39 @@ def dropout_table(sensors: list) -> np.ndarray:
     return drops
 
 
+@numba.njit(cache=True)
+def _delivered_rows(u, latency, period, drops, out):
+    """:func:`delivered_frames` of every row, compiled (the same arithmetic)."""
+    for b in range(latency.size):
+        now = u[b] + _TIME_TOL - latency[b]
+        i = math.floor(now / period)
+        if (i + 1) * period <= now:
+            i += 1
+        if i * period > now:
+            i -= 1
+        for _ in range(drops.shape[1] + 1):  # step back over dropped captures
+            t = i * period
+            first, inside = i, False
+            for j in range(drops.shape[1]):
+                if drops[b, j, 0] <= t < drops[b, j, 1]:
+                    inside = True
+                    first = min(first, math.ceil(drops[b, j, 0] / period - 1e-9) - 1)
+            if not inside:
+                break
+            i = first
+        out[b] = max(i, -1)
+
+
 def delivered_frames(u: float | np.ndarray, latency: np.ndarray, period: float,
                      drops: np.ndarray) -> np.ndarray:
     """Index of the frame each sensor (latency (B,), dropped intervals ``drops``, see
     :func:`dropout_table`) shows at time(s) u, as MocapSensor delivers them: the newest
-    capture at least a latency old that was not dropped (-1: none yet)."""
-    now = u + _TIME_TOL - latency
-    i = np.floor(now / period).astype(int)
-    i = np.where((i + 1) * period <= now, i + 1, i)
-    i = np.where(i * period > now, i - 1, i)
-    for _ in range(drops.shape[1] + 1):  # step back over dropped captures
-        t = i * period
-        inside = (drops[..., 0] <= t[:, None]) & (t[:, None] < drops[..., 1])
-        if not inside.any():
-            break
-        first = np.where(inside, np.ceil(drops[..., 0] / period - 1e-9) - 1, i[:, None])
-        i = np.where(inside.any(axis=1), first.min(axis=1), i).astype(int)
-    return np.maximum(i, -1)
+    capture at least a latency old that was not dropped (-1: none yet); compiled."""
+    latency = np.ascontiguousarray(latency, dtype=float)
+    u = np.ascontiguousarray(np.broadcast_to(np.asarray(u, dtype=float), latency.shape))
+    out = np.empty(latency.size, dtype=np.int64)
+    _delivered_rows(u, latency, float(period), np.ascontiguousarray(drops, dtype=float), out)
+    return out
 
 
 class _Cells:
@@ -154,6 +170,7 @@ class _Cells:
             raise ValueError("evaluate_batch: body offsets must be finite and every operator "
                              "must leave after entering (see ScriptedOperator)")
         names = [f"{o.name}/{b.name}" for o in scenarios[0].operators for b in o.bodies]
+        self.units = np.zeros((0, self.N, 3))  # the unit noise of each frame index so far
         o = max((len(s.occlusions) for s in sensors), default=0)
         self.occ = np.full((self.B, o, 3), np.inf)  # body index, start, end
         for b, s in enumerate(sensors):
@@ -167,28 +184,32 @@ class _Cells:
     def frame(self, rows: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Measured positions (R, N, 3) and valid flags (R, N) of frame ``index`` of the
         scenarios ``rows``, as MocapSensor captures them."""
+        known = self.units.shape[0]
+        if index.max() >= known:  # the noise of new frames; MocapSensor's rule: drawn
+            # from a generator seeded by (seed, frame)
+            self.units = np.concatenate([self.units, [
+                np.random.default_rng([self.seed, k]).standard_normal(3 * self.N).reshape(
+                    self.N, 3) for k in range(known, int(index.max()) + 1)]])
         p, valid = np.empty((rows.size, self.N, 3)), np.empty((rows.size, self.N), dtype=bool)
         _capture(self.stack_arrays, self.op_index, self.offsets, self.enter, self.leave,
-                 self.occ, rows, index * self.period, p, valid)
-        noisy = self.noise[rows] > 0.0
-        for k in np.unique(index[noisy]):  # MocapSensor's noise depends on (seed, frame)
-            unit = np.random.default_rng([self.seed, int(k)]).standard_normal(3 * self.N)
-            hit = noisy & (index == k)
-            p[hit] += self.noise[rows[hit], None, None] * unit.reshape(self.N, 3)
-        p[~valid] = np.nan
+                 self.occ, self.noise, self.units, rows, index, self.period, p, valid)
         return p, valid
 
 
 @numba.njit(cache=True)
-def _capture(stack, op_index, offsets, enter, leave, occ, rows, times, p, valid):
-    """True body positions p (R, N, 3) of the scenarios ``rows`` at the capture times
-    ``times`` (R,) and whether the MocapSensor sees them (``valid``: present and not in
-    an occlusion interval of ``occ`` (B, ., 3): body, start, end); compiled, bodies by
-    ``path_point_one`` of their operator's path plus their offsets."""
+def _capture(stack, op_index, offsets, enter, leave, occ, noise, units, rows, index, period,
+             p, valid):
+    """The MocapSensor's frames ``index`` (R,) of the scenarios ``rows``: positions p
+    (R, N, 3) and whether it sees the bodies (``valid``: present and not in an occlusion
+    interval of ``occ`` (B, ., 3): body, start, end); compiled. The truth at the capture
+    time by ``path_point_one`` of the operator's path plus the body's offset, plus
+    noise std ``noise[b]`` times the frame's unit noise ``units[index]``; NaN where not
+    seen."""
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     K = enter.shape[1]
     for r in range(rows.size):
-        b, t = rows[r], times[r]
+        b, k = rows[r], index[r]
+        t = k * period
         for i in range(op_index.size):
             o = op_index[i]
             x0, x1, x2, _, _, _ = path_point_one(departures, ta, tc, vp, lengths, a_max,
@@ -200,6 +221,11 @@ def _capture(stack, op_index, offsets, enter, leave, occ, rows, times, p, valid)
                 if occ[b, j, 1] <= t < occ[b, j, 2] and occ[b, j, 0] == i:
                     seen = False
             valid[r, i] = seen
+            for j in range(3):
+                if noise[b] > 0.0:
+                    p[r, i, j] = p[r, i, j] + noise[b] * units[k, i, j]
+                if not seen:
+                    p[r, i, j] = np.nan
 
 
 # Its compiled functions inline compiled code from these modules (see compiled_cache).
@@ -377,11 +403,23 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                        prot_time, prot_deep)
 
 
-def batch_key(s: Scenario) -> tuple:
-    """Scenarios with equal keys can share one batch."""
+def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
+    """Scenarios with equal keys can share one batch: the same controller configuration,
+    robot (but its cycles and braking time scale), sensor rate and seed, and operator
+    shapes. ``memo`` keeps the configurations' texts by object across calls (the
+    scenarios of one space share them; writing them out is most of the cost)."""
+    memo = {} if memo is None else memo
+
+    def text(obj) -> str:
+        seen = memo.get(id(obj))
+        if seen is None or seen[0] is not obj:
+            seen = memo[id(obj)] = (obj, repr(obj))
+        return seen[1]
+
     sensor = actual_sensor(s)
-    robot = dataclasses.replace(s.robot, cycles=1, braking_time_scale=1.0)
-    return (repr(s.controller), repr(robot), sensor.rate_hz, sensor.seed,
+    robot = tuple(text(getattr(s.robot, f.name)) for f in dataclasses.fields(s.robot)
+                  if f.name not in ("cycles", "braking_time_scale"))
+    return (text(s.controller), robot, sensor.rate_hz, sensor.seed,
             tuple((len(o.bodies), len(o.waypoints)) for o in s.operators))
 
 
@@ -394,12 +432,13 @@ def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> Batch
 
     out = np.zeros((4, len(scenarios)))
     groups: dict[tuple, list[int]] = {}
+    memo: dict = {}
     for i, s in enumerate(scenarios):
         if s.controller.type != "ssm_override":
             r, _ = evaluate_drake(s)
             out[:, i] = dataclasses.astuple(r)
             continue
-        groups.setdefault(batch_key(s), []).append(i)
+        groups.setdefault(batch_key(s, memo), []).append(i)
     for members in groups.values():
         for start in range(0, len(members), batch_size):
             rows = members[start:start + batch_size]
