@@ -72,6 +72,34 @@ def segment_profile(
     return accel, np.maximum(cruise, 0.0), peak
 
 
+def _check_paths(t: np.ndarray, p: np.ndarray, max_speed: np.ndarray,
+                 max_acceleration: np.ndarray) -> None:
+    """The checks of P paths' waypoints (times t (P, M), positions p, limits (P,)); an
+    error names the path when there are several."""
+    P, M = t.shape
+
+    def of(i: int) -> str:
+        return f" (path {i})" if P > 1 else ""
+
+    bad = ~np.all(np.isfinite(t), axis=1)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise ValueError(f"times{of(i)}={t[i].tolist()}: need finite seconds")
+    bad = np.any(np.diff(t, axis=1) <= 0.0, axis=1)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise ValueError(f"times{of(i)}={t[i].tolist()}: must be strictly increasing")
+    if p.shape != (P, M, 3) or not np.all(np.isfinite(p)):
+        shape = p.shape[1:] if P == 1 else p.shape
+        raise ValueError(f"positions has shape {shape}: need ({M}, 3) finite metres, one per "
+                         f"time" + ("" if P == 1 else f" for each of {P} paths"))
+    for name, values in (("max_speed", max_speed), ("max_acceleration", max_acceleration)):
+        bad = ~(np.isfinite(values) & (values > 0.0))
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ValueError(f"{name}{of(i)}={values[i]}: must be finite and > 0")
+
+
 def _segments(t: np.ndarray, p: np.ndarray, max_speed: np.ndarray,
               max_acceleration: np.ndarray) -> tuple[np.ndarray, ...]:
     """Segments of P paths at once (times t (P, M), positions p (P, M, 3), limits (P,)):
@@ -117,20 +145,11 @@ def make_operator_path(
     """
     t = np.asarray(times, dtype=float)
     p = np.asarray(positions, dtype=float)
-    if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)):
+    if t.ndim != 1 or t.size < 1:
         raise ValueError(f"times={times!r}: need a non-empty 1-D sequence of finite seconds")
-    if np.any(np.diff(t) <= 0.0):
-        raise ValueError(f"times={t.tolist()}: must be strictly increasing")
-    if p.shape != (t.size, 3) or not np.all(np.isfinite(p)):
-        raise ValueError(
-            f"positions has shape {p.shape}: need ({t.size}, 3) finite metres, one per time"
-        )
-    for name, value in (("max_speed", max_speed), ("max_acceleration", max_acceleration)):
-        if not (math.isfinite(value) and value > 0.0):
-            raise ValueError(f"{name}={value}: must be finite and > 0")
-    lengths, directions, accel, cruise, peak = (a[0] for a in _segments(
-        t[None], p[None], np.array([max_speed], dtype=float),
-        np.array([max_acceleration], dtype=float)))
+    v, a = np.array([max_speed], dtype=float), np.array([max_acceleration], dtype=float)
+    _check_paths(t[None], p[None], v, a)
+    lengths, directions, accel, cruise, peak = (x[0] for x in _segments(t[None], p[None], v, a))
     return OperatorPath(
         waypoint_times=_frozen(t),
         waypoint_positions=_frozen(p),
@@ -207,15 +226,10 @@ def stack_operator_paths(times: np.ndarray, positions: np.ndarray, max_speed: np
     ``make_operator_path``s and checked as it checks them."""
     t, p = np.asarray(times, dtype=float), np.asarray(positions, dtype=float)
     v, a = np.asarray(max_speed, dtype=float), np.asarray(max_acceleration, dtype=float)
+    if t.ndim != 2 or t.shape[1] < 1:
+        raise ValueError(f"times has shape {t.shape}: need (P, M) seconds, M >= 1")
     P, M = t.shape
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(p)) and p.shape == (P, M, 3)):
-        raise ValueError(f"positions has shape {p.shape}, times {t.shape}: need finite "
-                         f"(P, M, 3) metres and (P, M) seconds")
-    if np.any(np.diff(t, axis=1) <= 0.0):
-        raise ValueError(f"times of path {np.argwhere(np.diff(t, axis=1) <= 0.0)[0][0]}: "
-                         "must be strictly increasing")
-    if not (np.all(np.isfinite(v) & (v > 0.0)) and np.all(np.isfinite(a) & (a > 0.0))):
-        raise ValueError("max_speed and max_acceleration: must be finite and > 0")
+    _check_paths(t, p, v, a)
     lengths, directions, accel, cruise, peak = _segments(t, p, v, a)
     if M == 1:  # no segment: one that never departs (as stack_paths pads)
         return stack_paths([make_operator_path(t[i], p[i], v[i], a[i]) for i in range(P)])
@@ -283,6 +297,25 @@ def stacked_position_velocity(
     return out[0], out[1]
 
 
+def check_bodies(offsets: np.ndarray, enter_time: float, leave_time: float) -> None:
+    """An operator's tracked bodies (offsets (m, 3), metres) and presence window, as
+    :class:`ScriptedOperator` takes them; raises ValueError naming what is wrong."""
+    if (
+        offsets.ndim != 2
+        or offsets.shape[1] != 3
+        or not 1 <= offsets.shape[0] <= MAX_BODIES_PER_OPERATOR
+        or not np.all(np.isfinite(offsets))
+    ):
+        raise ValueError(
+            f"body_offsets has shape {offsets.shape}: need (m, 3) finite metres with "
+            f"1 <= m <= {MAX_BODIES_PER_OPERATOR}"
+        )
+    if math.isnan(enter_time) or enter_time == math.inf:
+        raise ValueError(f"enter_time={enter_time}: must be a number < +inf")
+    if not leave_time > enter_time:
+        raise ValueError(f"leave_time={leave_time}: must be > enter_time={enter_time}")
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class ScriptedOperator:
     """One scripted operator: a path, its tracked bodies and when it is in the cell.
@@ -302,22 +335,7 @@ class ScriptedOperator:
 
     def __post_init__(self) -> None:
         offsets = np.asarray(self.body_offsets, dtype=float)
-        if (
-            offsets.ndim != 2
-            or offsets.shape[1] != 3
-            or not 1 <= offsets.shape[0] <= MAX_BODIES_PER_OPERATOR
-            or not np.all(np.isfinite(offsets))
-        ):
-            raise ValueError(
-                f"body_offsets has shape {offsets.shape}: need (m, 3) finite metres with "
-                f"1 <= m <= {MAX_BODIES_PER_OPERATOR}"
-            )
-        if math.isnan(self.enter_time) or self.enter_time == math.inf:
-            raise ValueError(f"enter_time={self.enter_time}: must be a number < +inf")
-        if not self.leave_time > self.enter_time:
-            raise ValueError(
-                f"leave_time={self.leave_time}: must be > enter_time={self.enter_time}"
-            )
+        check_bodies(offsets, self.enter_time, self.leave_time)
         object.__setattr__(self, "body_offsets", _frozen(offsets))
 
     @property

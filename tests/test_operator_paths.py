@@ -251,3 +251,16 @@ def test_paths_stacked_at_once_equal_the_stacked_paths(waypoints):
         t[3, 2:] -= t[3, 2] - t[3, 1] - 0.01  # 0.01 s from waypoint 1 to waypoint 2
         with pytest.raises(ValueError, match=r"waypoint 1 \(path 3\): reaching it needs"):
             stack_operator_paths(t, p, v, a)
+
+
+def test_paths_stacked_at_once_are_checked_as_one_path_is():
+    t = np.tile([0.0, 1.0, 6.0, 9.0], (3, 1))
+    p = np.tile(np.array(POSITIONS, dtype=float), (3, 1, 1))
+    v, a = np.full(3, 1.5), np.full(3, 1.0)
+    stack_operator_paths(t, p, v, a)  # three copies of the good path
+    bad = t.copy()
+    bad[2, 2] = bad[2, 1]
+    with pytest.raises(ValueError, match=r"times \(path 2\)=.*strictly increasing"):
+        stack_operator_paths(bad, p, v, a)
+    with pytest.raises(ValueError, match=r"max_acceleration \(path 1\)=0.0"):
+        stack_operator_paths(t, p, v, np.array([1.0, 0.0, 1.0]))

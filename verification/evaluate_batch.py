@@ -27,7 +27,11 @@ from safety_systems import braking, operator_paths, ssm, ur5e
 from safety_systems.braking import path_step_one
 from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.joint_path import path_arrays, path_state_one
-from safety_systems.operator_paths import path_point_one, stack_operator_paths
+from safety_systems.operator_paths import (
+    check_bodies,
+    path_point_one,
+    stack_operator_paths,
+)
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
@@ -160,15 +164,15 @@ class _Cells:
                                   [len(o.bodies) for o in scenarios[0].operators])
         self.op_first = np.searchsorted(self.op_index, np.arange(self.K + 1))  # bodies by operator
         self.N = self.op_index.size
+        for o in specs:  # as ScriptedOperator checks them
+            check_bodies(np.array([b.offset for b in o.bodies], dtype=float), o.enter_time,
+                         o.leave_time)
         self.offsets = np.array([[b.offset for o in s.operators for b in o.bodies]
                                  for s in scenarios], dtype=float).reshape(self.B, self.N, 3)
         self.enter = np.array([[o.enter_time for o in s.operators] for s in scenarios],
                               dtype=float).reshape(self.B, self.K)
         self.leave = np.array([[o.leave_time for o in s.operators] for s in scenarios],
                               dtype=float).reshape(self.B, self.K)
-        if not (np.all(np.isfinite(self.offsets)) and np.all(self.leave > self.enter)):
-            raise ValueError("evaluate_batch: body offsets must be finite and every operator "
-                             "must leave after entering (see ScriptedOperator)")
         names = [f"{o.name}/{b.name}" for o in scenarios[0].operators for b in o.bodies]
         self.units = np.zeros((0, self.N, 3))  # the unit noise of each frame index so far
         o = max((len(s.occlusions) for s in sensors), default=0)

@@ -52,7 +52,7 @@ from safety_systems import kalman
 from safety_systems.braking import braking_deceleration, path_rate_step
 from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.joint_path import JointPath, joint_path_state
-from safety_systems.kalman import axis_predict
+from safety_systems.kalman import axis_predict, axis_update
 from safety_systems.scenario import ControllerConfig
 from safety_systems.systems.kalman_tracker import MIN_MEASUREMENT_STD
 from safety_systems.ur5e import DH_A, DH_D, tool0_position_and_velocity
@@ -164,9 +164,9 @@ def _error_run(R, q2, v0, period, gap, occlusion, start, horizon):
     """Worst error coefficients along one frame pattern (per axis; see above), compiled.
 
     One axis of the tracker's filter: covariance P = [[p, c], [c, w]] of (position,
-    velocity), predicted by ``kalman.axis_predict`` and updated with gain (k_p, k_v) =
-    P[:, 0] / (p + R); E bounds the position error by E . (n, v_max), V the velocity
-    estimate's magnitude the same way."""
+    velocity), predicted and updated by ``kalman.axis_predict`` and ``axis_update`` (the
+    tracker's own equations; gain (k_p, k_v) = P[:, 0] / (p + R)); E bounds the position
+    error by E . (n, v_max), V the velocity estimate's magnitude the same way."""
     p, c, w = R, 0.0, v0 * v0  # after the first measurement: x = [z, 0]
     e_n, e_v = 1.0, 0.0  # error bound = E . (n, v_max)
     m_n, m_v = 0.0, 0.0  # |v estimate| bound (the body starts at rest)
@@ -185,13 +185,11 @@ def _error_run(R, q2, v0, period, gap, occlusion, start, horizon):
         pending = 0.0
         p, c, w = axis_predict(p, c, w, dt, q2)
         prior_n, prior_v = e_n + (m_n + 0.0) * dt, e_v + (m_v + 1.0) * dt
-        k_p, k_v = p / (p + R), c / (p + R)
+        k_p, k_v, p, c, w = axis_update(p, c, w, R)
         m_n = abs(1.0 - k_v * dt) * m_n + abs(k_v) * (e_n + 1.0)
         m_v = abs(1.0 - k_v * dt) * m_v + abs(k_v) * (e_v + dt)
         e_n = (1.0 - k_p) * prior_n + k_p * 1.0
         e_v = (1.0 - k_p) * prior_v + k_p * 0.0
-        s = p + R
-        p, c, w = p - p * p / s, c - c * p / s, w - c * c / s
         worst_n, worst_v = max(worst_n, e_n), max(worst_v, e_v)
         j += 1
     return worst_n, worst_v

@@ -75,15 +75,13 @@ class PathFollower(LeafSystem):
     def _step(self, context: Context, discrete_state: DiscreteValues) -> None:
         s, rate, _ = context.get_discrete_state(self._path_state).value()
         end = self._path.end
-        if s >= end:
-            s_new, new, rate_dot = end, 0.0, 0.0
-        else:
-            s_new, new = path_step_one(s, rate, float(self._cmd.Eval(context)[0]), end,
-                                       self._brake_scale, self._dt, self._fractions,
-                                       self._deceleration, self._accel, self._max_rate)
-            rate_dot = (new - rate) / self._dt
+        # path_step_one holds s and sigma at the end (sigma is 0 from the tick that got there).
+        s_new, new = path_step_one(s, rate, float(self._cmd.Eval(context)[0]), end,
+                                   self._brake_scale, self._dt, self._fractions,
+                                   self._deceleration, self._accel, self._max_rate)
         discrete_state.set_value(self._path_state, [s_new, new, float(s_new >= end)])
-        for group, row in zip(self._reference, self._reference_at(s_new, new, rate_dot)):
+        for group, row in zip(self._reference,
+                              self._reference_at(s_new, new, (new - rate) / self._dt)):
             discrete_state.set_value(group, row)
 
     def _reference_at(self, s: float, rate: float, rate_dot: float) -> tuple:
