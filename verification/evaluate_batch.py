@@ -254,8 +254,10 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
 
     - the robot from the PathFollower's state (s, sigma): q and dq/ds by
       ``path_state_one`` (``path`` from ``joint_path.path_arrays``), tool0 and J(q) dq/ds
-      sigma by ``tool0_one_memo`` (each scenario's trigonometry kept in ``trig``); the
-      EndEffectorVelocity's Eq. 5 (p - p_prev) / dt;
+      sigma by ``tool0_one_memo`` (each scenario's trigonometry kept in ``trig``), once per
+      distinct (s, sigma) at a tick (scenarios go in order of s; all start at rest at s = 0
+      and share these until their monitors differ); the EndEffectorVelocity's Eq. 5
+      (p - p_prev) / dt;
     - SeparationMonitor and SpeedOverride on the estimates: d and directed speeds
       (Eqs. 6-8, :func:`monitor_pair`), S (Eqs. 9-11, ``monitor`` = (mode, T_s + T_r,
       T_r, B + C + Z_r, v_iso, v_iso_reduced) with Z_d per body ``z_d``), k (Eq. 12)
@@ -276,14 +278,20 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
     p_R, v_tool, v_R, p_H, v_H = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     d, s_row, usable = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
+    # Scenarios whose robot has not been slowed yet share its state (s, sigma) bit for bit:
+    # in order of s, each computes the robot only where it differs from the one before.
+    order = np.argsort(s, kind="mergesort")
     for k in range(k0, k1):  # scenarios inside: independent work the CPU can overlap
         t = k * dt
-        for b in range(B):
-            path_state_one(s[b], path, q, dq, ddq)
-            for j in range(6):
-                v_joint[j] = dq[j] * rate[b]
-            p_R[0], p_R[1], p_R[2], v_tool[0], v_tool[1], v_tool[2] = tool0_one_memo(
-                q, v_joint, trig[b])
+        s_before, rate_before = np.nan, np.nan
+        for b in order:
+            if not (s[b] == s_before and rate[b] == rate_before):  # else p_R, v_tool as before
+                path_state_one(s[b], path, q, dq, ddq)
+                for j in range(6):
+                    v_joint[j] = dq[j] * rate[b]
+                p_R[0], p_R[1], p_R[2], v_tool[0], v_tool[1], v_tool[2] = tool0_one_memo(
+                    q, v_joint, trig[b])
+                s_before, rate_before = s[b], rate[b]
             for j in range(3):
                 v_R[j] = (p_R[j] - p_prev[b, j]) / dt
             # SeparationMonitor and SpeedOverride on the tracker's estimates.
