@@ -4,8 +4,10 @@
 batch of scenarios that share the robot, the controller configuration and the shape of
 their operators (number of operators, bodies and waypoints), as the scenarios of one
 space do. It runs the compiled functions the LeafSystems wrap, in compiled loops: at
-each tracker update the MocapSensor's capture (:func:`_capture`; its noise rule in
-numpy) and the KalmanTracker's rows (``kalman_tracker._track_rows``, Eqs. 2-4), and
+each tracker update, in one call (:func:`_update`), the frame each sensor delivers, the
+MocapSensor's capture (:func:`_capture`; the unit noise of each capture index drawn once
+by the sensor's rule, ``mocap_sensor.unit_noise``, and kept for a sweep's next batches)
+and the KalmanTracker's rows (``kalman_tracker._track_rows``, Eqs. 2-4), and
 between two updates every control tick of every scenario in :func:`_advance`: the
 joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_one_memo``), Eq. 5,
 the monitor and the override (``ssm``: Eqs. 6-12), the properties on the operators'
@@ -23,7 +25,7 @@ import numba
 import numpy as np
 
 import safety_systems.joint_path
-from safety_systems import braking, operator_paths, ssm, ur5e
+from safety_systems import braking, kalman, operator_paths, ssm, ur5e
 from safety_systems.braking import path_step_one
 from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.joint_path import path_arrays, path_state_one
@@ -40,6 +42,7 @@ from safety_systems.ssm import (
     protective_one,
     separation_pair,
 )
+from safety_systems.systems import kalman_tracker
 from safety_systems.systems.kalman_tracker import (
     MIN_MEASUREMENT_STD,
     TRACK_SLOT,
@@ -47,7 +50,7 @@ from safety_systems.systems.kalman_tracker import (
     _track_rows,
     position_std,
 )
-from safety_systems.systems.mocap_sensor import _TIME_TOL
+from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
 from safety_systems.systems.separation_monitor import TRACK_COASTING, TRACK_LOST, TRACK_TRACKING
 from safety_systems.ur5e import tool0_one_memo
 from safety_systems.workcell import (
@@ -174,30 +177,72 @@ class _Cells:
         self.leave = np.array([[o.leave_time for o in s.operators] for s in scenarios],
                               dtype=float).reshape(self.B, self.K)
         names = [f"{o.name}/{b.name}" for o in scenarios[0].operators for b in o.bodies]
-        self.units = np.zeros((0, self.N, 3))  # the unit noise of each frame index so far
+        # The unit noise of every capture up to the last tick (MocapSensor's rule).
+        frames = math.floor((self.ticks.max() + 1) * self.dt / self.period) + 2
+        self.units = unit_noise_table(self.seed, self.N, frames)
         o = max((len(s.occlusions) for s in sensors), default=0)
         self.occ = np.full((self.B, o, 3), np.inf)  # body index, start, end
         for b, s in enumerate(sensors):
             for j, oc in enumerate(s.occlusions):
                 self.occ[b, j] = (names.index(oc.body), oc.start, oc.end)
 
-    def delivered_frame(self, u: float) -> np.ndarray:
-        """Index of the frame each scenario's sensor shows at time u (-1: none yet)."""
-        return delivered_frames(u, self.latency, self.period, self.drops)
+    def update(self, u: float, t_frame, tracks, track_args, est_p, est_v, status, unseen):
+        """The tracker update at time u of every scenario (see :func:`_update`)."""
+        _update(u, self.latency, self.period, self.drops, t_frame, self.stack_arrays,
+                self.op_index, self.offsets, self.enter, self.leave, self.occ, self.noise,
+                self.units, tracks, track_args, est_p, est_v, status, unseen)
 
-    def frame(self, rows: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Measured positions (R, N, 3) and valid flags (R, N) of frame ``index`` of the
-        scenarios ``rows``, as MocapSensor captures them."""
-        known = self.units.shape[0]
-        if index.max() >= known:  # the noise of new frames; MocapSensor's rule: drawn
-            # from a generator seeded by (seed, frame)
-            self.units = np.concatenate([self.units, [
-                np.random.default_rng([self.seed, k]).standard_normal(3 * self.N).reshape(
-                    self.N, 3) for k in range(known, int(index.max()) + 1)]])
-        p, valid = np.empty((rows.size, self.N, 3)), np.empty((rows.size, self.N), dtype=bool)
-        _capture(self.stack_arrays, self.op_index, self.offsets, self.enter, self.leave,
-                 self.occ, self.noise, self.units, rows, index, self.period, p, valid)
-        return p, valid
+
+_UNIT_NOISE: dict[tuple[int, int], np.ndarray] = {}  # a few sensors' tables, newest last
+
+
+def unit_noise_table(seed: int, n: int, frames: int) -> np.ndarray:
+    """(frames, n, 3) unit noise of captures 0 .. frames - 1 of a sensor with ``seed``
+    and n bodies (``mocap_sensor.unit_noise``); kept for the next batches of a sweep."""
+    table = _UNIT_NOISE.pop((seed, n), np.zeros((0, n, 3)))
+    if table.shape[0] < frames:
+        table = np.concatenate([table, [unit_noise(seed, k, n).reshape(n, 3)
+                                        for k in range(table.shape[0], frames)]])
+    _UNIT_NOISE[(seed, n)] = table
+    while len(_UNIT_NOISE) > 16:
+        _UNIT_NOISE.pop(next(iter(_UNIT_NOISE)))
+    return table
+
+
+@numba.njit(cache=True)
+def _update(u, latency, period, drops, t_frame, stack, op_index, offsets, enter, leave, occ,
+            noise, units, tracks, track_args, est_p, est_v, status, unseen):
+    """A tracker update at time u of every scenario, compiled: the frame each sensor
+    delivers (:func:`_delivered_rows`); where it is newer than the one the tracker has
+    (``t_frame``), its capture (:func:`_capture`), the KalmanTracker's step of its bodies'
+    tracks (``kalman_tracker._track_rows``, Eqs. 2-4; ``track_args`` = measurement std,
+    velocity process noise, initial velocity std, coast time, exit radius) and their
+    outputs est_p, est_v, status, unseen (``_estimate_rows``)."""
+    B, N = est_p.shape[0], est_p.shape[1]
+    index = np.empty(B, dtype=np.int64)
+    _delivered_rows(np.full(B, u), latency, period, drops, index)
+    new = np.zeros(B, dtype=np.bool_)
+    for b in range(B):
+        new[b] = index[b] >= 0 and index[b] * period > t_frame[b]
+    rows = np.flatnonzero(new)
+    R = rows.size
+    if R > 0:
+        frame = index[rows]
+        if frame.max() >= units.shape[0]:
+            raise ValueError("_update: a capture beyond the unit noise table")
+        z, valid = np.empty((R, N, 3)), np.empty((R, N), dtype=np.bool_)
+        _capture(stack, op_index, offsets, enter, leave, occ, noise, units, rows, frame,
+                 period, z, valid)
+        sel, times = np.empty(R * N, dtype=np.int64), np.empty(R * N)
+        for r in range(R):
+            t_frame[rows[r]] = frame[r] * period
+            for i in range(N):
+                sel[r * N + i], times[r * N + i] = rows[r] * N + i, frame[r] * period
+        std, q_v, v0, coast, radius = track_args
+        _track_rows(tracks, sel, times, z.reshape(R * N, 3), valid.reshape(R * N), std, q_v,
+                    v0, coast, radius)  # KalmanTracker's track_step
+        _estimate_rows(tracks, sel, est_p.reshape(B * N, 3), est_v.reshape(B * N, 3),
+                       status.reshape(B * N), unseen.reshape(B * N))
 
 
 @numba.njit(cache=True)
@@ -233,7 +278,8 @@ def _capture(stack, op_index, offsets, enter, leave, occ, noise, units, rows, in
 
 
 # Its compiled functions inline compiled code from these modules (see compiled_cache).
-drop_stale_builds(__file__, (ssm, braking, safety_systems.joint_path, ur5e, operator_paths))
+drop_stale_builds(__file__, (ssm, braking, safety_systems.joint_path, ur5e, operator_paths,
+                             kalman, kalman_tracker))
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -368,8 +414,9 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     p_prev = np.full((B, 3), np.nan)
     trig = np.full((B, 15), np.nan)  # tool0_one_memo's memory
     tracks = np.zeros((B * N, TRACK_SLOT))
-    track_args = (max(m_std, MIN_MEASUREMENT_STD), tr.velocity_process_noise,
-                  tr.initial_velocity_std, tr.max_coast_time, tr.exit_radius)
+    track_args = (float(max(m_std, MIN_MEASUREMENT_STD)), float(tr.velocity_process_noise),
+                  float(tr.initial_velocity_std), float(tr.max_coast_time),
+                  float(tr.exit_radius))
     t_frame = np.full(B, -np.inf)
     est_p = np.full((B, N, 3), np.nan)
     est_v = np.full((B, N, 3), np.nan)
@@ -398,18 +445,9 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         k = stop
         if k > last:
             break
-        index = c.delivered_frame(u)
-        rows = np.flatnonzero((index >= 0) & (index * c.period > t_frame))
-        if rows.size:
-            z, valid = c.frame(rows, index[rows])
-            sel = (rows[:, None] * N + np.arange(N)).ravel()
-            _track_rows(tracks, sel, np.repeat(index[rows] * c.period, N), z.reshape(-1, 3),
-                        valid.ravel(), *track_args)  # KalmanTracker's track_step
-            t_frame[rows] = index[rows] * c.period
-            _estimate_rows(tracks, sel, est_p.reshape(-1, 3), est_v.reshape(-1, 3),
-                           status.reshape(-1), unseen.reshape(-1))
-            if not z_fixed:
-                std = position_std(tracks.reshape(B, N, TRACK_SLOT))
+        c.update(u, t_frame, tracks, track_args, est_p, est_v, status, unseen)
+        if not z_fixed:
+            std = position_std(tracks.reshape(B, N, TRACK_SLOT))
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        prot_time, prot_deep)

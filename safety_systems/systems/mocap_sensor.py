@@ -25,6 +25,13 @@ def _intervals(name: str, rows: Sequence, width: int) -> np.ndarray:
     return array
 
 
+def unit_noise(seed: int, frame: int, n: int) -> np.ndarray:
+    """The unit noise of capture ``frame`` of n bodies (3 n,): standard normal draws of a
+    generator seeded by (seed, frame), so a capture's noise depends only on the sensor's
+    seed and the capture's index (the batched verifier draws the same)."""
+    return np.random.default_rng([seed, frame]).standard_normal(3 * n)
+
+
 class MocapSensor(LeafSystem):
     """Samples the present, non-occluded bodies every period and delivers frames late.
 
@@ -149,8 +156,7 @@ class MocapSensor(LeafSystem):
         valid[self._occ_body[occluded]] = False
         positions = np.array(self._positions_true.Eval(context), dtype=float)
         if self._noise_std > 0.0:
-            rng = np.random.default_rng([self._seed, k])
-            positions += self._noise_std * rng.standard_normal(3 * self._n)
+            positions += self._noise_std * unit_noise(self._seed, k, self._n)
         positions.reshape(-1, 3)[~valid] = np.nan
         frames = discrete_state.get_mutable_value(self._frames_index)
         frames[: -self._slot] = frames[self._slot :].copy()  # drop the oldest slot

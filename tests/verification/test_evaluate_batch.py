@@ -67,3 +67,16 @@ def test_batch_rejects_mixed_shapes():
     two = make_scenario(SPACE, config, dict(to_point(SPACE, np.full(14, 0.5)), operators=2.0))
     with pytest.raises(ValueError, match="operator shape"):
         evaluate_batch([one, two])
+
+
+def test_unit_noise_table_is_the_sensors_draws_kept_and_grown():
+    from safety_systems.systems.mocap_sensor import unit_noise
+    from verification.evaluate_batch import unit_noise_table
+
+    short = unit_noise_table(12345, 3, 4).copy()
+    longer = unit_noise_table(12345, 3, 9)  # the kept table, grown
+    assert longer.shape == (9, 3, 3)
+    np.testing.assert_array_equal(longer[:4], short)
+    for k in (0, 3, 8):
+        np.testing.assert_array_equal(longer[k].ravel(), unit_noise(12345, k, 3))
+    assert unit_noise_table(12345, 3, 2).shape[0] >= 2  # a shorter need reuses it
