@@ -11,7 +11,7 @@ LeafSystems that do nothing (one periodic update and one output each), which bou
 what any diagram of Python systems at 500 Hz can reach (the control loop has four such
 parts at 500 Hz: EndEffectorVelocity, SeparationMonitor, SpeedOverride, PathFollower),
 and the dynamic mode's UR5e plant with its inverse-dynamics controller alone (no Python
-system), which bounds the dynamic mode. Run it pinned to one core for the one-core
+system) and beside four idle Python systems at 500 Hz, which bound the dynamic mode. Run it pinned to one core for the one-core
 figure (e.g. ``taskset -c 0 python benchmarks/bench_simulate.py``).
 """
 
@@ -79,22 +79,26 @@ class _Idle(LeafSystem):
         output.SetFromVector(context.get_discrete_state(self._state).value())
 
 
-def idle_floor(systems: int, duration: float, repeats: int) -> float:
-    """Real-time factor of ``systems`` chained do-nothing Python systems at 500 Hz."""
-    builder = DiagramBuilder()
+def _idle_chain(builder: DiagramBuilder, systems: int) -> None:
     previous = None
     for _ in range(systems):
         system = builder.AddSystem(_Idle(chained=previous is not None))
         if previous is not None:
             builder.Connect(previous.get_output_port(), system.get_input_port())
         previous = system
-    diagram = builder.Build()
-    return _best_factor(diagram, duration, repeats)
 
 
-def plant_floor(duration: float, repeats: int) -> float:
-    """Real-time factor of the dynamic mode's plant and inverse-dynamics controller alone,
-    holding the first waypoint (all C++)."""
+def idle_floor(systems: int, duration: float, repeats: int) -> float:
+    """Real-time factor of ``systems`` chained do-nothing Python systems at 500 Hz."""
+    builder = DiagramBuilder()
+    _idle_chain(builder, systems)
+    return _best_factor(builder.Build(), duration, repeats)
+
+
+def plant_floor(duration: float, repeats: int, systems: int = 0) -> float:
+    """Real-time factor of the dynamic mode's plant and inverse-dynamics controller,
+    holding the first waypoint (all C++), beside ``systems`` chained idle Python systems
+    at 500 Hz."""
     builder = DiagramBuilder()
     _, control = AddUr5eWithInverseDynamics(builder, 0.002)
     q0 = joint_path_state(default_joint_path(), 0.0)[0]
@@ -103,8 +107,8 @@ def plant_floor(duration: float, repeats: int) -> float:
     builder.Connect(state.get_output_port(), control.get_input_port_desired_state())
     builder.Connect(acceleration.get_output_port(),
                     control.get_input_port_desired_acceleration())
-    diagram = builder.Build()
-    return _best_factor(diagram, duration, repeats)
+    _idle_chain(builder, systems)
+    return _best_factor(builder.Build(), duration, repeats)
 
 
 def monitor_and_override_us(n: int = 10, number: int = 20000) -> float:
@@ -137,9 +141,11 @@ def main() -> None:
         rtf = idle_floor(systems, args.duration, args.repeats)
         print(f"{f'  floor: {systems} idle Python system(s) at 500 Hz':44s} {rtf:9.1f}x "
               f"{'':>10s} {rtf / GOALS['kinematic']:12.2f}")
-    rtf = plant_floor(args.duration, args.repeats)
-    print(f"{'  floor: dynamic plant + inverse dynamics only':44s} {rtf:9.1f}x "
-          f"{'':>10s} {rtf / GOALS['dynamic']:12.2f}")
+    for systems in (0, 4):
+        rtf = plant_floor(args.duration, args.repeats, systems)
+        what = f"+ {systems} idle Python" if systems else "alone"
+        print(f"{'  floor: plant + inverse dyn. ' + what:44s} {rtf:9.1f}x "
+              f"{'':>10s} {rtf / GOALS['dynamic']:12.2f}")
     us = monitor_and_override_us()
     print(f"{'monitor + override, 10 bodies (plain fns)':44s} {us:8.1f}us "
           f"{MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")
