@@ -20,6 +20,7 @@ state before that tick's updates, as Drake's loggers record them.
 
 import dataclasses
 import math
+import threading
 
 import numba
 import numpy as np
@@ -143,7 +144,7 @@ class _Cells:
         self.end = np.array([self.path.cycle_time * s.robot.cycles for s in scenarios])
         self.brake_scale = np.array([s.robot.braking_time_scale for s in scenarios])
         self.table = braking_table(self.config)
-        self.ticks = np.array([int(math.floor(s.duration / self.dt + 1e-9)) for s in scenarios])
+        self.ticks = np.array([math.floor(s.duration / self.dt + 1e-9) for s in scenarios])
         sensors = [actual_sensor(s) for s in scenarios]
         self.period = _common(scenarios, lambda s: 1.0 / actual_sensor(s).rate_hz, "sensor rate")
         self.seed = _common(scenarios, lambda s: actual_sensor(s).seed, "sensor seed")
@@ -194,18 +195,21 @@ class _Cells:
 
 
 _UNIT_NOISE: dict[tuple[int, int], np.ndarray] = {}  # a few sensors' tables, newest last
+_UNIT_NOISE_LOCK = threading.Lock()  # (a Dask worker runs batches in threads)
 
 
 def unit_noise_table(seed: int, n: int, frames: int) -> np.ndarray:
     """(frames, n, 3) unit noise of captures 0 .. frames - 1 of a sensor with ``seed``
-    and n bodies (``mocap_sensor.unit_noise``); kept for the next batches of a sweep."""
-    table = _UNIT_NOISE.pop((seed, n), np.zeros((0, n, 3)))
-    if table.shape[0] < frames:
-        table = np.concatenate([table, [unit_noise(seed, k, n).reshape(n, 3)
-                                        for k in range(table.shape[0], frames)]])
-    _UNIT_NOISE[(seed, n)] = table
-    while len(_UNIT_NOISE) > 16:
-        _UNIT_NOISE.pop(next(iter(_UNIT_NOISE)))
+    and n bodies (``mocap_sensor.unit_noise``); kept for the next batches of a sweep
+    (never changed in place: a longer table is a new array)."""
+    with _UNIT_NOISE_LOCK:
+        table = _UNIT_NOISE.pop((seed, n), np.zeros((0, n, 3)))
+        if table.shape[0] < frames:
+            table = np.concatenate([table, [unit_noise(seed, k, n).reshape(n, 3)
+                                            for k in range(table.shape[0], frames)]])
+        _UNIT_NOISE[(seed, n)] = table
+        while len(_UNIT_NOISE) > 16:
+            _UNIT_NOISE.pop(next(iter(_UNIT_NOISE)))
     return table
 
 
@@ -320,7 +324,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     mode, t_sr, t_r, const, iso, iso_reduced = monitor
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
-    B, N, K = est_p.shape[0], est_p.shape[1], enter.shape[1]
+    N, K = est_p.shape[1], enter.shape[1]
     q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
     p_R, v_tool, v_R, p_H, v_H = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     d, s_row, usable = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
