@@ -11,8 +11,9 @@ LeafSystems that do nothing (one periodic update and one output each), which bou
 what any diagram of Python systems at 500 Hz can reach (the control loop has four such
 parts at 500 Hz: EndEffectorVelocity, SeparationMonitor, SpeedOverride, PathFollower),
 and the dynamic mode's UR5e plant with its inverse-dynamics controller alone (no Python
-system) and beside four idle Python systems at 500 Hz, which bound the dynamic mode. Run it pinned to one core for the one-core
-figure (e.g. ``taskset -c 0 python benchmarks/bench_simulate.py``).
+system) and beside four idle Python systems at 500 Hz, which bound the dynamic mode.
+Run it pinned to one core for the one-core figure (e.g.
+``taskset -c 0 python benchmarks/bench_simulate.py``).
 """
 
 import argparse

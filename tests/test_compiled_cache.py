@@ -22,4 +22,3 @@ def test_builds_dropped_when_what_they_inline_changes(tmp_path):
     (cache / "caller.depends").unlink()
     drop_stale_builds(module, (dep,))
     assert not builds[0].exists()
-

@@ -239,9 +239,9 @@ def _update(u, latency, period, drops, t_frame, stack, op_index, offsets, enter,
                  period, z, valid)
         sel, times = np.empty(R * N, dtype=np.int64), np.empty(R * N)
         for r in range(R):
-            t_frame[rows[r]] = frame[r] * period
+            t_frame[rows[r]] = frame[r] * period  # the capture time
             for i in range(N):
-                sel[r * N + i], times[r * N + i] = rows[r] * N + i, frame[r] * period
+                sel[r * N + i], times[r * N + i] = rows[r] * N + i, t_frame[rows[r]]
         std, q_v, v0, coast, radius = track_args
         _track_rows(tracks, sel, times, z.reshape(R * N, 3), valid.reshape(R * N), std, q_v,
                     v0, coast, radius)  # KalmanTracker's track_step

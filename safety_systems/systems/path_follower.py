@@ -50,7 +50,7 @@ class PathFollower(LeafSystem):
                             ("braking_time_scale", braking_time_scale), ("max_rate", max_rate)):
             if not (np.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name}: got {value}; allowed: a finite number > 0")
-        self._path, self._table = path, braking
+        self._path = path
         self._accel, self._dt = float(acceleration_limit), float(period_sec)
         self._brake_scale = float(braking_time_scale)
         self._max_rate = float(max_rate)
