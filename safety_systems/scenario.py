@@ -16,7 +16,9 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from safety_systems.joint_path import make_joint_path
 from safety_systems.operator_paths import make_operator_path
+from safety_systems.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
 from safety_systems.ssm import HUMAN_SPEED_MODES
+from safety_systems.tracks import HIDDEN_BODY_RULES
 
 
 class ScenarioError(ValueError):
@@ -45,15 +47,42 @@ class Occlusion:
 
 
 @dc.dataclass
+class SensorFault:
+    """Frames captured over [start, end) carry a fault (``safety_systems.sensor_faults``):
+    ``outlier`` (the body's entry displaced by ``offset``, m), ``swap`` (the body's and
+    ``other``'s entries carry each other's ids), ``non_finite``, ``unknown_id`` (the
+    body's entry), ``time_duplicate`` or ``time_backwards`` (the whole frame; no body)."""
+
+    kind: str = "outlier"
+    body: str = ""
+    other: str = ""
+    start: float = 0.0
+    end: float = 0.0
+    offset: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dc.dataclass
 class SensorConfig:
-    """Motion-capture sensor (seed Section 4: OptiTrack streamed at 20 Hz, 0.2 mm)."""
+    """Motion-capture sensor (seed Section 4: OptiTrack streamed at 20 Hz, 0.2 mm).
+
+    ``occlusions``, ``dropouts`` and ``faults`` describe the real sensor of a scenario
+    (what happens to the frames), not the controller's assumptions."""
 
     rate_hz: float = 20.0
     noise_std: float = 0.0002
     latency: float = 0.0
     occlusions: list[Occlusion] = dc.field(default_factory=list)
     dropouts: list[Interval] = dc.field(default_factory=list)
+    faults: list[SensorFault] = dc.field(default_factory=list)
     seed: int = 0
+
+
+@dc.dataclass
+class Box:
+    """An axis-aligned box [min, max] in the robot base frame, m."""
+
+    min: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    max: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
 
 
 @dc.dataclass
@@ -67,13 +96,28 @@ class TrackerConfig:
     the seed leaves unspecified beyond "the velocity dynamics (assumed constant)"; we
     read that literally: (0.22 m/s)^2 per step, a nearly constant velocity, which
     smooths the estimate (and makes it lag a sudden lunge).
+
+    Hidden bodies (``safety_systems.tracks``): ``hazard`` keeps a body that is no longer
+    seen as a ball growing at ``safety.occlusion_speed`` until it is seen leaving through
+    one of the ``exits`` or beyond the ``cell``'s walls (None: no walls); ``expire`` is
+    the previous rule, kept for comparison: a track unseen for ``max_coast_time`` s ends
+    if its estimate lies beyond ``exit_radius`` m from the base, else is lost (stop).
+    ``gate``: reject (and stop on) a position farther from its track than a body moving
+    at ``gate_speed`` m/s (ISO 13855's 2.0 m/s hand speed) could be, plus ``gate_width``
+    m (0.05 m: noise and estimate error, with room) and Z_d.
     """
 
     measurement_std: typing.Optional[float] = None
     velocity_process_noise: float = 0.05
     initial_velocity_std: float = 2.0
+    hidden_bodies: str = "hazard"
     max_coast_time: float = 0.5
     exit_radius: float = 2.5
+    exits: list[Box] = dc.field(default_factory=list)
+    cell: typing.Optional[Box] = None
+    gate: bool = True
+    gate_speed: float = 2.0
+    gate_width: float = 0.05
     processing_time: float = 0.001
     frame_timeout: typing.Optional[float] = None
 
@@ -85,10 +129,20 @@ class SafetyConfig:
     ``stopping_time`` and ``stopping_distance`` None: taken from the braking table at
     full speed. ``human_uncertainty_sigmas`` > 0 adds that many standard deviations of
     each track's position estimate to Z_d (0 = the seed's constant Z_d).
-    ``occlusion_speed`` > 0 (m/s) grows Z_d of a body while it is unseen
-    (``safety_systems.ssm.occlusion_margin``; 0 = the seed's constant Z_d).
+    ``occlusion_speed`` (m/s): the radius of a hidden body's ball grows at this speed
+    (0 = the seed's: a hidden body stays where it was last seen).
+
+    ``robot_geometry``: ``capsules`` (the monitor measures every robot link:
+    ``safety_systems.robot_geometry``, the UR5e model's capsules or ``link_radii`` (6 m),
+    and the tool from the flange along its z axis for ``tool_length`` m with
+    ``payload_radius`` m) or ``tool_point`` (the seed's Eq. 8: the tool flange as a
+    point, bodies as points).
     """
 
+    robot_geometry: str = "capsules"
+    payload_radius: float = 0.05
+    tool_length: float = 0.0
+    link_radii: list[float] = dc.field(default_factory=list)
     human_speed: str = "estimated"
     iso_human_speed: float = 2.0
     iso_reduced_human_speed: float = 1.6
@@ -173,6 +227,8 @@ class RobotConfig:
     ``braking_time_scale``: the real robot's stopping times as a multiple of the
     configured stopping data (1: the brakes are as the data says; > 1: weaker brakes,
     which verification uses to check what happens when the data is wrong).
+    ``payload_radius`` and ``tool_length``: the real tool (m), a capsule from the
+    flange along its z axis; the properties measure contact against it.
     """
 
     mode: str = "kinematic"
@@ -180,6 +236,8 @@ class RobotConfig:
     cycles: int = 3
     acceleration_limit: float = 2.0
     braking_time_scale: float = 1.0
+    payload_radius: float = 0.05
+    tool_length: float = 0.0
     path: PathConfig = dc.field(default_factory=PathConfig)
 
 
@@ -255,6 +313,7 @@ class ZonesConfig:
     rate_hz: float = 100.0
 
 
+ROBOT_GEOMETRIES = ("capsules", "tool_point")
 CONTROLLER_TYPES = ("ssm_override", "erga", "hwang", "bimodal", "none", "zones")
 
 
@@ -279,10 +338,12 @@ class ControllerConfig:
 
 @dc.dataclass
 class Body:
-    """A tracked rigid body (glove, head) at a fixed offset from its operator."""
+    """A tracked rigid body (glove, head) at a fixed offset from its operator, monitored
+    as a sphere of ``radius`` m (default 0.05 m, a hand; give a head about 0.12 m)."""
 
     name: str = ""
     offset: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    radius: float = 0.05
 
 
 @dc.dataclass
@@ -323,6 +384,10 @@ class Scenario:
 
     ``sensor``: the cell's real sensor when it differs from the one the controller is
     configured for (``controller.sensor``), e.g. a larger latency; None: as configured.
+    ``contact_geometry``: what counts as contact for the safety properties:
+    ``capsules`` (a body's sphere within ``contact_distance`` m of a robot capsule; the
+    real tool is ``robot.payload_radius`` and ``robot.tool_length``) or ``tool_point``
+    (a body's centre within ``contact_distance`` of the tool flange, the seed's view).
     ``jerk_window``: [first, last] sample (controller periods) over which ``compare``
     reports jerk; empty: the whole run. ``gestures``: timed start/stop/resume commands
     for the ``zones`` controller.
@@ -330,7 +395,8 @@ class Scenario:
 
     name: str = ""
     duration: float = 30.0
-    contact_distance: float = 0.10
+    contact_geometry: str = "capsules"
+    contact_distance: float = 0.0
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
     sensor: typing.Optional[SensorConfig] = None
@@ -370,6 +436,19 @@ def validate_sensor(s: SensorConfig, prefix: str) -> None:
     for i, o in enumerate(s.occlusions):
         _check(0.0 <= o.start < o.end, f"{prefix}.occlusions[{i}]", [o.start, o.end],
                "0 <= start < end")
+    for i, f in enumerate(s.faults):
+        where = f"{prefix}.faults[{i}]"
+        _check(f.kind in FAULT_KINDS, f"{where}.kind", f.kind, " | ".join(FAULT_KINDS))
+        _check(0.0 <= f.start < f.end, where, [f.start, f.end], "0 <= start < end")
+        _check(len(f.offset) == 3 and all(math.isfinite(x) and abs(x) <= 10.0
+                                          for x in f.offset),
+               f"{where}.offset", f.offset, "3 numbers in m, each within +-10")
+
+
+def _box(field: str, box: Box) -> None:
+    _check(len(box.min) == 3 and len(box.max) == 3 and all(
+        math.isfinite(a) and math.isfinite(b) and a <= b for a, b in zip(box.min, box.max)),
+        field, [box.min, box.max], "min and max: 3 finite numbers in m each, min <= max")
 
 
 def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None:
@@ -383,6 +462,16 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
     _positive(f"{prefix}.tracker.initial_velocity_std", t.initial_velocity_std)
     _positive(f"{prefix}.tracker.max_coast_time", t.max_coast_time)
     _positive(f"{prefix}.tracker.exit_radius", t.exit_radius)
+    _check(t.hidden_bodies in HIDDEN_BODY_RULES, f"{prefix}.tracker.hidden_bodies",
+           t.hidden_bodies, " | ".join(HIDDEN_BODY_RULES))
+    _check(math.isfinite(t.gate_speed) and 0.0 < t.gate_speed <= 10.0,
+           f"{prefix}.tracker.gate_speed", t.gate_speed, "0 < gate_speed <= 10 m/s")
+    _check(math.isfinite(t.gate_width) and 0.0 <= t.gate_width <= 2.0,
+           f"{prefix}.tracker.gate_width", t.gate_width, "0 to 2 m")
+    for i, box in enumerate(t.exits):
+        _box(f"{prefix}.tracker.exits[{i}]", box)
+    if t.cell is not None:
+        _box(f"{prefix}.tracker.cell", t.cell)
     _positive(f"{prefix}.tracker.processing_time", t.processing_time)
     if t.frame_timeout is not None:
         due = 1.0 / s.rate_hz + s.latency + t.processing_time
@@ -390,6 +479,16 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
                f"{prefix}.tracker.frame_timeout", t.frame_timeout,
                f"more than one sensor period + latency + processing time ({due:.4g} s)")
     f = c.safety
+    _check(f.robot_geometry in ROBOT_GEOMETRIES, f"{prefix}.safety.robot_geometry",
+           f.robot_geometry, " | ".join(ROBOT_GEOMETRIES))
+    _check(math.isfinite(f.payload_radius) and 0.0 < f.payload_radius <= 1.0,
+           f"{prefix}.safety.payload_radius", f.payload_radius, "0 < payload_radius <= 1 m")
+    _check(math.isfinite(f.tool_length) and 0.0 <= f.tool_length <= 1.0,
+           f"{prefix}.safety.tool_length", f.tool_length, "0 to 1 m")
+    _check(len(f.link_radii) in (0, 6) and all(math.isfinite(r) and 0.0 < r <= 0.5
+                                               for r in f.link_radii),
+           f"{prefix}.safety.link_radii", f.link_radii,
+           "empty (the UR5e model's capsules) or 6 radii in m, each 0 < r <= 0.5")
     _check(f.human_speed in HUMAN_SPEED_MODES, f"{prefix}.safety.human_speed", f.human_speed,
            " | ".join(HUMAN_SPEED_MODES))
     for name in ("iso_human_speed", "iso_reduced_human_speed"):
@@ -468,7 +567,10 @@ def validate_alteration(a: SpeedAlterationConfig, prefix: str) -> None:
 def validate_scenario(s: Scenario) -> None:
     """Range checks of a whole scenario; raises :class:`ScenarioError`."""
     _positive("duration", s.duration)
-    _finite_nonneg("contact_distance", s.contact_distance)
+    _check(s.contact_geometry in ROBOT_GEOMETRIES, "contact_geometry", s.contact_geometry,
+           " | ".join(ROBOT_GEOMETRIES))
+    _check(math.isfinite(s.contact_distance) and 0.0 <= s.contact_distance <= 1.0,
+           "contact_distance", s.contact_distance, "0 to 1 m")
     last = -math.inf
     for i, g in enumerate(s.gestures):
         _check(g.command in GESTURES, f"gestures[{i}].command", g.command, " | ".join(GESTURES))
@@ -484,6 +586,10 @@ def validate_scenario(s: Scenario) -> None:
            "100 to 2000")
     _check(r.cycles >= 1, "robot.cycles", r.cycles, "an integer >= 1")
     _positive("robot.acceleration_limit", r.acceleration_limit)
+    _check(math.isfinite(r.payload_radius) and 0.0 < r.payload_radius <= 1.0,
+           "robot.payload_radius", r.payload_radius, "0 < payload_radius <= 1 m")
+    _check(math.isfinite(r.tool_length) and 0.0 <= r.tool_length <= 1.0,
+           "robot.tool_length", r.tool_length, "0 to 1 m")
     p = r.path
     if p.line is not None:
         _check(not p.waypoints_deg and not p.segment_durations, "robot.path.line", "line",
@@ -546,6 +652,8 @@ def validate_scenario(s: Scenario) -> None:
                f"2 to {MAX_BODIES_PER_OPERATOR} bodies (both gloves, optionally the head)")
         for j, b in enumerate(o.bodies):
             _check(len(b.offset) == 3, f"{f}.bodies[{j}].offset", b.offset, "3 numbers in m")
+            _check(math.isfinite(b.radius) and 0.0 <= b.radius <= 0.5,
+                   f"{f}.bodies[{j}].radius", b.radius, "0 to 0.5 m")
         _check(len(o.waypoints) >= 1, f"{f}.waypoints", o.waypoints, "at least one waypoint")
         last = -math.inf
         for j, w in enumerate(o.waypoints):
@@ -566,6 +674,16 @@ def validate_scenario(s: Scenario) -> None:
     sensor, where = actual_sensor(s), "sensor" if s.sensor is not None else "controller.sensor"
     for i, oc in enumerate(sensor.occlusions):
         _check(oc.body in bodies, f"{where}.occlusions[{i}].body", oc.body, f"one of {bodies}")
+    for i, fault in enumerate(sensor.faults):
+        if fault.kind in BODY_FAULTS:
+            _check(fault.body in bodies, f"{where}.faults[{i}].body", fault.body,
+                   f"one of {bodies}")
+        else:
+            _check(not fault.body, f"{where}.faults[{i}].body", fault.body,
+                   f"empty: {fault.kind} acts on the whole frame")
+        if fault.kind == FAULT_KINDS[SWAP]:
+            _check(fault.other in bodies and fault.other != fault.body,
+                   f"{where}.faults[{i}].other", fault.other, f"another of {bodies}")
 
 
 def actual_sensor(s: Scenario) -> SensorConfig:

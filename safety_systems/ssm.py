@@ -13,7 +13,14 @@ import math
 import numba
 import numpy as np
 
+from safety_systems import stops, tracks
+from safety_systems.compiled_cache import drop_stale_builds
+from safety_systems.tracks import TRACK_LOST, usable
+
 HUMAN_SPEED_MODES = ("estimated", "iso", "estimated_with_floor")
+
+# Its compiled functions inline tracks' and read stops' codes (see compiled_cache).
+drop_stale_builds(__file__, (stops, tracks))
 
 # ISO/TS 15066 Eq. 1 (seed Section 2) after ISO 13855: 2000 mm/s, or 1600 mm/s where
 # the resulting S exceeds 500 mm (and then S is not taken below 500 mm).
@@ -242,44 +249,23 @@ def monitor_protective_distances(
     return out
 
 
-def occlusion_margin(
-    unseen_time: np.ndarray,
-    velocity_estimate: np.ndarray,
-    occlusion_speed: float,
-) -> np.ndarray:
-    """Extra uncertainty of bodies not measured for ``unseen_time`` seconds, metres.
-
-    Not in the seed (its Z_d is constant). While a body is unseen its track coasts at
-    the estimated velocity; the body itself may have moved anywhere within
-    ``occlusion_speed`` (m/s) of where it was last measured. The estimate is then off by
-    at most (occlusion_speed + |v_estimate|) * unseen_time, which this returns (0 when
-    ``occlusion_speed`` is 0: the seed's behaviour). Shapes: (..., N) and (..., N, 3).
-    """
-    if occlusion_speed <= 0.0:
-        return np.zeros(np.shape(unseen_time))
-    v = np.asarray(velocity_estimate, dtype=float)
-    speed = np.fmax(np.sqrt((v * v).sum(axis=-1)), 0.0)  # no estimate (NaN): 0
-    return (occlusion_speed + speed) * np.asarray(unseen_time, dtype=float)
-
-
-def human_uncertainty(
-    base: float,
-    sigmas: float,
-    position_std: np.ndarray,
-    unseen_time: np.ndarray,
-    velocity_estimate: np.ndarray,
-    occlusion_speed: float,
-) -> np.ndarray | float:
-    """Z_d of each body, metres: the configured ``base``, plus ``sigmas`` standard
-    deviations of the track's position, plus :func:`occlusion_margin`. Terms that are
-    switched off (``sigmas`` 0, ``occlusion_speed`` 0) are not computed, so the seed's
-    constant Z_d stays the float ``base``."""
-    z_d = base
+def human_uncertainty(base: float, sigmas: float,
+                      position_std: np.ndarray) -> np.ndarray | float:
+    """Z_d of each body, metres: the configured ``base`` plus ``sigmas`` standard
+    deviations of the track's position (not computed when ``sigmas`` is 0, so the seed's
+    constant Z_d stays the float ``base``). A hidden body's extra uncertainty is not in
+    Z_d: it is the radius of its ball (:func:`hidden_ball_radius`), taken off its d."""
     if sigmas:
-        z_d = z_d + sigmas * np.asarray(position_std, dtype=float)
-    if occlusion_speed > 0.0:
-        z_d = z_d + occlusion_margin(unseen_time, velocity_estimate, occlusion_speed)
-    return z_d
+        return base + sigmas * np.asarray(position_std, dtype=float)
+    return base
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def hidden_ball_radius(unseen_time, occlusion_speed):
+    """Radius (m) of the ball a hidden body may be in, around its last accepted
+    estimate: ``occlusion_speed`` (m/s) times the seconds since it was last seen. Not in
+    the seed (its Z_d is constant); see ``safety_systems.tracks``."""
+    return occlusion_speed * unseen_time
 
 
 # Stand-ins for an infinite S_max (+-): beyond every finite distance, and (dS - 1) times
@@ -328,6 +314,45 @@ def override_row(d, s, inc, delta_s, d_min):
     else:
         k = _eq12(closest, top, delta_s, d_min)
     return k, top  # one exit (see operator_paths.path_point_one)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def override_command(d, s, status, fault, delta_s, d_min, included):
+    """The SpeedOverride's (k, S_max, stop reason) of one robot, compiled: Eq. 12 over
+    the bodies with a usable track (``tracks.usable``: tracking or hidden; their flags
+    are written into ``included`` (N,)) by :func:`override_row`, then fail safe: a lost
+    track (the ``expire`` rule) stops the robot (``stops.STOP_LOST_TRACK``), and so does a
+    tracker ``fault``, which is its own stop reason (``safety_systems.stops``; NaN or an
+    unknown code counts as a stale frame). The stop rule of every controller that reads
+    the tracker is this one."""
+    lost = False
+    for i in range(d.size):
+        lost = lost or status[i] == TRACK_LOST
+        included[i] = usable(status[i])
+    k, top = override_row(d, s, included, delta_s, d_min)
+    reason = stops.STOP_SEPARATION if k <= 0.0 else stops.STOP_NONE
+    if lost:
+        k, reason = 0.0, stops.STOP_LOST_TRACK
+    if fault != 0.0:  # NaN too
+        known = fault >= stops.STOP_STALE_FRAME and fault < len(stops.STOP_REASONS)
+        k, reason = 0.0, fault if known else stops.STOP_STALE_FRAME
+    return k, top, reason  # one exit (see operator_paths.path_point_one)
+
+
+@numba.njit(cache=True)
+def _override_command(d, s, status, fault, delta_s, d_min):
+    return override_command(d, s, status, fault, delta_s, d_min, np.empty(d.size, np.bool_))
+
+
+def speed_override_command(distances: np.ndarray, protective_distances: np.ndarray,
+                           status: np.ndarray, fault: float, *, delta_s: float = 2.0,
+                           d_min: float = 0.30) -> tuple[float, float, int]:
+    """:func:`override_command` of one robot from Python: (k, S_max, stop reason)."""
+    k, top, reason = _override_command(
+        np.ascontiguousarray(distances, dtype=float),
+        np.ascontiguousarray(protective_distances, dtype=float),
+        np.ascontiguousarray(status, dtype=float), float(fault), float(delta_s), float(d_min))
+    return float(k), float(top), int(reason)
 
 
 @numba.njit(cache=True)

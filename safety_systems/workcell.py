@@ -24,6 +24,7 @@ from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
 from safety_systems.braking import BrakingTable, default_braking_table, stopping_distance
 from safety_systems.braking import stopping_time as table_stopping_time
 from safety_systems.cartesian_path import line_path, polyline_path
+from safety_systems.configuration import sensor_faults, tracker_regions, tracker_rules
 from safety_systems.joint_path import JointPath, SplinePath, default_joint_path, make_joint_path
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
 from safety_systems.scenario import (
@@ -142,17 +143,14 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
     seed-004 controllers (``erga``, ``hwang``, ``bimodal``, ``none``) need ``path`` and
     the body roles (``body_roles``); left to connect: their ``path_state``. ``zones``
     (seed 001) needs ``path``; left to connect: its ``path_state`` and ``gesture``.
-    Always left to connect: the tracker's ``positions_measured``, ``valid`` and
-    ``sample_time``.
+    Always left to connect: the tracker's ``positions_measured``, ``valid``,
+    ``sample_time``, ``frame_number`` and ``body_ids``.
     """
     s, t, f = config.sensor, config.tracker, config.safety
     tracker = builder.AddNamedSystem("tracker", KalmanTracker(
         num_bodies=num_bodies, period_sec=1.0 / s.rate_hz, latency_sec=s.latency,
         processing_time=t.processing_time, frame_timeout=frame_timeout(config),
-        measurement_std=s.noise_std if t.measurement_std is None else t.measurement_std,
-        velocity_process_noise=t.velocity_process_noise,
-        initial_velocity_std=t.initial_velocity_std, max_coast_time=t.max_coast_time,
-        exit_radius=t.exit_radius))
+        rules=tracker_rules(config), regions=tracker_regions(config)))
     if config.type == "zones":
         zones = builder.AddNamedSystem("zones", ZonesController(
             path=path, config=config.zones, num_bodies=num_bodies))
@@ -275,14 +273,14 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     sensor = builder.AddNamedSystem("mocap", MocapSensor(
         num_bodies=n, period_sec=1.0 / real.rate_hz, noise_std=real.noise_std,
         latency_sec=real.latency, occlusions=occlusions, dropped_frames=dropouts,
-        seed=real.seed))
+        faults=sensor_faults(scenario), seed=real.seed))
     builder.Connect(motion.GetOutputPort("positions_true"),
                     sensor.GetInputPort("positions_true"))
     builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))
     operator_of, is_hand = body_roles(scenario)
     safety = AddSafetyController(builder, config=config, num_bodies=n, control_period=dt,
                                  path=path, operator_of=operator_of, is_hand=is_hand)
-    for name in ("positions_measured", "valid", "sample_time"):
+    for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")
     zones = safety.systems.get("zones")

@@ -8,12 +8,12 @@ from safety_systems.ssm import (
     human_speed_term,
     human_uncertainty,
     monitor_protective_distances,
-    occlusion_margin,
     overall_speed_override,
     protective_separation_distance,
     separation_and_directed_speeds,
     separation_distances,
     speed_override,
+    speed_override_command,
 )
 
 
@@ -210,10 +210,24 @@ def test_separation_with_directed_speeds_gives_eq8_distances():
 
 def test_human_uncertainty_adds_only_the_terms_switched_on():
     std = np.array([0.01, np.nan])  # the second body has no track
-    unseen = np.array([0.2, 0.0])
-    v = np.array([[0.3, 0.4, 0.0], [np.nan] * 3])
-    assert human_uncertainty(0.05, 0.0, std, unseen, v, 0.0) == 0.05  # the seed's constant
-    np.testing.assert_allclose(human_uncertainty(0.05, 3.0, std, unseen, v, 0.0)[0], 0.08)
-    both = human_uncertainty(0.05, 3.0, std, unseen, v, 2.0)
-    np.testing.assert_allclose(both[0], 0.05 + 0.03 + (2.0 + 0.5) * 0.2)
-    np.testing.assert_array_equal(both, 0.05 + 3.0 * std + occlusion_margin(unseen, v, 2.0))
+    assert human_uncertainty(0.05, 0.0, std) == 0.05  # the seed's constant
+    np.testing.assert_allclose(human_uncertainty(0.05, 3.0, std)[0], 0.08)
+
+
+def test_override_command_is_the_plain_override_then_fail_safe():
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        d, s = rng.uniform(-0.5, 3, 5), rng.uniform(-1, 2, 5)
+        status = rng.integers(0, 4, 5).astype(float)
+        d[rng.uniform(size=5) < 0.1] = np.nan
+        fault = float(rng.choice([0, 0, 0, 2, 5, 7, np.nan]))
+        k, top, reason = speed_override_command(d, s, status, fault)
+        usable = (status == 1) | (status == 2)
+        k_ref, top_ref = overall_speed_override(d, s, usable)
+        if fault != 0.0:  # incl. NaN
+            assert k == 0.0 and reason == (2 if np.isnan(fault) else fault)
+        elif np.any(status == 3):
+            assert k == 0.0 and reason == 3
+        else:
+            assert k == k_ref and reason == (1 if k_ref <= 0 else 0)
+        assert top == top_ref or (np.isnan(top) and np.isnan(top_ref))

@@ -26,9 +26,11 @@ import numba
 import numpy as np
 
 import safety_systems.joint_path
-from safety_systems import braking, kalman, operator_paths, ssm, ur5e
+from safety_systems import braking, kalman, operator_paths, sensor_faults, ssm, stops, tracks, ur5e
 from safety_systems.braking import path_step_one
 from safety_systems.compiled_cache import drop_stale_builds
+from safety_systems.configuration import sensor_faults as scenario_faults
+from safety_systems.configuration import tracker_regions, tracker_rules
 from safety_systems.joint_path import path_arrays, path_state_one
 from safety_systems.operator_paths import (
     check_bodies,
@@ -36,23 +38,16 @@ from safety_systems.operator_paths import (
     stack_operator_paths,
 )
 from safety_systems.scenario import Scenario, actual_sensor
+from safety_systems.sensor_faults import FAULT_COLUMNS, apply_faults
 from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
-    human_uncertainty,
-    override_row,
+    hidden_ball_radius,
+    override_command,
     protective_one,
     separation_pair,
 )
-from safety_systems.systems import kalman_tracker
-from safety_systems.systems.kalman_tracker import (
-    MIN_MEASUREMENT_STD,
-    TRACK_SLOT,
-    _estimate_rows,
-    _track_rows,
-    position_std,
-)
 from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
-from safety_systems.systems.separation_monitor import TRACK_COASTING, TRACK_LOST, TRACK_TRACKING
+from safety_systems.tracks import TRACK_SLOT, estimate_rows, frame_step, usable
 from safety_systems.ur5e import tool0_one_memo
 from safety_systems.workcell import (
     assumed_stopping,
@@ -186,12 +181,20 @@ class _Cells:
         for b, s in enumerate(sensors):
             for j, oc in enumerate(s.occlusions):
                 self.occ[b, j] = (names.index(oc.body), oc.start, oc.end)
+        tables = [scenario_faults(s) for s in scenarios]
+        self.faults = np.zeros((self.B, max((len(t) for t in tables), default=0),
+                                FAULT_COLUMNS))
+        self.faults[:, :, 3:5] = np.inf  # padding rows never act
+        for b, table in enumerate(tables):
+            self.faults[b, :len(table)] = table
 
-    def update(self, u: float, t_frame, tracks, track_args, est_p, est_v, status, unseen):
+    def update(self, u: float, frames, tracks, rules, regions, est_p, est_v, status, std,
+               unseen):
         """The tracker update at time u of every scenario (see :func:`_update`)."""
-        _update(u, self.latency, self.period, self.drops, t_frame, self.stack_arrays,
-                self.op_index, self.offsets, self.enter, self.leave, self.occ, self.noise,
-                self.units, tracks, track_args, est_p, est_v, status, unseen)
+        _update(u, self.latency, self.period, self.drops, frames, self.stack_arrays,
+                self.op_index, self.offsets, self.enter, self.leave, self.occ, self.faults,
+                self.noise, self.units, tracks, rules, regions, est_p, est_v, status, std,
+                unseen)
 
 
 _UNIT_NOISE: dict[tuple[int, int], np.ndarray] = {}  # a few sensors' tables, newest last
@@ -213,51 +216,53 @@ def unit_noise_table(seed: int, n: int, frames: int) -> np.ndarray:
     return table
 
 
+# frames (B, 7): per scenario the tracker's frame state: the last frame number processed,
+# the newest good capture time, that frame's fault, and the rejected measurements by cause.
+_F_NUMBER, _F_GOOD, _F_FAULT, _F_COUNTS = 0, 1, 2, 3
+
+
 @numba.njit(cache=True)
-def _update(u, latency, period, drops, t_frame, stack, op_index, offsets, enter, leave, occ,
-            noise, units, tracks, track_args, est_p, est_v, status, unseen):
+def _update(u, latency, period, drops, frames, stack, op_index, offsets, enter, leave, occ,
+            faults, noise, units, tracks, rules, regions, est_p, est_v, status, std, unseen):
     """A tracker update at time u of every scenario, compiled: the frame each sensor
-    delivers (:func:`_delivered_rows`); where it is newer than the one the tracker has
-    (``t_frame``), its capture (:func:`_capture`), the KalmanTracker's step of its bodies'
-    tracks (``kalman_tracker._track_rows``, Eqs. 2-4; ``track_args`` = measurement std,
-    velocity process noise, initial velocity std, coast time, exit radius) and their
-    outputs est_p, est_v, status, unseen (``_estimate_rows``)."""
+    delivers (:func:`_delivered_rows`); where its frame number is new, its capture
+    (:func:`_capture`, with the sensor's faults), the KalmanTracker's step of its bodies'
+    tracks (``tracks.frame_step``: the rules of ids, finite positions, the gate, Eqs.
+    2-4, hidden bodies and exits, with ``rules`` and ``regions``) and their outputs
+    est_p, est_v, status, std, unseen (``tracks.estimate_rows``)."""
     B, N = est_p.shape[0], est_p.shape[1]
     index = np.empty(B, dtype=np.int64)
     _delivered_rows(np.full(B, u), latency, period, drops, index)
-    new = np.zeros(B, dtype=np.bool_)
-    for b in range(B):
-        new[b] = index[b] >= 0 and index[b] * period > t_frame[b]
-    rows = np.flatnonzero(new)
+    rows = np.flatnonzero((index >= 0) & (index != frames[:, _F_NUMBER]))
     R = rows.size
     if R > 0:
         frame = index[rows]
         if frame.max() >= units.shape[0]:
             raise ValueError("_update: a capture beyond the unit noise table")
-        z, valid = np.empty((R, N, 3)), np.empty((R, N), dtype=np.bool_)
-        _capture(stack, op_index, offsets, enter, leave, occ, noise, units, rows, frame,
-                 period, z, valid)
-        sel, times = np.empty(R * N, dtype=np.int64), np.empty(R * N)
+        z, valid = np.empty((R, N, 3)), np.empty((R, N))
+        ids, carried = np.empty((R, N)), np.empty(R)
+        _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, rows, frame,
+                 period, z, valid, ids, carried)
         for r in range(R):
-            t_frame[rows[r]] = frame[r] * period  # the capture time
-            for i in range(N):
-                sel[r * N + i], times[r * N + i] = rows[r] * N + i, t_frame[rows[r]]
-        std, q_v, v0, coast, radius = track_args
-        _track_rows(tracks, sel, times, z.reshape(R * N, 3), valid.reshape(R * N), std, q_v,
-                    v0, coast, radius)  # KalmanTracker's track_step
-        _estimate_rows(tracks, sel, est_p.reshape(B * N, 3), est_v.reshape(B * N, 3),
-                       status.reshape(B * N), unseen.reshape(B * N))
+            b = rows[r]
+            frames[b, _F_NUMBER] = frame[r]
+            frames[b, _F_FAULT] = frame_step(
+                tracks, b * N, N, carried[r], z[r], valid[r], ids[r],
+                frames[b, _F_GOOD:_F_GOOD + 1], frames[b, _F_COUNTS:], rules, regions)
+            estimate_rows(tracks, b * N, N, frames[b, _F_GOOD], est_p[b], est_v[b], status[b],
+                          std[b], unseen[b])
 
 
 @numba.njit(cache=True)
-def _capture(stack, op_index, offsets, enter, leave, occ, noise, units, rows, index, period,
-             p, valid):
+def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, rows, index,
+             period, p, valid, ids, carried):
     """The MocapSensor's frames ``index`` (R,) of the scenarios ``rows``: positions p
-    (R, N, 3) and whether it sees the bodies (``valid``: present and not in an occlusion
-    interval of ``occ`` (B, ., 3): body, start, end); compiled. The truth at the capture
-    time by ``path_point_one`` of the operator's path plus the body's offset, plus
-    noise std ``noise[b]`` times the frame's unit noise ``units[index]``; NaN where not
-    seen."""
+    (R, N, 3), whether it sees the bodies (``valid``: present and not in an occlusion
+    interval of ``occ`` (B, ., 3): body, start, end), the ids the entries carry and the
+    capture time each frame carries (``sensor_faults.apply_faults`` of ``faults``
+    (B, ., 8)); compiled. The truth at the capture time by ``path_point_one`` of the
+    operator's path plus the body's offset, plus noise std ``noise[b]`` times the
+    frame's unit noise ``units[index]``; NaN where not seen."""
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     K = enter.shape[1]
     for r in range(rows.size):
@@ -273,17 +278,19 @@ def _capture(stack, op_index, offsets, enter, leave, occ, noise, units, rows, in
             for j in range(occ.shape[1]):
                 if occ[b, j, 1] <= t < occ[b, j, 2] and occ[b, j, 0] == i:
                     seen = False
-            valid[r, i] = seen
+            valid[r, i] = 1.0 if seen else 0.0
+            ids[r, i] = i + 1.0
             for j in range(3):
                 if noise[b] > 0.0:
                     p[r, i, j] = p[r, i, j] + noise[b] * units[k, i, j]
                 if not seen:
                     p[r, i, j] = np.nan
+        carried[r] = apply_faults(faults[b], k, period, _TIME_TOL, p[r], valid[r], ids[r])
 
 
 # Its compiled functions inline compiled code from these modules (see compiled_cache).
 drop_stale_builds(__file__, (ssm, braking, safety_systems.joint_path, ur5e, operator_paths,
-                             kalman, kalman_tracker))
+                             kalman, tracks, stops, sensor_faults))
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -296,11 +303,12 @@ def monitor_pair(p_R, v_R, p_B, v_B):
 
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
-             status, z_d, t_frame, timeout, monitor, delta_s, d_min, truth_s, end, brake_scale,
-             brakes, s, rate, p_prev, trig, min_sep, prot_time, prot_deep):
+             status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_s,
+             end, brake_scale, brakes, s, rate, p_prev, trig, min_sep, prot_time, prot_deep):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
-    tracker updates (the tracker's outputs est_p, est_v, status, z_d, t_frame are fixed
-    meanwhile); compiled, from the product's compiled functions. At each tick:
+    tracker updates (the tracker's outputs est_p, est_v, status, std, unseen and its
+    ``frames`` state are fixed meanwhile); compiled, from the product's compiled
+    functions. At each tick:
 
     - the robot from the PathFollower's state (s, sigma): q and dq/ds by
       ``path_state_one`` (``path`` from ``joint_path.path_arrays``), tool0 and J(q) dq/ds
@@ -309,9 +317,12 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
       and share these until their monitors differ); the EndEffectorVelocity's Eq. 5
       (p - p_prev) / dt;
     - SeparationMonitor and SpeedOverride on the estimates: d and directed speeds
-      (Eqs. 6-8, :func:`monitor_pair`), S (Eqs. 9-11, ``monitor`` = (mode, T_s + T_r,
-      T_r, B + C + Z_r, v_iso, v_iso_reduced) with Z_d per body ``z_d``), k (Eq. 12)
-      over the usable tracks, 0 for a lost track or a frame older than ``timeout``;
+      (Eqs. 6-8, :func:`monitor_pair`; a hidden body's d less its ball,
+      ``ssm.hidden_ball_radius``), S (Eqs. 9-11, ``monitor`` = (mode, T_s + T_r, T_r,
+      B + C + Z_r, v_iso, v_iso_reduced) with Z_d = ``z_d_terms`` (base, sigmas,
+      occlusion speed) base + sigmas std per body), k, S_max and the stop reason by
+      ``ssm.override_command`` (Eq. 12 over the usable tracks, a lost track, the
+      tracker's fault, or its newest good frame older than ``timeout``);
     - the properties on the truth (``verification.properties``; bodies by
       ``path_point_one`` of their operator's path in ``stack`` plus their offsets,
       present from ``enter`` to ``leave``; operator o's bodies are op_first[o] to
@@ -322,12 +333,13 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
       fractions, decelerations, acceleration limit).
     """
     mode, t_sr, t_r, const, iso, iso_reduced = monitor
+    z_d_base, z_d_sigmas, occlusion_speed = z_d_terms
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     N, K = est_p.shape[1], enter.shape[1]
     q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
     p_R, v_tool, v_R, p_H, v_H = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    d, s_row, usable = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
+    d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
     # Scenarios whose robot has not been slowed yet share its state (s, sigma) bit for bit:
     # in order of s, each computes the robot only where it differs from the one before.
     order = np.argsort(s, kind="mergesort")
@@ -345,19 +357,19 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
             for j in range(3):
                 v_R[j] = (p_R[j] - p_prev[b, j]) / dt
             # SeparationMonitor and SpeedOverride on the tracker's estimates.
-            lost = False
-            for i in range(N):
-                lost = lost or status[b, i] == TRACK_LOST
-                usable[i] = status[b, i] == TRACK_TRACKING or status[b, i] == TRACK_COASTING
-            if lost or not t - t_frame[b] <= timeout:  # stop; d and S are not needed
-                k_override = 0.0
-            else:
+            fault = frames[b, _F_FAULT]
+            if fault == 0.0 and not t - frames[b, _F_GOOD] <= timeout:
+                fault = stops.STOP_STALE_FRAME
+            if fault == 0.0:  # else the robot stops whatever d and S are
                 for i in range(N):
-                    if usable[i]:  # (the override reads only these)
+                    if usable(status[b, i]):  # (the override reads only these)
                         d[i], v_h, v_r = monitor_pair(p_R, v_R, est_p[b, i], est_v[b, i])
-                        s_row[i] = protective_one(v_h, v_r, z_d[b, i], mode, t_sr, t_r, const,
-                                                  iso, iso_reduced)
-                k_override = override_row(d, s_row, usable, delta_s, d_min)[0]
+                        s_row[i] = protective_one(v_h, v_r, z_d_base + z_d_sigmas * std[b, i],
+                                                  mode, t_sr, t_r, const, iso, iso_reduced)
+                        if occlusion_speed > 0.0:
+                            d[i] -= hidden_ball_radius(unseen[b, i], occlusion_speed)
+            k_override = override_command(d, s_row, status[b], fault, delta_s, d_min,
+                                          included)[0]
             # The properties, on the true state at this tick.
             v0, v1, v2 = v_tool[0], v_tool[1], v_tool[2]
             moving = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2) > MOVING_SPEED and k <= last[b]
@@ -401,7 +413,6 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     monitor = (HUMAN_SPEED_MODES.index(f.human_speed), t_s + f.reaction_time, f.reaction_time,
                b_stop + f.intrusion_distance + f.robot_uncertainty, f.iso_human_speed,
                f.iso_reduced_human_speed)
-    m_std = cfg.sensor.noise_std if tr.measurement_std is None else tr.measurement_std
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
     truth = protective_args(scenarios[0])  # the true-speed S of the property
@@ -410,18 +421,17 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                + truth["robot_uncertainty"], truth["human_uncertainty"])
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     path = path_arrays(c.path)
-    z_fixed = not (f.human_uncertainty_sigmas or f.occlusion_speed > 0.0)
-    z_d = np.full((B, N), float(f.human_uncertainty))
+    z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas),
+                 float(f.occlusion_speed))
+    rules, regions = tracker_rules(cfg), tracker_regions(cfg)
 
     s = np.zeros(B)
     rate = np.zeros(B)
     p_prev = np.full((B, 3), np.nan)
     trig = np.full((B, 15), np.nan)  # tool0_one_memo's memory
     tracks = np.zeros((B * N, TRACK_SLOT))
-    track_args = (float(max(m_std, MIN_MEASUREMENT_STD)), float(tr.velocity_process_noise),
-                  float(tr.initial_velocity_std), float(tr.max_coast_time),
-                  float(tr.exit_radius))
-    t_frame = np.full(B, -np.inf)
+    frames = np.zeros((B, 7))  # _F_*: no frame yet, none good
+    frames[:, _F_NUMBER], frames[:, _F_GOOD] = -1.0, -np.inf
     est_p = np.full((B, N, 3), np.nan)
     est_v = np.full((B, N, 3), np.nan)
     status = np.zeros((B, N))
@@ -438,20 +448,14 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         stop = k
         while stop <= last and not u < stop * dt - _EVENT_TOL:
             stop += 1
-        if not z_fixed:  # Z_d from the tracker's outputs, fixed between its updates
-            z_d = np.ascontiguousarray(np.broadcast_to(human_uncertainty(
-                f.human_uncertainty, f.human_uncertainty_sigmas, std, unseen, est_v,
-                f.occlusion_speed), (B, N)))
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter,
-                 c.leave, est_p, est_v, status, z_d, t_frame, timeout, monitor, f.delta_s,
-                 f.d_min, truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, trig, min_sep,
-                 prot_time, prot_deep)
+                 c.leave, est_p, est_v, status, std, unseen, frames, timeout, monitor, z_d_terms,
+                 f.delta_s, f.d_min, truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, trig,
+                 min_sep, prot_time, prot_deep)
         k = stop
         if k > last:
             break
-        c.update(u, t_frame, tracks, track_args, est_p, est_v, status, unseen)
-        if not z_fixed:
-            std = position_std(tracks.reshape(B, N, TRACK_SLOT))
+        c.update(u, frames, tracks, rules, regions, est_p, est_v, status, std, unseen)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        prot_time, prot_deep)

@@ -54,7 +54,7 @@ from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.joint_path import JointPath, joint_path_state
 from safety_systems.kalman import axis_predict, axis_update
 from safety_systems.scenario import ControllerConfig
-from safety_systems.systems.kalman_tracker import MIN_MEASUREMENT_STD
+from safety_systems.tracks import MIN_MEASUREMENT_STD
 from safety_systems.ur5e import DH_A, DH_D, tool0_position_and_velocity
 from safety_systems.workcell import assumed_stopping, braking_table, frame_timeout, joint_path
 from verification.space import ScenarioSpace

@@ -32,7 +32,6 @@ from safety_systems.scenario import ControllerConfig, actual_sensor
 from safety_systems.ssm import (
     directed_speeds,
     monitor_protective_distances,
-    occlusion_margin,
     speed_override,
 )
 from safety_systems.ur5e import tool0_position_and_velocity
@@ -100,7 +99,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
 
     A reduced model of the loop, every ``step`` seconds: the configured monitor is fed
     the first operator's hand as the sensor would show it (one period plus the latency
-    late, frozen and coasting while occluded; for ``estimated`` speeds, the hand's
+    late; while occluded, the ball around where it was last seen; for ``estimated`` speeds, the hand's
     directed speed ``ESTIMATE_LAG`` late) and commands k by Eqs. 9-12; k is 0 while the
     tracker's newest frame is older than the frame timeout (frames late beyond the
     configured latency, or dropped). The robot starts at rest and its path rate follows
@@ -154,16 +153,15 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
         seen_at = np.maximum(now - delay, 0.0)
         hidden = (seen_at >= occ[:, 0]) & (seen_at < occ[:, 1])
         base = np.where(hidden, occ[:, 0], seen_at)
-        p_b, v_b = stacked_position_velocity(stack, base)
-        p_m = p_b + v_b * np.where(hidden, seen_at - base, 0.0)[:, None]
+        p_m = stacked_position_velocity(stack, base)[0]  # frozen while hidden
         v_m = stacked_position_velocity(stack, np.maximum(base - lag, 0.0))[1]
-        d = np.linalg.norm(p_m - tool, axis=-1)
+        ball = f.occlusion_speed * np.where(hidden, seen_at - base, 0.0)
+        d = np.linalg.norm(p_m - tool, axis=-1) - ball
         v_h, v_r = directed_speeds(tool, tool_v, p_m[:, None], v_m[:, None])
-        margin = occlusion_margin(np.where(hidden, seen_at - base, 0.0), v_m, f.occlusion_speed)
         S = monitor_protective_distances(
             v_h[:, 0], v_r[:, 0], mode=f.human_speed, reaction_time=f.reaction_time,
             stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
-            human_uncertainty=f.human_uncertainty + margin,
+            human_uncertainty=f.human_uncertainty,
             robot_uncertainty=f.robot_uncertainty, iso_speed=f.iso_human_speed,
             iso_reduced_speed=f.iso_reduced_human_speed)
         # Other controllers (seed 004's, zones) are not modelled: they keep full speed.

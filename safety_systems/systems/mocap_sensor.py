@@ -13,6 +13,8 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
+from safety_systems.sensor_faults import FAULT_COLUMNS, apply_to_frame
+
 MIN_PERIOD_SEC = 1.0 / 1000.0  # OptiTrack frame rates: 20 Hz up to 1000 Hz (seed Sec. 4.1)
 MAX_PERIOD_SEC = 1.0 / 20.0
 _TIME_TOL = 1e-9  # seconds, absorbs rounding in capture time + latency comparisons
@@ -41,11 +43,19 @@ class MocapSensor(LeafSystem):
     is delivered at t_c + latency_sec; the outputs show the newest delivered frame. During
     a dropped-frame interval no frame is captured, so the last delivered frame stays on
     the outputs and its ``sample_time`` goes stale (the tracker detects that). Before the
-    first delivery every body is invalid and ``sample_time`` is -inf.
+    first delivery every body is invalid, ``sample_time`` is -inf and ``frame_number``
+    -1.
+
+    Each frame carries its frame number k (as a motion-capture stream does) and, per
+    entry, the id of the body it reports (entry i: id i + 1). ``faults`` (a table of
+    ``safety_systems.sensor_faults``) corrupt the frames captured in their intervals:
+    outliers, marker swaps, non-finite positions, unknown ids, repeated or earlier
+    capture times.
 
     The last frames live in the discrete state as a ring of ceil(latency / period) + 1
-    slots, oldest first; each slot is [capture_time, positions (3N), valid (N)].
-    Occlusion and drop intervals are half-open [t_start, t_end).
+    slots, oldest first; each slot is [frame number, capture time carried, positions
+    (3N), valid (N), ids (N)]. Occlusion, drop and fault intervals are half-open
+    [t_start, t_end).
 
     .. pydrake_system::
 
@@ -57,6 +67,8 @@ class MocapSensor(LeafSystem):
         - positions_measured
         - valid
         - sample_time
+        - frame_number
+        - body_ids
 
     Args:
         num_bodies: number of body slots N (1 to 15).
@@ -66,6 +78,7 @@ class MocapSensor(LeafSystem):
         latency_sec: delay from capture to delivery, seconds (>= 0).
         occlusions: (body_index, t_start, t_end) rows, seconds: body not seen.
         dropped_frames: (t_start, t_end) rows, seconds: no frame at all is captured.
+        faults: a fault table (``safety_systems.sensor_faults.fault_table``).
         seed: noise seed (integer >= 0).
     """
 
@@ -78,6 +91,7 @@ class MocapSensor(LeafSystem):
         latency_sec: float = 0.0,
         occlusions: Sequence[tuple[int, float, float]] = (),
         dropped_frames: Sequence[tuple[float, float]] = (),
+        faults: np.ndarray | None = None,
         seed: int = 0,
     ) -> None:
         super().__init__()
@@ -102,6 +116,13 @@ class MocapSensor(LeafSystem):
         self._occ_start, self._occ_end = occ[:, 1], occ[:, 2]
         drops = _intervals("dropped_frames", dropped_frames, 2)
         self._drop_start, self._drop_end = drops[:, 0], drops[:, 1]
+        faults = np.zeros((0, FAULT_COLUMNS)) if faults is None else np.asarray(faults, float)
+        bodies = faults[:, 1:3]
+        if faults.ndim != 2 or faults.shape[1] != FAULT_COLUMNS or np.any(
+                (bodies < -1) | (bodies >= num_bodies) | (bodies % 1 != 0)):
+            raise ValueError(f"faults: a ({FAULT_COLUMNS})-column fault table with body "
+                             f"indices in -1..{num_bodies - 1}")
+        self._faults = np.ascontiguousarray(faults)
 
         n = num_bodies
         self._n = n
@@ -109,9 +130,9 @@ class MocapSensor(LeafSystem):
         self._noise_std = float(noise_std)
         self._latency = float(latency_sec)
         self._seed = seed
-        self._slot = 1 + 4 * n
+        self._slot = 2 + 5 * n
         self._num_slots = math.ceil(latency_sec / period_sec - _TIME_TOL) + 1
-        empty = np.r_[-np.inf, np.full(3 * n, np.nan), np.zeros(n)]
+        empty = np.r_[-1.0, -np.inf, np.full(3 * n, np.nan), np.zeros(n), np.arange(1.0, n + 1)]
         self._frames_index = self.DeclareDiscreteState(np.tile(empty, self._num_slots))
 
         self._positions_true = self.DeclareVectorInputPort("positions_true", 3 * n)
@@ -140,6 +161,8 @@ class MocapSensor(LeafSystem):
         )
         self.DeclareVectorOutputPort("valid", BasicVector(n), self._calc_valid, ticket)
         self.DeclareVectorOutputPort("sample_time", BasicVector(1), self._calc_time, ticket)
+        self.DeclareVectorOutputPort("frame_number", BasicVector(1), self._calc_number, ticket)
+        self.DeclareVectorOutputPort("body_ids", BasicVector(n), self._calc_ids, ticket)
 
     @property
     def num_slots(self) -> int:
@@ -158,16 +181,18 @@ class MocapSensor(LeafSystem):
         if self._noise_std > 0.0:
             positions += self._noise_std * unit_noise(self._seed, k, self._n)
         positions.reshape(-1, 3)[~valid] = np.nan
+        z, seen, ids = positions.reshape(-1, 3), valid.astype(float), np.arange(1.0, self._n + 1)
+        carried = apply_to_frame(self._faults, k, self._period, _TIME_TOL, z, seen, ids)
         frames = discrete_state.get_mutable_value(self._frames_index)
         frames[: -self._slot] = frames[self._slot :].copy()  # drop the oldest slot
-        frames[-self._slot :] = np.r_[k * self._period, positions, valid]
+        frames[-self._slot :] = np.r_[k, carried, positions, seen, ids]
 
     def _delivered(self, context: Context) -> np.ndarray:
         """The newest slot whose capture time + latency <= now (or the empty oldest one)."""
         frames = context.get_discrete_state(self._frames_index).get_value()
         now = context.get_time() + _TIME_TOL - self._latency
         for start in range((self._num_slots - 1) * self._slot, -1, -self._slot):
-            if frames[start] <= now:
+            if frames[start] >= 0.0 and frames[start] * self._period <= now:
                 return frames[start : start + self._slot]
         return frames[: self._slot]  # unreachable: the oldest slot is delivered or empty
 
@@ -175,10 +200,16 @@ class MocapSensor(LeafSystem):
         value.get_mutable_value()[:] = self._delivered(context)
 
     def _calc_positions(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(self._frame.Eval(context)[1 : 1 + 3 * self._n])
+        output.SetFromVector(self._frame.Eval(context)[2 : 2 + 3 * self._n])
 
     def _calc_valid(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(self._frame.Eval(context)[1 + 3 * self._n :])
+        output.SetFromVector(self._frame.Eval(context)[2 + 3 * self._n : 2 + 4 * self._n])
 
     def _calc_time(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self._frame.Eval(context)[1:2])
+
+    def _calc_number(self, context: Context, output: BasicVector) -> None:
         output.SetFromVector(self._frame.Eval(context)[:1])
+
+    def _calc_ids(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self._frame.Eval(context)[2 + 4 * self._n :])

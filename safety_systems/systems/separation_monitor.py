@@ -8,13 +8,12 @@ from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
     ISO_HUMAN_SPEED,
     ISO_REDUCED_HUMAN_SPEED,
+    hidden_ball_radius,
     human_uncertainty,
     monitor_protective_distances,
     separation_and_directed_speeds,
 )
-
-# track_status values written by KalmanTracker.
-TRACK_NONE, TRACK_TRACKING, TRACK_COASTING, TRACK_LOST = 0, 1, 2, 3
+from safety_systems.tracks import TRACK_HIDDEN, TRACK_TRACKING
 
 
 class SeparationMonitor(LeafSystem):
@@ -38,7 +37,10 @@ class SeparationMonitor(LeafSystem):
         - robot_directed_speeds
 
     Bodies without a usable track (status none or lost) have NaN on every output; the
-    SpeedOverride decides what a lost track means. Outputs are computed on demand from
+    SpeedOverride decides what a lost track means. A hidden body is a ball around its
+    last accepted estimate whose radius grows at ``occlusion_speed``
+    (:func:`safety_systems.ssm.hidden_ball_radius`): its d_i is the distance to that
+    ball. Outputs are computed on demand from
     the inputs (one shared cache entry), so they follow the robot at its control rate.
 
     Args:
@@ -53,9 +55,8 @@ class SeparationMonitor(LeafSystem):
         robot_uncertainty: Z_r in metres.
         human_uncertainty_sigmas: adds this many position standard deviations of each
             track to Z_d (0: the seed's constant Z_d).
-        occlusion_speed: metres per second; > 0 adds
-            :func:`safety_systems.ssm.occlusion_margin` to Z_d for bodies unseen for a
-            while (0: the seed's constant Z_d).
+        occlusion_speed: metres per second at which a hidden body's ball grows (0: a
+            hidden body stays where it was last seen, as in the seed).
         iso_speed, iso_reduced_speed: ISO/TS 15066 human speeds in metres per second.
     """
 
@@ -135,11 +136,12 @@ class SeparationMonitor(LeafSystem):
         p_B = self._p_B.Eval(context).reshape(n, 3)
         v_B = self._v_B.Eval(context).reshape(n, 3)
         status = self._status.Eval(context)
-        usable = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
-        z_d = human_uncertainty(self._z_d, self._sigmas, self._std.Eval(context),
-                                self._unseen.Eval(context), v_B, self._occlusion_speed)
+        usable = (status == TRACK_TRACKING) | (status == TRACK_HIDDEN)
+        z_d = human_uncertainty(self._z_d, self._sigmas, self._std.Eval(context))
         d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, p_B, v_B)
         s = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **self._s_args)
+        if self._occlusion_speed > 0.0:
+            d = d - hidden_ball_radius(self._unseen.Eval(context), self._occlusion_speed)
         out[0] = d
         out[1] = s
         out[2] = v_h

@@ -12,7 +12,7 @@ from safety_systems.speed_alteration import (
     preprogrammed_speed,
     robot_at,
 )
-from safety_systems.systems.separation_monitor import TRACK_COASTING, TRACK_LOST, TRACK_TRACKING
+from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_TRACKING
 
 # Discrete state: [V_select, max DI at the chosen pose, decision count, positions (3N)].
 _V, _DI, _K = 0, 1, 2
@@ -96,7 +96,7 @@ class SpeedAlterationController(LeafSystem):
         state = context.get_discrete_state(self._state).get_value()
         p = np.asarray(self._p.Eval(context)).reshape(self._n, 3)
         status = self._status.Eval(context)
-        valid = ((status == TRACK_TRACKING) | (status == TRACK_COASTING)) & np.all(
+        valid = ((status == TRACK_TRACKING) | (status == TRACK_HIDDEN)) & np.all(
             np.isfinite(p), axis=1)
         if self._cfg.prediction == "kalman":
             v = np.asarray(self._v.Eval(context)).reshape(self._n, 3)

@@ -4,15 +4,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
-from safety_systems.ssm import overall_speed_override
-from safety_systems.systems.separation_monitor import (
-    TRACK_COASTING,
-    TRACK_LOST,
-    TRACK_TRACKING,
-)
-
-# stop_reason values.
-STOP_NONE, STOP_SEPARATION, STOP_SENSOR_FAULT, STOP_LOST_TRACK = 0, 1, 2, 3
+from safety_systems.ssm import speed_override_command
 
 
 class SpeedOverride(LeafSystem):
@@ -31,12 +23,11 @@ class SpeedOverride(LeafSystem):
         - max_protective_distance
         - stop_reason
 
-    k is the smallest Eq. 12 value over the tracked bodies (see
-    :func:`safety_systems.ssm.overall_speed_override`). Fail safe: a sensor fault
-    (``fault`` > 0: no fresh frame, or a non-finite measurement), a lost track (a body
-    that vanished near the robot) or a non-finite d_i or S_i of a tracked body gives
-    k = 0, a protective stop, and ``stop_reason`` says which (0 none, 1 separation,
-    2 sensor fault, 3 lost track).
+    k is the smallest Eq. 12 value over the bodies with a usable track (tracking or
+    hidden), and fail safe (:func:`safety_systems.ssm.override_command`): a tracker
+    fault (a stale or bad frame, with its cause), a lost track or a non-finite d_i or
+    S_i of a usable body gives k = 0, a protective stop, and ``stop_reason`` says why
+    (``safety_systems.stops``).
 
     Args:
         num_bodies: registered body slots N.
@@ -71,16 +62,6 @@ class SpeedOverride(LeafSystem):
 
     def _calc_all(self, context, value):
         out = value.get_mutable_value()
-        status = self._status.Eval(context)
-        included = (status == TRACK_TRACKING) | (status == TRACK_COASTING)
-        k, s_max = overall_speed_override(
-            self._d.Eval(context), self._s.Eval(context), included,
-            delta_s=self._delta_s, d_min=self._d_min,
-        )
-        reason = STOP_SEPARATION if k <= 0.0 else STOP_NONE
-        if np.any(status == TRACK_LOST):
-            k, reason = 0.0, STOP_LOST_TRACK
-        fault = self._fault.Eval(context)[0]
-        if not (fault == 0.0):  # NaN counts as a fault
-            k, reason = 0.0, STOP_SENSOR_FAULT
-        out[0], out[1], out[2] = float(k), float(s_max), float(reason)
+        out[0], out[1], out[2] = speed_override_command(
+            self._d.Eval(context), self._s.Eval(context), self._status.Eval(context),
+            self._fault.Eval(context)[0], delta_s=self._delta_s, d_min=self._d_min)

@@ -4,7 +4,7 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from safety_systems.joint_path import joint_path_state
-from safety_systems.systems.separation_monitor import TRACK_COASTING, TRACK_LOST, TRACK_TRACKING
+from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_TRACKING
 from safety_systems.ur5e import tool0_position
 from safety_systems.zones import (
     RED,
@@ -70,7 +70,7 @@ class ZonesController(LeafSystem):
         k, rate, _, _ = context.get_discrete_state(self._state).get_value()
         status = self._status.Eval(context)
         p = np.asarray(self._p.Eval(context)).reshape(self._n, 3)
-        usable = ((status == TRACK_TRACKING) | (status == TRACK_COASTING)) & np.all(
+        usable = ((status == TRACK_TRACKING) | (status == TRACK_HIDDEN)) & np.all(
             np.isfinite(p), axis=1)
         tool = tool0_position(joint_path_state(self._path, self._path_state.Eval(context)[0])[0])
         d = closest_distance(tool, p, usable)

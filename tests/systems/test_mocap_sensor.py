@@ -6,6 +6,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
+from safety_systems.sensor_faults import UNKNOWN_ID_BASE, fault_table
 from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
 
@@ -169,7 +170,51 @@ def test_dropped_frames_leave_sample_time_stale():
     assert stale >= 10  # the drops really were exercised
 
 
+def test_frame_numbers_ids_and_injected_faults():
+    walker = ScriptedOperator(path=RAMP, body_offsets=[[0, 0.2, 1], [0, -0.2, 1], [0, 0, 1.6]])
+    faults = fault_table([
+        ("outlier", 0, -1, 0.2, 0.3, (0.0, 1.0, 0.0)),
+        ("swap", 1, 2, 0.3, 0.4, (0, 0, 0)),
+        ("non_finite", 2, -1, 0.4, 0.45, (0, 0, 0)),
+        ("unknown_id", 0, -1, 0.45, 0.5, (0, 0, 0)),
+        ("time_duplicate", -1, -1, 0.5, 0.55, (0, 0, 0)),
+        ("time_backwards", -1, -1, 0.55, 0.6, (0, 0, 0)),
+    ])
+    read = _reader([walker], noise_std=0.0, faults=faults)
+
+    def frame(capture):
+        (p, valid, sample_time), truth = read(capture + 0.01)
+        return p.reshape(3, 3), valid, sample_time[0], truth.reshape(3, 3) - [0.01, 0, 0]
+
+    clean = frame(0.15)
+    np.testing.assert_allclose(clean[0], clean[3], atol=1e-8)
+    p, valid, t, truth = frame(0.2)  # outlier: body 0 displaced 1 m along y
+    np.testing.assert_allclose(p, truth + [[0, 1, 0], [0, 0, 0], [0, 0, 0]], atol=1e-8)
+    p, valid, t, truth = frame(0.4)  # non-finite, still flagged seen
+    assert np.isnan(p[2, 0]) and valid[2] == 1.0 and t == pytest.approx(0.4)
+    assert frame(0.5)[2] == pytest.approx(0.45)  # the previous capture's time
+    assert frame(0.55)[2] == pytest.approx(0.45)  # the capture before the previous one
+    assert frame(0.6)[2] == pytest.approx(0.6)
+
+
+def test_frame_number_and_body_ids_outputs():
+    faults = fault_table([("swap", 1, 2, 0.3, 0.4, (0, 0, 0)),
+                          ("unknown_id", 0, -1, 0.45, 0.5, (0, 0, 0))])
+    sensor = MocapSensor(num_bodies=3, noise_std=0.0, latency_sec=0.05, faults=faults)
+    context = sensor.CreateDefaultContext()
+    sensor.GetInputPort("positions_true").FixValue(context, np.arange(9.0))
+    sensor.GetInputPort("present").FixValue(context, np.ones(3))
+    simulator = Simulator(sensor, context)
+    assert sensor.GetOutputPort("frame_number").Eval(context)[0] == -1.0
+    for capture, ids in ((0.25, [1, 2, 3]), (0.3, [1, 3, 2]), (0.45, [UNKNOWN_ID_BASE, 2, 3])):
+        simulator.AdvanceTo(capture + 0.05 + 0.001)  # delivered one latency later
+        assert sensor.GetOutputPort("frame_number").Eval(context)[0] == round(capture / 0.05)
+        np.testing.assert_array_equal(sensor.GetOutputPort("body_ids").Eval(context), ids)
+
+
 @pytest.mark.parametrize("kwargs, match", [
+    (dict(faults=np.zeros((1, 5))), "faults"),
+    (dict(faults=fault_table([("swap", 0, 3, 0.0, 1.0, (0, 0, 0))])), "faults"),
     (dict(num_bodies=0), "num_bodies=0"),
     (dict(num_bodies=16), "num_bodies=16"),
     (dict(num_bodies=2.0), "num_bodies"),

@@ -55,16 +55,21 @@ def test_bad_arguments_rejected():
         SeparationMonitor(num_bodies=1, reaction_time=-1, stopping_time=0.3, stopping_distance=0)
 
 
-def test_occlusion_margin_grows_s_of_unseen_bodies():
-    # Body 0 unseen for 0.2 s, estimated speed 1.0 m/s; body 1 seen in the last frame.
+def test_hidden_body_is_a_ball_growing_at_the_occlusion_speed():
+    # Body 0 hidden for 0.2 s (last estimate moving at 1 m/s); body 1 seen in the last frame.
     p_B = np.array([[1.5, 0, 0.3], [0, 1.5, 0.3]])
     v_B = np.array([[0.0, 1.0, 0.0], [0, 0, 0]])
     args = ([0.5, 0, 0.3], [0, 0, 0], p_B, v_B, [2, 1], [0, 0])
     plain = SeparationMonitor(num_bodies=2, **ARGS)
     grown = SeparationMonitor(num_bodies=2, occlusion_speed=2.0, **ARGS)
-    s_plain = plain.GetOutputPort("protective_distances").Eval(_fixed(plain, *args, [0.2, 0]))
-    s_grown = grown.GetOutputPort("protective_distances").Eval(_fixed(grown, *args, [0.2, 0]))
-    # (2.0 + 1.0) m/s * 0.2 s = 0.6 m more for the unseen body, nothing for the other.
-    np.testing.assert_allclose(s_grown - s_plain, [0.6, 0.0])
+    outputs = []
+    for monitor in (plain, grown):
+        c = _fixed(monitor, *args, [0.2, 0])
+        outputs.append([monitor.GetOutputPort(n).Eval(c)
+                        for n in ("distances", "protective_distances")])
+    (d_plain, s_plain), (d_grown, s_grown) = outputs
+    # The ball's radius, 2.0 m/s * 0.2 s, comes off the hidden body's d; S is unchanged.
+    np.testing.assert_allclose(d_plain - d_grown, [0.4, 0.0])
+    np.testing.assert_array_equal(s_grown, s_plain)
     with pytest.raises(ValueError, match="occlusion_speed"):
         SeparationMonitor(num_bodies=1, occlusion_speed=-1.0, **ARGS)

@@ -1,14 +1,10 @@
 import numpy as np
 import pytest
 
+from safety_systems import stops
 from safety_systems.ssm import overall_speed_override
-from safety_systems.systems.speed_override import (
-    STOP_LOST_TRACK,
-    STOP_NONE,
-    STOP_SENSOR_FAULT,
-    STOP_SEPARATION,
-    SpeedOverride,
-)
+from safety_systems.stops import STOP_LOST_TRACK, STOP_NONE, STOP_SEPARATION, STOP_STALE_FRAME
+from safety_systems.systems.speed_override import SpeedOverride
 
 
 def _eval(d, s, status, fault=0.0, **kw):
@@ -35,10 +31,14 @@ def test_matches_plain_function():
 def test_reasons():
     assert _eval([3.0], [1.0], [1]) == [1.0, 1.0, STOP_NONE]
     assert _eval([0.5], [1.0], [1])[::2] == [0.0, STOP_SEPARATION]
-    assert _eval([3.0], [1.0], [1], fault=1.0)[::2] == [0.0, STOP_SENSOR_FAULT]
-    assert _eval([3.0], [1.0], [1], fault=float("nan"))[::2] == [0.0, STOP_SENSOR_FAULT]
+    # A tracker fault is its own stop reason; NaN or an unknown code counts as stale.
+    for code in range(STOP_STALE_FRAME, len(stops.STOP_REASONS)):
+        assert _eval([3.0], [1.0], [1], fault=float(code))[::2] == [0.0, code]
+    for fault in (float("nan"), 1.0, 99.0, -2.0):
+        assert _eval([3.0], [1.0], [1], fault=fault)[::2] == [0.0, STOP_STALE_FRAME]
     assert _eval([3.0, np.nan], [1.0, np.nan], [1, 3])[::2] == [0.0, STOP_LOST_TRACK]
-    # No tracked body: full speed.
+    # A hidden body counts as a tracked one; no tracked body: full speed.
+    assert _eval([0.5, np.nan], [1.0, np.nan], [2, 0])[::2] == [0.0, STOP_SEPARATION]
     assert _eval([np.nan], [np.nan], [0])[0] == 1.0
 
 

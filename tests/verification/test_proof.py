@@ -11,7 +11,8 @@ from safety_systems.braking import BrakingTable, path_rate_step, tool_stopping_d
 from safety_systems.joint_path import joint_path_state
 from safety_systems.kalman import axis_predict, process_noise, transition_matrix
 from safety_systems.scenario import BrakingConfig, load_controller_config
-from safety_systems.systems.kalman_tracker import MIN_MEASUREMENT_STD, TRACK_SLOT, track_step
+from safety_systems.configuration import tracker_rules
+from safety_systems.tracks import TRACK_SLOT, frame_update
 from safety_systems.ur5e import tool0_position_and_velocity
 from safety_systems.workcell import braking_table, frame_timeout, joint_path
 from verification.proof import (
@@ -201,9 +202,10 @@ def coefficients(request, iso_proof):
     return config, estimate_error_coefficients(config, SPACE, settle_frames=settle_frames)
 
 
+@pytest.mark.parametrize("hidden_bodies", ["hazard", "expire"])
 @pytest.mark.parametrize("kind", ["none", "dropout", "occlusion"])
 @pytest.mark.parametrize("seed", range(3))
-def test_tracker_error_stays_within_the_bound(coefficients, kind, seed):
+def test_tracker_error_stays_within_the_bound(coefficients, kind, seed, hidden_bodies):
     config, (alpha, beta) = coefficients
     rng = np.random.default_rng(seed)
     period, p = 1.0 / config.sensor.rate_hz, SPACE.parameters
@@ -217,19 +219,16 @@ def test_tracker_error_stays_within_the_bound(coefficients, kind, seed):
     longest = math.ceil(max(p.dropout.max, p.occlusion.max) / period) + 1
     gap = 0 if kind == "none" else int(rng.integers(1, longest + 1))
     start = settle + int(rng.integers(0, 20))  # the gap starts at the onset
-    t = config.tracker
-    std = config.sensor.noise_std if t.measurement_std is None else t.measurement_std
-    kw = dict(measurement_std=max(std, MIN_MEASUREMENT_STD),
-              velocity_process_noise=t.velocity_process_noise,
-              initial_velocity_std=t.initial_velocity_std, max_coast_time=t.max_coast_time,
-              exit_radius=t.exit_radius)
-    tracks, worst, updates = np.zeros((rows, TRACK_SLOT)), 0.0, 0
+    rules = tracker_rules(dc.replace(config, tracker=dc.replace(
+        config.tracker, hidden_bodies=hidden_bodies, gate=False, max_coast_time=10.0)))
+    tracks, worst, updates, t_good = np.zeros((rows, TRACK_SLOT)), 0.0, 0, -np.inf
     for k in range(frames):
         hidden = start <= k < start + gap
         if hidden and kind == "dropout":
             continue  # no frame at all
-        tracks = track_step(tracks, k * period, truth[k] + noise[k], np.full(rows, not hidden),
-                            **kw)
+        tracks, _, _, t_good = frame_update(tracks, k * period, truth[k] + noise[k],
+                                            np.full(rows, not hidden), rules=rules,
+                                            t_good=t_good)
         if not hidden:  # a posterior: compare with the true position at capture time
             worst = max(worst, float(np.max(np.abs(tracks[:, :3] - truth[k]))))
             updates += 1

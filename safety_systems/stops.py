@@ -1,0 +1,23 @@
+"""Why the robot is held: the protective-stop causes, written once.
+
+The SpeedOverride's ``stop_reason`` output and the KalmanTracker's ``fault`` output use
+these codes (a tracker fault is a stop reason of its own, so the override passes it on
+unchanged). Every cause but ``separation`` is a fault of the sensing chain; each stops
+the robot until it clears (fail safe).
+"""
+
+STOP_NONE = 0
+STOP_SEPARATION = 1  # Eq. 12: a body too close for the robot's speed
+STOP_STALE_FRAME = 2  # no fresh frame: missing frames, or none yet
+STOP_LOST_TRACK = 3  # a track vanished near the robot (the previous rule, ``expire``)
+STOP_BAD_TIME = 4  # a new frame whose capture time repeats or goes back
+STOP_NON_FINITE = 5  # a body flagged seen without a finite position
+STOP_UNKNOWN_ID = 6  # an entry whose body id is not registered (or claimed twice)
+STOP_GATE = 7  # a position farther from the track than a body can move
+
+STOP_REASONS = ("none", "separation", "stale_frame", "lost_track", "bad_time", "non_finite",
+                "unknown_id", "gate")
+
+# Rejected measurements by cause (the tracker's ``rejected_frames`` counts, in this order).
+REJECT_NON_FINITE, REJECT_TIME, REJECT_UNKNOWN_ID, REJECT_GATE = 0, 1, 2, 3
+REJECT_CAUSES = ("non_finite", "time", "unknown_id", "gate")
