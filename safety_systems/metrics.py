@@ -9,6 +9,8 @@ import numpy as np
 
 from safety_systems.simulation import Run
 from safety_systems.ssm import separation_distances
+from safety_systems.stops import REJECT_CAUSES, STOP_REASONS
+from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.ur5e import tool0_position_and_velocity
 
 MOVING_SPEED = 1e-3  # m/s
@@ -50,14 +52,51 @@ def stopped_time(run: Run) -> float:
     return float(np.sum(dt[(rate == 0.0) & unfinished]))
 
 
+def stop_reasons(run: Run) -> np.ndarray:
+    """(T,) why the robot was held at each tick (``safety_systems.stops`` codes): the
+    SpeedOverride's ``stop_reason``, or, for controllers without one, the tracker's
+    fault (they stop on it too)."""
+    key = "override.stop_reason" if "override.stop_reason" in run.signals else "tracker.fault"
+    return run[key][:, 0]
+
+
+def protective_stops(run: Run) -> dict:
+    """Protective stops by cause: how many times one began and the seconds it lasted."""
+    reasons = stop_reasons(run)
+    dt = np.diff(run.time, append=run.time[-1])
+    out = {}
+    for code, name in enumerate(STOP_REASONS[1:], start=1):
+        on = reasons == code
+        starts = int(np.count_nonzero(on[1:] & ~on[:-1]) + (on[0] if on.size else 0))
+        out[name] = {"count": starts, "time": float(np.sum(dt[on]))}
+    return out
+
+
+def rejected_frames(run: Run) -> dict:
+    """Measurements the tracker rejected over the run, by cause."""
+    counts = run["tracker.rejected_frames"][-1] if len(run.time) else np.zeros(4)
+    return {name: int(c) for name, c in zip(REJECT_CAUSES, counts)}
+
+
+def hidden(run: Run) -> np.ndarray:
+    """(T, N) whether each body's track is hidden (a ball) or lost at each tick."""
+    status = run["tracker.track_status"]
+    return (status == TRACK_HIDDEN) | (status == TRACK_LOST)
+
+
+def hidden_time(run: Run) -> dict:
+    """Seconds each body spent hidden (tracked as a growing ball, or lost)."""
+    dt = np.diff(run.time, append=run.time[-1])
+    return {name: float(np.sum(dt[column]))
+            for name, column in zip(run.body_names, hidden(run).T)}
+
+
 def summarize(run: Run) -> dict:
     """The summary written to ``summary.json`` (see ``safety_systems.outputs``)."""
     scenario = run.scenario
     p, speed = tool_state(run)
     sep = true_separations(run, p)
     min_sep = min_separation_while_moving(sep, speed)
-    reasons = run.signals.get("override.stop_reason", np.zeros((len(run.time), 1)))[:, 0]
-    dt = np.diff(run.time, append=run.time[-1])
     finite = float(np.nanmin(sep)) if np.any(np.isfinite(sep)) else None
     return {
         "scenario": scenario.name,
@@ -72,8 +111,7 @@ def summarize(run: Run) -> dict:
         "stopped_time": stopped_time(run),
         "min_separation": finite,
         "max_tool_speed": float(np.max(speed)),
-        "protective_stop_time": {
-            name: float(np.sum(dt[reasons == code]))
-            for code, name in ((1, "separation"), (2, "sensor_fault"), (3, "lost_track"))
-        },
+        "protective_stops": protective_stops(run),
+        "rejected_frames": rejected_frames(run),
+        "hidden_time": hidden_time(run),
     }

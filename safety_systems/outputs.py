@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.metrics import summarize, tool_state, true_separations
+from safety_systems.metrics import hidden, stop_reasons, summarize, tool_state, true_separations
 from safety_systems.simulation import Run
 from safety_systems.ssm import separation_distances
+from safety_systems.stops import REJECT_CAUSES, STOP_SEPARATION
 
 
 def commanded_speed(run: Run) -> np.ndarray:
@@ -31,12 +32,15 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
     """Header and rows of the trace: one row per control tick.
 
     Columns: time (s), k (commanded speed scale), path_rate (sigma), robot_speed (true
-    tool speed, m/s); for the SSM override stop_reason (0 none, 1 separation, 2 sensor
-    fault, 3 lost track) and S_max (m), for the seed-004 controllers danger_index (the
-    controller's predicted DI), for the zones zone (0 green, 1 yellow, 2 red) and
-    closest_distance (m, Eq. 6b); then for each body ``<body>:d_true`` (true distance,
+    tool speed, m/s); for the SSM override stop_reason (``safety_systems.stops``: 0 none,
+    1 separation, 2 stale frame, 3 lost track, 4 bad frame time, 5 non-finite position,
+    6 unknown body id, 7 gate) and S_max (m), for the seed-004 controllers danger_index
+    (the controller's predicted DI), for the zones zone (0 green, 1 yellow, 2 red) and
+    closest_distance (m, Eq. 6b); ``rejected_<cause>``: measurements the tracker has
+    rejected so far, by cause; then for each body ``<body>:d_true`` (true distance,
     empty when absent), ``<body>:d_measured`` (the distance the controller saw, empty
-    without a track) and, for the SSM override, ``<body>:S`` (the monitor's S_i).
+    without a track), ``<body>:hidden`` (1 while its track is a hidden ball, or lost)
+    and, for the SSM override, ``<body>:S`` (the monitor's S_i).
     """
     p, speed = tool_state(run)
     d_true = true_separations(run, p)
@@ -53,10 +57,13 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
     else:
         header.append("danger_index")
         columns.append(run["speed.danger_index"][:, 0])
+    header += [f"rejected_{cause}" for cause in REJECT_CAUSES]
+    columns += list(run["tracker.rejected_frames"].T)
     measured = measured_distances(run)
+    is_hidden = hidden(run)
     for i, name in enumerate(run.body_names):
-        header += [f"{name}:d_true", f"{name}:d_measured"]
-        columns += [d_true[:, i], measured[:, i]]
+        header += [f"{name}:d_true", f"{name}:d_measured", f"{name}:hidden"]
+        columns += [d_true[:, i], measured[:, i], is_hidden[:, i].astype(float)]
         if ssm:
             header.append(f"{name}:S")
             columns.append(run["monitor.protective_distances"][:, i])
@@ -80,7 +87,8 @@ def write_summary(run: Run, path: Path) -> dict:
 
 def plot_run(run: Run, path: Path) -> None:
     """Two panels in the manner of the seed's Figs. 7 and 9: speeds above; d_i, S_i,
-    d_min and k below."""
+    d_min and k below. Shaded: the intervals a body was hidden (in its colour, below) and
+    the protective stops for a fault of the sensing chain (grey, both panels)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -98,12 +106,15 @@ def plot_run(run: Run, path: Path) -> None:
     top.set_ylabel("speed [m/s]")
     top.legend(loc="upper right", fontsize="small")
     top.grid(alpha=0.3)
+    colors = []
     for i, name in enumerate(run.body_names):
         (line,) = bottom.plot(t, d[:, i], label=f"d {name}")
+        colors.append(line.get_color())
         if s is not None:
             bottom.plot(t, s[:, i], linestyle="--", color=line.get_color(), label=f"S {name}")
     if s is not None:
         bottom.axhline(run.scenario.controller.safety.d_min, color="red", label="d_min")
+    _shade(top, bottom, run, colors)
     bottom.set_ylabel("distance [m]")
     bottom.set_xlabel("time [s]")
     bottom.set_ylim(bottom=min(0.0, float(np.nanmin(s, initial=0.0))) if s is not None else 0.0)
@@ -128,6 +139,28 @@ def plot_run(run: Run, path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _intervals(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
+    """[start, end) of the runs of True in ``on`` over the times ``t``."""
+    edges = np.diff(np.r_[0, on.astype(int), 0])
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    dt = t[1] - t[0] if t.size > 1 else 0.0
+    return [(t[a], t[b - 1] + dt) for a, b in zip(starts, ends)]
+
+
+def _shade(top, bottom, run: Run, colors: list) -> None:
+    """Hidden intervals per body (in the body's line colour) and fault stops (grey)."""
+    reasons = stop_reasons(run)
+    faults = reasons > STOP_SEPARATION
+    for k, (a, b) in enumerate(_intervals(run.time, faults)):
+        for axis in (top, bottom):
+            axis.axvspan(a, b, color="0.5", alpha=0.25, lw=0,
+                         label="fault stop" if k == 0 and axis is bottom else None)
+    for i, name in enumerate(run.body_names):
+        for k, (a, b) in enumerate(_intervals(run.time, hidden(run)[:, i])):
+            bottom.axvspan(a, b, color=colors[i], alpha=0.12, lw=0,
+                           label=f"{name} hidden" if k == 0 else None)
 
 
 def write_outputs(run: Run, out_dir: Path, *, html: bool = False) -> dict:
