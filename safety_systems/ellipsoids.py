@@ -25,6 +25,7 @@ import math
 import numba
 import numpy as np
 
+from safety_systems.robot_geometry import LINK_SEGMENTS
 from safety_systems.ur5e import dh_frames
 
 
@@ -146,8 +147,9 @@ def concatenate(*sets: Ellipsoids) -> Ellipsoids:
 
 
 # The UR5e's links between DH frame origins (seed Eqs. 1-3 place an ellipsoid at each
-# link's centre): shoulder column, upper arm, forearm, the three wrist links.
-ROBOT_SEGMENTS = ((0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (5, 6))
+# link's centre): shoulder column, upper arm, forearm, the three wrist links; the same
+# segments as the capsules' (robot_geometry, the one definition of the robot's geometry).
+ROBOT_SEGMENTS = LINK_SEGMENTS
 
 
 def robot_ellipsoids(q: np.ndarray, link_radii, tool_radius: float,
