@@ -57,6 +57,10 @@ def _verify(args: argparse.Namespace) -> int:
                      workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      progress=not args.quiet, config_text=Path(args.config).read_text())
     report = write_report(outcome, out, config_path=args.config, space_path=args.space)
+    if report["braking_data"] == "placeholder":
+        from verification.report import PLACEHOLDER_WARNING
+
+        print(f"safety-systems: warning: {PLACEHOLDER_WARNING}", file=sys.stderr)
     if not args.quiet:
         first = report["simulations_to_first_counterexample"]
         print(f"{report['verdict']}: min robustness {report['min_robustness']} over "

@@ -3,7 +3,14 @@ the Drake diagram, the batched verifier and the proof (never a copy in each)."""
 
 import numpy as np
 
-from safety_systems.scenario import ControllerConfig, Scenario, actual_sensor, body_names
+from safety_systems.robot_geometry import Capsules, robot_capsules, tool_point
+from safety_systems.scenario import (
+    ControllerConfig,
+    RobotConfig,
+    Scenario,
+    actual_sensor,
+    body_names,
+)
 from safety_systems.sensor_faults import fault_table
 from safety_systems.tracks import make_regions, make_rules
 
@@ -39,3 +46,36 @@ def sensor_faults(scenario: Scenario) -> np.ndarray:
 def body_radii(scenario: Scenario) -> np.ndarray:
     """(N,) the radius of every body slot's sphere, m."""
     return np.array([b.radius for o in scenario.operators for b in o.bodies], dtype=float)
+
+
+def monitor_capsules(config: ControllerConfig) -> Capsules:
+    """The robot as the SeparationMonitor measures it: the UR5e's capsules with the
+    configured link radii (if any) and tool, or the seed's tool point."""
+    f = config.safety
+    if f.robot_geometry == "tool_point":
+        return tool_point()
+    return robot_capsules(link_radii=f.link_radii or None, payload_radius=f.payload_radius,
+                          tool_length=f.tool_length)
+
+
+def monitored_body_radii(scenario: Scenario) -> np.ndarray:
+    """(N,) body radii the monitor uses: the scenario's, or 0 on the tool point (Eq. 8
+    measures points)."""
+    if scenario.controller.safety.robot_geometry == "tool_point":
+        return np.zeros(sum(len(o.bodies) for o in scenario.operators))
+    return body_radii(scenario)
+
+
+def contact_capsules(robot: RobotConfig, contact_geometry: str) -> Capsules:
+    """The real robot for the safety properties: the UR5e model's capsules with the cell's
+    real tool (``robot.payload_radius``, ``robot.tool_length``), or the tool point."""
+    if contact_geometry == "tool_point":
+        return tool_point()
+    return robot_capsules(payload_radius=robot.payload_radius, tool_length=robot.tool_length)
+
+
+def contact_body_radii(scenario: Scenario) -> np.ndarray:
+    """(N,) body radii for the safety properties: the scenario's, or 0 on the tool point."""
+    if scenario.contact_geometry == "tool_point":
+        return np.zeros(sum(len(o.bodies) for o in scenario.operators))
+    return body_radii(scenario)

@@ -1,14 +1,20 @@
 """Outcome measures of a run: true separations, motion, task time, stops (plain functions).
 
-"Moving" means the tool flange's true speed exceeds ``MOVING_SPEED`` (1 mm/s). True
-separations are between the true tool position (forward kinematics of the actual joint
-positions) and the true positions of the bodies present in the cell.
+True separations are clearances between the real robot and the bodies present in the
+cell, as the scenario's ``contact_geometry`` defines contact
+(``configuration.contact_capsules``): the UR5e's capsules with the cell's real tool and
+each body's sphere, or the seed's tool flange and body centres (``tool_point``). The
+robot is where forward kinematics of the actual joint positions puts it. "Moving" means
+the robot's speed, the fastest of its capsules' axis ends (the tool flange on the tool
+point), exceeds ``MOVING_SPEED`` (1 mm/s).
 """
 
 import numpy as np
 
+from safety_systems.configuration import contact_body_radii, contact_capsules
+from safety_systems.robot_geometry import capsule_ends
+from safety_systems.separation import pair_figures
 from safety_systems.simulation import Run
-from safety_systems.ssm import separation_distances
 from safety_systems.stops import REJECT_CAUSES, STOP_REASONS
 from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.ur5e import tool0_position_and_velocity
@@ -22,12 +28,35 @@ def tool_state(run: Run) -> tuple[np.ndarray, np.ndarray]:
     return p, np.linalg.norm(v, axis=-1)
 
 
-def true_separations(run: Run, tool_position: np.ndarray | None = None) -> np.ndarray:
-    """(T, N) true distances from the tool to each body; NaN where a body is absent."""
-    if tool_position is None:
-        tool_position = tool_state(run)[0]
-    d = separation_distances(tool_position, run.bodies("operators.positions_true"))
-    return np.where(run["operators.present"] > 0.5, d, np.nan)
+def robot_contact_state(run: Run) -> tuple[np.ndarray, np.ndarray]:
+    """The real robot's contact capsules' ends (T, K, 2, 3) and their velocities."""
+    scenario = run.scenario
+    capsules = contact_capsules(scenario.robot, scenario.contact_geometry)
+    return capsule_ends(run["q"], capsules, run["v"])
+
+
+def robot_speed(end_velocities: np.ndarray) -> np.ndarray:
+    """(T,) the robot's speed: the fastest capsule axis end (every axis point is slower)."""
+    return np.linalg.norm(end_velocities, axis=-1).reshape(len(end_velocities), -1).max(axis=1)
+
+
+def true_pairs(run: Run) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(clearance, v_human_directed, v_robot_directed) of every body and contact capsule,
+    each (T, N, K), from the true positions and velocities; NaN where a body is absent."""
+    scenario = run.scenario
+    ends, end_velocities = robot_contact_state(run)
+    capsules = contact_capsules(scenario.robot, scenario.contact_geometry)
+    figures = pair_figures(ends, end_velocities, capsules.radius,
+                           run.bodies("operators.positions_true"),
+                           run.bodies("operators.velocities_true"), contact_body_radii(scenario))
+    absent = (run["operators.present"] < 0.5)[:, :, None]
+    return tuple(np.where(absent, np.nan, x) for x in figures)
+
+
+def true_separations(run: Run) -> np.ndarray:
+    """(T, N) true clearance of each body to the robot (the nearest contact capsule); NaN
+    where a body is absent."""
+    return true_pairs(run)[0].min(axis=-1)
 
 
 def min_separation_while_moving(separations: np.ndarray, speed: np.ndarray) -> float:
@@ -94,9 +123,9 @@ def hidden_time(run: Run) -> dict:
 def summarize(run: Run) -> dict:
     """The summary written to ``summary.json`` (see ``safety_systems.outputs``)."""
     scenario = run.scenario
-    p, speed = tool_state(run)
-    sep = true_separations(run, p)
-    min_sep = min_separation_while_moving(sep, speed)
+    _, speed = tool_state(run)
+    sep = true_separations(run)
+    min_sep = min_separation_while_moving(sep, robot_speed(robot_contact_state(run)[1]))
     finite = float(np.nanmin(sep)) if np.any(np.isfinite(sep)) else None
     return {
         "scenario": scenario.name,
@@ -106,6 +135,7 @@ def summarize(run: Run) -> dict:
         "cycles": scenario.robot.cycles,
         "task_time": task_time(run),
         "min_separation_while_moving": min_sep if np.isfinite(min_sep) else None,
+        "contact_geometry": scenario.contact_geometry,
         "contact_distance": scenario.contact_distance,
         "contact_while_moving": bool(min_sep < scenario.contact_distance),
         "stopped_time": stopped_time(run),

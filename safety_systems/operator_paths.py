@@ -283,17 +283,19 @@ def _path_rows(departures, ta, tc, vp, lengths, a_max, directions, waypoints, wh
 
 
 def stacked_position_velocity(
-    stack: PathStack, t: float | np.ndarray
+    stack: PathStack, t: float | np.ndarray, which: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Positions and velocities (P, 3) of every stacked path's reference point at time t
-    (a scalar, or one time per path, shape (P,)); compiled (numba)."""
-    P = stack.max_acceleration.size
+    (a scalar, or one time per path, shape (P,)); compiled (numba). With ``which`` (R,)
+    path indices: those paths' points (R, 3) at t (a scalar or (R,) times)."""
+    which = np.arange(stack.max_acceleration.size) if which is None else np.asarray(which)
+    R = which.size
     t = np.asarray(t, dtype=float)
-    t = np.full(P, float(t)) if t.ndim == 0 else np.broadcast_to(t, (P,))
-    out = np.empty((2, P, 3))
+    t = np.full(R, float(t)) if t.ndim == 0 else np.ascontiguousarray(np.broadcast_to(t, (R,)))
+    out = np.empty((2, R, 3))
     _path_rows(stack.departure_times, stack.accel_durations, stack.cruise_durations,
                stack.peak_speeds, stack.lengths, stack.max_acceleration, stack.directions,
-               stack.waypoint_positions, np.arange(P), t, out)
+               stack.waypoint_positions, np.ascontiguousarray(which, dtype=np.int64), t, out)
     return out[0], out[1]
 
 

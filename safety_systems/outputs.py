@@ -7,7 +7,15 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.metrics import hidden, stop_reasons, summarize, tool_state, true_separations
+from safety_systems.metrics import (
+    hidden,
+    robot_contact_state,
+    robot_speed,
+    stop_reasons,
+    summarize,
+    tool_state,
+    true_separations,
+)
 from safety_systems.simulation import Run
 from safety_systems.ssm import separation_distances
 from safety_systems.stops import REJECT_CAUSES, STOP_SEPARATION
@@ -31,19 +39,22 @@ def measured_distances(run: Run) -> np.ndarray:
 def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
     """Header and rows of the trace: one row per control tick.
 
-    Columns: time (s), k (commanded speed scale), path_rate (sigma), robot_speed (true
-    tool speed, m/s); for the SSM override stop_reason (``safety_systems.stops``: 0 none,
-    1 separation, 2 stale frame, 3 lost track, 4 bad frame time, 5 non-finite position,
-    6 unknown body id, 7 gate) and S_max (m), for the seed-004 controllers danger_index
-    (the controller's predicted DI), for the zones zone (0 green, 1 yellow, 2 red) and
-    closest_distance (m, Eq. 6b); ``rejected_<cause>``: measurements the tracker has
-    rejected so far, by cause; then for each body ``<body>:d_true`` (true distance,
-    empty when absent), ``<body>:d_measured`` (the distance the controller saw, empty
-    without a track), ``<body>:hidden`` (1 while its track is a hidden ball, or lost)
-    and, for the SSM override, ``<body>:S`` (the monitor's S_i).
+    Columns: time (s), k (commanded speed scale), path_rate (sigma), robot_speed (the
+    real robot's speed, m/s: its fastest capsule axis end, the tool flange on the tool
+    point; see ``safety_systems.metrics``); for the SSM override stop_reason
+    (``safety_systems.stops``: 0 none, 1 separation, 2 stale frame, 3 lost track, 4 bad
+    frame time, 5 non-finite position, 6 unknown body id, 7 gate) and S_max (m), for the
+    seed-004 controllers danger_index (the controller's predicted DI), for the zones zone
+    (0 green, 1 yellow, 2 red) and closest_distance (m, Eq. 6b); ``rejected_<cause>``:
+    measurements the tracker has rejected so far, by cause; then for each body
+    ``<body>:d_true`` (true clearance to the robot as the scenario's
+    ``contact_geometry`` measures it, empty when absent), ``<body>:d_measured`` (the
+    distance the controller saw, empty without a track), ``<body>:hidden`` (1 while its
+    track is a hidden ball, or lost) and, for the SSM override, ``<body>:S`` (the
+    monitor's S_i).
     """
-    p, speed = tool_state(run)
-    d_true = true_separations(run, p)
+    speed = robot_speed(robot_contact_state(run)[1])
+    d_true = true_separations(run)
     ssm = "override.stop_reason" in run.signals
     header = ["time", "k", "path_rate", "robot_speed"]
     columns = [run.time, commanded_speed(run), run["follower.path_state"][:, 1], speed]

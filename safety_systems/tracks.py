@@ -122,8 +122,9 @@ def make_regions(cell=None, exits=()) -> np.ndarray:
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def _inside(regions, j, x0, x1, x2):
-    return (regions[j, 0, 0] <= x0 <= regions[j, 1, 0] and regions[j, 0, 1] <= x1 <= regions[j, 1, 1]
-            and regions[j, 0, 2] <= x2 <= regions[j, 1, 2])
+    low, high = regions[j, 0], regions[j, 1]
+    return (low[0] <= x0 <= high[0] and low[1] <= x1 <= high[1]
+            and low[2] <= x2 <= high[2])
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element

@@ -4,7 +4,7 @@ The diagram (seed Sections 4-6, Fig. 5's loop)::
 
     OperatorMotion -> MocapSensor -> KalmanTracker -> SeparationMonitor -> SpeedOverride
                                                              ^                   |
-         UR5e (kinematic, or plant + inverse dynamics) -> EndEffectorVelocity    |
+         UR5e (kinematic, or plant + inverse dynamics) -> RobotCapsules          |
                     ^                                                            |
                     +------------------ PathFollower (braking) <-----------------+
 
@@ -24,7 +24,13 @@ from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
 from safety_systems.braking import BrakingTable, default_braking_table, stopping_distance
 from safety_systems.braking import stopping_time as table_stopping_time
 from safety_systems.cartesian_path import line_path, polyline_path
-from safety_systems.configuration import sensor_faults, tracker_regions, tracker_rules
+from safety_systems.configuration import (
+    monitor_capsules,
+    monitored_body_radii,
+    sensor_faults,
+    tracker_regions,
+    tracker_rules,
+)
 from safety_systems.joint_path import JointPath, SplinePath, default_joint_path, make_joint_path
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
 from safety_systems.scenario import (
@@ -35,7 +41,6 @@ from safety_systems.scenario import (
     body_names,
 )
 from safety_systems.systems.bimodal_speed_controller import BimodalSpeedController
-from safety_systems.systems.end_effector_velocity import EndEffectorVelocity
 from safety_systems.systems.erga_speed_controller import ErgaSpeedController
 from safety_systems.systems.gesture_source import GestureSource
 from safety_systems.systems.hwang_speed_controller import HwangSpeedController
@@ -44,6 +49,7 @@ from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
 from safety_systems.systems.path_follower import PathFollower
 from safety_systems.systems.preprogrammed_speed_controller import PreprogrammedSpeedController
+from safety_systems.systems.robot_capsules import RobotCapsules
 from safety_systems.systems.separation_monitor import SeparationMonitor
 from safety_systems.systems.speed_override import SpeedOverride
 from safety_systems.systems.zones_controller import ZonesController
@@ -135,11 +141,13 @@ def body_roles(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
 
 def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, num_bodies: int,
                         control_period: float, path=None, operator_of=None,
-                        is_hand=None) -> SafetyController:
+                        is_hand=None, body_radii=None) -> SafetyController:
     """Adds the tracker and the controller ``config.type`` names.
 
-    ``ssm_override`` (seed 000): EndEffectorVelocity, SeparationMonitor and
-    SpeedOverride; left to connect: the EndEffectorVelocity's ``joint_positions``. The
+    ``ssm_override`` (seed 000): RobotCapsules (the robot as
+    ``configuration.monitor_capsules`` gives it), SeparationMonitor (bodies of
+    ``body_radii`` m; None: points) and SpeedOverride; left to connect: the
+    RobotCapsules' ``joint_positions``. The
     seed-004 controllers (``erga``, ``hwang``, ``bimodal``, ``none``) need ``path`` and
     the body roles (``body_roles``); left to connect: their ``path_state``. ``zones``
     (seed 001) needs ``path``; left to connect: its ``path_state`` and ``gesture``.
@@ -169,9 +177,12 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         return SafetyController(tracker, {"speed": speed},
                                 speed.GetOutputPort("speed_scale_commanded"))
     t_s, b = assumed_stopping(config)
-    ee = builder.AddNamedSystem("ee_velocity", EndEffectorVelocity(period_sec=control_period))
+    capsules = monitor_capsules(config)
+    robot = builder.AddNamedSystem("robot_capsules", RobotCapsules(
+        capsules=capsules, period_sec=control_period))
     monitor = builder.AddNamedSystem("monitor", SeparationMonitor(
-        num_bodies=num_bodies, human_speed=f.human_speed, reaction_time=f.reaction_time,
+        num_bodies=num_bodies, capsule_radii=capsules.radius, body_radii=body_radii,
+        human_speed=f.human_speed, reaction_time=f.reaction_time,
         stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
         human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
         human_uncertainty_sigmas=f.human_uncertainty_sigmas, occlusion_speed=f.occlusion_speed,
@@ -182,14 +193,14 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
     for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std",
                  "unseen_time"):
         builder.Connect(tracker.GetOutputPort(name), monitor.GetInputPort(name))
-    builder.Connect(ee.GetOutputPort("ee_position"), monitor.GetInputPort("ee_position"))
-    builder.Connect(ee.GetOutputPort("ee_velocity"), monitor.GetInputPort("ee_velocity"))
+    for name in ("capsule_ends", "capsule_velocities"):
+        builder.Connect(robot.GetOutputPort(name), monitor.GetInputPort(name))
     builder.Connect(monitor.GetOutputPort("distances"), override.GetInputPort("distances"))
     builder.Connect(monitor.GetOutputPort("protective_distances"),
                     override.GetInputPort("protective_distances"))
     builder.Connect(tracker.GetOutputPort("track_status"), override.GetInputPort("track_status"))
     builder.Connect(tracker.GetOutputPort("fault"), override.GetInputPort("fault"))
-    return SafetyController(tracker, {"ee_velocity": ee, "monitor": monitor,
+    return SafetyController(tracker, {"robot_capsules": robot, "monitor": monitor,
                                       "override": override},
                             override.GetOutputPort("speed_scale_commanded"))
 
@@ -279,7 +290,8 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))
     operator_of, is_hand = body_roles(scenario)
     safety = AddSafetyController(builder, config=config, num_bodies=n, control_period=dt,
-                                 path=path, operator_of=operator_of, is_hand=is_hand)
+                                 path=path, operator_of=operator_of, is_hand=is_hand,
+                                 body_radii=monitored_body_radii(scenario))
     for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")
@@ -293,8 +305,8 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     q_port, v_port, plant = _add_robot(builder, robot, follower, dt)
     systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker, **safety.systems,
                    follower=follower)
-    if "ee_velocity" in safety.systems:
-        builder.Connect(q_port, safety.systems["ee_velocity"].GetInputPort("joint_positions"))
+    if "robot_capsules" in safety.systems:
+        builder.Connect(q_port, safety.systems["robot_capsules"].GetInputPort("joint_positions"))
     for controller in (speed, zones):
         if controller is not None:
             builder.Connect(follower.GetOutputPort("path_state"),

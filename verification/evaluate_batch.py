@@ -26,29 +26,52 @@ import numba
 import numpy as np
 
 import safety_systems.joint_path
-from safety_systems import braking, kalman, operator_paths, sensor_faults, ssm, stops, tracks, ur5e
+from safety_systems import (
+    braking,
+    kalman,
+    operator_paths,
+    robot_geometry,
+    sensor_faults,
+    separation,
+    ssm,
+    stops,
+    tracks,
+    ur5e,
+)
 from safety_systems.braking import path_step_one
 from safety_systems.compiled_cache import drop_stale_builds
+from safety_systems.configuration import (
+    contact_body_radii,
+    contact_capsules,
+    monitor_capsules,
+    monitored_body_radii,
+    tracker_regions,
+    tracker_rules,
+)
 from safety_systems.configuration import sensor_faults as scenario_faults
-from safety_systems.configuration import tracker_regions, tracker_rules
 from safety_systems.joint_path import path_arrays, path_state_one
 from safety_systems.operator_paths import (
     check_bodies,
     path_point_one,
     stack_operator_paths,
 )
+from safety_systems.robot_geometry import (
+    NUM_POINTS,
+    capsule_ends_one,
+    robot_points_one_memo,
+    segment_pair,
+)
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.sensor_faults import FAULT_COLUMNS, apply_faults
+from safety_systems.separation import body_separation, capsule_axis
 from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
     hidden_ball_radius,
     override_command,
     protective_one,
-    separation_pair,
 )
 from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
 from safety_systems.tracks import TRACK_SLOT, estimate_rows, frame_step, usable
-from safety_systems.ur5e import tool0_one_memo
 from safety_systems.workcell import (
     assumed_stopping,
     braking_table,
@@ -290,56 +313,67 @@ def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, 
 
 # Its compiled functions inline compiled code from these modules (see compiled_cache).
 drop_stale_builds(__file__, (ssm, braking, safety_systems.joint_path, ur5e, operator_paths,
-                             kalman, tracks, stops, sensor_faults))
+                             kalman, tracks, stops, sensor_faults, robot_geometry, separation))
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def monitor_pair(p_R, v_R, p_B, v_B):
-    """The SeparationMonitor's d and directed speeds of one tracked body (Eqs. 6-8): the
-    product's ``separation_pair`` (a seam for the broken-variant test, which rebuilds
-    :func:`_advance` with the sign flipped here)."""
-    return separation_pair(p_R, v_R, p_B, v_B)
+def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor):
+    """The SeparationMonitor's d_i, S_i (and the nearest pair's speeds and index) of one
+    tracked body: the product's ``separation.body_separation`` (a seam for the
+    broken-variant test, which rebuilds :func:`_advance` with a variant here)."""
+    return body_separation(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor)
 
 
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
              status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_s,
-             end, brake_scale, brakes, s, rate, p_prev, trig, min_sep, prot_time, prot_deep):
+             monitor_caps, contact_caps, r_monitor, r_contact, end, brake_scale, brakes, s,
+             rate, ends_prev, trig, min_sep, prot_time, prot_deep):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the tracker's outputs est_p, est_v, status, std, unseen and its
     ``frames`` state are fixed meanwhile); compiled, from the product's compiled
     functions. At each tick:
 
     - the robot from the PathFollower's state (s, sigma): q and dq/ds by
-      ``path_state_one`` (``path`` from ``joint_path.path_arrays``), tool0 and J(q) dq/ds
-      sigma by ``tool0_one_memo`` (each scenario's trigonometry kept in ``trig``), once per
-      distinct (s, sigma) at a tick (scenarios go in order of s; all start at rest at s = 0
-      and share these until their monitors differ); the EndEffectorVelocity's Eq. 5
-      (p - p_prev) / dt;
-    - SeparationMonitor and SpeedOverride on the estimates: d and directed speeds
-      (Eqs. 6-8, :func:`monitor_pair`; a hidden body's d less its ball,
-      ``ssm.hidden_ball_radius``), S (Eqs. 9-11, ``monitor`` = (mode, T_s + T_r, T_r,
-      B + C + Z_r, v_iso, v_iso_reduced) with Z_d = ``z_d_terms`` (base, sigmas,
-      occlusion speed) base + sigmas std per body), k, S_max and the stop reason by
-      ``ssm.override_command`` (Eq. 12 over the usable tracks, a lost track, the
-      tracker's fault, or its newest good frame older than ``timeout``);
+      ``path_state_one`` (``path`` from ``joint_path.path_arrays``), the robot's points
+      and their velocities J(q) dq/ds sigma by ``robot_geometry.robot_points_one_memo``
+      (each scenario's trigonometry kept in ``trig``) and the capsule ends by
+      ``capsule_ends_one``: the monitor's capsules (``monitor_caps`` = (a, b, t0, t1,
+      radius, tool length)) and the real robot's for the properties (``contact_caps``),
+      once per distinct (s, sigma) at a tick (scenarios go in order of s; all start at
+      rest at s = 0 and share these until their monitors differ); the RobotCapsules'
+      Eq. 5 (ends - ends_prev) / dt;
+    - SeparationMonitor and SpeedOverride on the estimates: d_i and S_i of every usable
+      body (``separation.body_separation`` via :func:`monitor_body`: Eqs. 6-11 over the
+      capsules, bodies of radius ``r_monitor``, a hidden body's d less its ball,
+      ``monitor`` = (mode, T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced), Z_d =
+      ``z_d_terms`` (base, sigmas, occlusion speed) base + sigmas std per body), k,
+      S_max and the stop reason by ``ssm.override_command`` (Eq. 12 over the usable
+      tracks, a lost track, the tracker's fault, or its newest good frame older than
+      ``timeout``);
     - the properties on the truth (``verification.properties``; bodies by
-      ``path_point_one`` of their operator's path in ``stack`` plus their offsets,
-      present from ``enter`` to ``leave``; operator o's bodies are op_first[o] to
-      op_first[o + 1] - 1): the smallest separation while the tool moves
-      and a scenario's ticks last (k <= ``last``), and time and depth inside the
-      true-speed S (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
+      ``path_point_one`` of their operator's path in ``stack`` plus their offsets, of
+      radius ``r_contact``, present from ``enter`` to ``leave``; operator o's bodies are
+      op_first[o] to op_first[o + 1] - 1): the smallest clearance to the real robot's
+      capsules while the robot moves (its fastest capsule end) and a scenario's ticks
+      last (k <= ``last``), and time and depth inside the true-speed S of any pair
+      (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
     - the PathFollower's update (``braking.path_step_one``; ``brakes`` = speed
       fractions, decelerations, acceleration limit).
     """
-    mode, t_sr, t_r, const, iso, iso_reduced = monitor
     z_d_base, z_d_sigmas, occlusion_speed = z_d_terms
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
+    ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
+    ca, cb, ct0, ct1, c_radius, c_tool = contact_caps
     N, K = est_p.shape[1], enter.shape[1]
     q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-    p_R, v_tool, v_R, p_H, v_H = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    points, point_v = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    m_ends, m_unused = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
+    m_velocities = np.empty((ma.size, 2, 3))
+    c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
+    speed = 0.0
     # Scenarios whose robot has not been slowed yet share its state (s, sigma) bit for bit:
     # in order of s, each computes the robot only where it differs from the one before.
     order = np.argsort(s, kind="mergesort")
@@ -347,15 +381,26 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
         t = k * dt
         s_before, rate_before = np.nan, np.nan
         for b in order:
-            if not (s[b] == s_before and rate[b] == rate_before):  # else p_R, v_tool as before
+            if not (s[b] == s_before and rate[b] == rate_before):  # else the robot as before
                 path_state_one(s[b], path, q, dq, ddq)
                 for j in range(6):
                     v_joint[j] = dq[j] * rate[b]
-                p_R[0], p_R[1], p_R[2], v_tool[0], v_tool[1], v_tool[2] = tool0_one_memo(
-                    q, v_joint, trig[b])
+                robot_points_one_memo(q, v_joint, m_tool, trig[b], points, point_v)
+                capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_unused)
+                if c_tool != m_tool:
+                    robot_points_one_memo(q, v_joint, c_tool, trig[b], points, point_v)
+                capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
+                speed = 0.0  # the robot's: its fastest capsule end
+                for j in range(ca.size):
+                    for e in range(2):
+                        w0, w1, w2 = c_velocities[j, e, 0], c_velocities[j, e, 1], \
+                            c_velocities[j, e, 2]
+                        speed = max(speed, np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
                 s_before, rate_before = s[b], rate[b]
-            for j in range(3):
-                v_R[j] = (p_R[j] - p_prev[b, j]) / dt
+            for j in range(ma.size):  # RobotCapsules' Eq. 5
+                for e in range(2):
+                    for i in range(3):
+                        m_velocities[j, e, i] = (m_ends[j, e, i] - ends_prev[b, j, e, i]) / dt
             # SeparationMonitor and SpeedOverride on the tracker's estimates.
             fault = frames[b, _F_FAULT]
             if fault == 0.0 and not t - frames[b, _F_GOOD] <= timeout:
@@ -363,32 +408,36 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
             if fault == 0.0:  # else the robot stops whatever d and S are
                 for i in range(N):
                     if usable(status[b, i]):  # (the override reads only these)
-                        d[i], v_h, v_r = monitor_pair(p_R, v_R, est_p[b, i], est_v[b, i])
-                        s_row[i] = protective_one(v_h, v_r, z_d_base + z_d_sigmas * std[b, i],
-                                                  mode, t_sr, t_r, const, iso, iso_reduced)
-                        if occlusion_speed > 0.0:
-                            d[i] -= hidden_ball_radius(unseen[b, i], occlusion_speed)
+                        d[i], s_row[i], _, _, _ = monitor_body(
+                            est_p[b, i], est_v[b, i], r_monitor[b, i],
+                            z_d_base + z_d_sigmas * std[b, i],
+                            hidden_ball_radius(unseen[b, i], occlusion_speed), m_ends,
+                            m_velocities, m_radius, monitor)
             k_override = override_command(d, s_row, status[b], fault, delta_s, d_min,
                                           included)[0]
             # The properties, on the true state at this tick.
-            v0, v1, v2 = v_tool[0], v_tool[1], v_tool[2]
-            moving = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2) > MOVING_SPEED and k <= last[b]
-            if moving:  # (they count only while the tool moves)
+            moving = speed > MOVING_SPEED and k <= last[b]
+            if moving:  # (they count only while the robot moves)
                 closest, deepest = np.inf, -np.inf
                 for o in range(K):  # each operator's point once, then its bodies
                     if not (t >= enter[b, o] and t < leave[b, o]):
                         continue
-                    x0, x1, x2, v_H[0], v_H[1], v_H[2] = path_point_one(
+                    x0, x1, x2, w0, w1, w2 = path_point_one(
                         departures, ta, tc, vp, lengths, a_max, directions, waypoints,
                         b * K + o, t)
+                    v_H = (w0, w1, w2)
                     for i in range(op_first[o], op_first[o + 1]):
-                        p_H[0], p_H[1], p_H[2] = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
-                                                  x2 + offsets[b, i, 2])
-                        sep, vh_true, vr_true = separation_pair(p_R, v_tool, p_H, v_H)
-                        closest = min(closest, sep)
-                        deepest = max(deepest, protective_one(
-                            vh_true, vr_true, truth_s[3], 0, truth_s[0], truth_s[1],
-                            truth_s[2], 0.0, 0.0) - sep)
+                        p_H = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
+                               x2 + offsets[b, i, 2])
+                        for j in range(ca.size):
+                            end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
+                            axis, vh_true, vr_true = segment_pair(p_H, v_H, end_a, end_b,
+                                                                  vel_a, vel_b)
+                            sep = axis - c_radius[j] - r_contact[b, i]
+                            closest = min(closest, sep)
+                            deepest = max(deepest, protective_one(
+                                vh_true, vr_true, truth_s[3], 0, truth_s[0], truth_s[1],
+                                truth_s[2], 0.0, 0.0) - sep)
                 min_sep[b] = min(min_sep[b], closest)
                 if deepest > 0.0:
                     prot_time[b] += dt
@@ -396,8 +445,10 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
             # Updates at this tick: the follower (PathFollower._step), Eq. 5's memory.
             s[b], rate[b] = path_step_one(s[b], rate[b], k_override, end[b], brake_scale[b], dt,
                                           fractions, deceleration, acceleration, 1.0)
-            for j in range(3):
-                p_prev[b, j] = p_R[j]
+            for j in range(ma.size):
+                for e in range(2):
+                    for i in range(3):
+                        ends_prev[b, j, e, i] = m_ends[j, e, i]
 
 
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
@@ -425,10 +476,19 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                  float(f.occlusion_speed))
     rules, regions = tracker_rules(cfg), tracker_regions(cfg)
 
+    caps = monitor_capsules(cfg)
+    contact = _common(scenarios, lambda s: (s.contact_geometry, s.robot.payload_radius,
+                                            s.robot.tool_length), "contact geometry")
+    truth_caps = contact_capsules(scenarios[0].robot, contact[0])
+    monitor_caps = (caps.a, caps.b, caps.t0, caps.t1, caps.radius, caps.tool_length)
+    contact_caps = (truth_caps.a, truth_caps.b, truth_caps.t0, truth_caps.t1, truth_caps.radius,
+                    truth_caps.tool_length)
+    r_monitor = np.array([monitored_body_radii(sc) for sc in scenarios]).reshape(B, N)
+    r_contact = np.array([contact_body_radii(sc) for sc in scenarios]).reshape(B, N)
     s = np.zeros(B)
     rate = np.zeros(B)
-    p_prev = np.full((B, 3), np.nan)
-    trig = np.full((B, 15), np.nan)  # tool0_one_memo's memory
+    ends_prev = np.full((B, caps.radius.size, 2, 3), np.nan)
+    trig = np.full((B, 15), np.nan)  # robot_points_one_memo's memory
     tracks = np.zeros((B * N, TRACK_SLOT))
     frames = np.zeros((B, 7))  # _F_*: no frame yet, none good
     frames[:, _F_NUMBER], frames[:, _F_GOOD] = -1.0, -np.inf
@@ -450,8 +510,9 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
             stop += 1
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter,
                  c.leave, est_p, est_v, status, std, unseen, frames, timeout, monitor, z_d_terms,
-                 f.delta_s, f.d_min, truth_s, c.end, c.brake_scale, brakes, s, rate, p_prev, trig,
-                 min_sep, prot_time, prot_deep)
+                 f.delta_s, f.d_min, truth_s, monitor_caps, contact_caps, r_monitor, r_contact,
+                 c.end, c.brake_scale, brakes, s, rate, ends_prev, trig, min_sep, prot_time,
+                 prot_deep)
         k = stop
         if k > last:
             break
@@ -463,8 +524,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
 
 def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
     """Scenarios with equal keys can share one batch: the same controller configuration,
-    robot (but its cycles and braking time scale), sensor rate and seed, and operator
-    shapes. ``memo`` keeps the configurations' texts by object across calls (the
+    robot (but its cycles and braking time scale), contact geometry, sensor rate and
+    seed, and operator shapes. ``memo`` keeps the configurations' texts by object across calls (the
     scenarios of one space share them; writing them out is most of the cost)."""
     memo = {} if memo is None else memo
 
@@ -477,7 +538,7 @@ def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
     sensor = actual_sensor(s)
     robot = tuple(text(getattr(s.robot, f.name)) for f in dataclasses.fields(s.robot)
                   if f.name not in ("cycles", "braking_time_scale"))
-    return (text(s.controller), robot, sensor.rate_hz, sensor.seed,
+    return (text(s.controller), robot, s.contact_geometry, sensor.rate_hz, sensor.seed,
             tuple((len(o.bodies), len(o.waypoints)) for o in s.operators))
 
 

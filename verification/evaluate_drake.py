@@ -2,16 +2,14 @@
 
 import numpy as np
 
-from safety_systems.metrics import tool_state, true_separations
+from safety_systems.metrics import robot_contact_state, robot_speed, true_pairs
 from safety_systems.scenario import Scenario
 from safety_systems.simulation import Run, simulate_workcell
-from safety_systems.ssm import directed_speeds
-from safety_systems.ur5e import tool0_position_and_velocity
 from safety_systems.workcell import MakeWorkcell, assumed_stopping
 from verification.properties import Robustness, protective_intrusion, stopped_before_contact
 
 LOGGED = ("q", "v", "operators.positions_true", "operators.velocities_true",
-          "operators.present", "follower.path_state")
+          "operators.present", "follower.path_state", "tracker.rejected_frames")
 
 
 def protective_args(scenario: Scenario) -> dict:
@@ -26,14 +24,12 @@ def protective_args(scenario: Scenario) -> dict:
 def robustness_of_run(run: Run) -> Robustness:
     """Both properties from a run's logs."""
     scenario = run.scenario
-    p, speed = tool_state(run)
-    sep = true_separations(run, p)
-    _, v_tool = tool0_position_and_velocity(run["q"], run["v"])
-    v_h, v_r = directed_speeds(p, v_tool, run.bodies("operators.positions_true"),
-                               run.bodies("operators.velocities_true"))
+    speed = robot_speed(robot_contact_state(run)[1])
+    clearance, v_h, v_r = true_pairs(run)
     dt = 1.0 / scenario.robot.control_rate_hz
-    time, deepest = protective_intrusion(sep, speed, v_h, v_r, dt, **protective_args(scenario))
-    rho = stopped_before_contact(sep, speed, scenario.contact_distance)
+    time, deepest = protective_intrusion(clearance, speed, v_h, v_r, dt,
+                                         **protective_args(scenario))
+    rho = stopped_before_contact(clearance.min(axis=-1), speed, scenario.contact_distance)
     return Robustness(rho, rho + scenario.contact_distance, time, deepest)
 
 

@@ -3,14 +3,20 @@
 Robustness convention: a value >= 0 means the property holds (safe), a value < 0 means
 it is violated; its size says by how much. Falsifiers minimise robustness.
 
+Contact is as the scenario's ``contact_geometry`` defines it
+(``safety_systems.metrics``): a body's sphere against any of the real robot's capsules
+(clearance: axis distance - capsule radius - body radius), or, on the seed's
+``tool_point``, a body's centre against the tool flange.
+
 - **Stopped before contact** (primary): whenever an operator body is within the contact
-  distance of the tool, the robot is at rest. Robustness = the smallest true separation
-  over the instants when the tool moves faster than ``MOVING_SPEED``, minus the contact
-  distance (+inf when the tool never moves while a body is present).
+  distance of the robot, the robot is at rest. Robustness = the smallest true clearance
+  over the instants when the robot moves faster than ``MOVING_SPEED``, minus the
+  contact distance (+inf when the robot never moves while a body is present).
 - **Protective distance respected** (reported beside it): the time the robot spends
-  moving while the true separation is below the ISO/TS 15066 protective distance S
-  computed from the true speeds (Eq. 1 with the true directed speeds and the
-  configuration's T_r, T_s, B, C, Z_d, Z_r), and the deepest such intrusion, metres.
+  moving while the true clearance of some body-capsule pair is below the ISO/TS 15066
+  protective distance S computed from that pair's true speeds (Eq. 1 with the true
+  directed speeds and the configuration's T_r, T_s, B, C, Z_d, Z_r), and the deepest
+  such intrusion, metres.
 """
 
 import dataclasses
@@ -37,24 +43,26 @@ class Robustness:
         return self.stopped_before_contact >= 0.0
 
 
-def stopped_before_contact(separations: np.ndarray, tool_speed: np.ndarray,
+def stopped_before_contact(separations: np.ndarray, robot_speed: np.ndarray,
                            contact_distance: float) -> float:
-    """Robustness of "stopped before contact" from (T, N) true separations (NaN where a
-    body is absent) and (T,) true tool speeds."""
-    return min_separation_while_moving(separations, tool_speed) - contact_distance
+    """Robustness of "stopped before contact" from (T, N) true clearances (NaN where a
+    body is absent) and (T,) true robot speeds."""
+    return min_separation_while_moving(separations, robot_speed) - contact_distance
 
 
-def protective_intrusion(separations: np.ndarray, tool_speed: np.ndarray,
+def protective_intrusion(clearances: np.ndarray, robot_speed: np.ndarray,
                          v_human_directed: np.ndarray, v_robot_directed: np.ndarray,
                          dt: float, **s_args) -> tuple[float, float]:
     """(time, deepest intrusion) of the robot moving inside the protective distance
-    computed from the true directed speeds; ``s_args`` are the configuration's
-    ``reaction_time``, ``stopping_time``, ``stopping_distance`` and margins."""
+    computed from the true directed speeds, from the (T, N, K) clearances and directed
+    speeds of every body-capsule pair (NaN where a body is absent); ``s_args`` are the
+    configuration's ``reaction_time``, ``stopping_time``, ``stopping_distance`` and
+    margins."""
     s_true = monitor_protective_distances(v_human_directed, v_robot_directed,
                                           mode="estimated", **s_args)
-    moving = (tool_speed > MOVING_SPEED)[:, None]
-    intrusion = np.where(moving & np.isfinite(separations), s_true - separations, -np.inf)
+    moving = (robot_speed > MOVING_SPEED)[:, None, None]
+    intrusion = np.where(moving & np.isfinite(clearances), s_true - clearances, -np.inf)
     inside = intrusion > 0.0
-    time = float(np.count_nonzero(np.any(inside, axis=1)) * dt)
+    time = float(np.count_nonzero(np.any(inside, axis=(1, 2))) * dt)
     deepest = float(max(np.max(intrusion, initial=-np.inf), 0.0))
     return time, deepest

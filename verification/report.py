@@ -8,6 +8,11 @@ import numpy as np
 
 from verification.verify import Outcome
 
+PLACEHOLDER_WARNING = ("The stopping data is the built-in placeholder derived from UR5/CB3 "
+                       "figures, not data measured on this cell: enter the measured stopping "
+                       "times and distances (controller.braking) before relying on this "
+                       "verdict.")
+
 
 def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
@@ -19,8 +24,9 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
     return {
         "verdict": o.verdict,
         "method": o.method,
-        "property": "stopped before contact: robustness = smallest true separation while "
-                    "the tool moves minus the contact distance (>= 0 safe)",
+        "property": "stopped before contact: robustness = smallest true clearance between a "
+                    "body and the robot (" + o.contact_geometry + ") while the robot moves, "
+                    "minus the contact distance (>= 0 safe)",
         "config": config_path,
         "config_sha256": o.config_sha256,
         "space": space_path,
@@ -40,10 +46,12 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
             "max_time_moving_inside": float(figures[:, 2].max()) if len(figures) else 0.0,
             "deepest_intrusion": float(figures[:, 3].max()) if len(figures) else 0.0,
         },
+        "braking_data": "placeholder" if o.proof.placeholder_braking else "configured",
         "proof": {
             "proved": o.proof.proved,
             "method": o.proof.method,
-            "premises": [{"statement": s, "holds": bool(ok)} for s, ok in o.proof.premises],
+            "premises": [{"statement": x.statement, "holds": bool(x.holds), "basis": x.basis}
+                         for x in o.proof.premises],
             "margin_at_worst_corner": o.proof.margin_at_worst_corner,
             "terms": o.proof.terms,
         },
@@ -97,12 +105,19 @@ def markdown(report: dict) -> str:
              f"- simulations: {report['simulations']} (budget {report['budget']}, seed "
              f"{report['seed']}); first counterexample after "
              f"{report['simulations_to_first_counterexample'] or '-'}",
-             f"- smallest robustness found: {report['min_robustness']}", "",
-             "## Assumptions", ""]
+             f"- smallest robustness found: {report['min_robustness']}", ""]
+    if report["braking_data"] == "placeholder":
+        lines += [f"**{PLACEHOLDER_WARNING}**", ""]
+    lines += ["## Assumptions", ""]
     lines += [f"- {a}" for a in report["assumptions"]]
-    lines += ["", "## Proof", "", f"Proved: **{report['proof']['proved']}**", ""]
+    lines += ["", "## Proof", "", f"Proved: **{report['proof']['proved']}**", "",
+              "Premises *checked* against this model, the configuration and the space:", ""]
     lines += [f"- [{'x' if p['holds'] else ' '}] {p['statement']}"
-              for p in report["proof"]["premises"]]
+              for p in report["proof"]["premises"] if p["basis"] == "checked"]
+    lines += ["", "Premises *trusted* from the files and the real cell (not checkable here):",
+              ""]
+    lines += [f"- {p['statement']}" for p in report["proof"]["premises"]
+              if p["basis"] == "trusted"]
     if report["proof"]["margin_at_worst_corner"] is not None:
         lines += ["", f"Margin M at the worst corner: {report['proof']['margin_at_worst_corner']:.4f} m",
                   "", "Terms: `" + json.dumps(report["proof"]["terms"]) + "`"]

@@ -22,19 +22,30 @@ import itertools
 import math
 
 import cma
+import numba
 import numpy as np
 from scipy.stats import qmc
 
+from safety_systems import robot_geometry, separation, ssm
 from safety_systems.braking import path_rate_step
+from safety_systems.compiled_cache import drop_stale_builds
+from safety_systems.configuration import (
+    contact_body_radii,
+    contact_capsules,
+    monitor_capsules,
+    monitored_body_radii,
+)
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import stack_paths, stacked_position_velocity
-from safety_systems.scenario import ControllerConfig, actual_sensor
-from safety_systems.ssm import (
-    directed_speeds,
-    monitor_protective_distances,
-    speed_override,
+from safety_systems.robot_geometry import (
+    NUM_POINTS,
+    capsule_ends_one,
+    robot_points_one,
+    segment_pair,
 )
-from safety_systems.ur5e import tool0_position_and_velocity
+from safety_systems.scenario import ControllerConfig, actual_sensor
+from safety_systems.separation import body_separation, capsule_axis
+from safety_systems.ssm import HUMAN_SPEED_MODES, _eq12
 from safety_systems.workcell import (
     assumed_stopping,
     braking_table,
@@ -55,6 +66,9 @@ from verification.space import (
 
 SWEEPS = ("grid", "sobol", "halton", "uniform", "corners")
 ESTIMATE_LAG = 0.05  # s by which the score lets an estimated hand speed lag the truth
+
+# Its compiled functions inline the product's (see compiled_cache).
+drop_stale_builds(__file__, (robot_geometry, separation, ssm))
 
 
 def sweep_points(method: str, n: int, d: int, *, seed: int = 0) -> np.ndarray:
@@ -93,22 +107,80 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
         (space, config, scenarios[c[0]:c[-1] + 1], step, horizon) for c in cuts]))
 
 
+@numba.njit(cache=True)
+def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, present,
+                r_real, monitor, z_d, delta_s, d_min, k_out, gap_out, moving_out):
+    """The reduced model's monitor and measure at one time for every candidate c,
+    compiled, through the product's compiled functions: the robot's capsules
+    (``robot_geometry``; ``mine`` the monitor's, ``real`` the contact geometry's, each
+    (a, b, t0, t1, radius, tool length)) at q, v_joint (n, 6); k (Eq. 12 by ``ssm._eq12``
+    over the ``tracked`` bodies p_m, v_m (n, N, 3), radii r_mine, Z_d ``z_d``, hidden
+    balls ``ball``, d and S of each by ``separation.body_separation``; 1 with no tracked
+    body, 0 on a NaN); the smallest clearance of the ``present`` true bodies ``truth`` to
+    the real capsules; whether the robot moves (its fastest capsule end)."""
+    ma, mb, mt0, mt1, m_radius, m_tool = mine
+    ca, cb, ct0, ct1, c_radius, c_tool = real
+    points, point_v = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    m_ends, m_vel = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
+    c_ends, c_vel = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
+    still = (0.0, 0.0, 0.0)
+    for c in range(q.shape[0]):
+        robot_points_one(q[c], v_joint[c], m_tool, points, point_v)
+        capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_vel)
+        d, top, any_tracked, faulty = np.inf, -np.inf, False, False
+        for i in range(p_m.shape[1]):
+            if tracked[c, i]:
+                any_tracked = True
+                d_i, s_i, _, _, _ = body_separation(p_m[c, i], v_m[c, i], r_mine[c, i], z_d,
+                                                    ball[c, i], m_ends, m_vel, m_radius,
+                                                    monitor)
+                if math.isnan(d_i) or math.isnan(s_i):
+                    faulty = True
+                else:
+                    d, top = min(d, d_i), max(top, s_i)
+        k = 1.0
+        if faulty:
+            k = 0.0
+        elif any_tracked:
+            k = _eq12(d, top, delta_s, d_min)
+        if c_tool != m_tool:
+            robot_points_one(q[c], v_joint[c], c_tool, points, point_v)
+        capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_vel)
+        speed, gap = 0.0, np.inf
+        for j in range(ca.size):
+            for e in range(2):
+                w0, w1, w2 = c_vel[j, e, 0], c_vel[j, e, 1], c_vel[j, e, 2]
+                speed = max(speed, math.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+        for i in range(truth.shape[1]):
+            if present[c, i] and speed > MOVING_SPEED:  # (it counts only then)
+                p = (truth[c, i, 0], truth[c, i, 1], truth[c, i, 2])
+                for j in range(ca.size):
+                    end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_vel, j)
+                    axis = segment_pair(p, still, end_a, end_b, vel_a, vel_b)[0]
+                    gap = min(gap, axis - c_radius[j] - r_real[c, i])
+        k_out[c], gap_out[c], moving_out[c] = k, gap, speed > MOVING_SPEED
+
+
 def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: list,
                    step: float, horizon: tuple[float, int]) -> np.ndarray:
     """Danger score of each candidate scenario, m (lower is more dangerous; see module).
 
-    A reduced model of the loop, every ``step`` seconds: the configured monitor is fed
-    the first operator's hand as the sensor would show it (one period plus the latency
-    late; while occluded, the ball around where it was last seen; for ``estimated`` speeds, the hand's
-    directed speed ``ESTIMATE_LAG`` late) and commands k by Eqs. 9-12; k is 0 while the
-    tracker's newest frame is older than the frame timeout (frames late beyond the
-    configured latency, or dropped). The robot starts at rest and its path rate follows
-    k through ``path_rate_step`` (acceleration limit and braking data). Controllers
-    other than ``ssm_override`` are not modelled (k = 1 but for faults). The Kalman
-    filter, noise and the other bodies are left out. ``horizon``: (duration, cycles)
-    to run to.
-    The score is the closest the hand comes to the tool while the tool still moves. It
-    only orders candidates; verdicts rest on the full closed-loop simulations.
+    A reduced model of the loop, every ``step`` seconds: the configured monitor (its
+    capsules, or the tool point) is fed every body as the sensor would show it (one
+    period plus the latency late; while occluded, the ball around where it was last
+    seen, or, under the ``expire`` rule, nothing once it has been unseen for the coast
+    time beyond the exit radius (a lost track nearer stops the robot); in outlier
+    frames, displaced, unless the gate rejects them, which stops the robot; for
+    ``estimated`` speeds, its directed speed ``ESTIMATE_LAG`` late) and commands k by
+    Eqs. 9-12 over every capsule; k is 0 while the tracker's newest frame is older than
+    the frame timeout (frames late beyond the configured latency, or dropped). The robot
+    starts at rest and its path rate follows k through ``path_rate_step`` (acceleration
+    limit and braking data). Controllers other than ``ssm_override`` are not modelled
+    (k = 1 but for faults). The Kalman filter and noise are left out. ``horizon``:
+    (duration, cycles) to run to.
+    The score is the closest a body comes to the real robot (the contact geometry)
+    while the robot still moves. It only orders candidates; verdicts rest on the full
+    closed-loop simulations.
     """
     n = len(scenarios)
     duration, cycles = horizon
@@ -118,61 +190,121 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     ticks = max(1, round(step / dt))
     table = braking_table(config)
     t = np.arange(0.0, duration + step, ticks * dt)
-    stack = stack_paths([scripted_operators(sc)[0].path for sc in scenarios])
-    f = config.safety
+    f, tr = config.safety, config.tracker
+    # Every candidate's operators (padded to the most by repeating its first, absent) and
+    # bodies (padded likewise).
+    ops = [scripted_operators(sc) for sc in scenarios]
+    K = max(len(o) for o in ops)
+    stack = stack_paths([o[min(j, len(o) - 1)].path for o in ops for j in range(K)])
+    names = [[f"{op.name}/{b.name}" for op in sc.operators for b in op.bodies]
+             for sc in scenarios]
+    N = max(len(x) for x in names)
+    body_op = np.zeros((n, N), dtype=int)
+    offsets = np.zeros((n, N, 3))
+    present = np.zeros((n, N), dtype=bool)
+    occ = np.full((n, N, 2), np.inf)
+    outlier = np.full((n, N, 5), np.inf)
+    outlier[:, :, 2:] = 0.0
+    for c, (sc, cand) in enumerate(zip(scenarios, names)):
+        rows = [(j, b) for j, op in enumerate(sc.operators) for b in op.bodies]
+        for i, (j, body) in enumerate(rows):
+            body_op[c, i], offsets[c, i], present[c, i] = j, body.offset, True
+        for o in sc.sensor.occlusions:
+            occ[c, cand.index(o.body)] = (o.start, o.end)
+        for o in sc.sensor.faults:
+            if o.kind == "outlier":
+                outlier[c, cand.index(o.body)] = (o.start, o.end, *o.offset)
     sensors = [actual_sensor(sc) for sc in scenarios]
     latency = np.array([s.latency for s in sensors])
-    delay = 1.0 / config.sensor.rate_hz + latency
-    lag = np.where(f.human_speed == "iso", 0.0, ESTIMATE_LAG)
-    occ = np.array([[o.start, o.end] if (o := next(iter(sc.sensor.occlusions), None)) else
-                    [np.inf, np.inf] for sc in scenarios])
+    delay = (1.0 / config.sensor.rate_hz + latency)[:, None]
+    lag = 0.0 if f.human_speed == "iso" else ESTIMATE_LAG
     drops = dropout_table(sensors)
+    mine, real = monitor_capsules(config), contact_capsules(space.robot, space.contact_geometry)
+    r_mine = np.array([np.pad(monitored_body_radii(sc), (0, N - len(x)))
+                       for sc, x in zip(scenarios, names)])
+    r_real = np.array([np.pad(contact_body_radii(sc), (0, N - len(x)))
+                       for sc, x in zip(scenarios, names)])
     # The tracker's frames: it looks at offset + j P; the newest frame delivered by then
     # (captured at i P, delivered latency later, unless dropped) is processed.
     period = 1.0 / config.sensor.rate_hz
-    offset = config.sensor.latency + config.tracker.processing_time
+    offset = config.sensor.latency + tr.processing_time
     timeout = frame_timeout(config)
     scale = np.array([sc.robot.braking_time_scale for sc in scenarios])
+    expire = tr.hidden_bodies == "expire"
+
+    rows = np.arange(n)[:, None] * K + body_op  # each body's operator in the stack
+
+    def operators_at(when: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities (n, K, 3) of every operator at times when (n,)."""
+        p, v = stacked_position_velocity(stack, np.repeat(when, K))
+        return p.reshape(n, K, 3), v.reshape(n, K, 3)
+
+    def bodies(points: np.ndarray) -> np.ndarray:
+        """(n, N, 3) each body's row of (n, K, 3) operator figures."""
+        return points.reshape(n * K, 3)[rows]
+
+    # Hidden bodies are frozen where their occlusion began: once, up front.
+    frozen = np.where(np.isfinite(occ[:, :, 0]), occ[:, :, 0], 0.0)
+    p_frozen = stacked_position_velocity(stack, frozen.ravel(), rows.ravel())[0].reshape(
+        n, N, 3) + offsets
+    v_frozen = stacked_position_velocity(stack, np.maximum(frozen - lag, 0.0).ravel(),
+                                         rows.ravel())[1].reshape(n, N, 3)
 
     @functools.lru_cache(maxsize=1)  # ticks between two tracker looks share the frame
-    def frame_seen(j: int) -> np.ndarray:
-        """Index of the frame the tracker's look j processes, per candidate."""
-        return delivered_frames(np.full(n, offset + j * period), latency, period, drops)
+    def frame_seen(j: int) -> tuple[np.ndarray, np.ndarray]:
+        """Index of the frame the tracker's look j processes, per candidate, and whether
+        the gate rejects it (an outlier frame of any body)."""
+        i = delivered_frames(np.full(n, offset + j * period), latency, period, drops)
+        capture = (i * period)[:, None]
+        rejected = tr.gate & present & (outlier[:, :, 0] <= capture) & (capture < outlier[:, :, 1])
+        return i, np.any(rejected, axis=1)
 
     def fault(now: float) -> np.ndarray:
         j = math.floor((now - offset) / period + 1e-9)
-        i = frame_seen(j)
-        return (j < 0) | (i < 0) | (now - i * period > timeout)
+        i, rejected = frame_seen(j)
+        return (j < 0) | (i < 0) | (now - i * period > timeout) | rejected
 
     t_s, b = assumed_stopping(config)
+    monitor = (HUMAN_SPEED_MODES.index(f.human_speed), t_s + f.reaction_time, f.reaction_time,
+               b + f.intrusion_distance + f.robot_uncertainty, f.iso_human_speed,
+               f.iso_reduced_human_speed)
+    mine_arrays = (mine.a, mine.b, mine.t0, mine.t1, mine.radius, mine.tool_length)
+    real_arrays = (real.a, real.b, real.t0, real.t1, real.radius, real.tool_length)
+    k_ssm, gap, moving = np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_)
     s_path, rate = np.zeros(n), np.zeros(n)
     closest = np.full(n, np.inf)
     for now in t:  # the monitor's view at each time, for every candidate
         q, dq, _ = joint_path_state(path, s_path)
-        tool, tool_v = tool0_position_and_velocity(q, dq * rate[:, None])
-        seen_at = np.maximum(now - delay, 0.0)
-        hidden = (seen_at >= occ[:, 0]) & (seen_at < occ[:, 1])
-        base = np.where(hidden, occ[:, 0], seen_at)
-        p_m = stacked_position_velocity(stack, base)[0]  # frozen while hidden
-        v_m = stacked_position_velocity(stack, np.maximum(base - lag, 0.0))[1]
-        ball = f.occlusion_speed * np.where(hidden, seen_at - base, 0.0)
-        d = np.linalg.norm(p_m - tool, axis=-1) - ball
-        v_h, v_r = directed_speeds(tool, tool_v, p_m[:, None], v_m[:, None])
-        S = monitor_protective_distances(
-            v_h[:, 0], v_r[:, 0], mode=f.human_speed, reaction_time=f.reaction_time,
-            stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
-            human_uncertainty=f.human_uncertainty,
-            robot_uncertainty=f.robot_uncertainty, iso_speed=f.iso_human_speed,
-            iso_reduced_speed=f.iso_reduced_human_speed)
-        # Other controllers (seed 004's, zones) are not modelled: they keep full speed.
-        k_ssm = (speed_override(d, S, delta_s=f.delta_s, d_min=f.d_min)
-                 if config.type == "ssm_override" else np.ones(n))
-        hand = stacked_position_velocity(stack, np.full(n, now))[0]
-        moving = np.linalg.norm(tool_v, axis=-1) > MOVING_SPEED
-        closest = np.where(moving, np.minimum(closest, np.linalg.norm(hand - tool, axis=-1)),
-                           closest)
+        v_joint = dq * rate[:, None]
+        seen = np.maximum(now - delay[:, 0], 0.0)  # (n,): when the shown frame was captured
+        seen_at = np.broadcast_to(seen[:, None], (n, N))
+        hidden = (seen_at >= occ[:, :, 0]) & (seen_at < occ[:, :, 1])
+        p_seen, v_seen = operators_at(seen)
+        p_m = np.where(hidden[:, :, None], p_frozen, bodies(p_seen) + offsets)
+        if lag:
+            v_seen = operators_at(np.maximum(seen - lag, 0.0))[1]
+        v_m = np.where(hidden[:, :, None], v_frozen, bodies(v_seen))
+        if not tr.gate:  # outlier frames taken as truth
+            ghost = (outlier[:, :, 0] <= seen_at) & (seen_at < outlier[:, :, 1]) & ~hidden
+            p_m = p_m + np.where(ghost[:, :, None], outlier[:, :, 2:], 0.0)
+        unseen = np.where(hidden, seen_at - occ[:, :, 0], 0.0)
+        ball = f.occlusion_speed * unseen
+        tracked, lost = present.copy(), np.zeros(n, dtype=bool)
+        if expire:  # the previous rule: ended beyond the exit radius, else lost
+            gone = hidden & (unseen > tr.max_coast_time)
+            outside = np.hypot(p_m[:, :, 0], p_m[:, :, 1]) > tr.exit_radius
+            tracked &= ~(gone & outside)
+            lost = np.any(gone & ~outside & present, axis=1)
+        truth = bodies(operators_at(np.full(n, now))[0]) + offsets
+        _score_rows(q, v_joint, mine_arrays, real_arrays, p_m, v_m, tracked, ball, r_mine,
+                    truth, present, r_real, monitor, float(f.human_uncertainty), f.delta_s,
+                    f.d_min, k_ssm, gap, moving)
+        # Other controllers (seed 004's, zones) are not modelled: they keep full speed;
+        # a lost track stops the robot.
+        command_now = np.where(lost, 0.0, k_ssm if config.type == "ssm_override" else 1.0)
+        closest = np.where(moving, np.minimum(closest, gap), closest)
         for k in range(ticks):
-            command = np.where(fault(now + k * dt), 0.0, k_ssm)
+            command = np.where(fault(now + k * dt), 0.0, command_now)
             new = path_rate_step(rate, command, dt, table=table,
                                  acceleration_limit=space.robot.acceleration_limit,
                                  time_scale=scale)

@@ -7,18 +7,30 @@ parameter) becomes a full :class:`safety_systems.scenario.Scenario`:
 - The robot runs its path from t = 0. Every operator stands still at its start point
   until the onset, ``settle_time + onset_phase * cycle_time`` (the robot is then at that
   fraction of its cycle), so the tracker has settled.
-- The hand heads for the *target*: where the tool is at ``target_phase`` of its cycle.
-  The start point lies ``start_distance`` from the target in the direction
-  (``azimuth_deg``, ``elevation_deg``); extra operators come from azimuths turned by
-  360 / n degrees.
+- The hand heads for the *target*: a point of the robot at ``target_phase`` of its
+  cycle, on the link ``target_link`` (an index into ``robot_geometry.CAPSULE_NAMES``:
+  shoulder, upper arm, forearm, the three wrist links, the tool) at the fraction
+  ``target_along`` from the link's inner joint to its outer one (for the tool: from the
+  flange to the tool tip). The start point lies ``start_distance`` from the target in
+  the direction (``azimuth_deg``, ``elevation_deg``); extra operators come from azimuths
+  turned by 360 / n degrees.
 - At the onset the hand either goes straight for the target or, when
   ``retreat_distance`` > 0, first walks that far away and then reverses, with peak
   speed ``peak_speed`` and acceleration ``acceleration``. It reaches on through the
   target by ``overshoot`` along the same line and stays there.
 - Each operator has two tracked gloves: the approaching hand at the reference point and
-  the other hand 0.35 m to its side.
+  the other hand 0.35 m to its side, spheres of ``hand_radius``; with ``heads`` = 1 also
+  a tracked head, ``HEAD_BACK`` behind the hand (towards where it came from) and
+  ``HEAD_UP`` above it, a sphere of ``head_radius``.
 - Sensor conditions: noise, latency, and from the onset a run of dropped frames
-  (``dropout``, s) and an occlusion of the approaching hand (``occlusion``, s).
+  (``dropout``, s) and an occlusion (``occlusion``, s) of ``occluded_bodies`` bodies of
+  every operator: 1 the approaching hand, 2 both hands, 3 both hands and the head.
+- Outlier frames (marker swaps): ``outlier_frames`` consecutive frames in which every
+  body of every operator is reported ``outlier_offset`` m farther back along its
+  approach line (the operator's markers taken for another set's, farther out), starting
+  ``outlier_delay`` s after the later of the occlusion's and the dropout's ends (so every
+  body has been seen again before them). A displaced hand beside its correctly seen
+  glove and head would change nothing: the monitor still sees the operator there.
 - ``braking_time_scale`` > 1 makes the real brakes slower than the stopping data says.
 
 This module must not use ``from __future__ import annotations`` (the YAML loader).
@@ -33,7 +45,9 @@ import numpy as np
 
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import segment_profile
+from safety_systems.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
 from safety_systems.scenario import (
+    ROBOT_GEOMETRIES,
     Body,
     ControllerConfig,
     Interval,
@@ -42,15 +56,18 @@ from safety_systems.scenario import (
     RobotConfig,
     Scenario,
     ScenarioError,
+    SensorFault,
     Waypoint,
     load_typed,
     read_task_path,
     validate_scenario,
 )
-from safety_systems.ur5e import tool0_position
 from safety_systems.workcell import joint_path
 
 OTHER_HAND_OFFSET = 0.35  # m, sideways from the approaching hand
+HEAD_BACK = 0.30  # m behind the approaching hand, horizontally
+HEAD_UP = 0.45  # m above it
+TARGET_SEGMENTS = LINK_SEGMENTS + ((6, 7),)  # each capsule's points, the tool's last
 MIN_GAP = 1e-9  # s; shorter dropouts and occlusions are none
 
 
@@ -77,13 +94,20 @@ class SpaceParameters:
     acceleration: Range = _r(1.0, 10.0)
     onset_phase: Range = _r(0.0, 1.0)
     target_phase: Range = _r(0.0, 1.0)
+    target_link: Range = _r(6.0, 6.0)
+    target_along: Range = _r(0.0, 0.0)
     retreat_distance: Range = _r(0.0, 0.0)
     overshoot: Range = _r(0.0, 0.0)
     operators: Range = _r(1.0, 1.0)
+    heads: Range = _r(0.0, 0.0)
     noise_std: Range = _r(0.0002, 0.0002)
     latency: Range = _r(0.0, 0.0)
     dropout: Range = _r(0.0, 0.0)
     occlusion: Range = _r(0.0, 0.0)
+    occluded_bodies: Range = _r(1.0, 1.0)
+    outlier_frames: Range = _r(0.0, 0.0)
+    outlier_offset: Range = _r(1.0, 1.0)
+    outlier_delay: Range = _r(0.1, 0.1)
     braking_time_scale: Range = _r(1.0, 1.0)
 
 
@@ -92,15 +116,20 @@ class ScenarioSpace:
     """A box of approaches, the cell they happen in and the stated assumptions.
 
     ``settle_time``: s every operator stands still before any onset. ``tail_time``: s
-    simulated after the hand reaches the target. ``noise_bound_sigmas``: for proofs,
-    sensor noise is assumed bounded at this many standard deviations per axis.
-    ``notes``: assumptions in words, repeated in every result.
+    simulated after the hand reaches the target. ``contact_geometry`` and
+    ``contact_distance``: what contact means (as in a scenario). ``hand_radius`` and
+    ``head_radius``: the bodies' spheres, m. ``noise_bound_sigmas``: for proofs, sensor
+    noise is assumed bounded at this many standard deviations per axis. ``notes``:
+    assumptions in words, repeated in every result.
     """
 
     name: str = ""
     settle_time: float = 1.0
     tail_time: float = 1.5
-    contact_distance: float = 0.10
+    contact_geometry: str = "capsules"
+    contact_distance: float = 0.0
+    hand_radius: float = 0.05
+    head_radius: float = 0.12
     noise_bound_sigmas: float = 4.0
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     parameters: SpaceParameters = dc.field(default_factory=SpaceParameters)
@@ -111,10 +140,15 @@ NAMES = tuple(f.name for f in dc.fields(SpaceParameters))
 _LIMITS = {  # allowed ranges of each parameter
     "azimuth_deg": (-360.0, 360.0), "elevation_deg": (-80.0, 80.0),
     "start_distance": (0.2, 10.0), "peak_speed": (0.01, 2.0), "acceleration": (0.1, 100.0),
-    "onset_phase": (0.0, 1.0), "target_phase": (0.0, 1.0), "retreat_distance": (0.0, 5.0), "overshoot": (0.0, 2.0),
-    "operators": (1.0, 5.0), "noise_std": (0.0, 0.05), "latency": (0.0, 1.0),
-    "dropout": (0.0, 5.0), "occlusion": (0.0, 5.0), "braking_time_scale": (0.1, 10.0),
+    "onset_phase": (0.0, 1.0), "target_phase": (0.0, 1.0),
+    "target_link": (0.0, len(CAPSULE_NAMES) - 1.0), "target_along": (0.0, 1.0),
+    "retreat_distance": (0.0, 5.0), "overshoot": (0.0, 2.0), "operators": (1.0, 5.0),
+    "heads": (0.0, 1.0), "noise_std": (0.0, 0.05), "latency": (0.0, 1.0),
+    "dropout": (0.0, 5.0), "occlusion": (0.0, 60.0), "occluded_bodies": (1.0, 3.0),
+    "outlier_frames": (0.0, 40.0), "outlier_offset": (0.0, 10.0), "outlier_delay": (0.0, 10.0),
+    "braking_time_scale": (0.1, 10.0),
 }
+WHOLE = ("target_link", "operators", "heads", "occluded_bodies", "outlier_frames")
 
 
 def validate_space(space: ScenarioSpace) -> None:
@@ -126,13 +160,21 @@ def validate_space(space: ScenarioSpace) -> None:
         if not ok:
             raise ScenarioError(f"parameters.{name}", [r.min, r.max],
                                 f"min <= max within [{lo}, {hi}]")
-    ops = space.parameters.operators
-    if ops.min != round(ops.min) or ops.max != round(ops.max):
-        raise ScenarioError("parameters.operators", [ops.min, ops.max], "whole numbers")
+    for name in WHOLE:
+        r = getattr(space.parameters, name)
+        if r.min != round(r.min) or r.max != round(r.max):
+            raise ScenarioError(f"parameters.{name}", [r.min, r.max], "whole numbers")
     for name in ("settle_time", "tail_time", "noise_bound_sigmas"):
         value = getattr(space, name)
         if not (math.isfinite(value) and value > 0.0):
             raise ScenarioError(name, value, "a finite number > 0")
+    if space.contact_geometry not in ROBOT_GEOMETRIES:
+        raise ScenarioError("contact_geometry", space.contact_geometry,
+                            " | ".join(ROBOT_GEOMETRIES))
+    for name, hi in (("contact_distance", 1.0), ("hand_radius", 0.5), ("head_radius", 0.5)):
+        value = getattr(space, name)
+        if not (math.isfinite(value) and 0.0 <= value <= hi):
+            raise ScenarioError(name, value, f"0 to {hi} m")
 
 
 def load_space(path: str | Path) -> ScenarioSpace:
@@ -162,32 +204,49 @@ def to_point(space: ScenarioSpace, unit: np.ndarray) -> dict[str, float]:
     for name, u in zip(free_parameters(space), np.asarray(unit, dtype=float)):
         i = NAMES.index(name)
         values[name] = float(lo[i] + min(max(u, 0.0), 1.0) * (hi[i] - lo[i]))
-    values["operators"] = float(round(values["operators"]))
+    for name in WHOLE:
+        values[name] = float(round(values[name]))
     return values
 
 
 def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
     """The assumptions under which a verdict over ``space`` holds, in words."""
     p = space.parameters
+    heads = " and a head" if p.heads.max >= 1 else ""
+    links = sorted({CAPSULE_NAMES[int(i)] for i in range(int(p.target_link.min),
+                                                          int(p.target_link.max) + 1)})
+    occluded = {1: "the approaching hand", 2: "both hands",
+                3: "both hands and the head"}[int(p.occluded_bodies.max)]
     lines = [
         f"{int(p.operators.min)} to {int(p.operators.max)} operator(s), each tracked by two "
-        "gloves; no other body enters the cell",
+        f"gloves{heads} (spheres of {space.hand_radius:g} m{', ' if heads else ''}"
+        f"{f'{space.head_radius:g} m' if heads else ''}); no other body enters the cell",
         f"every operator starts {p.start_distance.min:g} to {p.start_distance.max:g} m from "
         f"the point it approaches and stands still for at least {space.settle_time:g} s",
         f"hand speed never exceeds {p.peak_speed.max:g} m/s (ISO 13855: 2.0 m/s) and "
         f"acceleration never exceeds {p.acceleration.max:g} m/s^2",
-        f"approach directions: azimuth {p.azimuth_deg.min:g} to {p.azimuth_deg.max:g} deg, "
-        f"elevation {p.elevation_deg.min:g} to {p.elevation_deg.max:g} deg; straight lines "
+        f"approaches aim at points of the {', '.join(links)} (capsule axes), from azimuth "
+        f"{p.azimuth_deg.min:g} to {p.azimuth_deg.max:g} deg, elevation "
+        f"{p.elevation_deg.min:g} to {p.elevation_deg.max:g} deg; straight lines "
         + ("with a retreat of up to "f"{p.retreat_distance.max:g} m before reversing"
            if p.retreat_distance.max > 0 else "without retreat")
         + f", reaching up to {p.overshoot.max:g} m past the target",
         f"sensor: {config.sensor.rate_hz:g} Hz, noise std {p.noise_std.min:g} to "
         f"{p.noise_std.max:g} m (bounded at {space.noise_bound_sigmas:g} sigma for proofs), "
         f"latency {p.latency.min:g} to {p.latency.max:g} s, dropped frames up to "
-        f"{p.dropout.max:g} s, occlusion of the approaching hand up to {p.occlusion.max:g} s",
+        f"{p.dropout.max:g} s, occlusion of up to {occluded} of every operator for up to "
+        f"{p.occlusion.max:g} s",
+        (f"up to {int(p.outlier_frames.max)} outlier frames of every operator's bodies, "
+         f"{p.outlier_offset.min:g} to {p.outlier_offset.max:g} m from their true positions"
+         if p.outlier_frames.max >= 1 else "no outlier frames"),
         f"the robot stops as its stopping data says, times scaled by "
         f"{p.braking_time_scale.min:g} to {p.braking_time_scale.max:g}",
-        f"contact means a body within {space.contact_distance:g} m of the tool flange",
+        (f"contact means a body's sphere within {space.contact_distance:g} m of a robot "
+         f"capsule (the tool of {space.robot.payload_radius:g} m radius"
+         f"{f', {space.robot.tool_length:g} m long' if space.robot.tool_length else ''})"
+         if space.contact_geometry == "capsules" else
+         f"contact means a body within {space.contact_distance:g} m of the tool flange "
+         "(the seed's tool point; the other links are not checked)"),
     ]
     return lines + list(space.notes)
 
@@ -196,6 +255,14 @@ def approach_times(peak_speed: float, acceleration: float, length: float) -> flo
     """Duration of a rest-to-rest straight move, s."""
     ta, tc, _ = segment_profile(np.array([length]), peak_speed, acceleration)
     return float(2.0 * ta[0] + tc[0])
+
+
+def target_point(space: ScenarioSpace, values: dict[str, float], path) -> np.ndarray:
+    """The point a space's approaches aim at (see the module docstring), m."""
+    q = joint_path_state(path, values["target_phase"] * path.cycle_time)[0]
+    points = robot_points(q, tool_length=space.robot.tool_length)[0]
+    a, b = TARGET_SEGMENTS[int(round(values["target_link"]))]
+    return points[a] + values["target_along"] * (points[b] - points[a])
 
 
 def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[str, float],
@@ -209,13 +276,15 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
     v = values
     path = joint_path(space.robot) if path is None else path
     onset = space.settle_time + v["onset_phase"] * path.cycle_time
-    target = tool0_position(joint_path_state(path, v["target_phase"] * path.cycle_time)[0])
+    target = target_point(space, v, path)
     n_ops = int(round(v["operators"]))
-    operators, end = [], onset
+    heads = int(round(v["heads"])) >= 1
+    operators, end, directions = [], onset, []
     for j in range(n_ops):
         az = math.radians(v["azimuth_deg"] + 360.0 * j / n_ops)
         el = math.radians(v["elevation_deg"])
         u = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+        directions.append(u)
         start = target + v["start_distance"] * u
         waypoints = [Waypoint(0.0, start.tolist())]
         t = onset
@@ -229,22 +298,39 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
         length = float(np.linalg.norm(end_point - np.array(waypoints[-2].position)))
         end = max(end, t + approach_times(v["peak_speed"], v["acceleration"], length))
         side = np.array([-math.sin(az), math.cos(az), 0.0]) * OTHER_HAND_OFFSET
+        bodies = [Body("hand", [0.0, 0.0, 0.0], space.hand_radius),
+                  Body("other_hand", side.tolist(), space.hand_radius)]
+        if heads:  # behind the hand (where it came from) and above it
+            back = np.array([math.cos(az), math.sin(az), 0.0]) * HEAD_BACK
+            bodies.append(Body("head", (back + [0.0, 0.0, HEAD_UP]).tolist(),
+                               space.head_radius))
         operators.append(OperatorConfig(
             name=f"operator_{j}", max_speed=v["peak_speed"], max_acceleration=v["acceleration"],
-            bodies=[Body("hand", [0.0, 0.0, 0.0]), Body("other_hand", side.tolist())],
-            waypoints=waypoints))
+            bodies=bodies, waypoints=waypoints))
     duration = end + space.tail_time
     sensor = dc.replace(config.sensor, noise_std=v["noise_std"], latency=v["latency"],
-                        dropouts=[], occlusions=[])
+                        dropouts=[], occlusions=[], faults=[])
     if v["dropout"] > MIN_GAP:
         sensor.dropouts = [Interval(onset, onset + v["dropout"])]
+    hidden = ("hand", "other_hand", "head")[:int(round(v["occluded_bodies"]))]
     if v["occlusion"] > MIN_GAP:
-        sensor.occlusions = [Occlusion(f"operator_{j}/hand", onset, onset + v["occlusion"])
-                             for j in range(n_ops)]
+        sensor.occlusions = [Occlusion(f"{o.name}/{b.name}", onset, onset + v["occlusion"])
+                             for o in operators for b in o.bodies if b.name in hidden]
+    frames = int(round(v["outlier_frames"]))
+    if frames >= 1:  # from the first capture after the delay, exactly ``frames`` captures
+        period = 1.0 / sensor.rate_hz
+        after = onset + max(v["occlusion"], v["dropout"]) + v["outlier_delay"]
+        first = math.ceil(after / period - 1e-9) * period
+        sensor.faults = [SensorFault("outlier", f"{o.name}/{b.name}", "", first,
+                                     first + (frames - 0.5) * period,
+                                     (v["outlier_offset"] * u).tolist())
+                         for o, u in zip(operators, directions) for b in o.bodies]
+        duration = max(duration, first + frames * period + space.tail_time)
     robot = dc.replace(space.robot, braking_time_scale=v["braking_time_scale"],
                        cycles=int(math.ceil(duration / path.cycle_time)) + 1)
-    scenario = Scenario(name=name, duration=duration, contact_distance=space.contact_distance,
-                        robot=robot, controller=config, sensor=sensor, operators=operators)
+    scenario = Scenario(name=name, duration=duration, contact_geometry=space.contact_geometry,
+                        contact_distance=space.contact_distance, robot=robot, controller=config,
+                        sensor=sensor, operators=operators)
     if validate:
         validate_scenario(scenario)
     return scenario

@@ -47,15 +47,17 @@ class Outcome:
     seed: int
     budget: int
     config_sha256: str
+    contact_geometry: str = "capsules"
 
 
 def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget: int,
            method: str = "falsify", workers: int | None = None, scheduler: str | None = None,
            seed: int = 0, progress: bool = False, config_text: str = "",
-           stop_at_first: bool = False) -> Outcome:
+           stop_at_first: bool = False, candidates: int = 8192) -> Outcome:
     """Runs proof and search for ``config`` over ``space``; writes scenario files of
     confirmed counterexamples under ``out / "counterexamples"``. ``stop_at_first`` ends
-    a falsifying search at its first violation instead of spending the whole budget."""
+    a falsifying search at its first violation instead of spending the whole budget;
+    ``candidates``: how many the falsifier ranks before simulating."""
     if method not in METHODS:
         raise ValueError(f"method: got {method!r}; allowed: {' | '.join(METHODS)}")
     out.mkdir(parents=True, exist_ok=True)
@@ -64,7 +66,7 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
                 progress=progress, total=budget) as runner:
         if method == "falsify":
             log = falsify(space, config, runner, budget=budget, seed=seed,
-                          stop_at_first=stop_at_first)
+                          stop_at_first=stop_at_first, candidates=candidates)
         else:
             log = sweep(space, config, runner, method=method, budget=budget, seed=seed)
     confirmed, unconfirmed = _confirm(space, config, log, out)
@@ -77,7 +79,7 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     how = proof.method if verdict == "proved" else f"search ({method}, seed {seed})"
     return Outcome(verdict, how, proof, log, assumptions(space, config), confirmed, unconfirmed,
                    free_parameters(space), seed, budget,
-                   hashlib.sha256(config_text.encode()).hexdigest())
+                   hashlib.sha256(config_text.encode()).hexdigest(), space.contact_geometry)
 
 
 def _confirm(space, config, log, out):

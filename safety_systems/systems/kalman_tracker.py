@@ -100,7 +100,8 @@ class KalmanTracker(LeafSystem):
                            ("position_std", 7), ("unseen_time", 8)):
             size = 3 * n if isinstance(rows, slice) else n
             self.DeclareVectorOutputPort(
-                name, size, lambda c, o, r=rows: o.SetFromVector(np.ravel(self._out.Eval(c)[r], "F")),
+                name, size,
+                lambda c, o, r=rows: o.SetFromVector(np.ravel(self._out.Eval(c)[r], "F")),
                 prerequisites_of_calc={self._out.ticket()},
             )
         self.DeclareVectorOutputPort("fault", 1, self._calc_fault,

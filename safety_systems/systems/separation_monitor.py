@@ -4,27 +4,20 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
-from safety_systems.ssm import (
-    HUMAN_SPEED_MODES,
-    ISO_HUMAN_SPEED,
-    ISO_REDUCED_HUMAN_SPEED,
-    hidden_ball_radius,
-    human_uncertainty,
-    monitor_protective_distances,
-    separation_and_directed_speeds,
-)
-from safety_systems.tracks import TRACK_HIDDEN, TRACK_TRACKING
+from safety_systems import separation
+from safety_systems.ssm import HUMAN_SPEED_MODES, ISO_HUMAN_SPEED, ISO_REDUCED_HUMAN_SPEED
 
 
 class SeparationMonitor(LeafSystem):
-    """Separation distances and protective separation distances, seed Eqs. 6-11.
+    """Separation distances and protective separation distances, seed Eqs. 6-11, between
+    every tracked body (a sphere) and the robot's capsules.
 
     .. pydrake_system::
 
         name: SeparationMonitor
         input_ports:
-        - ee_position
-        - ee_velocity
+        - capsule_ends
+        - capsule_velocities
         - positions_estimated
         - velocities_estimated
         - track_status
@@ -35,16 +28,23 @@ class SeparationMonitor(LeafSystem):
         - protective_distances
         - human_directed_speeds
         - robot_directed_speeds
+        - nearest_capsule
 
-    Bodies without a usable track (status none or lost) have NaN on every output; the
-    SpeedOverride decides what a lost track means. A hidden body is a ball around its
-    last accepted estimate whose radius grows at ``occlusion_speed``
-    (:func:`safety_systems.ssm.hidden_ball_radius`): its d_i is the distance to that
-    ball. Outputs are computed on demand from
-    the inputs (one shared cache entry), so they follow the robot at its control rate.
+    ``safety_systems.separation`` holds the maths: d_i is a body's smallest clearance to
+    the capsules, S_i its largest S over them (Eqs. 9-11 from each pair's directed
+    speeds), the directed speeds and ``nearest_capsule`` (an index into the capsules)
+    the nearest pair's. Bodies without a usable track (status none or lost) have NaN on
+    every output and index -1; the SpeedOverride decides what a lost track means. A
+    hidden body is a ball around its last accepted estimate whose radius grows at
+    ``occlusion_speed`` (:func:`safety_systems.ssm.hidden_ball_radius`): its d_i is the
+    clearance to that ball. Outputs are computed on demand from the inputs (one shared
+    cache entry), so they follow the robot at its control rate.
 
     Args:
         num_bodies: registered body slots N.
+        capsule_radii: the radius of each of the robot's K capsules, metres (the seed's
+            tool point: one capsule of radius 0).
+        body_radii: the radius of each body's sphere, metres (N; zeros on the tool point).
         human_speed: ``estimated`` | ``iso`` | ``estimated_with_floor`` (see
             :func:`safety_systems.ssm.human_speed_term`).
         reaction_time: T_r in seconds.
@@ -64,6 +64,8 @@ class SeparationMonitor(LeafSystem):
         self,
         *,
         num_bodies: int,
+        capsule_radii=(0.0,),
+        body_radii=None,
         human_speed: str = "estimated",
         reaction_time: float,
         stopping_time: float,
@@ -88,19 +90,24 @@ class SeparationMonitor(LeafSystem):
         ).items():
             if not np.isfinite(value) or value < 0:
                 raise ValueError(f"{name}: got {value}; allowed: a finite number >= 0")
-        self._n = num_bodies
-        self._mode = human_speed
-        self._sigmas = human_uncertainty_sigmas
-        self._occlusion_speed = occlusion_speed
-        self._z_d = human_uncertainty
-        self._s_args = dict(
-            mode=human_speed, reaction_time=reaction_time, stopping_time=stopping_time,
-            stopping_distance=stopping_distance, intrusion_distance=intrusion_distance,
-            robot_uncertainty=robot_uncertainty, iso_speed=iso_speed,
-            iso_reduced_speed=iso_reduced_speed,
-        )
-        self._p_R = self.DeclareVectorInputPort("ee_position", 3)
-        self._v_R = self.DeclareVectorInputPort("ee_velocity", 3)
+        self._radius = np.array(capsule_radii, dtype=float).reshape(-1)
+        body_radii = np.zeros(num_bodies) if body_radii is None else body_radii
+        self._r_B = np.array(body_radii, dtype=float).reshape(-1)
+        for name, values, size in (("capsule_radii", self._radius, None),
+                                   ("body_radii", self._r_B, num_bodies)):
+            if (size is not None and values.size != size) or values.size == 0 and size is None \
+                    or not np.all(np.isfinite(values) & (values >= 0.0)):
+                raise ValueError(f"{name}: got {values.tolist()}; allowed: "
+                                 f"{size or 'one or more'} finite radii >= 0 (m)")
+        self._n, k = num_bodies, self._radius.size
+        self._z_d_terms = (float(human_uncertainty), float(human_uncertainty_sigmas),
+                           float(occlusion_speed))
+        self._monitor = (HUMAN_SPEED_MODES.index(human_speed),
+                         float(stopping_time + reaction_time), float(reaction_time),
+                         float(stopping_distance + intrusion_distance + robot_uncertainty),
+                         float(iso_speed), float(iso_reduced_speed))
+        self._ends = self.DeclareVectorInputPort("capsule_ends", 6 * k)
+        self._end_v = self.DeclareVectorInputPort("capsule_velocities", 6 * k)
         self._p_B = self.DeclareVectorInputPort("positions_estimated", 3 * num_bodies)
         self._v_B = self.DeclareVectorInputPort("velocities_estimated", 3 * num_bodies)
         self._status = self.DeclareVectorInputPort("track_status", num_bodies)
@@ -109,41 +116,32 @@ class SeparationMonitor(LeafSystem):
         self._cache = self.DeclareCacheEntry(
             description="separation",
             value_producer=ValueProducer(
-                allocate=AbstractValue.Make(np.zeros((4, num_bodies))).Clone,
+                allocate=AbstractValue.Make(np.zeros((5, num_bodies))).Clone,
                 calc=self._calc_all,
             ),
             prerequisites_of_calc={self.all_input_ports_ticket()},
         )
         for row, name in enumerate(
             ("distances", "protective_distances", "human_directed_speeds",
-             "robot_directed_speeds")
+             "robot_directed_speeds", "nearest_capsule")
         ):
             self.DeclareVectorOutputPort(
-                name, num_bodies, lambda c, o, r=row: o.SetFromVector(self._row(c, r)),
+                name, num_bodies, lambda c, o, r=row: o.SetFromVector(self._cache.Eval(c)[r]),
                 prerequisites_of_calc={self._cache.ticket()},
             )
-
-    def _row(self, context, row):
-        return self._cache.Eval(context)[row]
 
     def _calc_all(self, context, value):
         n = self._n
         out = value.get_mutable_value()
         if n == 0:
             return
-        p_R = self._p_R.Eval(context)
-        v_R = self._v_R.Eval(context)
-        p_B = self._p_B.Eval(context).reshape(n, 3)
-        v_B = self._v_B.Eval(context).reshape(n, 3)
-        status = self._status.Eval(context)
-        usable = (status == TRACK_TRACKING) | (status == TRACK_HIDDEN)
-        z_d = human_uncertainty(self._z_d, self._sigmas, self._std.Eval(context))
-        d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, p_B, v_B)
-        s = monitor_protective_distances(v_h, v_r, human_uncertainty=z_d, **self._s_args)
-        if self._occlusion_speed > 0.0:
-            d = d - hidden_ball_radius(self._unseen.Eval(context), self._occlusion_speed)
-        out[0] = d
-        out[1] = s
-        out[2] = v_h
-        out[3] = v_r
-        out[:, ~usable] = np.nan
+        nearest = np.empty(n, dtype=np.int64)
+        separation.separation_rows(
+            np.asarray(self._ends.Eval(context)).reshape(-1, 2, 3),
+            np.asarray(self._end_v.Eval(context)).reshape(-1, 2, 3), self._radius,
+            np.asarray(self._p_B.Eval(context)).reshape(n, 3),
+            np.asarray(self._v_B.Eval(context)).reshape(n, 3), self._r_B,
+            np.asarray(self._status.Eval(context)), np.asarray(self._std.Eval(context)),
+            np.asarray(self._unseen.Eval(context)), self._z_d_terms, self._monitor, out[:4],
+            nearest)
+        out[4] = nearest

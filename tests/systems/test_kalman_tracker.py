@@ -124,7 +124,8 @@ def test_frames_by_number_faults_by_cause_and_the_wrapper_is_the_function():
     np.testing.assert_allclose(p, estimates(tracks, t_good)[0].ravel())
     # The same frame number again: not a new frame (nothing processed, no fault yet).
     assert frame(2, 0.1, [[9, 9, 9]] * 2, [1, 1], 0.16)[2][0] == 0.0
-    np.testing.assert_allclose(frame(2, 0.1, z, [1, 1], 0.165)[0], estimates(tracks, t_good)[0].ravel())
+    np.testing.assert_allclose(frame(2, 0.1, z, [1, 1], 0.165)[0],
+                               estimates(tracks, t_good)[0].ravel())
     # A new frame whose time repeats or goes back, or is unknown: a bad frame.
     for number, t, until in ((3, 0.1, 0.21), (4, 0.08, 0.26), (5, np.nan, 0.31)):
         assert frame(number, t, z, [1, 1], until)[2][0] == stops.STOP_BAD_TIME

@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from safety_systems.scenario import load_controller_config
+from safety_systems.scenario import SensorFault, load_controller_config
 from verification.evaluate_batch import evaluate_batch, evaluate_many
 from verification.evaluate_drake import evaluate_drake
 from verification.space import Range, free_parameters, load_space, make_scenario, to_point
@@ -46,6 +46,70 @@ def test_batch_agrees_with_drake_on_random_scenarios(config):
             batch.protective_violation_time[i], abs=1e-9)
         assert drake.protective_deepest_intrusion == pytest.approx(
             batch.protective_deepest_intrusion[i], abs=TOLERANCE)
+
+
+def _with_every_fault(scenario):
+    """The scenario with every kind of sensor fault, a few frames each, after the onset
+    and the occlusions (a fault on a body out of view changes nothing)."""
+    onset = max([scenario.operators[0].waypoints[1].time]
+                + [o.end for o in scenario.sensor.occlusions])
+    hand, other, head = (f"operator_0/{b.name}" for b in scenario.operators[0].bodies)
+    faults = [SensorFault("non_finite", hand, "", onset + 0.3, onset + 0.4),
+              SensorFault("unknown_id", other, "", onset + 0.5, onset + 0.6),
+              SensorFault("swap", hand, other, onset + 0.7, onset + 0.8),
+              SensorFault("time_duplicate", "", "", onset + 0.9, onset + 0.95),
+              SensorFault("time_backwards", "", "", onset + 1.0, onset + 1.1),
+              SensorFault("outlier", head, "", onset + 1.2, onset + 1.35, [0.0, 0.8, 0.0])]
+    sensor = dataclasses.replace(scenario.sensor, faults=scenario.sensor.faults + faults)
+    return dataclasses.replace(scenario, name=scenario.name + "_faults", sensor=sensor)
+
+
+WHOLE = dataclasses.replace(SPACE, parameters=dataclasses.replace(
+    SPACE.parameters, latency=Range(0.0, 0.03), noise_std=Range(0.0, 0.005),
+    braking_time_scale=Range(1.0, 1.8), occlusion=Range(0.0, 1.0)))
+
+
+def _tracker(config, **kw):
+    return dataclasses.replace(config, tracker=dataclasses.replace(config.tracker, **kw))
+
+
+@pytest.mark.parametrize("config", [
+    _config("seed_estimated"),
+    _config("iso"),
+    _config("iso_previous"),
+    _tracker(_config("iso", human_speed="estimated_with_floor", human_uncertainty_sigmas=2.0,
+                     tool_length=0.2), hidden_bodies="expire", gate=False),
+], ids=["seed", "iso", "previous", "expire_floor_sigmas_tool"])
+def test_batch_agrees_with_drake_on_the_whole_cell_space(config):
+    # Capsules or the tool point, heads, long occlusions of several bodies, outlier frames,
+    # both tracker rules, the gate on and off, and every kind of sensor fault.
+    rng = np.random.default_rng(20261123)
+    d = len(free_parameters(WHOLE))
+    scenarios = [make_scenario(WHOLE, config, to_point(WHOLE, rng.uniform(size=d)),
+                               name=f"s{i}") for i in range(2)]
+    # A lunge from 2.4 m at the forearm, the sensor as configured, then every fault.
+    point = dict(to_point(WHOLE, np.full(d, 0.5)), start_distance=2.4, latency=0.0,
+                 occlusion=0.3, outlier_frames=0.0, target_link=2.0, peak_speed=1.8,
+                 braking_time_scale=1.0)
+    scenarios.append(_with_every_fault(make_scenario(WHOLE, config, point, name="faults")))
+    batch = evaluate_many(scenarios)
+    finite = 0
+    for i, scenario in enumerate(scenarios):
+        drake, run = evaluate_drake(scenario)
+        if scenario.name == "faults_faults":  # every cause exercised (the gate's if on)
+            counts = run["tracker.rejected_frames"][-1]
+            assert np.all(counts[:3] > 0) and (counts[3] > 0) == config.tracker.gate
+            assert np.isfinite(drake.stopped_before_contact)  # the robot moved near it
+        if np.isinf(drake.stopped_before_contact):
+            assert batch.robustness[i] == drake.stopped_before_contact
+        else:
+            finite += 1
+            assert abs(drake.stopped_before_contact - batch.robustness[i]) <= TOLERANCE
+        assert drake.protective_violation_time == pytest.approx(
+            batch.protective_violation_time[i], abs=1e-9)
+        assert drake.protective_deepest_intrusion == pytest.approx(
+            batch.protective_deepest_intrusion[i], abs=TOLERANCE)
+    assert finite >= 1  # the robot moved near someone: the comparison means something
 
 
 def test_batch_order_and_grouping_do_not_change_results():

@@ -1,4 +1,5 @@
-"""The stopping proof: its verdicts, and its bounds checked against sampling and simulation."""
+"""The stopping proof: its verdicts and premises, and its bounds checked against sampling
+and simulation."""
 
 import dataclasses as dc
 import math
@@ -7,17 +8,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.braking import BrakingTable, path_rate_step, tool_stopping_distance
+from safety_systems.braking import BrakingTable, path_rate_step
+from safety_systems.configuration import monitor_capsules, tracker_rules
 from safety_systems.joint_path import joint_path_state
 from safety_systems.kalman import axis_predict, process_noise, transition_matrix
-from safety_systems.scenario import BrakingConfig, load_controller_config
-from safety_systems.configuration import tracker_rules
+from safety_systems.robot_geometry import capsule_ends
+from safety_systems.scenario import Box, BrakingConfig, load_controller_config
 from safety_systems.tracks import TRACK_SLOT, frame_update
-from safety_systems.ur5e import tool0_position_and_velocity
 from safety_systems.workcell import braking_table, frame_timeout, joint_path
 from verification.proof import (
+    ERROR_HORIZON,
     braking_is_monotone,
+    capsule_reach,
     estimate_error_coefficients,
+    operators_reach,
     prove,
     robot_bounds,
     tool_acceleration_bound,
@@ -27,18 +31,27 @@ from verification.space import Range, load_space
 ROOT = Path(__file__).resolve().parents[2]
 ISO = load_controller_config(ROOT / "models/configs/iso.yaml")
 SEED = load_controller_config(ROOT / "models/configs/seed_estimated.yaml")
+PREVIOUS = load_controller_config(ROOT / "models/configs/iso_previous.yaml")
 SPACE = load_space(ROOT / "models/spaces/default.yaml")
+FLANGE = load_space(ROOT / "models/spaces/flange.yaml")
 PATH = joint_path(SPACE.robot)
 H = 1.0 / SPACE.robot.control_rate_hz
-HUMAN_SPEED, OCCLUSION = 1, 4  # premise indices
 
 
-def _safety(**kw):
-    return dc.replace(ISO, safety=dc.replace(ISO.safety, **kw))
+def _safety(config=ISO, **kw):
+    return dc.replace(config, safety=dc.replace(config.safety, **kw))
 
 
-def _space(**ranges):
-    return dc.replace(SPACE, parameters=dc.replace(SPACE.parameters, **ranges))
+def _tracker(config=ISO, **kw):
+    return dc.replace(config, tracker=dc.replace(config.tracker, **kw))
+
+
+def _space(space=SPACE, **ranges):
+    return dc.replace(space, parameters=dc.replace(space.parameters, **ranges))
+
+
+def _failed(proof):
+    return [x.statement for x in proof.premises if not x.holds]
 
 
 @pytest.fixture(scope="module")
@@ -46,10 +59,17 @@ def iso_proof():
     return prove(ISO, SPACE)
 
 
-def test_iso_config_is_proved_with_a_positive_margin(iso_proof):
-    assert iso_proof.proved
-    assert iso_proof.margin_at_worst_corner > 0.0
-    assert len(iso_proof.premises) == 7 and all(ok for _, ok in iso_proof.premises)
+def test_iso_config_is_proved_over_the_whole_cell_space(iso_proof):
+    assert iso_proof.proved and iso_proof.margin_at_worst_corner > 0.0
+    assert all(x.holds for x in iso_proof.premises)
+    bases = {x.basis for x in iso_proof.premises}
+    assert bases == {"checked", "trusted"}
+    assert iso_proof.premises[-1].statement.startswith("z3")
+    # The default stopping data is the placeholder, and the premises say so in words.
+    assert iso_proof.placeholder_braking
+    assert any("PLACEHOLDER" in x.statement for x in iso_proof.premises if x.basis == "trusted")
+    # Over the previous envelope (the flange only) it is proved too.
+    assert prove(ISO, FLANGE).proved
 
 
 def test_margin_is_the_theorem_s_m_at_the_worst_corner(iso_proof):
@@ -65,50 +85,89 @@ def test_margin_is_the_theorem_s_m_at_the_worst_corner(iso_proof):
     assert iso_proof.margin_at_worst_corner == pytest.approx(m, abs=1e-12)
 
 
-def test_seed_config_fails_on_its_human_speed():
-    proof = prove(SEED, SPACE)
-    assert not proof.proved and proof.margin_at_worst_corner is None
-    assert not proof.premises[HUMAN_SPEED][1]
-    assert "human-speed" in proof.premises[HUMAN_SPEED][0]
-    # Without occlusions (the seed has no occlusion margin) it is the only failing premise.
-    proof = prove(SEED, _space(occlusion=Range(0.0, 0.0)))
-    assert [ok for _, ok in proof.premises] == [True, False, True, True, True, True]
+def test_seed_and_previous_configs_fail_on_their_premises():
+    failed = _failed(prove(SEED, SPACE))
+    assert any("human-speed" in s for s in failed)
+    assert any("tool_point against capsules" in s for s in failed)
+    assert any("hidden bodies stay hazards" in s for s in failed)
+    failed = _failed(prove(PREVIOUS, SPACE))
+    assert len(failed) == 3 and prove(PREVIOUS, SPACE).margin_at_worst_corner is None
+    assert any("tool_point against capsules" in s for s in failed)
+    assert any("hidden_bodies: expire" in s for s in failed)
+    assert any("outlier frames all fall outside the gate" in s for s in failed)
 
 
-BROKEN = {
-    "no reaction time": (_safety(reaction_time=0.0), SPACE),
-    "short stopping time": (_safety(stopping_time=0.3), SPACE),
-    "short stopping distance": (_safety(stopping_distance=0.1), SPACE),
-    "slow brakes": (ISO, _space(braking_time_scale=Range(1.0, 1.5))),
-    "long occlusion": (ISO, _space(occlusion=Range(0.0, ISO.tracker.max_coast_time + 0.1))),
+NOT_PROVED = {  # name: (config, space, words of the failing premise or None: the margin)
+    "no reaction time": (_safety(reaction_time=0.0), SPACE, None),
+    "short stopping time": (_safety(stopping_time=0.3), SPACE, None),
+    "short stopping distance": (_safety(stopping_distance=0.1), SPACE, None),
+    "slow brakes": (ISO, _space(braking_time_scale=Range(1.0, 1.5)), None),
+    "tracks expire": (_tracker(hidden_bodies="expire"), SPACE, "hidden bodies stay"),
+    "slow ball": (_safety(occlusion_speed=1.5), SPACE, "hidden bodies stay"),
+    "no gate": (_tracker(gate=False), SPACE, "outside the gate"),
+    "outliers inside the gate": (ISO, _space(outlier_offset=Range(0.5, 2.0)),
+                                 "outside the gate"),
+    "gate too narrow": (_tracker(gate_width=0.001), SPACE, "pass the gate"),
+    "capsules too small": (_safety(link_radii=[0.03] * 6), SPACE, "contains the one"),
+    "payload too small": (_safety(payload_radius=0.04), SPACE, "contains the one"),
+    "tool point against capsules": (_safety(robot_geometry="tool_point"), SPACE,
+                                    "contains the one"),
+    "exit within reach": (_tracker(exits=[Box([1.0, -1.0, -1.0], [2.0, 1.0, 2.0])]), SPACE,
+                          "exit region"),
+    "walls within reach": (_tracker(cell=Box([-3.0, -3.0, -1.0], [3.0, 3.0, 3.0])), SPACE,
+                           "exit region"),
 }
 
 
-@pytest.mark.parametrize("name", BROKEN)
-def test_broken_iso_configs_are_not_proved(name):
-    config, space = BROKEN[name]
+@pytest.mark.parametrize("name", NOT_PROVED)
+def test_broken_configs_are_not_proved(name):
+    config, space, words = NOT_PROVED[name]
     proof = prove(config, space)
     assert not proof.proved
-    if name == "long occlusion":
-        assert not proof.premises[OCCLUSION][1] and proof.margin_at_worst_corner is None
-    else:  # every premise but z3's holds; the margin is negative
-        assert [ok for _, ok in proof.premises] == [True] * 6 + [False]
+    if words is None:  # every premise but z3's holds; the margin is negative
+        assert _failed(proof) == ["z3: M >= 0 for every (v_max, noise) in the box"]
         assert proof.margin_at_worst_corner < 0.0
+    else:
+        assert len(_failed(proof)) == 1 and words in _failed(proof)[0]
+        assert proof.margin_at_worst_corner is None
+
+
+def test_what_is_not_a_fault_is_proved():
+    # The tool point measured against the tool point (the previous envelope), exits and
+    # walls far from every approach, no outliers without a gate.
+    assert prove(_safety(robot_geometry="tool_point"), FLANGE).proved
+    far = _tracker(exits=[Box([8.0, -1.0, -1.0], [9.0, 1.0, 2.0])],
+                   cell=Box([-9.0, -9.0, -9.0], [9.0, 9.0, 9.0]))
+    assert operators_reach(SPACE) < 8.0 and prove(far, SPACE).proved
+    assert prove(_tracker(gate=False), _space(outlier_frames=Range(0.0, 0.0))).proved
 
 
 @pytest.mark.parametrize("scale", [1.0, 2.0])
-def test_robot_bounds_cover_sampled_motion(scale):
+def test_robot_bounds_cover_every_capsule_point(scale):
     rb = robot_bounds(PATH, ISO, period=H, braking_time_scale=scale)
-    # V_R: above the tool speed sampled 10x more densely than the covering grid.
+    capsules = monitor_capsules(ISO)
+    # V_R: above every capsule end's speed sampled 10x more densely than the covering grid
+    # (every axis point moves slower than the faster of its capsule's ends).
     s = np.linspace(0.0, PATH.cycle_time, 200_001)
     q, dq, _ = joint_path_state(PATH, s)
-    speed = np.linalg.norm(tool0_position_and_velocity(q, dq)[1], axis=-1)
+    speed = np.linalg.norm(capsule_ends(q, capsules, dq)[1], axis=-1).max(axis=(1, 2))
     assert speed.max() <= rb.tool_speed <= 1.05 * speed.max()
-    # D: above the tool's worst stopping travel under brakes slowed by ``scale``.
+    # D: above the longest travel of any capsule end in a stop under brakes slowed by scale.
     table = braking_table(ISO)
     slowed = BrakingTable(table.speed_fraction, table.stopping_time * scale,
                           table.stopping_distance)
-    assert rb.stop_travel >= tool_stopping_distance(PATH, slowed, period=H)
+    path = dc.replace(PATH, cycles=2)
+    s = np.linspace(0.0, PATH.cycle_time, 300, endpoint=False)
+    sigma, travelled = np.ones(s.size), np.zeros((s.size,) + capsules.radius.shape + (2,))
+    ends = capsule_ends(joint_path_state(path, s)[0], capsules)[0]
+    while np.any(sigma > 0.0):
+        new = path_rate_step(sigma, 0.0, H, table=slowed, acceleration_limit=1.0)
+        s = s + 0.5 * (sigma + new) * H
+        sigma = new
+        moved = capsule_ends(joint_path_state(path, s)[0], capsules)[0]
+        travelled += np.linalg.norm(moved - ends, axis=-1)
+        ends = moved
+    assert rb.stop_travel >= travelled.max() > 0.5 * rb.stop_travel
     # T_stop: the ticks a stop from full speed takes, as the PathFollower steps it.
     rate, ticks = 1.0, 0
     while rate > 0.0:
@@ -119,20 +178,21 @@ def test_robot_bounds_cover_sampled_motion(scale):
     assert scale * 0.53 <= rb.stop_time <= scale * 0.53 + H  # the table's 0.53 s, scaled
 
 
-def test_slower_brakes_double_stop_time_and_travel():
-    nominal = robot_bounds(PATH, ISO, period=H, braking_time_scale=1.0)
-    slow = robot_bounds(PATH, ISO, period=H, braking_time_scale=2.0)
-    assert slow.tool_speed == nominal.tool_speed
-    assert slow.stop_time / nominal.stop_time == pytest.approx(2.0, rel=0.01)
-    assert 1.7 <= slow.stop_travel / nominal.stop_travel <= 2.1
+def test_a_longer_tool_moves_faster_and_farther():
+    long_tool = _safety(tool_length=0.3)
+    short = robot_bounds(PATH, ISO, period=H, braking_time_scale=1.0)
+    longer = robot_bounds(PATH, long_tool, period=H, braking_time_scale=1.0)
+    assert longer.tool_speed > short.tool_speed and longer.stop_travel > short.stop_travel
+    assert capsule_reach(monitor_capsules(long_tool)) > capsule_reach(monitor_capsules(ISO))
 
 
-def test_tool_acceleration_bound_covers_finite_differences():
-    bound = tool_acceleration_bound(PATH)
+def test_acceleration_bound_covers_finite_differences_of_every_capsule_end():
+    capsules = monitor_capsules(_safety(tool_length=0.3))
+    bound = tool_acceleration_bound(PATH, capsule_reach(capsules))
     step = 1e-4  # s of path parameter
     s = np.arange(0.0, PATH.cycle_time, step)
     q, dq, _ = joint_path_state(PATH, s)
-    v = tool0_position_and_velocity(q, dq)[1]
+    v = capsule_ends(q, capsules, dq)[1]
     # |dv|/ds over an interval is an average of |p''|, so it cannot exceed sup |p''|.
     accel = np.linalg.norm(np.diff(v, axis=0), axis=-1) / step
     assert 0.5 < accel.max() <= bound
@@ -147,6 +207,7 @@ def test_braking_is_monotone_for_the_default_table():
                                                   stopping_time=[10.0, 0.001],
                                                   stopping_distance=[0.1, 0.2]))
     assert not braking_is_monotone(jumpy, H, 1.0)
+    assert not prove(dc.replace(jumpy), SPACE).proved
 
 
 def _motions(rng, rows, frames, settle, period, v_max, a_max, substeps=10):
@@ -187,57 +248,68 @@ def test_one_axis_prediction_is_the_filters(dt, q2):
     np.testing.assert_allclose([[p, c], [c, w]], want, rtol=1e-12, atol=1e-15)
 
 
-SETUPS = {  # (config, settle_frames): the iso config, and a smoother, lagging filter
-    "iso": (ISO, 60),
-    "lagging": (dc.replace(ISO, tracker=dc.replace(ISO.tracker, measurement_std=0.01)), 20),
+SETUPS = {  # the iso config, and a smoother, lagging filter
+    "iso": ISO,
+    "lagging": _tracker(measurement_std=0.01),
 }
 
 
 @pytest.fixture(scope="module", params=list(SETUPS))
-def coefficients(request, iso_proof):
-    config, settle_frames = SETUPS[request.param]
-    if request.param == "iso":  # prove() already ran the recursion for this pair
-        e = iso_proof.terms["E_per_axis"]
-        return config, (e["alpha"], e["beta"])
-    return config, estimate_error_coefficients(config, SPACE, settle_frames=settle_frames)
+def coefficients(request):
+    config = SETUPS[request.param]
+    alpha, beta, converged = estimate_error_coefficients(config)
+    assert converged
+    return config, (alpha, beta)
 
 
-@pytest.mark.parametrize("hidden_bodies", ["hazard", "expire"])
-@pytest.mark.parametrize("kind", ["none", "dropout", "occlusion"])
+@pytest.mark.parametrize("gaps", ["none", "dropout", "occlusion", "many"])
 @pytest.mark.parametrize("seed", range(3))
-def test_tracker_error_stays_within_the_bound(coefficients, kind, seed, hidden_bodies):
+def test_tracker_error_stays_within_the_bound(coefficients, gaps, seed):
+    # The tracker under the hazard rule (its filter restarts after every gap), gaps of any
+    # length and number: at every accepted measurement the error is within the bound.
     config, (alpha, beta) = coefficients
     rng = np.random.default_rng(seed)
     period, p = 1.0 / config.sensor.rate_hz, SPACE.parameters
     v_max, n = p.peak_speed.max, SPACE.noise_bound_sigmas * p.noise_std.max
     settle, rows = int(round(SPACE.settle_time / period)), 64
-    frames = settle + 60
+    frames = settle + 120
     truth = _motions(rng, rows, frames, settle, period, v_max, p.acceleration.max)
     # Noise bounded by n per axis: uniform, or at the bound with a random sign.
     noise = n * np.where(rng.random((frames, rows, 1)) < 0.5,
                          rng.uniform(-1.0, 1.0, truth.shape), rng.choice([-1.0, 1.0], truth.shape))
-    longest = math.ceil(max(p.dropout.max, p.occlusion.max) / period) + 1
-    gap = 0 if kind == "none" else int(rng.integers(1, longest + 1))
-    start = settle + int(rng.integers(0, 20))  # the gap starts at the onset
-    rules = tracker_rules(dc.replace(config, tracker=dc.replace(
-        config.tracker, hidden_bodies=hidden_bodies, gate=False, max_coast_time=10.0)))
+    hidden = np.zeros((frames, rows), dtype=bool)
+    dropped = np.zeros(frames, dtype=bool)
+    start = settle + int(rng.integers(0, 20))
+    if gaps == "dropout":
+        dropped[start:start + int(rng.integers(1, 10))] = True
+    elif gaps == "occlusion":
+        hidden[start:start + int(rng.integers(1, 60))] = True  # up to 3 s
+    elif gaps == "many":
+        hidden[settle:] = rng.random((frames - settle, rows)) < 0.2
+    rules = tracker_rules(_tracker(config, gate=False))
     tracks, worst, updates, t_good = np.zeros((rows, TRACK_SLOT)), 0.0, 0, -np.inf
     for k in range(frames):
-        hidden = start <= k < start + gap
-        if hidden and kind == "dropout":
+        if dropped[k]:
             continue  # no frame at all
         tracks, _, _, t_good = frame_update(tracks, k * period, truth[k] + noise[k],
-                                            np.full(rows, not hidden), rules=rules,
-                                            t_good=t_good)
-        if not hidden:  # a posterior: compare with the true position at capture time
-            worst = max(worst, float(np.max(np.abs(tracks[:, :3] - truth[k]))))
-            updates += 1
-    assert updates == frames - gap
+                                            ~hidden[k], rules=rules, t_good=t_good)
+        seen = ~hidden[k]  # posteriors: compare with the true position at capture time
+        if seen.any():
+            worst = max(worst, float(np.max(np.abs(tracks[seen, :3] - truth[k, seen]))))
+            updates += int(seen.sum())
+    assert updates > 0
     assert worst <= alpha * n + beta * v_max
     assert worst > 0.5 * n  # the noise reached the estimate: the check is not vacuous
 
 
+def test_error_recursion_converges_and_an_unconverged_one_is_not_proved():
+    alpha, beta, converged = estimate_error_coefficients(ISO)
+    assert converged and 1.0 <= alpha < 1.01 and 0.0 <= beta < 1e-3
+    assert not estimate_error_coefficients(ISO, horizon=3)[2]
+    assert ERROR_HORIZON >= 1000
+
+
 def test_speed_alteration_controllers_are_not_proved():
     proof = prove(dc.replace(ISO, type="erga"), SPACE)
-    assert not proof.proved and not proof.premises[0][1]
-    assert "speed override" in proof.premises[0][0]
+    assert not proof.proved and not proof.premises[0].holds
+    assert "speed override" in proof.premises[0].statement

@@ -96,15 +96,17 @@ def test_protective_intrusion_hand_computed():
     speed = np.array([0.5, 0.0, 0.5, 0.5, 0.5])
     v_h = np.array([[1.0, 0.0], [9.0, 9.0], [5.0, 0.5], [1.0, 0.0], [1.0, 0.0]])
     v_r = np.array([[0.5, 0.0], [9.0, 9.0], [0.0, 0.0], [0.5, 0.0], [1.0, 0.0]])
-    time, deepest = protective_intrusion(separations, speed, v_h, v_r, 0.01, **S_ARGS)
+    # One capsule: the pairs' axis (N, K) = (2, 1).
+    time, deepest = protective_intrusion(separations[..., None], speed, v_h[..., None],
+                                         v_r[..., None], 0.01, **S_ARGS)
     assert time == pytest.approx(3 * 0.01, abs=1e-15)
     assert deepest == pytest.approx(0.20, abs=1e-12)
 
 
 def test_protective_intrusion_margins_enter_s():
-    separations = np.array([[0.30], [0.30]])
+    separations = np.array([[[0.30]], [[0.30]]])
     speed = np.array([0.5, 0.5])
-    v = np.zeros((2, 1))
+    v = np.zeros((2, 1, 1))
     # S = B = 0.05: outside; + C 0.2 + Z_d 0.1 = 0.35: inside by 0.05 at both instants.
     assert protective_intrusion(separations, speed, v, v, 0.002, **S_ARGS) == (0.0, 0.0)
     time, deepest = protective_intrusion(separations, speed, v, v, 0.002, **S_ARGS,
@@ -114,22 +116,26 @@ def test_protective_intrusion_margins_enter_s():
 
 
 def test_protective_intrusion_is_zero_when_none():
-    separations = np.array([[2.0, NAN], [NAN, NAN], [0.0, 0.0]])
+    separations = np.array([[2.0, NAN], [NAN, NAN], [0.0, 0.0]])[..., None]
     speed = np.array([1.0, 1.0, 0.0])  # close only while at rest
-    v = np.ones((3, 2))
+    v = np.ones((3, 2, 1))
     time, deepest = protective_intrusion(separations, speed, v, v, 0.002, **S_ARGS)
     assert (time, deepest) == (0.0, 0.0)
     # A body moving away lowers S ("estimated" mode): no intrusion at 0.06 m.
-    time, deepest = protective_intrusion(np.array([[0.06]]), np.array([1.0]),
-                                         np.array([[-0.1]]), np.array([[0.0]]), 0.002,
+    time, deepest = protective_intrusion(np.array([[[0.06]]]), np.array([1.0]),
+                                         np.array([[[-0.1]]]), np.array([[[0.0]]]), 0.002,
                                          **S_ARGS)
     assert (time, deepest) == (0.0, 0.0)
 
 
 @FIXED
-@given(trace=_traces(), data=st.data())
-def test_protective_intrusion_matches_a_loop(trace, data):
+@given(trace=_traces(), capsules=st.integers(1, 3), data=st.data())
+def test_protective_intrusion_matches_a_loop(trace, capsules, data):
     separations, speed = trace
+    # Every body-capsule pair: the same clearances, each pair its own speeds.
+    separations = np.repeat(separations[..., None], capsules, axis=-1)
+    if capsules > 1:
+        separations[..., 1:] += 0.1
     shape = separations.shape
     floats = st.floats(-1.0, 2.0)
     v_h = np.array(data.draw(st.lists(floats, min_size=separations.size,
@@ -141,11 +147,12 @@ def test_protective_intrusion_matches_a_loop(trace, data):
     for t in range(shape[0]):
         inside = False
         for i in range(shape[1]):
-            d = separations[t, i]
-            s = v_h[t, i] * (0.2 + 0.1) + v_r[t, i] * 0.1 + 0.05  # Eq. 1, same order
-            if speed[t] > 1e-3 and not math.isnan(d) and s - d > 0.0:
-                inside = True
-                deepest = max(deepest, s - d)
+            for j in range(shape[2]):
+                d = separations[t, i, j]
+                s = v_h[t, i, j] * (0.2 + 0.1) + v_r[t, i, j] * 0.1 + 0.05  # Eq. 1, same order
+                if speed[t] > 1e-3 and not math.isnan(d) and s - d > 0.0:
+                    inside = True
+                    deepest = max(deepest, s - d)
         count += inside
     time, worst = protective_intrusion(separations, speed, v_h, v_r, dt, **S_ARGS)
     assert time == pytest.approx(count * dt, abs=1e-12)

@@ -1,3 +1,5 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -41,6 +43,34 @@ def test_danger_score_orders_a_lunge_into_the_path_before_a_hand_far_away():
     far[names.index("overshoot")], lunge[names.index("overshoot")] = 0.0, 1.0
     scores = danger_scores(SPACE, SEED_CONFIG, np.array([far, lunge]))
     assert scores[1] < scores[0]
+
+
+@pytest.mark.parametrize("name", ["seed", "tracks_expire"])
+def test_danger_scores_order_candidates_as_the_closed_loop_does(name):
+    # The ranking is a reduced model: it must order candidates as the closed loop does,
+    # or the search spends its budget on safe ones. "tracks_expire" is the case where every
+    # track of an operator ends: the reduced model once stopped the robot there (Eq. 12 of
+    # an infinite distance) where the loop runs it at full speed, ranking every
+    # counterexample last.
+    from scipy.stats import spearmanr
+
+    from verification.evaluate_batch import evaluate_many
+    from verification.space import make_scenario, to_point
+
+    iso = load_controller_config("models/configs/iso.yaml")
+    config = {"seed": SEED_CONFIG, "tracks_expire": dataclasses.replace(
+        iso, tracker=dataclasses.replace(iso.tracker, hidden_bodies="expire",
+                                         max_coast_time=0.5, exit_radius=1e-6))}[name]
+    points = sweep_points("sobol", 256, D, seed=7)
+    rho = evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u)) for u in points]
+                        ).robustness
+    scores = danger_scores(SPACE, config, points)
+    finite = np.isfinite(rho)
+    assert finite.sum() > 100 and (rho < 0).sum() >= 3
+    assert spearmanr(scores[finite], rho[finite]).correlation > 0.8
+    # Of the n best-ranked candidates (n: the violations among them all), most violate.
+    best = np.argsort(scores, kind="stable")[:int((rho < 0).sum())]
+    assert np.mean(rho[best] < 0.0) >= 0.8
 
 
 def test_danger_scores_split_over_workers_are_the_same():

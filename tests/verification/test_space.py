@@ -18,12 +18,15 @@ from safety_systems.scenario import (
     scenario_from_text,
     validate_scenario,
 )
-from safety_systems.ur5e import tool0_position
+from safety_systems.ur5e import dh_frames, tool0_position
 from safety_systems.workcell import joint_path
 from verification.space import (
     _LIMITS,
+    HEAD_BACK,
+    HEAD_UP,
     MIN_GAP,
     NAMES,
+    WHOLE,
     Range,
     assumptions,
     corners,
@@ -31,12 +34,14 @@ from verification.space import (
     load_space,
     lower_upper,
     make_scenario,
+    target_point,
     to_point,
     validate_space,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
 SPACE = load_space(ROOT / "models/spaces/default.yaml")
+FLANGE = load_space(ROOT / "models/spaces/flange.yaml")
 CONFIG = load_controller_config(ROOT / "models/configs/iso.yaml")
 # The default space with up to four operators, so that n > 2 is exercised too.
 WIDE = dc.replace(SPACE, parameters=dc.replace(SPACE.parameters, operators=Range(1.0, 4.0)))
@@ -91,7 +96,7 @@ def test_ranges_outside_the_limits_are_rejected(name, below, by):
 
 
 @FIXED
-@given(unit=st.lists(st.floats(-0.5, 1.5), min_size=15, max_size=15))
+@given(unit=st.lists(st.floats(-0.5, 1.5), min_size=25, max_size=25))
 def test_to_point_maps_the_unit_cube_onto_the_ranges(unit):
     free = free_parameters(WIDE)
     unit = np.array(unit[:len(free)])
@@ -104,7 +109,7 @@ def test_to_point_maps_the_unit_cube_onto_the_ranges(unit):
             continue
         u = min(max(unit[free.index(name)], 0.0), 1.0)
         expected = r.min + u * (r.max - r.min)
-        if name == "operators":
+        if name in WHOLE:
             assert values[name] == round(expected) and abs(values[name] - expected) <= 0.5
         else:
             assert values[name] == pytest.approx(expected, rel=1e-12, abs=1e-12)
@@ -114,27 +119,48 @@ def test_to_point_maps_the_unit_cube_onto_the_ranges(unit):
     assert to_point(WIDE, np.ones(len(free))) == dict(zip(NAMES, hi.tolist()))
 
 
+def _target(space, v, path):
+    """The point of the robot the hand goes for, from Drake-independent DH frames: on the
+    link's segment between its joints' origins, or from the flange along the tool."""
+    frames = dh_frames(joint_path_state(path, v["target_phase"] * path.cycle_time)[0])
+    link = int(v["target_link"])
+    if link == 6:  # the tool: from the flange along tool0's z axis
+        start, axis = frames[6, :3, 3], frames[6, :3, 2] * space.robot.tool_length
+        return start + v["target_along"] * axis
+    a, b = frames[link, :3, 3], frames[link + 1, :3, 3]
+    return a + v["target_along"] * (b - a)
+
+
 def _check_scenario(space, values):
     v = values
     scenario = make_scenario(space, CONFIG, v, name="probe")
     path = joint_path(space.robot)
-    target = tool0_position(joint_path_state(path, v["target_phase"] * path.cycle_time)[0])
+    target = _target(space, v, path)
     onset = space.settle_time + v["onset_phase"] * path.cycle_time
     n = int(v["operators"])
+    heads = int(v["heads"]) == 1
     assert [o.name for o in scenario.operators] == [f"operator_{j}" for j in range(n)]
-    azimuths = []
+    assert scenario.contact_geometry == space.contact_geometry
+    azimuths, directions = [], []
     for o in scenario.operators:
         w = [np.array(p.position) for p in o.waypoints]
         assert o.waypoints[0].time == 0.0 and o.waypoints[1].time == pytest.approx(onset)
         assert o.max_speed == v["peak_speed"] and o.max_acceleration == v["acceleration"]
-        assert [b.name for b in o.bodies] == ["hand", "other_hand"]
+        assert [b.name for b in o.bodies] == ["hand", "other_hand"] + ["head"] * heads
+        assert [b.radius for b in o.bodies] == ([space.hand_radius] * 2
+                                                + [space.head_radius] * heads)
         assert o.bodies[0].offset == [0.0, 0.0, 0.0]
         assert np.linalg.norm(o.bodies[1].offset) == pytest.approx(0.35)
         u = (w[0] - target) / v["start_distance"]
         assert np.linalg.norm(w[0] - target) == pytest.approx(v["start_distance"], abs=1e-9)
         assert math.degrees(math.asin(u[2])) == pytest.approx(v["elevation_deg"], abs=1e-6)
         assert abs(np.dot(o.bodies[1].offset, u)) < 1e-9  # the other hand is to the side
+        if heads:  # behind the hand (towards the start, horizontally) and above it
+            head = np.array(o.bodies[2].offset)
+            back = np.array([u[0], u[1], 0.0]) / math.hypot(u[0], u[1])
+            np.testing.assert_allclose(head, HEAD_BACK * back + [0.0, 0.0, HEAD_UP], atol=1e-12)
         azimuths.append(math.degrees(math.atan2(u[1], u[0])))
+        directions.append(u)
         if v["retreat_distance"] > 0.0:  # away along the approach line, then back in
             assert len(w) == 3
             np.testing.assert_allclose(w[1], w[0] + v["retreat_distance"] * u, atol=1e-9)
@@ -162,12 +188,29 @@ def _check_scenario(space, values):
             (onset, onset + v["dropout"]))
     else:
         assert s.dropouts == []
+    hidden = ["hand", "other_hand", "head"][:int(v["occluded_bodies"])]
+    bodies = [f"{o.name}/{b.name}" for o in scenario.operators for b in o.bodies]
     if v["occlusion"] > MIN_GAP:
-        assert [o.body for o in s.occlusions] == [f"operator_{j}/hand" for j in range(n)]
+        assert [o.body for o in s.occlusions] == [b for b in bodies
+                                                   if b.split("/")[1] in hidden]
         for o in s.occlusions:
             assert (o.start, o.end) == pytest.approx((onset, onset + v["occlusion"]))
     else:
         assert s.occlusions == []
+    frames = int(v["outlier_frames"])
+    if frames:  # every body, ``frames`` captures after the gaps and the delay
+        period = 1.0 / s.rate_hz
+        assert [f.body for f in s.faults] == bodies and {f.kind for f in s.faults} == {"outlier"}
+        after = onset + max(v["occlusion"], v["dropout"]) + v["outlier_delay"]
+        for f in s.faults:
+            captures = [k for k in range(int(f.end / period) + 2)
+                        if f.start <= k * period + 1e-9 < f.end]
+            assert len(captures) == frames and after - 1e-9 <= captures[0] * period
+            assert captures[0] * period < after + period
+            u = directions[int(f.body.split("/")[0].split("_")[1])]
+            np.testing.assert_allclose(f.offset, v["outlier_offset"] * u, atol=1e-12)
+    else:
+        assert s.faults == []
     assert scenario.robot.braking_time_scale == v["braking_time_scale"]
     assert scenario.robot.cycles * path.cycle_time >= scenario.duration  # keeps working
     assert scenario.contact_distance == space.contact_distance
@@ -182,17 +225,34 @@ UNIT = st.one_of(st.just(0.0), st.floats(1e-9, 1.0))
 
 
 @FIXED
-@given(unit=st.lists(UNIT, min_size=15, max_size=15))
-def test_make_scenario_of_any_point(unit):
-    free = free_parameters(WIDE)
-    _check_scenario(WIDE, to_point(WIDE, np.array(unit[:len(free)])))
+@given(unit=st.lists(UNIT, min_size=25, max_size=25), space=st.sampled_from([WIDE, FLANGE]))
+def test_make_scenario_of_any_point(unit, space):
+    free = free_parameters(space)
+    _check_scenario(space, to_point(space, np.array(unit[:len(free)])))
+
+
+def test_the_flange_space_is_the_previous_envelope():
+    # Its approaches aim at the flange itself (tool0, as before), two gloves, no outliers.
+    free = free_parameters(FLANGE)
+    assert len(free) == 14 and FLANGE.contact_geometry == "tool_point"
+    values = to_point(FLANGE, np.full(len(free), 0.3))
+    scenario = make_scenario(FLANGE, CONFIG, values)
+    path = joint_path(FLANGE.robot)
+    target = tool0_position(joint_path_state(path, values["target_phase"] * path.cycle_time)[0])
+    np.testing.assert_array_equal(target_point(FLANGE, values, path), target)  # bit for bit
+    w = [np.array(p.position) for p in scenario.operators[0].waypoints]
+    np.testing.assert_allclose(w[-1], target - values["overshoot"] * (w[0] - target)
+                               / values["start_distance"], atol=1e-12)
+    assert scenario.sensor.faults == [] and len(scenario.operators[0].bodies) == 2
 
 
 def test_make_scenario_hand_picked_point():
     values = to_point(SPACE, np.zeros(len(free_parameters(SPACE))))
     values.update(azimuth_deg=0.0, elevation_deg=0.0, start_distance=1.5, onset_phase=0.5,
                   target_phase=0.25, retreat_distance=0.4, overshoot=0.2, operators=3.0,
-                  dropout=0.1, occlusion=0.2, braking_time_scale=1.7)
+                  dropout=0.1, occlusion=0.2, occluded_bodies=2.0, outlier_frames=3.0,
+                  outlier_offset=1.2, outlier_delay=0.25, target_link=2.0, target_along=0.5,
+                  braking_time_scale=1.7)
     scenario, target = _check_scenario(SPACE, values)
     w = [np.array(p.position) for p in scenario.operators[0].waypoints]
     np.testing.assert_allclose(w[0], target + [1.5, 0.0, 0.0], atol=1e-12)  # azimuth 0: +x

@@ -1,44 +1,48 @@
 """Deliberately broken configurations are falsified; their unbroken forms are not.
 
-Each variant breaks one thing the protective distance relies on. The search runs over
-a box of approaches that starts outside S (for the iso variants) or of gentle
-approaches (for the sign flip), and every counterexample is confirmed in the Drake
-diagram by ``verify``.
+Each variant breaks one thing safety relies on; every counterexample is confirmed in the
+Drake diagram by ``verify``. First the issue's demonstrations on the whole-cell default
+space (``models/spaces/default.yaml``): the previous behaviour (the tool point, tracks
+ended by time or by distance from the base, no gate) is falsified by an occluded
+approach and by an approach to the elbow, where the iso configuration is safe; and
+mutants of a proved configuration are falsified: a capsule too small, the gate off,
+tracks ended after 0.5 s hidden. Then older variants: the reaction time left out of S,
+a latency the configuration does not know, weaker brakes, a sign error in Eqs. 6-7.
 """
 
 import dataclasses
 import types
 
 import numba
+import numpy as np
 import pytest
 
-import safety_systems.systems.separation_monitor as monitor_module
+import safety_systems.separation as separation_module
 import verification.evaluate_batch as batch_module
-from safety_systems.scenario import load_controller_config
-from safety_systems.ssm import separation_and_directed_speeds, separation_pair
+from safety_systems.metrics import true_pairs
+from safety_systems.robot_geometry import CAPSULE_NAMES, segment_pair
+from safety_systems.scenario import load_controller_config, load_scenario
+from safety_systems.simulation import simulate
+from verification.evaluate_drake import robustness_of_run
 from verification.proof import prove
 from verification.space import Range, load_space
 from verification.verify import verify
 
 DEFAULT = load_space("models/spaces/default.yaml")
+FLANGE = load_space("models/spaces/flange.yaml")
 ISO = load_controller_config("models/configs/iso.yaml")
+PREVIOUS = load_controller_config("models/configs/iso_previous.yaml")
 SEED = load_controller_config("models/configs/seed_estimated.yaml")
 
 
-def _space(**ranges):
-    return dataclasses.replace(DEFAULT, parameters=dataclasses.replace(
-        DEFAULT.parameters, **{k: Range(*v) for k, v in ranges.items()}))
+def _space(space=DEFAULT, **ranges):
+    return dataclasses.replace(space, parameters=dataclasses.replace(
+        space.parameters, **{k: Range(*v) for k, v in ranges.items()}))
 
 
-# Single hands walking in from outside S at 1.6 to 2.0 m/s.
-FROM_OUTSIDE = dict(start_distance=(1.5, 2.5), peak_speed=(1.6, 2.0), acceleration=(2.0, 10.0),
-                    retreat_distance=(0.0, 0.0), operators=(1, 1), dropout=(0.0, 0.0),
-                    occlusion=(0.0, 0.0), elevation_deg=(-10.0, 10.0))
-
-
-def _verify(config, space, tmp_path, budget=40, seed=0):
+def _verify(config, space, tmp_path, budget=40, seed=0, candidates=2048):
     return verify(config, space, tmp_path, budget=budget, workers=1, seed=seed,
-                  stop_at_first=True)
+                  stop_at_first=True, candidates=candidates)
 
 
 def _assert_falsified(outcome):
@@ -46,53 +50,165 @@ def _assert_falsified(outcome):
     assert outcome.counterexamples and outcome.unconfirmed == []
     for c in outcome.counterexamples:
         assert c["drake_robustness"] < 0.0 and c["robustness"] < 0.0
+    return outcome.counterexamples[0]
+
+
+def _replay(counterexample):
+    """The counterexample's scenario file through the simulate pipeline: its run and
+    the capsule nearest to a body at the moment of contact while moving."""
+    run = simulate(load_scenario(counterexample["scenario"]))
+    rho = robustness_of_run(run)
+    assert rho.stopped_before_contact == pytest.approx(counterexample["drake_robustness"],
+                                                       abs=1e-12)
+    clearance = true_pairs(run)[0]
+    moving = np.flatnonzero(np.any(np.abs(run["v"]) > 0.0, axis=1))
+    worst = moving[np.nanargmin(np.nanmin(clearance[moving], axis=(1, 2)))]
+    capsule = CAPSULE_NAMES[int(np.nanargmin(np.nanmin(clearance[worst], axis=0)))]
+    return run, rho, capsule
+
+
+# Sub-boxes of the default space, so each kind of counterexample is shown apart.
+OCCLUDED = dict(outlier_frames=(0, 0), occlusion=(1.0, 2.0), occluded_bodies=(3, 3),
+                start_distance=(1.8, 2.5), target_link=(6, 6), target_along=(0, 0),
+                operators=(1, 1))
+ELBOW = dict(outlier_frames=(0, 0), occlusion=(0, 0), dropout=(0, 0), target_link=(1, 2),
+             target_along=(0.9, 1.0), operators=(1, 1))
+
+
+def test_previous_behaviour_falsified_by_an_occluded_approach(tmp_path):
+    # Every body of the operator hidden for 1-2 s from 1.8-2.5 m out, going for the tool:
+    # the old rule ends the tracks after 0.5 s (their estimates lie beyond 2.5 m of the
+    # base) and the robot runs on at full speed towards someone it cannot see.
+    space = _space(**OCCLUDED)
+    worst = _assert_falsified(_verify(PREVIOUS, space, tmp_path / "previous"))
+    run, rho, _ = _replay(worst)
+    assert rho.stopped_before_contact < 0.0  # contact while moving, in the Drake diagram
+    hidden = run["tracker.track_status"] != 1
+    assert hidden.all(axis=1).any()  # at some instant no body was tracked at all
+    # The whole-cell configuration keeps the hidden bodies as growing balls: safe.
+    assert prove(ISO, space).proved
+    outcome = _verify(ISO, space, tmp_path / "iso", budget=20)
+    assert outcome.verdict == "proved" and outcome.log.robustness.min() > 0.0
+
+
+def test_previous_behaviour_falsified_by_an_approach_to_the_elbow(tmp_path):
+    # No occlusion, no outliers: a hand reaching for the elbow, which the tool point
+    # does not see.
+    space = _space(**ELBOW)
+    worst = _assert_falsified(_verify(PREVIOUS, space, tmp_path / "previous"))
+    _, rho, capsule = _replay(worst)
+    assert rho.stopped_before_contact < 0.0
+    assert capsule in ("upper_arm", "forearm")  # the contact is at the elbow, not the tool
+    outcome = _verify(ISO, space, tmp_path / "iso", budget=20)
+    assert outcome.verdict == "proved" and outcome.log.robustness.min() > 0.0
+
+
+def test_iso_is_proved_and_the_previous_one_falsified_on_the_whole_space(tmp_path):
+    assert prove(ISO, DEFAULT).proved and not prove(PREVIOUS, DEFAULT).proved
+    _assert_falsified(_verify(PREVIOUS, DEFAULT, tmp_path / "previous"))
+
+
+def _mutant(config=ISO, **tracker):
+    return dataclasses.replace(config, tracker=dataclasses.replace(config.tracker, **tracker))
+
+
+def test_mutant_gate_off_is_falsified(tmp_path):
+    # The operators' bodies reported 1-2 m farther back for a few frames: taken as truth,
+    # the robot resumes towards them.
+    worst = _assert_falsified(_verify(_mutant(gate=False), DEFAULT, tmp_path))
+    assert worst["parameters"]["outlier_frames"] >= 1
+
+
+def test_mutant_tracks_ended_after_half_a_second_hidden_is_falsified(tmp_path):
+    mutant = _mutant(hidden_bodies="expire", max_coast_time=0.5, exit_radius=1e-6)
+    worst = _assert_falsified(_verify(mutant, DEFAULT, tmp_path))
+    assert worst["parameters"]["occluded_bodies"] == 3.0  # nobody of the operator in view
+    assert worst["parameters"]["occlusion"] > 0.5
+
+
+def test_mutant_capsule_too_small_is_falsified(tmp_path):
+    # A proved configuration keeps real clearance to spare (its proof's worst case
+    # combines a robot moving away, in S, with one moving towards the body, while
+    # braking): iso.yaml's is about 0.5 m in this cell, so a capsule only a few
+    # centimetres too small changes nothing a search could find (the proof rejects it).
+    # Take the tightest configuration the proof allows (T_r 0.1 s instead of 0.2 s,
+    # about 0.3 m to spare) and a real payload 0.9 m across that the configuration
+    # still models as a 0.1 m sphere.
+    space = dataclasses.replace(DEFAULT, robot=dataclasses.replace(DEFAULT.robot,
+                                                                   payload_radius=0.45))
+    tight = dataclasses.replace(ISO, safety=dataclasses.replace(
+        ISO.safety, reaction_time=0.1, payload_radius=0.45))
+    proof = prove(tight, space)
+    assert proof.proved and proof.margin_at_worst_corner < 0.02
+    mutant = dataclasses.replace(tight, safety=dataclasses.replace(tight.safety,
+                                                                   payload_radius=0.05))
+    assert not prove(mutant, space).proved
+    _assert_falsified(_verify(mutant, space, tmp_path / "mutant", budget=40, candidates=8192))
+    outcome = _verify(tight, space, tmp_path / "tight", budget=20, candidates=8192)
+    assert outcome.verdict == "proved" and outcome.log.robustness.min() > 0.0
+
+
+# The older variants, on the previous envelope (the flange, a tool-point monitor), where
+# the iso terms are tight: single hands walking in from outside S at 1.6 to 2.0 m/s.
+ISO_POINT = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety,
+                                                                robot_geometry="tool_point"))
+FROM_OUTSIDE = dict(start_distance=(1.5, 2.5), peak_speed=(1.6, 2.0), acceleration=(2.0, 10.0),
+                    retreat_distance=(0.0, 0.0), operators=(1, 1), dropout=(0.0, 0.0),
+                    occlusion=(0.0, 0.0), elevation_deg=(-10.0, 10.0))
 
 
 def test_reaction_time_left_out_of_s(tmp_path):
-    space = _space(**FROM_OUTSIDE)
-    assert prove(ISO, space).proved
-    broken = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety, reaction_time=0.0))
+    space = _space(FLANGE, **FROM_OUTSIDE)
+    assert prove(ISO_POINT, space).proved
+    broken = dataclasses.replace(ISO_POINT, safety=dataclasses.replace(ISO_POINT.safety,
+                                                                       reaction_time=0.0))
     _assert_falsified(_verify(broken, space, tmp_path))
 
 
 def test_latency_larger_than_the_configuration_assumes(tmp_path):
     # The data arrives 0.25-0.3 s late; the configuration assumes 0.02 s and was given
     # a frame timeout that tolerates the delay, so the stale frames are used.
-    space = _space(**FROM_OUTSIDE, latency=(0.25, 0.3))
-    tolerant = dataclasses.replace(ISO, tracker=dataclasses.replace(ISO.tracker,
-                                                                    frame_timeout=0.4))
-    _assert_falsified(_verify(tolerant, space, tmp_path / "tolerant"))
+    space = _space(FLANGE, **FROM_OUTSIDE, latency=(0.25, 0.3))
+    _assert_falsified(_verify(_mutant(ISO_POINT, frame_timeout=0.4), space,
+                              tmp_path / "tolerant"))
     # With its own timeout the iso configuration stops on the stale frames instead.
-    assert prove(ISO, space).proved
+    assert prove(ISO_POINT, space).proved
 
 
 def test_braking_weaker_than_the_stopping_data_says(tmp_path):
-    space = _space(**FROM_OUTSIDE, braking_time_scale=(1.5, 2.0))
-    assert not prove(ISO, space).proved
-    _assert_falsified(_verify(ISO, space, tmp_path))
+    space = _space(FLANGE, **FROM_OUTSIDE, braking_time_scale=(1.5, 2.0))
+    assert not prove(ISO_POINT, space).proved
+    _assert_falsified(_verify(ISO_POINT, space, tmp_path))
+
+
+def _rebuilt(function, **names):
+    """A compiled function rebuilt from its own source with some globals replaced."""
+    source = function.py_func
+    return numba.njit(types.FunctionType(source.__code__, {**source.__globals__, **names}))
 
 
 @pytest.fixture
 def flipped_sign(monkeypatch):
-    """Eqs. 6-7 with the wrong sign: closing in counts as moving away. The diagram's
-    SeparationMonitor calls the Python function; the batched evaluator's compiled ticks
-    are rebuilt from their own source with the monitor's pair flipped."""
-
-    def flipped(*args):
-        d, v_h, v_r = separation_and_directed_speeds(*args)
-        return d, -v_h, -v_r
-
-    monkeypatch.setattr(monitor_module, "separation_and_directed_speeds", flipped)
+    """Eqs. 6-7 with the wrong sign: closing in counts as moving away. The product's
+    compiled monitor (``separation.body_separation``) is rebuilt with the pair's speeds
+    flipped, and so are the functions that inline it: the diagram's SeparationMonitor
+    (through ``separation.separation_rows``) and the batched evaluator's ticks."""
 
     @numba.njit(inline="always")
-    def flipped_pair(p_R, v_R, p_B, v_B):
-        d, v_h, v_r = separation_pair(p_R, v_R, p_B, v_B)
+    def flipped_pair(p_B, v_B, A, B, v_A, v_B2):
+        d, v_h, v_r = segment_pair(p_B, v_B, A, B, v_A, v_B2)
         return d, -v_h, -v_r
 
-    source = batch_module._advance.py_func
-    rebuilt = types.FunctionType(source.__code__, {**source.__globals__,
-                                                   "monitor_pair": flipped_pair})
-    monkeypatch.setattr(batch_module, "_advance", numba.njit(rebuilt))
+    body = _rebuilt(separation_module.body_separation, segment_pair=flipped_pair)
+    monkeypatch.setattr(separation_module, "separation_rows",
+                        _rebuilt(separation_module.separation_rows, body_separation=body))
+
+    @numba.njit(inline="always")
+    def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor):
+        return body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor)
+
+    monkeypatch.setattr(batch_module, "_advance",
+                        _rebuilt(batch_module._advance, monitor_body=monitor_body))
 
 
 GENTLE = dict(start_distance=(1.0, 2.5), peak_speed=(0.5, 1.2), acceleration=(1.0, 3.0),
@@ -100,10 +216,11 @@ GENTLE = dict(start_distance=(1.0, 2.5), peak_speed=(0.5, 1.2), acceleration=(1.
               occlusion=(0.0, 0.0))
 
 
-def test_seed_configuration_passes_gentle_approaches(tmp_path):
-    outcome = _verify(SEED, _space(**GENTLE), tmp_path, budget=20)
+def test_seed_configuration_passes_gentle_approaches_to_the_flange(tmp_path):
+    # The previous envelope (the flange only): the seed's configuration is safe there.
+    outcome = _verify(SEED, _space(FLANGE, **GENTLE), tmp_path, budget=20)
     assert outcome.verdict == "passed" and outcome.log.robustness.min() > 0.0
 
 
 def test_directed_speed_sign_flipped(tmp_path, flipped_sign):
-    _assert_falsified(_verify(SEED, _space(**GENTLE), tmp_path, budget=20))
+    _assert_falsified(_verify(SEED, _space(FLANGE, **GENTLE), tmp_path, budget=20))

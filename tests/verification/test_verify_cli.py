@@ -16,12 +16,22 @@ REPORT_KEYS = {"verdict", "method", "assumptions", "min_robustness", "simulation
                "counterexamples"}
 
 
-def test_iso_configuration_is_proved(tmp_path):
+def test_iso_configuration_is_proved(tmp_path, capsys):
     out = tmp_path / "iso"
     code = main(["verify", str(MODELS / "configs" / "iso.yaml"), "--space", SPACE, "--out",
                  str(out), "--budget", "6", "--workers", "1", "--quiet"])
     report = json.loads((out / "report.json").read_text())
     assert code == 0 and report["verdict"] == "proved"
+    # Every premise says whether it was checked here or trusted from the files, and the
+    # placeholder stopping data is named in words, in the report and on the console.
+    premises = report["proof"]["premises"]
+    assert {p["basis"] for p in premises} == {"checked", "trusted"}
+    assert all(p["holds"] for p in premises)
+    assert report["braking_data"] == "placeholder"
+    markdown = (out / "report.md").read_text()
+    assert "built-in placeholder" in markdown and "*trusted*" in markdown
+    assert "built-in placeholder" in capsys.readouterr().err
+    assert "capsules" in report["property"]
     assert REPORT_KEYS <= set(report) and report["simulations"] == 6
     # None: +inf, the robot never moved while a hand was present.
     assert report["min_robustness"] is None or report["min_robustness"] > 0.0
@@ -30,6 +40,18 @@ def test_iso_configuration_is_proved(tmp_path):
     assert any("2 m/s" in a for a in report["assumptions"])
     assert (out / "report.md").read_text().startswith("# Verification: PROVED")
     assert (out / "robustness.png").stat().st_size > 5_000
+
+
+def test_previous_behaviour_is_falsified_on_the_whole_cell_space(tmp_path):
+    out = tmp_path / "previous"
+    code = main(["verify", str(MODELS / "configs" / "iso_previous.yaml"), "--space", SPACE,
+                 "--out", str(out), "--budget", "6", "--workers", "1", "--quiet"])
+    report = json.loads((out / "report.json").read_text())
+    assert code == 1 and report["verdict"] == "falsified"
+    assert not report["proof"]["proved"]
+    failed = [p["statement"] for p in report["proof"]["premises"] if not p["holds"]]
+    assert len(failed) == 3  # the tool point, the expire rule, no gate
+    assert all(c["drake_robustness"] < 0.0 for c in report["counterexamples"])
 
 
 def test_seed_configuration_is_falsified_and_replayable(tmp_path):
