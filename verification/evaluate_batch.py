@@ -66,12 +66,14 @@ from safety_systems.sensor_faults import FAULT_COLUMNS, apply_faults
 from safety_systems.separation import body_separation, capsule_axis
 from safety_systems.ssm import (
     HUMAN_SPEED_MODES,
+    ISO_REDUCED_SPEED_THRESHOLD,
     hidden_ball_radius,
     override_command,
     protective_one,
 )
 from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
-from safety_systems.tracks import TRACK_SLOT, estimate_rows, frame_step, usable
+from safety_systems.tracks import TRACK_LOST, TRACK_SLOT, estimate_rows, frame_step, usable
+from safety_systems.ur5e import tool0_one_memo
 from safety_systems.workcell import (
     assumed_stopping,
     braking_table,
@@ -316,6 +318,36 @@ drop_stale_builds(__file__, (ssm, braking, safety_systems.joint_path, ur5e, oper
                              kalman, tracks, stops, sensor_faults, robot_geometry, separation))
 
 
+_MARGIN = 1e-9  # m: the bounds below skip work only when rounding could not matter
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _bounding_sphere(ends, radius):
+    """(centre x, y, z, radius) of a sphere containing every capsule: about the ends'
+    mean, out to the farthest end (every axis point is nearer than the farthest end)
+    plus the largest capsule radius."""
+    c0, c1, c2, n = 0.0, 0.0, 0.0, 2.0 * radius.size
+    for j in range(radius.size):
+        for e in range(2):
+            c0, c1, c2 = c0 + ends[j, e, 0], c1 + ends[j, e, 1], c2 + ends[j, e, 2]
+    c0, c1, c2 = c0 / n, c1 / n, c2 / n
+    far, thick = 0.0, 0.0
+    for j in range(radius.size):
+        thick = max(thick, radius[j])
+        for e in range(2):
+            x0, x1, x2 = ends[j, e, 0] - c0, ends[j, e, 1] - c1, ends[j, e, 2] - c2
+            far = max(far, np.sqrt(x0 * x0 + x1 * x1 + x2 * x2))
+    return c0, c1, c2, far + thick
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _beyond(sphere, p0, p1, p2, r_B):
+    """A lower bound on a body's clearance to the capsules inside ``sphere`` (m)."""
+    c0, c1, c2, R = sphere
+    x0, x1, x2 = p0 - c0, p1 - c1, p2 - c2
+    return np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) - R - r_B - _MARGIN
+
+
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor):
     """The SeparationMonitor's d_i, S_i (and the nearest pair's speeds and index) of one
@@ -328,7 +360,7 @@ def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor
 def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
              status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_s,
              monitor_caps, contact_caps, r_monitor, r_contact, end, brake_scale, brakes, s,
-             rate, ends_prev, trig, min_sep, prot_time, prot_deep):
+             rate, ends_prev, s_last, memo, hint, trig, min_sep, prot_time, prot_deep):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the tracker's outputs est_p, est_v, status, std, unseen and its
     ``frames`` state are fixed meanwhile); compiled, from the product's compiled
@@ -360,7 +392,22 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
       (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
     - the PathFollower's update (``braking.path_step_one``; ``brakes`` = speed
       fractions, decelerations, acceleration limit).
+
+    Work that cannot change a figure is skipped, and each skip is exact (the tests hold
+    the figures to the diagram's and to a batch of one): the monitor's k is reused while
+    the robot rests and the tracker's outputs and fault are unchanged (its inputs are
+    then the same; ``memo`` (B, 3): k, s and the fault it was computed for, ``s_last``
+    the previous tick's s); it is 1 without the pairs when every body's clearance,
+    bounded below through a sphere around the capsules, lies beyond dS times an upper
+    bound of every S (the fastest end for v_R, the body's speed or the ISO speed for
+    v_H), and 0 when one pair per body (its capsule nearest at its last full evaluation,
+    ``hint`` (B, N)) already puts a clearance below d_min or below that pair's S (d_i is
+    at most, S_i at least, that pair's); a body's properties are skipped when the sphere
+    bound shows it can lower neither the smallest clearance nor come inside the
+    true-speed S.
     """
+    mode, t_sr, t_r, const, iso, iso_reduced = monitor
+    h_iso = max(iso, iso_reduced)
     z_d_base, z_d_sigmas, occlusion_speed = z_d_terms
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
@@ -374,6 +421,20 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
     speed = 0.0
+    m_sphere, c_sphere = (0.0, 0.0, 0.0, np.inf), (0.0, 0.0, 0.0, np.inf)
+    memo[:, 1] = np.nan  # the tracker's outputs may have changed: no k to reuse
+    # Both robots the tool point only: tool0 alone (P6, bit for bit), not all 8 points.
+    tool_only = True
+    for j in range(ma.size):
+        tool_only = tool_only and ma[j] == 6 and mb[j] == 6
+    for j in range(ca.size):
+        tool_only = tool_only and ca[j] == 6 and cb[j] == 6
+    # A scenario frozen from a tick on: at rest, held at k = 0 by the same inputs and
+    # fault to the interval's end: every later tick of the interval repeats it.
+    frozen = np.zeros(s.size, dtype=np.bool_)
+    t_end = (k1 - 1) * dt
+    # The bounds cost about one pair each: worth it only against several capsules.
+    bound_monitor, bound_contact = ma.size > 1, ca.size > 1
     # Scenarios whose robot has not been slowed yet share its state (s, sigma) bit for bit:
     # in order of s, each computes the robot only where it differs from the one before.
     order = np.argsort(s, kind="mergesort")
@@ -381,13 +442,19 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
         t = k * dt
         s_before, rate_before = np.nan, np.nan
         for b in order:
+            if frozen[b]:
+                continue
             if not (s[b] == s_before and rate[b] == rate_before):  # else the robot as before
                 path_state_one(s[b], path, q, dq, ddq)
                 for j in range(6):
                     v_joint[j] = dq[j] * rate[b]
-                robot_points_one_memo(q, v_joint, m_tool, trig[b], points, point_v)
+                if tool_only:
+                    (points[6, 0], points[6, 1], points[6, 2], point_v[6, 0], point_v[6, 1],
+                     point_v[6, 2]) = tool0_one_memo(q, v_joint, trig[b])
+                else:
+                    robot_points_one_memo(q, v_joint, m_tool, trig[b], points, point_v)
                 capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_unused)
-                if c_tool != m_tool:
+                if c_tool != m_tool and not tool_only:
                     robot_points_one_memo(q, v_joint, c_tool, trig[b], points, point_v)
                 capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
                 speed = 0.0  # the robot's: its fastest capsule end
@@ -396,25 +463,91 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                         w0, w1, w2 = c_velocities[j, e, 0], c_velocities[j, e, 1], \
                             c_velocities[j, e, 2]
                         speed = max(speed, np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+                if bound_monitor:
+                    m_sphere = _bounding_sphere(m_ends, m_radius)
+                if bound_contact:
+                    c_sphere = _bounding_sphere(c_ends, c_radius)
                 s_before, rate_before = s[b], rate[b]
-            for j in range(ma.size):  # RobotCapsules' Eq. 5
-                for e in range(2):
-                    for i in range(3):
-                        m_velocities[j, e, i] = (m_ends[j, e, i] - ends_prev[b, j, e, i]) / dt
             # SeparationMonitor and SpeedOverride on the tracker's estimates.
             fault = frames[b, _F_FAULT]
             if fault == 0.0 and not t - frames[b, _F_GOOD] <= timeout:
                 fault = stops.STOP_STALE_FRAME
-            if fault == 0.0:  # else the robot stops whatever d and S are
-                for i in range(N):
-                    if usable(status[b, i]):  # (the override reads only these)
-                        d[i], s_row[i], _, _, _ = monitor_body(
-                            est_p[b, i], est_v[b, i], r_monitor[b, i],
-                            z_d_base + z_d_sigmas * std[b, i],
-                            hidden_ball_radius(unseen[b, i], occlusion_speed), m_ends,
-                            m_velocities, m_radius, monitor)
-            k_override = override_command(d, s_row, status[b], fault, delta_s, d_min,
-                                          included)[0]
+            resting = s[b] == s_last[b]  # the ends as at the last tick: Eq. 5 gives 0
+            if resting and memo[b, 1] == s[b] and memo[b, 2] == fault:
+                k_override = memo[b, 0]  # the same inputs as when it was computed
+                # Held at rest to the interval's end (the fault cannot change: stale for
+                # good, or fresh to the end): later ticks repeat this one.
+                frozen[b] = (k_override == 0.0 and rate[b] == 0.0 and speed == 0.0
+                             and (fault != 0.0 or t_end - frames[b, _F_GOOD] <= timeout))
+            else:
+                v_end = 0.0  # RobotCapsules' Eq. 5, and its fastest end (for the bounds)
+                for j in range(ma.size):
+                    for e in range(2):
+                        for i in range(3):
+                            m_velocities[j, e, i] = (m_ends[j, e, i]
+                                                     - ends_prev[b, j, e, i]) / dt
+                        if bound_monitor:
+                            w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
+                                m_velocities[j, e, 2]
+                            v_end = max(v_end, np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+                far = bound_monitor and fault == 0.0 and not math.isnan(v_end)  # k = 1?
+                if far:
+                    closest_lb, s_ub = np.inf, -np.inf
+                    for i in range(N):
+                        if status[b, i] == TRACK_LOST:
+                            far = False
+                        if usable(status[b, i]):
+                            v0, v1, v2 = est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]
+                            h = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+                            h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
+                            z = z_d_base + z_d_sigmas * std[b, i]
+                            ub = h * t_sr + v_end * t_r + const + z + _MARGIN
+                            if mode == 1:
+                                ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                            lb = _beyond(m_sphere, est_p[b, i, 0], est_p[b, i, 1],
+                                         est_p[b, i, 2], r_monitor[b, i]) \
+                                - hidden_ball_radius(unseen[b, i], occlusion_speed)
+                            closest_lb, s_ub = min(closest_lb, lb), max(s_ub, ub)
+                            far = far and not (math.isnan(lb) or math.isnan(ub))
+                    far = far and closest_lb >= d_min + _MARGIN and (
+                        closest_lb - s_ub >= max((delta_s - 1.0) * s_ub, 1e-12) + _MARGIN)
+                near = (bound_monitor and fault == 0.0 and not far
+                        and not math.isnan(v_end))  # k = 0 for sure?
+                if near:
+                    d_ub, s_lb = np.inf, -np.inf
+                    for i in range(N):
+                        if usable(status[b, i]):
+                            j = hint[b, i]
+                            end_a, end_b, vel_a, vel_b = capsule_axis(m_ends, m_velocities, j)
+                            axis, h, r = segment_pair(
+                                (est_p[b, i, 0], est_p[b, i, 1], est_p[b, i, 2]),
+                                (est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]), end_a, end_b,
+                                vel_a, vel_b)
+                            s_j = protective_one(h, r, z_d_base + z_d_sigmas * std[b, i], mode,
+                                                 t_sr, t_r, const, iso, iso_reduced)
+                            c_j = (axis - m_radius[j] - r_monitor[b, i]
+                                   - hidden_ball_radius(unseen[b, i], occlusion_speed))
+                            if not (math.isnan(c_j) or math.isnan(s_j)):
+                                d_ub, s_lb = min(d_ub, c_j), max(s_lb, s_j)
+                    near = d_ub + _MARGIN < d_min or (s_lb > 0.0 and d_ub + _MARGIN < s_lb)
+                if far:
+                    k_override = 1.0  # Eq. 12's ramp is above 1 for every pair
+                elif near:
+                    k_override = 0.0  # a clearance below d_min, or below S_max
+                else:
+                    if fault == 0.0:  # else the robot stops whatever d and S are
+                        for i in range(N):
+                            if usable(status[b, i]):  # (the override reads only these)
+                                d[i], s_row[i], _, _, nearest = monitor_body(
+                                    est_p[b, i], est_v[b, i], r_monitor[b, i],
+                                    z_d_base + z_d_sigmas * std[b, i],
+                                    hidden_ball_radius(unseen[b, i], occlusion_speed), m_ends,
+                                    m_velocities, m_radius, monitor)
+                                if nearest >= 0:
+                                    hint[b, i] = nearest
+                    k_override = override_command(d, s_row, status[b], fault, delta_s, d_min,
+                                                  included)[0]
+                memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
             # The properties, on the true state at this tick.
             moving = speed > MOVING_SPEED and k <= last[b]
             if moving:  # (they count only while the robot moves)
@@ -426,9 +559,15 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                         departures, ta, tc, vp, lengths, a_max, directions, waypoints,
                         b * K + o, t)
                     v_H = (w0, w1, w2)
+                    s_true = (np.sqrt(w0 * w0 + w1 * w1 + w2 * w2) * truth_s[0]
+                              + speed * truth_s[1] + truth_s[2] + truth_s[3] + _MARGIN)
                     for i in range(op_first[o], op_first[o + 1]):
                         p_H = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
                                x2 + offsets[b, i, 2])
+                        if bound_contact:
+                            lb = _beyond(c_sphere, p_H[0], p_H[1], p_H[2], r_contact[b, i])
+                            if lb > min_sep[b] and lb > s_true:
+                                continue  # can lower neither figure
                         for j in range(ca.size):
                             end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
                             axis, vh_true, vr_true = segment_pair(p_H, v_H, end_a, end_b,
@@ -443,12 +582,14 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     prot_time[b] += dt
                 prot_deep[b] = max(prot_deep[b], deepest)
             # Updates at this tick: the follower (PathFollower._step), Eq. 5's memory.
+            if not resting:  # (at rest the ends are the ones kept)
+                for j in range(ma.size):
+                    for e in range(2):
+                        for i in range(3):
+                            ends_prev[b, j, e, i] = m_ends[j, e, i]
+            s_last[b] = s[b]
             s[b], rate[b] = path_step_one(s[b], rate[b], k_override, end[b], brake_scale[b], dt,
                                           fractions, deceleration, acceleration, 1.0)
-            for j in range(ma.size):
-                for e in range(2):
-                    for i in range(3):
-                        ends_prev[b, j, e, i] = m_ends[j, e, i]
 
 
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
@@ -488,6 +629,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     s = np.zeros(B)
     rate = np.zeros(B)
     ends_prev = np.full((B, caps.radius.size, 2, 3), np.nan)
+    s_last, memo = np.full(B, np.nan), np.full((B, 3), np.nan)
+    hint = np.zeros((B, N), dtype=np.int64)  # each body's capsule nearest at its last look
     trig = np.full((B, 15), np.nan)  # robot_points_one_memo's memory
     tracks = np.zeros((B * N, TRACK_SLOT))
     frames = np.zeros((B, 7))  # _F_*: no frame yet, none good
@@ -511,8 +654,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter,
                  c.leave, est_p, est_v, status, std, unseen, frames, timeout, monitor, z_d_terms,
                  f.delta_s, f.d_min, truth_s, monitor_caps, contact_caps, r_monitor, r_contact,
-                 c.end, c.brake_scale, brakes, s, rate, ends_prev, trig, min_sep, prot_time,
-                 prot_deep)
+                 c.end, c.brake_scale, brakes, s, rate, ends_prev, s_last, memo, hint, trig,
+                 min_sep, prot_time, prot_deep)
         k = stop
         if k > last:
             break
