@@ -4,12 +4,15 @@
 
 Prints the real-time factor of the inspection scenario in kinematic and dynamic mode
 (simulated seconds per wall-clock second, best of N runs; building the diagram is not
-timed) and the cost of one monitor + override evaluation for 10 tracked bodies as plain
-functions, each beside its goal. Beside the real-time factors it prints Drake's own
+timed) and the cost of one control tick's monitor + override for 10 tracked bodies
+against the iso configuration's 7 robot capsules, through the compiled functions the
+SeparationMonitor and SpeedOverride call (``separation.separation_rows``,
+``ssm.speed_override_command``; the tool point's one capsule beside it), each beside its
+goal. Beside the real-time factors it prints Drake's own
 floor on this machine: the same 500 Hz clock driving one, two and four chained Python
 LeafSystems that do nothing (one periodic update and one output each), which bounds
 what any diagram of Python systems at 500 Hz can reach (the control loop has four such
-parts at 500 Hz: EndEffectorVelocity, SeparationMonitor, SpeedOverride, PathFollower),
+parts at 500 Hz: RobotCapsules, SeparationMonitor, SpeedOverride, PathFollower),
 and the dynamic mode's UR5e plant with its inverse-dynamics controller alone (no Python
 system) and beside four idle Python systems at 500 Hz, which bound the dynamic mode.
 Run it pinned to one core for the one-core figure (e.g.
@@ -27,16 +30,18 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
+from safety_systems import separation
+from safety_systems.configuration import monitor_capsules
 from safety_systems.joint_path import default_joint_path, joint_path_state
-from safety_systems.scenario import load_scenario
-from safety_systems.ssm import (
-    monitor_protective_distances,
-    overall_speed_override,
-    separation_and_directed_speeds,
-)
+from safety_systems.robot_geometry import Capsules, capsule_ends, tool_point
+from safety_systems.scenario import load_controller_config, load_scenario
+from safety_systems.ssm import HUMAN_SPEED_MODES, speed_override_command
+from safety_systems.tracks import TRACK_TRACKING
 from safety_systems.workcell import AddUr5eWithInverseDynamics, MakeWorkcell
 
-SCENARIO = Path(__file__).parents[1] / "models" / "scenarios" / "inspection.yaml"
+ROOT = Path(__file__).parents[1]
+SCENARIO = ROOT / "models" / "scenarios" / "inspection.yaml"
+ISO = ROOT / "models" / "configs" / "iso.yaml"
 GOALS = {"kinematic": 100.0, "dynamic": 15.0}  # x real time
 MONITOR_GOAL_US = 20.0
 
@@ -112,18 +117,27 @@ def plant_floor(duration: float, repeats: int, systems: int = 0) -> float:
     return _best_factor(builder.Build(), duration, repeats)
 
 
-def monitor_and_override_us(n: int = 10, number: int = 20000) -> float:
+def monitor_and_override_us(capsules: Capsules, n: int = 10, number: int = 20000) -> float:
+    """Microseconds of one tick's separation (Eqs. 5-11 over every body and capsule) and
+    override (Eq. 12 and the stop rules) for ``n`` tracked bodies, best of 5 x ``number``."""
     rng = np.random.default_rng(0)
-    p_R, v_R = rng.normal(size=3), rng.normal(size=3)
-    p_B, v_B = rng.normal(size=(n, 3)) * 2, rng.normal(size=(n, 3))
-    tracked = np.ones(n, dtype=bool)
+    q = joint_path_state(default_joint_path(), 0.3)[0]
+    ends, end_v = capsule_ends(q, capsules, rng.normal(size=6) * 0.5)
+    p_B, v_B = rng.normal(size=(n, 3)) + [0.0, 0.0, 1.0], rng.normal(size=(n, 3))
+    r_B = np.full(n, 0.05)
+    status = np.full(n, float(TRACK_TRACKING))
+    std, unseen = np.full(n, 0.01), np.zeros(n)
+    z_d_terms = (0.1, 2.0, 1.6)
+    monitor = (HUMAN_SPEED_MODES.index("estimated"), 0.53 + 0.1, 0.1, 0.26 + 0.1 + 0.02,
+               1.6, 0.0)
+    out, nearest = np.empty((4, n)), np.empty(n, dtype=np.int64)
 
     def once():
-        d, v_h, v_r = separation_and_directed_speeds(p_R, v_R, p_B, v_B)
-        s = monitor_protective_distances(v_h, v_r, mode="estimated", reaction_time=0.1,
-                                         stopping_time=0.53, stopping_distance=0.26)
-        return overall_speed_override(d, s, tracked)
+        separation.separation_rows(ends, end_v, capsules.radius, p_B, v_B, r_B, status, std,
+                                   unseen, z_d_terms, monitor, out, nearest)
+        return speed_override_command(out[0], out[1], status, 0.0)
 
+    once()  # compiled code loaded (not timed)
     return min(timeit.repeat(once, number=number, repeat=5)) / number * 1e6
 
 
@@ -147,10 +161,11 @@ def main() -> None:
         what = f"+ {systems} idle Python" if systems else "alone"
         print(f"{'  floor: plant + inverse dyn. ' + what:44s} {rtf:9.1f}x "
               f"{'':>10s} {rtf / GOALS['dynamic']:12.2f}")
-    us = monitor_and_override_us()
-    print(f"{'monitor + override, 10 bodies (plain fns)':44s} {us:8.1f}us "
-          f"{MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")
-
+    config = load_controller_config(ISO)
+    for name, capsules in (("7 capsules", monitor_capsules(config)), ("tool point", tool_point())):
+        us = monitor_and_override_us(capsules)
+        what = f"monitor + override, 10 bodies x {name}"
+        print(f"{what:44s} {us:8.1f}us {MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")
 
 if __name__ == "__main__":
     main()
