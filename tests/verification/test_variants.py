@@ -67,19 +67,25 @@ def _replay(counterexample):
     return run, rho, capsule
 
 
-# Sub-boxes of the default space, so each kind of counterexample is shown apart.
-OCCLUDED = dict(outlier_frames=(0, 0), occlusion=(1.0, 2.0), occluded_bodies=(3, 3),
-                start_distance=(1.8, 2.5), target_link=(6, 6), target_along=(0, 0),
-                operators=(1, 1))
-ELBOW = dict(outlier_frames=(0, 0), occlusion=(0, 0), dropout=(0, 0), target_link=(1, 2),
-             target_along=(0.9, 1.0), operators=(1, 1))
+# Sub-boxes of the default space (files, so ``safety-systems verify`` shows each kind of
+# counterexample apart).
+OCCLUDED = load_space("models/spaces/occluded_approach.yaml")
+ELBOW = load_space("models/spaces/elbow_approach.yaml")
+
+
+@pytest.mark.parametrize("sub", [OCCLUDED, ELBOW], ids=["occluded", "elbow"])
+def test_demonstration_spaces_are_sub_boxes_of_the_default_space(sub):
+    assert dataclasses.replace(sub, name=DEFAULT.name, parameters=DEFAULT.parameters) == DEFAULT
+    for name, bounds in dataclasses.asdict(sub.parameters).items():
+        whole = getattr(DEFAULT.parameters, name)
+        assert whole.min <= bounds["min"] <= bounds["max"] <= whole.max, name
 
 
 def test_previous_behaviour_falsified_by_an_occluded_approach(tmp_path):
     # Every body of the operator hidden for 1-2 s from 1.8-2.5 m out, going for the tool:
     # the old rule ends the tracks after 0.5 s (their estimates lie beyond 2.5 m of the
     # base) and the robot runs on at full speed towards someone it cannot see.
-    space = _space(**OCCLUDED)
+    space = OCCLUDED
     worst = _assert_falsified(_verify(PREVIOUS, space, tmp_path / "previous"))
     run, rho, _ = _replay(worst)
     assert rho.stopped_before_contact < 0.0  # contact while moving, in the Drake diagram
@@ -94,7 +100,7 @@ def test_previous_behaviour_falsified_by_an_occluded_approach(tmp_path):
 def test_previous_behaviour_falsified_by_an_approach_to_the_elbow(tmp_path):
     # No occlusion, no outliers: a hand reaching for the elbow, which the tool point
     # does not see.
-    space = _space(**ELBOW)
+    space = ELBOW
     worst = _assert_falsified(_verify(PREVIOUS, space, tmp_path / "previous"))
     _, rho, capsule = _replay(worst)
     assert rho.stopped_before_contact < 0.0
