@@ -7,14 +7,36 @@ each body's sphere, or the seed's tool flange and body centres (``tool_point``).
 robot is where forward kinematics of the actual joint positions puts it. "Moving" means
 the robot's speed, the fastest of its capsules' axis ends (the tool flange on the tool
 point), exceeds ``MOVING_SPEED`` (1 mm/s).
+
+**Separation margin** (the separation invariant's measure, ``verification.properties``):
+at each control tick where the safety controller permits motion (its commanded path
+speed is not 0; every protective stop commands 0), the smallest d_true - S_true over
+every body present and every capsule of the real robot, where d_true is the pair's true
+clearance and S_true is seed 000's Eqs. 9-11 (ISO/TS 15066 Eq. 1) evaluated on the truth:
+the pair's true directed speeds (Eqs. 6-7; the human speed by the configuration's mode:
+``iso`` its constant speeds, ``estimated`` the true directed speed,
+``estimated_with_floor`` the larger of the two), the configuration's T_r and C, and the
+simulated robot's own stopping time and distance (``safety_systems.stopping``: its
+brakes, scaled by its ``braking_time_scale``, on its path), not the configuration's
+claim. Interpretation: Z_d and Z_r are left out of S_true. They are the allowances for
+the uncertainty of the measured human and robot positions (ISO/TS 15066, 5.5.4.2.3);
+on true positions there is nothing for them to allow for, and kept in S_true they would
+stand on both sides of the comparison, so no allowance could ever make up for the
+sensing error. They stay in the monitor's S, which is where that error is made up for
+(the proof, ``verification.proof``, states how much Z_d + Z_r the invariant needs).
 """
+
+import math
 
 import numpy as np
 
 from safety_systems.configuration import contact_body_radii, contact_capsules
 from safety_systems.robot_geometry import capsule_ends
+from safety_systems.scenario import Scenario
 from safety_systems.separation import pair_figures
 from safety_systems.simulation import Run
+from safety_systems.ssm import monitor_protective_distances
+from safety_systems.stopping import StoppingData, true_stopping
 from safety_systems.stops import REJECT_CAUSES, STOP_REASONS
 from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.ur5e import tool0_position_and_velocity
@@ -65,6 +87,72 @@ def min_separation_while_moving(separations: np.ndarray, speed: np.ndarray) -> f
     closest = np.min(np.where(np.isnan(separations), np.inf, separations), axis=-1,
                      initial=np.inf)
     return float(np.min(closest[moving], initial=np.inf))
+
+
+def command_signal(controller_type: str) -> str:
+    """The logged signal that carries a controller's commanded path speed: k of the
+    SpeedOverride, the scale of a seed-004 speed controller or of the zones."""
+    return {"ssm_override": "override.speed_scale_commanded",
+            "zones": "zones.speed_scale_commanded"}.get(controller_type,
+                                                        "speed.speed_scale_commanded")
+
+
+def commanded(run: Run) -> np.ndarray:
+    """(T,) the safety controller's commanded path speed at each tick."""
+    return run[command_signal(run.scenario.controller.type)][:, 0]
+
+
+def permitted(command: np.ndarray) -> np.ndarray:
+    """Whether the controller permits motion: a command other than 0 (a NaN counts as 0,
+    as the PathFollower takes it)."""
+    command = np.asarray(command, dtype=float)
+    return np.isfinite(command) & (command != 0.0)
+
+
+def robot_stopping(scenario: Scenario) -> StoppingData:
+    """The simulated robot's own stopping data on the scenario's path, for the real
+    robot's capsules (``safety_systems.stopping``)."""
+    from safety_systems.workcell import braking_table, joint_path
+
+    robot = scenario.robot
+    return true_stopping(joint_path(robot), contact_capsules(robot, scenario.contact_geometry),
+                         braking_table(scenario.controller), robot.braking_time_scale,
+                         1.0 / robot.control_rate_hz)
+
+
+def true_protective_args(scenario: Scenario) -> dict:
+    """The keywords of ``ssm.monitor_protective_distances`` that give S_true (see the
+    module docstring): the configuration's human-speed mode and speeds, T_r and C, the
+    simulated robot's stopping time and distance, no Z_d or Z_r."""
+    f = scenario.controller.safety
+    stop = robot_stopping(scenario)
+    return dict(mode=f.human_speed, reaction_time=f.reaction_time, stopping_time=stop.time,
+                stopping_distance=stop.distance, intrusion_distance=f.intrusion_distance,
+                iso_speed=f.iso_human_speed, iso_reduced_speed=f.iso_reduced_human_speed)
+
+
+def true_protective_distances(scenario: Scenario, v_human_directed: np.ndarray,
+                              v_robot_directed: np.ndarray) -> np.ndarray:
+    """S_true of pairs with these true directed speeds (any shape)."""
+    return monitor_protective_distances(v_human_directed, v_robot_directed,
+                                        **true_protective_args(scenario))
+
+
+def separation_margins(clearance: np.ndarray, s_true: np.ndarray,
+                       allowed: np.ndarray) -> np.ndarray:
+    """(T,) the smallest d_true - S_true over the pairs (T, N, K) (NaN where a body is
+    absent) at ticks where motion is ``allowed`` (T,); +inf at the others and where no
+    body is present."""
+    gap = np.where(np.isnan(clearance) | np.isnan(s_true), np.inf, clearance - s_true)
+    smallest = gap.reshape(gap.shape[0], math.prod(gap.shape[1:])).min(axis=1, initial=np.inf)
+    return np.where(allowed, smallest, np.inf)
+
+
+def run_separation_margins(run: Run) -> np.ndarray:
+    """(T,) :func:`separation_margins` of a run."""
+    clearance, v_h, v_r = true_pairs(run)
+    s_true = true_protective_distances(run.scenario, v_h, v_r)
+    return separation_margins(clearance, s_true, permitted(commanded(run)))
 
 
 def task_time(run: Run) -> float | None:
@@ -127,6 +215,9 @@ def summarize(run: Run) -> dict:
     sep = true_separations(run)
     min_sep = min_separation_while_moving(sep, robot_speed(robot_contact_state(run)[1]))
     finite = float(np.nanmin(sep)) if np.any(np.isfinite(sep)) else None
+    margins = run_separation_margins(run)
+    worst = int(np.argmin(margins)) if margins.size else 0
+    margin = float(margins[worst]) if margins.size and np.isfinite(margins[worst]) else None
     return {
         "scenario": scenario.name,
         "mode": scenario.robot.mode,
@@ -139,6 +230,10 @@ def summarize(run: Run) -> dict:
         "contact_distance": scenario.contact_distance,
         "contact_while_moving": bool(min_sep < scenario.contact_distance),
         "stopped_time": stopped_time(run),
+        # d_true - S_true, smallest while motion was permitted (None: never with a body
+        # present), and when
+        "min_separation_margin": margin,
+        "min_separation_margin_time": float(run.time[worst]) if margin is not None else None,
         "min_separation": finite,
         "max_tool_speed": float(np.max(speed)),
         "protective_stops": protective_stops(run),

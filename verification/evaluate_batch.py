@@ -50,6 +50,7 @@ from safety_systems.configuration import (
 )
 from safety_systems.configuration import sensor_faults as scenario_faults
 from safety_systems.joint_path import path_arrays, path_state_one
+from safety_systems.metrics import robot_stopping
 from safety_systems.operator_paths import (
     check_bodies,
     path_point_one,
@@ -80,7 +81,6 @@ from safety_systems.workcell import (
     frame_timeout,
     joint_path,
 )
-from verification.evaluate_drake import protective_args
 from verification.properties import MOVING_SPEED
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
@@ -92,8 +92,8 @@ class BatchResult:
 
     robustness: np.ndarray  # stopped before contact, m (>= 0 safe)
     min_separation_while_moving: np.ndarray
-    protective_violation_time: np.ndarray
-    protective_deepest_intrusion: np.ndarray
+    separation: np.ndarray  # the separation invariant, m (>= 0 safe)
+    separation_violation_time: np.ndarray  # s permitted with some pair inside S_true
 
 
 def _common(scenarios: list[Scenario], get, what: str):
@@ -358,9 +358,9 @@ def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor
 
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
-             status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_s,
-             monitor_caps, contact_caps, r_monitor, r_contact, end, brake_scale, brakes, s,
-             rate, ends_prev, s_last, memo, hint, trig, min_sep, prot_time, prot_deep):
+             status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_t,
+             truth_b, monitor_caps, contact_caps, r_monitor, r_contact, end, brake_scale,
+             brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the tracker's outputs est_p, est_v, status, std, unseen and its
     ``frames`` state are fixed meanwhile); compiled, from the product's compiled
@@ -386,10 +386,13 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     - the properties on the truth (``verification.properties``; bodies by
       ``path_point_one`` of their operator's path in ``stack`` plus their offsets, of
       radius ``r_contact``, present from ``enter`` to ``leave``; operator o's bodies are
-      op_first[o] to op_first[o + 1] - 1): the smallest clearance to the real robot's
-      capsules while the robot moves (its fastest capsule end) and a scenario's ticks
-      last (k <= ``last``), and time and depth inside the true-speed S of any pair
-      (``truth_s`` = (T_s + T_r, T_r, B + C + Z_r, Z_d));
+      op_first[o] to op_first[o + 1] - 1), while a scenario's ticks last (k <= ``last``):
+      the smallest clearance to the real robot's capsules while the robot moves (its
+      fastest capsule end); while the override's k is not 0, the smallest clearance
+      less S_true of any pair (``protective_one`` with the monitor's mode and speeds,
+      T_r, the pair's true directed speeds and, per scenario, ``truth_t`` = T_stop +
+      T_r and ``truth_b`` = the robot's stopping distance + C: ``metrics.
+      true_protective_args``) and the time some pair is inside S_true;
     - the PathFollower's update (``braking.path_step_one``; ``brakes`` = speed
       fractions, decelerations, acceleration limit).
 
@@ -403,8 +406,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     v_H), and 0 when one pair per body (its capsule nearest at its last full evaluation,
     ``hint`` (B, N)) already puts a clearance below d_min or below that pair's S (d_i is
     at most, S_i at least, that pair's); a body's properties are skipped when the sphere
-    bound shows it can lower neither the smallest clearance nor come inside the
-    true-speed S.
+    bound shows it can lower neither figure (nor come inside S_true).
     """
     mode, t_sr, t_r, const, iso, iso_reduced = monitor
     h_iso = max(iso, iso_reduced)
@@ -550,8 +552,9 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                 memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
             # The properties, on the true state at this tick.
             moving = speed > MOVING_SPEED and k <= last[b]
-            if moving:  # (they count only while the robot moves)
-                closest, deepest = np.inf, -np.inf
+            allowed = k_override != 0.0 and k <= last[b]
+            if moving or allowed:  # (they count only then)
+                closest, margin = np.inf, np.inf
                 for o in range(K):  # each operator's point once, then its bodies
                     if not (t >= enter[b, o] and t < leave[b, o]):
                         continue
@@ -559,14 +562,18 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                         departures, ta, tc, vp, lengths, a_max, directions, waypoints,
                         b * K + o, t)
                     v_H = (w0, w1, w2)
-                    s_true = (np.sqrt(w0 * w0 + w1 * w1 + w2 * w2) * truth_s[0]
-                              + speed * truth_s[1] + truth_s[2] + truth_s[3] + _MARGIN)
+                    h = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)  # S_true's upper bound
+                    h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
+                    s_true_ub = h * truth_t[b] + speed * t_r + truth_b[b] + _MARGIN
+                    if mode == 1:
+                        s_true_ub = max(s_true_ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
                     for i in range(op_first[o], op_first[o + 1]):
                         p_H = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
                                x2 + offsets[b, i, 2])
                         if bound_contact:
                             lb = _beyond(c_sphere, p_H[0], p_H[1], p_H[2], r_contact[b, i])
-                            if lb > min_sep[b] and lb > s_true:
+                            if ((not moving or lb > min_sep[b]) and (
+                                    not allowed or lb - s_true_ub > max(sep_min[b], 0.0))):
                                 continue  # can lower neither figure
                         for j in range(ca.size):
                             end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
@@ -574,13 +581,15 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                                                                   vel_a, vel_b)
                             sep = axis - c_radius[j] - r_contact[b, i]
                             closest = min(closest, sep)
-                            deepest = max(deepest, protective_one(
-                                vh_true, vr_true, truth_s[3], 0, truth_s[0], truth_s[1],
-                                truth_s[2], 0.0, 0.0) - sep)
-                min_sep[b] = min(min_sep[b], closest)
-                if deepest > 0.0:
-                    prot_time[b] += dt
-                prot_deep[b] = max(prot_deep[b], deepest)
+                            margin = min(margin, sep - protective_one(
+                                vh_true, vr_true, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
+                                iso_reduced))
+                if moving:
+                    min_sep[b] = min(min_sep[b], closest)
+                if allowed:
+                    sep_min[b] = min(sep_min[b], margin)
+                    if margin < 0.0:
+                        sep_time[b] += dt
             # Updates at this tick: the follower (PathFollower._step), Eq. 5's memory.
             if not resting:  # (at rest the ends are the ones kept)
                 for j in range(ma.size):
@@ -607,10 +616,14 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                f.iso_reduced_human_speed)
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
-    truth = protective_args(scenarios[0])  # the true-speed S of the property
-    truth_s = (truth["stopping_time"] + truth["reaction_time"], truth["reaction_time"],
-               truth["stopping_distance"] + truth["intrusion_distance"]
-               + truth["robot_uncertainty"], truth["human_uncertainty"])
+    # S_true of the separation invariant: the simulated robot's own stopping data.
+    by_scale: dict = {}  # (the scenarios of a batch differ in their brakes' scale only)
+    for sc in scenarios:
+        if sc.robot.braking_time_scale not in by_scale:
+            by_scale[sc.robot.braking_time_scale] = robot_stopping(sc)
+    stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
+    truth_t = np.array([x.time for x in stops_true]) + f.reaction_time
+    truth_b = np.array([x.distance for x in stops_true]) + f.intrusion_distance
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     path = path_arrays(c.path)
     z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas),
@@ -641,8 +654,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     std = np.zeros((B, N))
     unseen = np.zeros((B, N))
     min_sep = np.full(B, np.inf)
-    prot_time = np.zeros(B)
-    prot_deep = np.zeros(B)
+    sep_min = np.full(B, np.inf)
+    sep_time = np.zeros(B)
     last = int(c.ticks.max())
     k, j = 0, 0
     while k <= last:
@@ -653,16 +666,16 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
             stop += 1
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter,
                  c.leave, est_p, est_v, status, std, unseen, frames, timeout, monitor, z_d_terms,
-                 f.delta_s, f.d_min, truth_s, monitor_caps, contact_caps, r_monitor, r_contact,
-                 c.end, c.brake_scale, brakes, s, rate, ends_prev, s_last, memo, hint, trig,
-                 min_sep, prot_time, prot_deep)
+                 f.delta_s, f.d_min, truth_t, truth_b, monitor_caps, contact_caps, r_monitor,
+                 r_contact, c.end, c.brake_scale, brakes, s, rate, ends_prev, s_last, memo,
+                 hint, trig, min_sep, sep_min, sep_time)
         k = stop
         if k > last:
             break
         c.update(u, frames, tracks, rules, regions, est_p, est_v, status, std, unseen)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
-                       prot_time, prot_deep)
+                       sep_min, sep_time)
 
 
 def batch_key(s: Scenario, memo: dict | None = None) -> tuple:

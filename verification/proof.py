@@ -64,13 +64,14 @@ import numpy as np
 import z3
 
 from safety_systems import kalman
-from safety_systems.braking import braking_deceleration, path_rate_step
+from safety_systems.braking import braking_deceleration
 from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.configuration import contact_capsules, monitor_capsules
 from safety_systems.joint_path import JointPath, joint_path_state
 from safety_systems.kalman import axis_predict, axis_update
 from safety_systems.robot_geometry import Capsules, capsule_ends
 from safety_systems.scenario import ControllerConfig
+from safety_systems.stopping import stop_from_full_speed
 from safety_systems.tracks import MIN_MEASUREMENT_STD
 from safety_systems.ur5e import DH_A, DH_D
 from safety_systems.workcell import assumed_stopping, braking_table, frame_timeout, joint_path
@@ -157,15 +158,10 @@ def robot_bounds(path: JointPath, config: ControllerConfig, *, period: float,
     slack = tool_acceleration_bound(path, capsule_reach(capsules)) * delta / 2.0
     cell_bound = np.maximum(speed[:-1], speed[1:]) + slack  # |p'| on each cell, any end
     # A stop from full speed, as the PathFollower runs it.
-    rate, travelled, ticks = 1.0, 0.0, 0
-    while rate > 0.0:
-        new = float(path_rate_step(rate, 0.0, period, table=table, acceleration_limit=1.0,
-                                   time_scale=braking_time_scale))
-        travelled += 0.5 * (rate + new) * period
-        rate, ticks = new, ticks + 1
+    stop_time, travelled = stop_from_full_speed(table, braking_time_scale, period)
     window = int(math.ceil((travelled + period) / delta)) + 1  # + the tick after t'
     arcs = np.convolve(np.tile(cell_bound, 2), np.ones(window), "valid")[:cells] * delta
-    return RobotBounds(float(cell_bound.max()), ticks * period, float(arcs.max()), delta)
+    return RobotBounds(float(cell_bound.max()), stop_time, float(arcs.max()), delta)
 
 
 def braking_is_monotone(config: ControllerConfig, period: float, scale: float) -> bool:

@@ -12,21 +12,32 @@ Contact is as the scenario's ``contact_geometry`` defines it
   distance of the robot, the robot is at rest. Robustness = the smallest true clearance
   over the instants when the robot moves faster than ``MOVING_SPEED``, minus the
   contact distance (+inf when the robot never moves while a body is present).
-- **Protective distance respected** (reported beside it): the time the robot spends
-  moving while the true clearance of some body-capsule pair is below the ISO/TS 15066
-  protective distance S computed from that pair's true speeds (Eq. 1 with the true
-  directed speeds and the configuration's T_r, T_s, B, C, Z_d, Z_r), and the deepest
-  such intrusion, metres.
+- **Separation invariant** (ISO/TS 15066's own requirement, which an assessor checks):
+  at every control tick where the controller permits motion, the true separation
+  d_true of every body from the robot is at least S_true, seed 000's Eqs. 9-11 on the
+  true speeds with the simulated robot's own stopping data
+  (``safety_systems.metrics``: the separation margin, and why Z_d and Z_r are not in
+  S_true). Robustness = the smallest d_true - S_true over those ticks and every pair
+  of a body present and a capsule of the real robot (+inf when motion is never
+  permitted while a body is present); the time motion was permitted with some pair
+  inside S_true is reported beside it.
 """
 
 import dataclasses
 
 import numpy as np
 
-from safety_systems.metrics import MOVING_SPEED, min_separation_while_moving
-from safety_systems.ssm import monitor_protective_distances
+from safety_systems.metrics import (
+    MOVING_SPEED,
+    min_separation_while_moving,
+    separation_margins,
+)
 
-__all__ = ["MOVING_SPEED", "Robustness", "stopped_before_contact", "protective_intrusion"]
+__all__ = ["MOVING_SPEED", "PROPERTIES", "Robustness", "stopped_before_contact",
+           "separation_invariant"]
+
+# The properties ``verify`` checks, by name, and the Robustness field of each.
+PROPERTIES = {"contact": "stopped_before_contact", "separation": "separation"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,12 +46,12 @@ class Robustness:
 
     stopped_before_contact: float  # m
     min_separation_while_moving: float  # m (inf if never moving near a body)
-    protective_violation_time: float  # s moving inside the true-speed S
-    protective_deepest_intrusion: float  # m, max of S_true - d_true while moving (0 if none)
+    separation: float  # m, smallest d_true - S_true while motion is permitted (inf: never)
+    separation_violation_time: float  # s permitted with some pair inside S_true
 
     @property
     def safe(self) -> bool:
-        return self.stopped_before_contact >= 0.0
+        return self.stopped_before_contact >= 0.0 and self.separation >= 0.0
 
 
 def stopped_before_contact(separations: np.ndarray, robot_speed: np.ndarray,
@@ -50,19 +61,10 @@ def stopped_before_contact(separations: np.ndarray, robot_speed: np.ndarray,
     return min_separation_while_moving(separations, robot_speed) - contact_distance
 
 
-def protective_intrusion(clearances: np.ndarray, robot_speed: np.ndarray,
-                         v_human_directed: np.ndarray, v_robot_directed: np.ndarray,
-                         dt: float, **s_args) -> tuple[float, float]:
-    """(time, deepest intrusion) of the robot moving inside the protective distance
-    computed from the true directed speeds, from the (T, N, K) clearances and directed
-    speeds of every body-capsule pair (NaN where a body is absent); ``s_args`` are the
-    configuration's ``reaction_time``, ``stopping_time``, ``stopping_distance`` and
-    margins."""
-    s_true = monitor_protective_distances(v_human_directed, v_robot_directed,
-                                          mode="estimated", **s_args)
-    moving = (robot_speed > MOVING_SPEED)[:, None, None]
-    intrusion = np.where(moving & np.isfinite(clearances), s_true - clearances, -np.inf)
-    inside = intrusion > 0.0
-    time = float(np.count_nonzero(np.any(inside, axis=(1, 2))) * dt)
-    deepest = float(max(np.max(intrusion, initial=-np.inf), 0.0))
-    return time, deepest
+def separation_invariant(clearances: np.ndarray, s_true: np.ndarray, allowed: np.ndarray,
+                         dt: float) -> tuple[float, float]:
+    """(robustness, violation time) of the separation invariant from the (T, N, K) true
+    clearances and S_true of every body-capsule pair (NaN where a body is absent) and
+    whether the controller permits motion at each of the T ticks (period ``dt``)."""
+    margins = separation_margins(clearances, s_true, allowed)
+    return float(np.min(margins, initial=np.inf)), float(np.count_nonzero(margins < 0.0) * dt)

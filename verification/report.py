@@ -41,10 +41,10 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
         "budget": o.budget,
         "counterexamples": o.counterexamples,
         "unconfirmed_counterexamples": o.unconfirmed,
-        "protective_distance": {
-            "simulations_with_intrusion": int(np.sum(figures[:, 2] > 0.0)) if len(figures) else 0,
-            "max_time_moving_inside": float(figures[:, 2].max()) if len(figures) else 0.0,
-            "deepest_intrusion": float(figures[:, 3].max()) if len(figures) else 0.0,
+        "separation_invariant": {
+            "simulations_violating": int(np.sum(figures[:, 2] < 0.0)) if len(figures) else 0,
+            "min_robustness": _finite(float(figures[:, 2].min())) if len(figures) else None,
+            "max_violation_time": float(figures[:, 3].max()) if len(figures) else 0.0,
         },
         "braking_data": "placeholder" if o.proof.placeholder_braking else "configured",
         "proof": {
@@ -129,11 +129,12 @@ def markdown(report: dict) -> str:
                   f"{c['robustness']:.4f}), simulation {c['simulation']}; replay: "
                   f"`safety-systems simulate {c['scenario']} --out DIR --html`",
                   "   " + ", ".join(f"{k}={v:g}" for k, v in c["parameters"].items())]
-    p = report["protective_distance"]
-    lines += ["", "## Protective distance (reported beside)", "",
-              f"{p['simulations_with_intrusion']} simulations had the robot moving inside the "
-              f"true-speed protective distance; longest {p['max_time_moving_inside']:.3f} s, "
-              f"deepest {p['deepest_intrusion']:.3f} m.", "",
+    p = report["separation_invariant"]
+    lines += ["", "## Separation invariant (reported beside)", "",
+              f"{p['simulations_violating']} simulations let the robot move with a body inside "
+              f"the protective distance S_true of the true speeds; longest "
+              f"{p['max_violation_time']:.3f} s, smallest d_true - S_true "
+              f"{p['min_robustness']} m.", "",
               "![robustness](robustness.png)", ""]
     return "\n".join(lines)
 

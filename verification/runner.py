@@ -19,8 +19,11 @@ from tqdm import tqdm
 from safety_systems.scenario import Scenario, dump_scenario
 from verification.evaluate_batch import evaluate_many
 
-FIELDS = ("robustness", "min_separation_while_moving", "protective_violation_time",
-          "protective_deepest_intrusion")
+FIELDS = ("robustness", "min_separation_while_moving", "separation",
+          "separation_violation_time")
+# Changes whenever FIELDS or what they measure change, so that a resumed run never
+# reads figures of another kind from an older evaluations.jsonl.
+FIGURES_VERSION = "2: contact, min separation, separation invariant, its violation time"
 
 
 def _evaluate_chunk(scenarios: list[Scenario]) -> np.ndarray:
@@ -36,8 +39,9 @@ def _apply(job: tuple) -> object:
 
 
 def scenario_key(scenario: Scenario) -> str:
-    """A stable key of a scenario's content (its YAML text, without its name)."""
-    text = dump_scenario(dataclasses.replace(scenario, name=""))
+    """A stable key of a scenario's content (its YAML text, without its name) and of the
+    figures kept for it (``FIGURES_VERSION``)."""
+    text = FIGURES_VERSION + "\n" + dump_scenario(dataclasses.replace(scenario, name=""))
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 

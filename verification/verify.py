@@ -99,8 +99,8 @@ def _confirm(space, config, log, out):
         drake, _ = evaluate_drake(scenario)
         entry = {"parameters": describe(values), "robustness": float(rho[i]),
                  "drake_robustness": drake.stopped_before_contact,
-                 "protective_violation_time": drake.protective_violation_time,
-                 "protective_deepest_intrusion": drake.protective_deepest_intrusion,
+                 "drake_separation": drake.separation,
+                 "separation_violation_time": drake.separation_violation_time,
                  "simulation": i + 1}
         if drake.stopped_before_contact < 0.0:
             path = out / "counterexamples" / f"{scenario.name}.yaml"

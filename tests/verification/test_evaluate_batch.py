@@ -19,6 +19,19 @@ WIDE = dataclasses.replace(SPACE, parameters=dataclasses.replace(
     noise_std=Range(0.0, 0.005)))
 
 
+def _assert_agree(drake, batch, i):
+    """Both properties' figures of scenario i: the Drake run's and the batch's."""
+    for name, field in (("stopped_before_contact", "robustness"),
+                        ("separation", "separation")):
+        ours, theirs = getattr(batch, field)[i], getattr(drake, name)
+        if np.isinf(theirs):  # never moving (permitted) near a body
+            assert ours == theirs, name
+        else:
+            assert abs(theirs - ours) <= TOLERANCE, name
+    assert drake.separation_violation_time == pytest.approx(
+        batch.separation_violation_time[i], abs=1e-9)
+
+
 def _config(name, **safety):
     config = load_controller_config(f"models/configs/{name}.yaml")
     return dataclasses.replace(config, safety=dataclasses.replace(config.safety, **safety))
@@ -36,16 +49,10 @@ def test_batch_agrees_with_drake_on_random_scenarios(config):
     scenarios = [make_scenario(WIDE, config, p, name=f"s{i}") for i, p in enumerate(points)]
     batch = evaluate_many(scenarios)
     assert np.isfinite(batch.robustness).any()  # the robot moved near someone
+    assert np.isfinite(batch.separation).any()  # motion permitted near someone
     for i, scenario in enumerate(scenarios):
         drake, _ = evaluate_drake(scenario)
-        if np.isinf(drake.stopped_before_contact):  # never moving near a body
-            assert batch.robustness[i] == drake.stopped_before_contact
-        else:
-            assert abs(drake.stopped_before_contact - batch.robustness[i]) <= TOLERANCE
-        assert drake.protective_violation_time == pytest.approx(
-            batch.protective_violation_time[i], abs=1e-9)
-        assert drake.protective_deepest_intrusion == pytest.approx(
-            batch.protective_deepest_intrusion[i], abs=TOLERANCE)
+        _assert_agree(drake, batch, i)
 
 
 def _with_every_fault(scenario):
@@ -100,15 +107,8 @@ def test_batch_agrees_with_drake_on_the_whole_cell_space(config):
             counts = run["tracker.rejected_frames"][-1]
             assert np.all(counts[:3] > 0) and (counts[3] > 0) == config.tracker.gate
             assert np.isfinite(drake.stopped_before_contact)  # the robot moved near it
-        if np.isinf(drake.stopped_before_contact):
-            assert batch.robustness[i] == drake.stopped_before_contact
-        else:
-            finite += 1
-            assert abs(drake.stopped_before_contact - batch.robustness[i]) <= TOLERANCE
-        assert drake.protective_violation_time == pytest.approx(
-            batch.protective_violation_time[i], abs=1e-9)
-        assert drake.protective_deepest_intrusion == pytest.approx(
-            batch.protective_deepest_intrusion[i], abs=TOLERANCE)
+        finite += np.isfinite(drake.stopped_before_contact) and np.isfinite(drake.separation)
+        _assert_agree(drake, batch, i)
     assert finite >= 1  # the robot moved near someone: the comparison means something
 
 

@@ -10,14 +10,12 @@ from hypothesis import strategies as st
 from verification.properties import (
     MOVING_SPEED,
     Robustness,
-    protective_intrusion,
+    separation_invariant,
     stopped_before_contact,
 )
 
 FIXED = settings(derandomize=True, deadline=None, max_examples=200)
 NAN = math.nan
-# S = v_H (T_s + T_r) + v_R T_r + B + C ("estimated" mode: v_H is the directed speed).
-S_ARGS = dict(reaction_time=0.1, stopping_time=0.2, stopping_distance=0.05)
 
 
 def test_moving_speed_is_one_millimetre_per_second():
@@ -85,76 +83,58 @@ def test_stopped_before_contact_matches_a_loop(trace, contact):
     assert (value < 0.0) == touched
 
 
-def test_protective_intrusion_hand_computed():
-    separations = np.array([
-        [0.20, 0.50],  # moving; S = [0.40, 0.05]: body 0 inside by 0.20
-        [0.01, 0.01],  # at rest: not counted
-        [NAN, 0.10],   # moving; S = [-, 0.20]: body 1 inside by 0.10
-        [1.00, 1.00],  # moving; S = [0.40, 0.05]: outside
-        [0.30, 0.02],  # moving; S = [0.45, 0.05]: both inside, counted once; 0.15, 0.03
-    ])
-    speed = np.array([0.5, 0.0, 0.5, 0.5, 0.5])
-    v_h = np.array([[1.0, 0.0], [9.0, 9.0], [5.0, 0.5], [1.0, 0.0], [1.0, 0.0]])
-    v_r = np.array([[0.5, 0.0], [9.0, 9.0], [0.0, 0.0], [0.5, 0.0], [1.0, 0.0]])
-    # One capsule: the pairs' axis (N, K) = (2, 1).
-    time, deepest = protective_intrusion(separations[..., None], speed, v_h[..., None],
-                                         v_r[..., None], 0.01, **S_ARGS)
+def test_separation_invariant_hand_computed():
+    clearances = np.array([
+        [0.20, 0.50],  # permitted; S_true = [0.40, 0.05]: body 0 inside by 0.20
+        [0.01, 0.01],  # not permitted: not counted however close
+        [NAN, 0.10],   # permitted; S_true = [-, 0.20]: body 1 inside by 0.10
+        [1.00, 1.00],  # permitted; outside: margins 0.60, 0.95
+        [0.30, 0.02],  # permitted; S_true = [0.45, 0.05]: both inside, counted once
+    ])[..., None]  # one capsule: the pairs' axis (N, K) = (2, 1)
+    s_true = np.array([[0.40, 0.05], [9.0, 9.0], [0.5, 0.20], [0.40, 0.05],
+                       [0.45, 0.05]])[..., None]
+    allowed = np.array([True, False, True, True, True])
+    robustness, time = separation_invariant(clearances, s_true, allowed, 0.01)
+    assert robustness == pytest.approx(-0.20, abs=1e-15)
     assert time == pytest.approx(3 * 0.01, abs=1e-15)
-    assert deepest == pytest.approx(0.20, abs=1e-12)
+    # Only the fourth tick permitted: safe by the smaller margin.
+    robustness, time = separation_invariant(clearances, s_true,
+                                            np.array([False, False, False, True, False]), 0.01)
+    assert (robustness, time) == (pytest.approx(0.60, abs=1e-15), 0.0)
 
 
-def test_protective_intrusion_margins_enter_s():
-    separations = np.array([[[0.30]], [[0.30]]])
-    speed = np.array([0.5, 0.5])
-    v = np.zeros((2, 1, 1))
-    # S = B = 0.05: outside; + C 0.2 + Z_d 0.1 = 0.35: inside by 0.05 at both instants.
-    assert protective_intrusion(separations, speed, v, v, 0.002, **S_ARGS) == (0.0, 0.0)
-    time, deepest = protective_intrusion(separations, speed, v, v, 0.002, **S_ARGS,
-                                         intrusion_distance=0.2, human_uncertainty=0.1)
-    assert time == pytest.approx(0.004, abs=1e-15)
-    assert deepest == pytest.approx(0.05, abs=1e-12)
-
-
-def test_protective_intrusion_is_zero_when_none():
-    separations = np.array([[2.0, NAN], [NAN, NAN], [0.0, 0.0]])[..., None]
-    speed = np.array([1.0, 1.0, 0.0])  # close only while at rest
-    v = np.ones((3, 2, 1))
-    time, deepest = protective_intrusion(separations, speed, v, v, 0.002, **S_ARGS)
-    assert (time, deepest) == (0.0, 0.0)
-    # A body moving away lowers S ("estimated" mode): no intrusion at 0.06 m.
-    time, deepest = protective_intrusion(np.array([[[0.06]]]), np.array([1.0]),
-                                         np.array([[[-0.1]]]), np.array([[[0.0]]]), 0.002,
-                                         **S_ARGS)
-    assert (time, deepest) == (0.0, 0.0)
+def test_separation_invariant_is_inf_when_never_permitted_near_a_body():
+    clearances = np.array([[[0.0]], [[NAN]]])
+    s_true = np.array([[[1.0]], [[1.0]]])
+    # Close only while held; permitted only while nobody is present.
+    assert separation_invariant(clearances, s_true, np.array([False, True]), 0.002) == (
+        math.inf, 0.0)
+    assert separation_invariant(np.zeros((0, 1, 1)), np.zeros((0, 1, 1)), np.zeros(0, bool),
+                                0.002) == (math.inf, 0.0)
 
 
 @FIXED
 @given(trace=_traces(), capsules=st.integers(1, 3), data=st.data())
-def test_protective_intrusion_matches_a_loop(trace, capsules, data):
-    separations, speed = trace
-    # Every body-capsule pair: the same clearances, each pair its own speeds.
-    separations = np.repeat(separations[..., None], capsules, axis=-1)
+def test_separation_invariant_matches_a_loop(trace, capsules, data):
+    clearances, speed = trace  # (any speed above 1 mm/s stands for "permitted")
+    clearances = np.repeat(clearances[..., None], capsules, axis=-1)
     if capsules > 1:
-        separations[..., 1:] += 0.1
-    shape = separations.shape
-    floats = st.floats(-1.0, 2.0)
-    v_h = np.array(data.draw(st.lists(floats, min_size=separations.size,
-                                      max_size=separations.size)), dtype=float).reshape(shape)
-    v_r = np.array(data.draw(st.lists(floats, min_size=separations.size,
-                                      max_size=separations.size)), dtype=float).reshape(shape)
+        clearances[..., 1:] += 0.1
+    s_true = np.array(data.draw(st.lists(st.floats(-1.0, 3.0), min_size=clearances.size,
+                                         max_size=clearances.size)),
+                      dtype=float).reshape(clearances.shape)
+    allowed = speed > 1e-3
     dt = 0.002
-    count, deepest = 0, 0.0
-    for t in range(shape[0]):
+    worst, count = math.inf, 0
+    for t in range(clearances.shape[0]):
         inside = False
-        for i in range(shape[1]):
-            for j in range(shape[2]):
-                d = separations[t, i, j]
-                s = v_h[t, i, j] * (0.2 + 0.1) + v_r[t, i, j] * 0.1 + 0.05  # Eq. 1, same order
-                if speed[t] > 1e-3 and not math.isnan(d) and s - d > 0.0:
-                    inside = True
-                    deepest = max(deepest, s - d)
+        for i in range(clearances.shape[1]):
+            for j in range(clearances.shape[2]):
+                d = clearances[t, i, j]
+                if allowed[t] and not math.isnan(d):
+                    worst = min(worst, d - s_true[t, i, j])
+                    inside = inside or d - s_true[t, i, j] < 0.0
         count += inside
-    time, worst = protective_intrusion(separations, speed, v_h, v_r, dt, **S_ARGS)
+    robustness, time = separation_invariant(clearances, s_true, allowed, dt)
+    assert robustness == worst
     assert time == pytest.approx(count * dt, abs=1e-12)
-    assert worst == pytest.approx(deepest, abs=1e-12)
-    assert worst >= 0.0
