@@ -55,17 +55,21 @@ def _verify(args: argparse.Namespace) -> int:
     out = Path(args.out)
     outcome = verify(config, space, out, budget=args.budget, method=args.method,
                      workers=args.workers, scheduler=args.scheduler, seed=args.seed,
-                     progress=not args.quiet, config_text=Path(args.config).read_text())
+                     progress=not args.quiet, config_text=Path(args.config).read_text(),
+                     properties=args.property)
     report = write_report(outcome, out, config_path=args.config, space_path=args.space)
     if report["braking_data"] == "placeholder":
         from verification.report import PLACEHOLDER_WARNING
 
         print(f"safety-systems: warning: {PLACEHOLDER_WARNING}", file=sys.stderr)
     if not args.quiet:
-        first = report["simulations_to_first_counterexample"]
-        print(f"{report['verdict']}: min robustness {report['min_robustness']} over "
-              f"{report['simulations']} simulations"
-              + (f", first counterexample after {first}" if first else "") + f" -> {out}")
+        for name, p in report["properties"].items():
+            first = p["simulations_to_first_counterexample"]
+            print(f"{name}: {p['verdict']}: min robustness {p['min_robustness']}"
+                  + (f", first counterexample after {first} simulations" if first else "")
+                  + (f"; needs {p['proof']['needed_allowance']:.3f} m more Z_d + Z_r"
+                     if p["proof"].get("needed_allowance") else ""))
+        print(f"{report['verdict']} over {report['simulations']} simulations -> {out}")
     return 1 if outcome.verdict == "falsified" else 0
 
 
@@ -121,8 +125,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--quiet", action="store_true", help="no progress bar or summary line")
     sim.set_defaults(run=_simulate)
     ver = commands.add_parser(
-        "verify", help="prove or falsify 'stopped before contact' over a scenario space "
-                       "(exit 0 proved/passed, 1 falsified, 2 bad input)")
+        "verify", help="prove or falsify 'stopped before contact' and the separation "
+                       "invariant (distance never below S while the robot may move) over a "
+                       "scenario space (exit 0 proved/passed, 1 falsified, 2 bad input)")
     ver.add_argument("config", help="controller configuration YAML file")
     ver.add_argument("--space", required=True, help="scenario space YAML file")
     ver.add_argument("--out", required=True, help="output directory (reused to resume)")
@@ -132,6 +137,10 @@ def build_parser() -> argparse.ArgumentParser:
     where = ver.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, help="local processes (default: all cores)")
     where.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
+    ver.add_argument("--property", default="both", choices=("contact", "separation", "both"),
+                     help="which property to verify: contact (stopped before contact), "
+                          "separation (distance never below S while motion is permitted) or "
+                          "both (default: both; the verdict is the weaker)")
     ver.add_argument("--seed", type=int, default=0)
     ver.add_argument("--quiet", action="store_true")
     ver.set_defaults(run=_verify)

@@ -67,7 +67,7 @@ from safety_systems import kalman
 from safety_systems.braking import braking_deceleration
 from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.configuration import contact_capsules, monitor_capsules
-from safety_systems.joint_path import JointPath, joint_path_state
+from safety_systems.joint_path import JointPath, SplinePath, joint_path_state
 from safety_systems.kalman import axis_predict, axis_update
 from safety_systems.robot_geometry import Capsules, capsule_ends
 from safety_systems.scenario import ControllerConfig
@@ -121,15 +121,40 @@ class Proof:
     margin_at_worst_corner: float | None
     terms: dict
     placeholder_braking: bool = False  # the built-in stopping data, not measured data
+    property: str = "contact"  # the theorem: "contact" or "separation"
+    # separation: how much larger Z_d + Z_r must be for M_S >= 0 over the box (0 when it
+    # is; None when a premise fails)
+    needed_allowance: float | None = None
 
 
-def tool_acceleration_bound(path: JointPath, reach: float = REACH_BOUND) -> float:
+def joint_rate_bounds(path: JointPath | SplinePath) -> tuple[np.ndarray, np.ndarray]:
+    """Per piece of the path, bounds on the sum over the joints of |dq/ds| and of
+    |d2q/ds2| at nominal speed (rad/s, rad/s^2). A JointPath's segments are minimum-jerk
+    blends (their peak rate and acceleration per unit of travel are constants); a
+    SplinePath's pieces are cubics: q'' is linear on a piece (its largest size at an
+    end) and q' quadratic (at an end or at its vertex). Running a spline backwards flips
+    the signs only."""
+    if isinstance(path, SplinePath):
+        c, breaks = path.spline.c, path.spline.x  # c (4, pieces, 6): c0 x^3 + ... + c3
+        h = np.diff(breaks)[:, None]
+        accel = np.maximum(np.abs(2.0 * c[1]), np.abs(6.0 * c[0] * h + 2.0 * c[1]))
+        rate = np.maximum(np.abs(c[2]), np.abs(3.0 * c[0] * h * h + 2.0 * c[1] * h + c[2]))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            vertex = np.where(c[0] != 0.0, -c[1] / (3.0 * c[0]), -1.0)
+        inside = (vertex > 0.0) & (vertex < h)
+        rate = np.maximum(rate, np.where(inside, np.abs(c[2] - c[1] ** 2 / (3.0 * np.where(
+            c[0] != 0.0, c[0], 1.0))), 0.0))
+        return rate.sum(axis=1), accel.sum(axis=1)
+    d = np.abs(path.deltas)
+    return ((_MAX_BLEND_RATE * d / path.durations[:, None]).sum(axis=1),
+            (_MAX_BLEND_ACCEL * d / path.durations[:, None] ** 2).sum(axis=1))
+
+
+def tool_acceleration_bound(path: JointPath | SplinePath, reach: float = REACH_BOUND) -> float:
     """Bound on |d2p/ds2| at nominal speed of a rigid point of the arm within ``reach``
     of every joint axis, m/s^2 (revolute chain: the sum of joint accelerations plus twice
-    the squared sum of joint speeds, times the reach)."""
-    d = np.abs(path.deltas)
-    rate = (_MAX_BLEND_RATE * d / path.durations[:, None]).sum(axis=1)
-    accel = (_MAX_BLEND_ACCEL * d / path.durations[:, None] ** 2).sum(axis=1)
+    the squared sum of joint speeds, times the reach; :func:`joint_rate_bounds`)."""
+    rate, accel = joint_rate_bounds(path)
     return float(reach * np.max(accel + 2.0 * rate**2))
 
 
@@ -265,17 +290,15 @@ def _monitor_covers_contact(config: ControllerConfig, space: ScenarioSpace) -> b
     return bool(np.all(mine.radius >= real.radius) and mine.tool_length >= real.tool_length)
 
 
-def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
-    """Tries to prove "stopped before contact" for ``config`` over ``space``."""
+def _setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
+    """What both theorems share: the box's extremes, the tracker's error coefficients and
+    the premises, checked and trusted (``prop``: ``contact`` or ``separation``, which
+    needs no ordering of braking speeds and no contact distance)."""
     f, t, p = config.safety, config.tracker, space.parameters
-    robot = space.robot
-    h = 1.0 / robot.control_rate_hz
+    h = 1.0 / space.robot.control_rate_hz
     period = 1.0 / config.sensor.rate_hz
-    path = joint_path(robot)
     scale = p.braking_time_scale.max
     v_max, noise = p.peak_speed.max, space.noise_bound_sigmas * p.noise_std.max
-    v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
-         "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
     alpha, beta, converged = estimate_error_coefficients(config)
     e_worst = math.sqrt(3.0) * (alpha * noise + beta * v_max)  # m, Euclidean
     outliers = p.outlier_frames.max >= 1
@@ -309,11 +332,12 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
          not outliers or (t.gate and p.outlier_offset.min > gate_widest)),
         ("every body is seen before its onset (settle time > frame timeout)",
          space.settle_time > frame_timeout(config)),
-        ("a braking step preserves the order of speeds",
-         braking_is_monotone(config, h, scale)),
-        (f"the tracker's error recursion converged within {ERROR_HORIZON} frames",
-         converged),
     ]
+    if prop == "contact":
+        checked.append(("a braking step preserves the order of speeds",
+                        braking_is_monotone(config, h, scale)))
+    checked.append((f"the tracker's error recursion converged within {ERROR_HORIZON} frames",
+                    converged))
     trusted = [
         ("the stopping data describes the real robot's stops, times within "
          f"{p.braking_time_scale.min:g} to {scale:g} of it"
@@ -331,8 +355,8 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
         "bodies come into the cell only through its exits and are tracked before they "
         "come near the robot (the space's operators stand still for the settle time)",
     ]
-    premises = ([Premise(s, bool(ok), "checked") for s, ok in checked]
-                + [Premise(s, True, "trusted") for s in trusted])
+    premises = ([Premise(x, bool(ok), "checked") for x, ok in checked]
+                + [Premise(x, True, "trusted") for x in trusted])
     box = {"peak_speed": [p.peak_speed.min, p.peak_speed.max],
            "noise_std": [p.noise_std.min, p.noise_std.max],
            "braking_time_scale": [p.braking_time_scale.min, p.braking_time_scale.max],
@@ -341,12 +365,39 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
            "outlier_frames": [p.outlier_frames.min, p.outlier_frames.max],
            "start_distance": [p.start_distance.min, p.start_distance.max],
            "acceleration": [p.acceleration.min, p.acceleration.max]}
+    return premises, box, placeholder, (alpha, beta), scale
+
+
+def _unsat_below_zero(fixed: float, k_noise: float, k_speed: float, space: ScenarioSpace,
+                      extra=None) -> bool:
+    """z3: fixed - k_noise noise - k_speed v_max (+ ``extra(v_max)``, a z3 term) < 0 has no
+    solution with (v_max, noise) in the space's box."""
+    p = space.parameters
+    vm, nz = z3.Reals("v_max noise")
+    solver = z3.Solver()
+    solver.add(vm >= p.peak_speed.min, vm <= p.peak_speed.max,
+               nz >= p.noise_std.min, nz <= p.noise_std.max)
+    margin = (z3.RealVal(repr(fixed)) - z3.RealVal(repr(k_noise)) * nz
+              - z3.RealVal(repr(k_speed)) * vm)
+    if extra is not None:
+        margin = margin + extra(vm)
+    solver.add(margin < 0)
+    return solver.check() == z3.unsat
+
+
+def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
+    """Tries to prove "stopped before contact" for ``config`` over ``space``."""
+    f, p = config.safety, space.parameters
+    h = 1.0 / space.robot.control_rate_hz
+    v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
+         "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
+    premises, box, placeholder, (alpha, beta), scale = _setting(config, space, "contact")
     method = ("SSM stopping theorem over the robot's capsules (verification/proof.py); "
               "margin checked over the box by z3; robot bounds by Lipschitz covering; "
               "tracker error by gain recursion")
     if not all(x.holds for x in premises):
         return Proof(False, method, box, premises, None, {}, placeholder)
-    rb = robot_bounds(path, config, period=h, braking_time_scale=scale)
+    rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
     t_s, b = assumed_stopping(config)
     tau = frame_timeout(config)
     fixed = (v * (t_s + f.reaction_time) - rb.tool_speed * f.reaction_time + b
@@ -354,18 +405,8 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
              - rb.tool_speed * h - rb.stop_travel - space.contact_distance)
     k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
     k_speed = math.sqrt(3.0) * beta + tau + rb.stop_time + h
-
-    def margin(v_max, noise):
-        return fixed - k_noise * noise - k_speed * v_max
-
-    vm, nz = z3.Reals("v_max noise")
-    solver = z3.Solver()
-    solver.add(vm >= p.peak_speed.min, vm <= p.peak_speed.max,
-               nz >= p.noise_std.min, nz <= p.noise_std.max)
-    solver.add(z3.RealVal(repr(fixed)) - z3.RealVal(repr(k_noise)) * nz
-               - z3.RealVal(repr(k_speed)) * vm < 0)
-    holds = solver.check() == z3.unsat
-    worst = margin(p.peak_speed.max, p.noise_std.max)
+    holds = _unsat_below_zero(fixed, k_noise, k_speed, space)
+    worst = fixed - k_noise * p.noise_std.max - k_speed * p.peak_speed.max
     terms = {"v": v, "T_s": t_s, "T_r": f.reaction_time, "B": b, "tau": tau, "h": h,
              "V_R": rb.tool_speed, "T_stop": rb.stop_time, "D": rb.stop_travel,
              "E_per_axis": {"alpha": alpha, "beta": beta},
@@ -374,3 +415,60 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     premises = premises + [Premise("z3: M >= 0 for every (v_max, noise) in the box", holds,
                                    "checked")]
     return Proof(holds, method, box, premises, worst, terms, placeholder)
+
+
+def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
+    """Tries to prove the separation invariant for ``config`` over ``space`` (the second
+    theorem of the module docstring); when the margin falls short, says by how much
+    Z_d + Z_r would have to grow (``Proof.needed_allowance``)."""
+    f = config.safety
+    p = space.parameters
+    h = 1.0 / space.robot.control_rate_hz
+    floor = f.human_speed == "estimated_with_floor"
+    v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
+    premises, box, placeholder, (alpha, beta), scale = _setting(config, space, "separation")
+    method = ("SSM separation theorem over the robot's capsules (verification/proof.py); "
+              "margin checked over the box by z3; robot bounds by Lipschitz covering; "
+              "tracker error by gain recursion")
+    if not all(x.holds for x in premises):
+        return Proof(False, method, box, premises, None, {}, placeholder, "separation")
+    rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
+    t_s, b = assumed_stopping(config)
+    tau = frame_timeout(config)
+    t_true = rb.stop_time + f.reaction_time  # T_stop + T_r of S_true
+    allowance = f.human_uncertainty + f.robot_uncertainty
+    fixed = (v_lo * (t_s + f.reaction_time) - 2.0 * rb.tool_speed * f.reaction_time
+             + b - rb.stop_travel + allowance)
+    k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
+    k_speed = math.sqrt(3.0) * beta + tau
+
+    def v_hi(v_max):  # S_true's human speed, at most
+        if floor:
+            return max(v_max, f.iso_human_speed)
+        return max(f.iso_human_speed, f.iso_reduced_human_speed)
+
+    def z3_human(vm):
+        if floor:
+            top = z3.If(vm > z3.RealVal(repr(f.iso_human_speed)), vm,
+                        z3.RealVal(repr(f.iso_human_speed)))
+        else:
+            top = z3.RealVal(repr(v_hi(0.0)))
+        return -top * z3.RealVal(repr(t_true))
+
+    holds = _unsat_below_zero(fixed, k_noise, k_speed, space, z3_human)
+    # The margin falls in v_max and in noise: its worst corner is the largest of both.
+    worst = (fixed - v_hi(p.peak_speed.max) * t_true - k_noise * p.noise_std.max
+             - k_speed * p.peak_speed.max)
+    terms = {"v_lo": v_lo, "v_hi": v_hi(p.peak_speed.max), "T_s": t_s,
+             "T_r": f.reaction_time, "B": b, "tau": tau, "V_R": rb.tool_speed,
+             "T_stop": rb.stop_time, "D": rb.stop_travel,
+             "E_per_axis": {"alpha": alpha, "beta": beta}, "Z_d+Z_r": allowance,
+             "human_speed_term": v_lo * (t_s + f.reaction_time) - v_hi(p.peak_speed.max)
+             * t_true,
+             "robot_direction_term": -2.0 * rb.tool_speed * f.reaction_time,
+             "stopping_distance_term": b - rb.stop_travel,
+             "sensing_term": -(k_noise * p.noise_std.max + k_speed * p.peak_speed.max)}
+    premises = premises + [Premise("z3: M_S >= 0 for every (v_max, noise) in the box", holds,
+                                   "checked")]
+    return Proof(holds, method, box, premises, worst, terms, placeholder, "separation",
+                 0.0 if holds else max(-worst, 0.0))

@@ -18,44 +18,71 @@ def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
+PROPERTY_TEXT = {
+    "contact": "stopped before contact: robustness = smallest true clearance between a "
+               "body and the robot ({geometry}) while the robot moves, minus the contact "
+               "distance (>= 0 safe)",
+    "separation": "separation invariant: robustness = smallest d_true - S_true over the "
+                  "ticks where the controller permits motion, every body and every capsule "
+                  "of the robot ({geometry}); S_true is Eqs. 9-11 on the true speeds with "
+                  "the simulated robot's own stopping data, without Z_d and Z_r (>= 0 safe)",
+}
+
+
+def _clean(x):
+    """JSON-safe: non-finite floats (an infinite robustness: never moving near a body)
+    as null, recursively."""
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, dict):
+        return {k: _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    return x
+
+
+def _proof_dict(proof) -> dict:
+    return {"proved": proof.proved, "method": proof.method,
+            "premises": [{"statement": x.statement, "holds": bool(x.holds), "basis": x.basis}
+                         for x in proof.premises],
+            "margin_at_worst_corner": proof.margin_at_worst_corner,
+            "needed_allowance": proof.needed_allowance, "terms": proof.terms}
+
+
 def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
-    rho = o.log.robustness
     figures = np.array(o.log.figures) if o.log.figures else np.zeros((0, 4))
-    return {
+    properties = {}
+    for name, p in o.properties.items():
+        rho = figures[:, p.column]
+        properties[name] = {
+            "verdict": p.verdict,
+            "property": PROPERTY_TEXT[name].format(geometry=o.contact_geometry),
+            # null when +inf: never moving (permitted to move) while a body was present
+            "min_robustness": _finite(float(rho.min())) if rho.size else None,
+            "simulations_violating": int(np.sum(rho < 0.0)),
+            "simulations_to_first_counterexample": o.log.first_violation(p.column),
+            "counterexamples": p.counterexamples,
+            "unconfirmed_counterexamples": p.unconfirmed,
+            "proof": _proof_dict(p.proof),
+        }
+        if name == "separation":
+            properties[name]["max_violation_time"] = (float(figures[:, 3].max())
+                                                      if len(figures) else 0.0)
+    return _clean({
         "verdict": o.verdict,
         "method": o.method,
-        "property": "stopped before contact: robustness = smallest true clearance between a "
-                    "body and the robot (" + o.contact_geometry + ") while the robot moves, "
-                    "minus the contact distance (>= 0 safe)",
+        "properties": properties,
         "config": config_path,
         "config_sha256": o.config_sha256,
         "space": space_path,
         "assumptions": o.assumptions,
         "box": o.proof.box,
         "free_parameters": o.free_parameters,
-        # null when +inf: the tool never moved while a body was present
-        "min_robustness": _finite(float(rho.min())) if rho.size else None,
         "simulations": len(o.log.points),
-        "simulations_to_first_counterexample": o.log.first_violation(),
         "seed": o.seed,
         "budget": o.budget,
-        "counterexamples": o.counterexamples,
-        "unconfirmed_counterexamples": o.unconfirmed,
-        "separation_invariant": {
-            "simulations_violating": int(np.sum(figures[:, 2] < 0.0)) if len(figures) else 0,
-            "min_robustness": _finite(float(figures[:, 2].min())) if len(figures) else None,
-            "max_violation_time": float(figures[:, 3].max()) if len(figures) else 0.0,
-        },
         "braking_data": "placeholder" if o.proof.placeholder_braking else "configured",
-        "proof": {
-            "proved": o.proof.proved,
-            "method": o.proof.method,
-            "premises": [{"statement": x.statement, "holds": bool(x.holds), "basis": x.basis}
-                         for x in o.proof.premises],
-            "margin_at_worst_corner": o.proof.margin_at_worst_corner,
-            "terms": o.proof.terms,
-        },
-    }
+    })
 
 
 def plot_robustness(o: Outcome, path: Path) -> None:
@@ -66,7 +93,8 @@ def plot_robustness(o: Outcome, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rho = o.log.robustness
+    name, first = next(iter(o.properties.items()))
+    rho = o.log.column(first.column)
     points = np.array(o.log.points)
     finite = np.isfinite(rho)
     shown = np.where(finite, rho, np.nan)
@@ -81,13 +109,17 @@ def plot_robustness(o: Outcome, path: Path) -> None:
                           vmin=min(-0.05, np.nanmin(shown)), vmax=max(0.05, np.nanmax(shown)))
         left.scatter(points[rho < 0, a], points[rho < 0, b], marker="x", c="black", s=40,
                      label="violation")
-        fig.colorbar(sc, ax=left, label="robustness [m] (>= 0 safe)")
+        fig.colorbar(sc, ax=left, label=f"{name} robustness [m] (>= 0 safe)")
         left.set_xlabel(f"{names[a]} (0 = min, 1 = max)")
         left.set_ylabel(f"{names[b]} (0 = min, 1 = max)")
         left.legend(loc="upper right")
     left.set_title("robustness over the space")
-    right.plot(np.arange(1, len(rho) + 1), shown, ".", ms=4)
+    for other, p in o.properties.items():
+        values = o.log.column(p.column)
+        right.plot(np.arange(1, len(values) + 1), np.where(np.isfinite(values), values, np.nan),
+                   ".", ms=4, label=other)
     right.axhline(0.0, color="red")
+    right.legend(loc="upper right")
     right.set_xlabel("simulation")
     right.set_ylabel("robustness [m]")
     right.set_title(f"verdict: {o.verdict}")
@@ -96,46 +128,64 @@ def plot_robustness(o: Outcome, path: Path) -> None:
     plt.close(fig)
 
 
+def _property_markdown(name: str, p: dict) -> list:
+    lines = [f"## {name}: {p['verdict'].upper()}", "", f"- property: {p['property']}",
+             f"- smallest robustness found: {p['min_robustness']}; simulations violating it: "
+             f"{p['simulations_violating']}; first counterexample after "
+             f"{p['simulations_to_first_counterexample'] or '-'} simulations", ""]
+    proof = p["proof"]
+    lines += ["### Proof", "", f"Proved: **{proof['proved']}** ({proof['method']})", "",
+              "Premises *checked* against this model, the configuration and the space:", ""]
+    lines += [f"- [{'x' if x['holds'] else ' '}] {x['statement']}"
+              for x in proof["premises"] if x["basis"] == "checked"]
+    lines += ["", "Premises *trusted* from the files and the real cell (not checkable here):",
+              ""]
+    lines += [f"- {x['statement']}" for x in proof["premises"] if x["basis"] == "trusted"]
+    if proof["margin_at_worst_corner"] is not None:
+        lines += ["", f"Margin at the worst corner: {proof['margin_at_worst_corner']:.4f} m", "",
+                  "Terms: `" + json.dumps(proof["terms"]) + "`"]
+    if proof.get("needed_allowance"):
+        lines += ["", f"**The invariant needs {proof['needed_allowance']:.3f} m more allowance "
+                  "in Z_d + Z_r** (the monitor's allowances for the uncertainty of the "
+                  "measured positions; the terms above show where the margin goes)."]
+    lines += ["", "### Counterexamples (confirmed in the Drake diagram)", ""]
+    if not p["counterexamples"]:
+        lines.append("None.")
+    for i, c in enumerate(p["counterexamples"]):
+        drake = c["drake"]
+        lines += [f"{i + 1}. robustness {c['drake_robustness']:.4f} m (batch "
+                  f"{c['robustness']:.4f}), simulation {c['simulation']}; in Drake: "
+                  f"stopped before contact {_fmt(drake['stopped_before_contact'])} m, "
+                  f"separation {_fmt(drake['separation'])} m; replay: "
+                  f"`safety-systems simulate {c['scenario']} --out DIR --html`",
+                  "   " + ", ".join(f"{k}={v:g}" for k, v in c["parameters"].items())]
+    if p["unconfirmed_counterexamples"]:
+        lines += ["", f"{len(p['unconfirmed_counterexamples'])} batch violations were not "
+                  "reproduced in the Drake diagram (see report.json)."]
+    return lines + [""]
+
+
+def _fmt(x) -> str:
+    return "inf (never moving near a body)" if x is None else f"{x:.4f}"
+
+
 def markdown(report: dict) -> str:
     lines = [f"# Verification: {report['verdict'].upper()}", "",
              f"- config: `{report['config']}` (sha256 {report['config_sha256'][:12]}...)",
              f"- space: `{report['space']}`",
              f"- method: {report['method']}",
-             f"- property: {report['property']}",
+             "- properties: " + ", ".join(f"{name} {p['verdict']}"
+                                          for name, p in report["properties"].items()),
              f"- simulations: {report['simulations']} (budget {report['budget']}, seed "
-             f"{report['seed']}); first counterexample after "
-             f"{report['simulations_to_first_counterexample'] or '-'}",
-             f"- smallest robustness found: {report['min_robustness']}", ""]
+             f"{report['seed']})", ""]
     if report["braking_data"] == "placeholder":
         lines += [f"**{PLACEHOLDER_WARNING}**", ""]
     lines += ["## Assumptions", ""]
     lines += [f"- {a}" for a in report["assumptions"]]
-    lines += ["", "## Proof", "", f"Proved: **{report['proof']['proved']}**", "",
-              "Premises *checked* against this model, the configuration and the space:", ""]
-    lines += [f"- [{'x' if p['holds'] else ' '}] {p['statement']}"
-              for p in report["proof"]["premises"] if p["basis"] == "checked"]
-    lines += ["", "Premises *trusted* from the files and the real cell (not checkable here):",
-              ""]
-    lines += [f"- {p['statement']}" for p in report["proof"]["premises"]
-              if p["basis"] == "trusted"]
-    if report["proof"]["margin_at_worst_corner"] is not None:
-        lines += ["", f"Margin M at the worst corner: {report['proof']['margin_at_worst_corner']:.4f} m",
-                  "", "Terms: `" + json.dumps(report["proof"]["terms"]) + "`"]
-    lines += ["", "## Counterexamples (confirmed in the Drake diagram)", ""]
-    if not report["counterexamples"]:
-        lines.append("None.")
-    for i, c in enumerate(report["counterexamples"]):
-        lines += [f"{i + 1}. robustness {c['drake_robustness']:.4f} m (batch "
-                  f"{c['robustness']:.4f}), simulation {c['simulation']}; replay: "
-                  f"`safety-systems simulate {c['scenario']} --out DIR --html`",
-                  "   " + ", ".join(f"{k}={v:g}" for k, v in c["parameters"].items())]
-    p = report["separation_invariant"]
-    lines += ["", "## Separation invariant (reported beside)", "",
-              f"{p['simulations_violating']} simulations let the robot move with a body inside "
-              f"the protective distance S_true of the true speeds; longest "
-              f"{p['max_violation_time']:.3f} s, smallest d_true - S_true "
-              f"{p['min_robustness']} m.", "",
-              "![robustness](robustness.png)", ""]
+    lines.append("")
+    for name, p in report["properties"].items():
+        lines += _property_markdown(name, p)
+    lines += ["![robustness](robustness.png)", ""]
     return "\n".join(lines)
 
 
@@ -145,7 +195,7 @@ def write_report(o: Outcome, out: Path, *, config_path: str, space_path: str,
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
     (out / "report.md").write_text(markdown(report))
     plot_robustness(o, out / "robustness.png")
-    if replay and o.counterexamples:
+    if replay and o.counterexamples:  # the first property's worst, else the next's
         from safety_systems.replay import write_replay
         from safety_systems.scenario import load_scenario
         from safety_systems.simulation import simulate

@@ -322,31 +322,41 @@ class SearchLog:
 
     @property
     def robustness(self) -> np.ndarray:
-        return np.array([f[0] for f in self.figures])
+        """"Stopped before contact" of every simulation."""
+        return self.column(0)
 
-    def first_violation(self) -> int | None:
-        """Number of simulations up to and including the first violation (None if none)."""
-        bad = np.flatnonzero(self.robustness < 0.0)
+    def column(self, j: int) -> np.ndarray:
+        """Figure ``j`` (a column of the runner's ``FIELDS``) of every simulation."""
+        return np.array([f[j] for f in self.figures])
+
+    def first_violation(self, j: int = 0) -> int | None:
+        """Number of simulations up to and including the first violation of the property
+        in column ``j`` (None if none)."""
+        bad = np.flatnonzero(self.column(j) < 0.0)
         return int(bad[0]) + 1 if bad.size else None
 
 
 def evaluate_points(space: ScenarioSpace, config: ControllerConfig, runner: Runner,
-                    points: np.ndarray, log: SearchLog) -> np.ndarray:
-    """Simulates the scenarios of ``points``; appends to ``log``; returns robustness."""
+                    points: np.ndarray, log: SearchLog, objective: int = 0) -> np.ndarray:
+    """Simulates the scenarios of ``points``; appends to ``log``; returns the figure in
+    column ``objective`` (0: "stopped before contact")."""
     scenarios = [make_scenario(space, config, to_point(space, u)) for u in points]
     figures = runner.evaluate(scenarios)
     log.points.extend(np.asarray(points, dtype=float).tolist())
     log.figures.extend(figures.tolist())
-    return figures[:, 0]
+    return figures[:, objective]
 
 
 def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, budget: int,
             seed: int = 0, round_size: int = 5, candidates: int = 8192, explore: int = 10,
-            stop_at_first: bool = False) -> SearchLog:
-    """Searches for the smallest robustness with at most ``budget`` simulations: first up
-    to ``explore`` candidates in danger order (four ranked for one plain Sobol point), in
-    rounds of ``round_size``; then CMA-ES from the best point so far, restarted from the
-    next candidates whenever it stops."""
+            stop_at_first: bool = False, objectives: tuple | list = (0,)) -> SearchLog:
+    """Searches for the smallest robustness of each property in ``objectives`` (columns
+    of the runner's figures; every simulation measures them all) with at most ``budget``
+    simulations: first up to ``explore`` candidates in danger order (four ranked for one
+    plain Sobol point), in rounds of ``round_size``; then, property by property, each
+    with an even share of what is left, CMA-ES from the best point so far for it,
+    restarted from the next candidates whenever it stops. ``stop_at_first`` ends a
+    property's part at its first violation."""
     d = len(free_parameters(space))
     log = SearchLog()
     if d == 0:
@@ -357,21 +367,25 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
     ranked = pool[np.argsort(danger_scores(space, config, pool, runner=runner), kind="stable")]
     queue = _interleave(ranked, sobol, 4)
 
-    def done() -> bool:
-        return len(log.points) >= budget or (stop_at_first and log.first_violation() is not None)
+    def found(objective: int) -> bool:
+        return stop_at_first and log.first_violation(objective) is not None
 
     explore = min(explore, budget)
-    while len(log.points) < explore and queue and not done():
+    while (len(log.points) < explore and queue
+           and not all(found(j) for j in objectives)):
         take = min(round_size, explore - len(log.points))
         batch, queue = np.array(queue[:take]), queue[take:]
         evaluate_points(space, config, runner, batch, log)
-    restart = 0
-    while not done():
-        start = np.asarray(log.points[int(np.argmin(log.robustness))]) if restart == 0 \
-            else np.asarray(queue.pop(0))
-        if not _cma(space, config, runner, log, start, budget, seed + restart, stop_at_first):
-            break
-        restart += 1
+    for n, objective in enumerate(objectives):
+        share = len(log.points) + (budget - len(log.points)) // (len(objectives) - n)
+        restart = 0
+        while len(log.points) < share and not found(objective) and (restart == 0 or queue):
+            start = (np.asarray(log.points[int(np.argmin(log.column(objective)))])
+                     if restart == 0 else np.asarray(queue.pop(0)))
+            if not _cma(space, config, runner, log, start, share, seed + restart,
+                        stop_at_first, objective):
+                break
+            restart += 1
     return log
 
 
@@ -388,8 +402,9 @@ def _interleave(ranked: np.ndarray, plain: np.ndarray, ratio: int) -> list:
     return out
 
 
-def _cma(space, config, runner, log, start, budget, seed, stop_at_first) -> bool:
-    """One CMA-ES run from ``start``; False when the budget leaves no room for it."""
+def _cma(space, config, runner, log, start, budget, seed, stop_at_first, objective=0) -> bool:
+    """One CMA-ES run from ``start`` on the figure in column ``objective``; False when
+    the budget leaves no room for it."""
     popsize = 6
     if budget - len(log.points) < popsize:
         return False
@@ -398,9 +413,9 @@ def _cma(space, config, runner, log, start, budget, seed, stop_at_first) -> bool
     es = cma.CMAEvolutionStrategy(np.clip(start, 0.0, 1.0).tolist(), 0.08, options)
     while not es.stop() and len(log.points) + popsize <= budget:
         xs = np.clip(np.array(es.ask()), 0.0, 1.0)
-        values = evaluate_points(space, config, runner, xs, log)
+        values = evaluate_points(space, config, runner, xs, log, objective)
         es.tell(list(xs), [float(v) if math.isfinite(v) else 1e3 for v in values])
-        if stop_at_first and log.first_violation() is not None:
+        if stop_at_first and log.first_violation(objective) is not None:
             break
     return True
 

@@ -31,6 +31,11 @@ from verification.verify import verify
 DEFAULT = load_space("models/spaces/default.yaml")
 FLANGE = load_space("models/spaces/flange.yaml")
 ISO = load_controller_config("models/configs/iso.yaml")
+# iso.yaml's terms for "stopped before contact" alone: the Z_r that the separation
+# invariant asks for taken out (models/configs/iso.yaml says why it is there). Mutants of
+# the contact property are made of it, where the contact margin is tight.
+ISO_CONTACT = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety,
+                                                                  robot_uncertainty=0.0))
 PREVIOUS = load_controller_config("models/configs/iso_previous.yaml")
 SEED = load_controller_config("models/configs/seed_estimated.yaml")
 
@@ -40,9 +45,9 @@ def _space(space=DEFAULT, **ranges):
         space.parameters, **{k: Range(*v) for k, v in ranges.items()}))
 
 
-def _verify(config, space, tmp_path, budget=40, seed=0, candidates=2048):
+def _verify(config, space, tmp_path, budget=40, seed=0, candidates=2048, properties="contact"):
     return verify(config, space, tmp_path, budget=budget, workers=1, seed=seed,
-                  stop_at_first=True, candidates=candidates)
+                  stop_at_first=True, candidates=candidates, properties=properties)
 
 
 def _assert_falsified(outcome):
@@ -118,10 +123,14 @@ def _mutant(config=ISO, **tracker):
     return dataclasses.replace(config, tracker=dataclasses.replace(config.tracker, **tracker))
 
 
-def test_mutant_gate_off_is_falsified(tmp_path):
+@pytest.mark.parametrize("base, properties", [(ISO, "both"), (ISO_CONTACT, "contact")],
+                         ids=["iso_both", "iso_contact_terms_contact"])
+def test_mutant_gate_off_is_falsified(tmp_path, base, properties):
     # The operators' bodies reported 1-2 m farther back for a few frames: taken as truth,
-    # the robot resumes towards them.
-    worst = _assert_falsified(_verify(_mutant(gate=False), DEFAULT, tmp_path))
+    # the robot resumes towards them. iso.yaml's Z_r (the separation invariant's
+    # allowance) keeps it clear of contact, but not outside S_true; without it, contact.
+    worst = _assert_falsified(_verify(_mutant(base, gate=False), DEFAULT, tmp_path,
+                                      properties=properties))
     assert worst["parameters"]["outlier_frames"] >= 1
 
 
@@ -142,8 +151,8 @@ def test_mutant_capsule_too_small_is_falsified(tmp_path):
     # still models as a 0.1 m sphere.
     space = dataclasses.replace(DEFAULT, robot=dataclasses.replace(DEFAULT.robot,
                                                                    payload_radius=0.45))
-    tight = dataclasses.replace(ISO, safety=dataclasses.replace(
-        ISO.safety, reaction_time=0.1, payload_radius=0.45))
+    tight = dataclasses.replace(ISO_CONTACT, safety=dataclasses.replace(
+        ISO_CONTACT.safety, reaction_time=0.1, payload_radius=0.45))
     proof = prove(tight, space)
     assert proof.proved and proof.margin_at_worst_corner < 0.02
     mutant = dataclasses.replace(tight, safety=dataclasses.replace(tight.safety,
@@ -156,8 +165,8 @@ def test_mutant_capsule_too_small_is_falsified(tmp_path):
 
 # The older variants, on the previous envelope (the flange, a tool-point monitor), where
 # the iso terms are tight: single hands walking in from outside S at 1.6 to 2.0 m/s.
-ISO_POINT = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety,
-                                                                robot_geometry="tool_point"))
+ISO_POINT = dataclasses.replace(ISO_CONTACT, safety=dataclasses.replace(
+    ISO_CONTACT.safety, robot_geometry="tool_point"))
 FROM_OUTSIDE = dict(start_distance=(1.5, 2.5), peak_speed=(1.6, 2.0), acceleration=(2.0, 10.0),
                     retreat_distance=(0.0, 0.0), operators=(1, 1), dropout=(0.0, 0.0),
                     occlusion=(0.0, 0.0), elevation_deg=(-10.0, 10.0))

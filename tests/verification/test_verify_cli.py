@@ -12,8 +12,9 @@ from verification.evaluate_drake import robustness_of_run
 
 MODELS = Path(__file__).parents[2] / "models"
 SPACE = str(MODELS / "spaces" / "default.yaml")
-REPORT_KEYS = {"verdict", "method", "assumptions", "min_robustness", "simulations",
-               "counterexamples"}
+REPORT_KEYS = {"verdict", "method", "assumptions", "properties", "simulations"}
+PROPERTY_KEYS = {"verdict", "property", "min_robustness", "counterexamples", "proof",
+                 "simulations_to_first_counterexample", "unconfirmed_counterexamples"}
 
 
 def test_iso_configuration_is_proved(tmp_path, capsys):
@@ -22,24 +23,38 @@ def test_iso_configuration_is_proved(tmp_path, capsys):
                  str(out), "--budget", "6", "--workers", "1", "--quiet"])
     report = json.loads((out / "report.json").read_text())
     assert code == 0 and report["verdict"] == "proved"
-    # Every premise says whether it was checked here or trusted from the files, and the
-    # placeholder stopping data is named in words, in the report and on the console.
-    premises = report["proof"]["premises"]
-    assert {p["basis"] for p in premises} == {"checked", "trusted"}
-    assert all(p["holds"] for p in premises)
+    assert REPORT_KEYS <= set(report) and report["simulations"] == 6
+    assert set(report["properties"]) == {"contact", "separation"}
+    for name, p in report["properties"].items():
+        assert PROPERTY_KEYS <= set(p) and p["verdict"] == "proved", name
+        # Every premise says whether it was checked here or trusted from the files.
+        premises = p["proof"]["premises"]
+        assert {x["basis"] for x in premises} == {"checked", "trusted"}
+        assert all(x["holds"] for x in premises)
+        # None: +inf, the robot never moved (was never let move) while a body was present.
+        assert p["min_robustness"] is None or p["min_robustness"] > 0.0
+        assert p["counterexamples"] == []
+        assert p["proof"]["margin_at_worst_corner"] > 0.0 and "capsules" in p["property"]
+    assert report["properties"]["separation"]["proof"]["needed_allowance"] == 0.0
+    # The placeholder stopping data is named in words, in the report and on the console.
     assert report["braking_data"] == "placeholder"
     markdown = (out / "report.md").read_text()
     assert "built-in placeholder" in markdown and "*trusted*" in markdown
     assert "built-in placeholder" in capsys.readouterr().err
-    assert "capsules" in report["property"]
-    assert REPORT_KEYS <= set(report) and report["simulations"] == 6
-    # None: +inf, the robot never moved while a hand was present.
-    assert report["min_robustness"] is None or report["min_robustness"] > 0.0
-    assert report["counterexamples"] == []
-    assert "z3" in report["method"] and report["proof"]["margin_at_worst_corner"] > 0.0
+    assert "z3" in report["method"]
     assert any("2 m/s" in a for a in report["assumptions"])
-    assert (out / "report.md").read_text().startswith("# Verification: PROVED")
+    assert markdown.startswith("# Verification: PROVED")
+    assert "## contact: PROVED" in markdown and "## separation: PROVED" in markdown
     assert (out / "robustness.png").stat().st_size > 5_000
+
+
+def test_one_property_alone(tmp_path):
+    out = tmp_path / "contact"
+    code = main(["verify", str(MODELS / "configs" / "iso.yaml"), "--space", SPACE, "--out",
+                 str(out), "--budget", "3", "--workers", "1", "--quiet", "--property",
+                 "contact"])
+    report = json.loads((out / "report.json").read_text())
+    assert code == 0 and set(report["properties"]) == {"contact"}
 
 
 def test_previous_behaviour_is_falsified_on_the_whole_cell_space(tmp_path):
@@ -48,10 +63,11 @@ def test_previous_behaviour_is_falsified_on_the_whole_cell_space(tmp_path):
                  "--out", str(out), "--budget", "6", "--workers", "1", "--quiet"])
     report = json.loads((out / "report.json").read_text())
     assert code == 1 and report["verdict"] == "falsified"
-    assert not report["proof"]["proved"]
-    failed = [p["statement"] for p in report["proof"]["premises"] if not p["holds"]]
+    contact = report["properties"]["contact"]
+    assert contact["verdict"] == "falsified" and not contact["proof"]["proved"]
+    failed = [p["statement"] for p in contact["proof"]["premises"] if not p["holds"]]
     assert len(failed) == 3  # the tool point, the expire rule, no gate
-    assert all(c["drake_robustness"] < 0.0 for c in report["counterexamples"])
+    assert all(c["drake_robustness"] < 0.0 for c in contact["counterexamples"])
 
 
 def test_seed_configuration_is_falsified_and_replayable(tmp_path):
@@ -61,8 +77,10 @@ def test_seed_configuration_is_falsified_and_replayable(tmp_path):
                  "--quiet"])
     report = json.loads((out / "report.json").read_text())
     assert code == 1 and report["verdict"] == "falsified"
-    assert report["simulations_to_first_counterexample"] <= 8
-    worst = report["counterexamples"][0]
+    contact = report["properties"]["contact"]
+    assert contact["verdict"] == "falsified"
+    assert contact["simulations_to_first_counterexample"] <= 8
+    worst = contact["counterexamples"][0]
     assert worst["drake_robustness"] < 0.0 and set(worst["parameters"]) >= {"peak_speed"}
     # The scenario file replays the violation through the simulate pipeline.
     run = simulate(load_scenario(worst["scenario"]))
@@ -98,6 +116,7 @@ def test_erga_controller_is_verified_in_the_diagram(tmp_path):
     code = main(["verify", str(MODELS / "configs" / "erga.yaml"), "--space", SPACE, "--out",
                  str(out), "--budget", "3", "--workers", "1", "--seed", "1", "--quiet"])
     report = json.loads((out / "report.json").read_text())
-    assert not report["proof"]["proved"]
+    contact = report["properties"]["contact"]
+    assert not contact["proof"]["proved"]
     assert code == 1 and report["verdict"] == "falsified"
-    assert report["counterexamples"][0]["drake_robustness"] < 0.0
+    assert contact["counterexamples"][0]["drake_robustness"] < 0.0
