@@ -14,8 +14,49 @@ PLACEHOLDER_WARNING = ("The stopping data is the built-in placeholder derived fr
                        "verdict.")
 
 
+VACUOUS = "the robot never moved while a body was present"
+
+
 def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
+
+
+def _entries(rows: list[dict]) -> list[dict]:
+    """Replay records for JSON: +inf robustness as null, like ``min_robustness``."""
+    return [{k: _finite(v) if isinstance(v, float) else v for k, v in r.items()} for r in rows]
+
+
+def vacuous_share(robustness) -> dict:
+    """How many of the scenarios with these robustness values are vacuous: the robot
+    never moved while a body was present, which is exactly robustness +inf
+    (``verification.properties``); ``share`` None when there are none."""
+    rho = np.asarray(robustness, dtype=float)
+    k = int(np.count_nonzero(np.isposinf(rho)))
+    return {"share": k / rho.size if rho.size else None, "vacuous": k, "of": int(rho.size)}
+
+
+def vacuous_warnings(report: dict) -> list[str]:
+    """The vacuous shares above one half, in words."""
+    v = report["vacuous"]
+    words = {"evaluated": "of the evaluated scenarios",
+             "drake_replays": "of the scenarios replayed in the Drake diagram"}
+    return [f"More than half {words[key]} ({v[key]['vacuous']} of {v[key]['of']}, "
+            f"{100.0 * v[key]['share']:.0f}%) are vacuous: {VACUOUS} (robustness +inf), "
+            f"so they test nothing, and a {report['verdict']} verdict over this box says "
+            "less than it appears to."
+            for key in words if v[key]["share"] is not None and v[key]["share"] > 0.5]
+
+
+def _m(x: float | None) -> str:
+    """A robustness figure for reading (None: +inf)."""
+    return "+inf" if x is None or x == math.inf else f"{x:.4f}"
+
+
+def disagreement_lines(report: dict) -> list[str]:
+    """Each disagreement in one line: both figures, the proof's claim, the file."""
+    return [f"inconclusive: search robustness {_m(d['robustness'])} m, Drake "
+            f"{_m(d['drake_robustness'])} m, proof {d['proof']} ({'; '.join(d['conflicts'])})"
+            f": {d['scenario']}" for d in report["disagreements"]]
 
 
 def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
@@ -24,6 +65,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
     return {
         "verdict": o.verdict,
         "method": o.method,
+        "robot_mode": o.robot_mode,
         "property": "stopped before contact: robustness = smallest true clearance between a "
                     "body and the robot (" + o.contact_geometry + ") while the robot moves, "
                     "minus the contact distance (>= 0 safe)",
@@ -39,8 +81,12 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
         "simulations_to_first_counterexample": o.log.first_violation(),
         "seed": o.seed,
         "budget": o.budget,
-        "counterexamples": o.counterexamples,
-        "unconfirmed_counterexamples": o.unconfirmed,
+        "counterexamples": _entries(o.counterexamples),
+        "unconfirmed_counterexamples": _entries(o.unconfirmed),
+        "disagreements": _entries(o.disagreements),
+        "drake_replays": _entries(o.replays),
+        "vacuous": {"definition": VACUOUS, "evaluated": vacuous_share(rho),
+                    "drake_replays": vacuous_share([r["drake_robustness"] for r in o.replays])},
         "protective_distance": {
             "simulations_with_intrusion": int(np.sum(figures[:, 2] > 0.0)) if len(figures) else 0,
             "max_time_moving_inside": float(figures[:, 2].max()) if len(figures) else 0.0,
@@ -49,6 +95,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
         "braking_data": "placeholder" if o.proof.placeholder_braking else "configured",
         "proof": {
             "proved": o.proof.proved,
+            "covers_robot_mode": o.proof.robot_mode,
             "method": o.proof.method,
             "premises": [{"statement": x.statement, "holds": bool(x.holds), "basis": x.basis}
                          for x in o.proof.premises],
@@ -96,21 +143,46 @@ def plot_robustness(o: Outcome, path: Path) -> None:
     plt.close(fig)
 
 
+def _share(v: dict) -> str:
+    return "-" if v["share"] is None else (f"{100.0 * v['share']:.0f}% ({v['vacuous']} of "
+                                           f"{v['of']})")
+
+
 def markdown(report: dict) -> str:
+    v = report["vacuous"]
     lines = [f"# Verification: {report['verdict'].upper()}", "",
              f"- config: `{report['config']}` (sha256 {report['config_sha256'][:12]}...)",
              f"- space: `{report['space']}`",
+             f"- robot mode: {report['robot_mode']} (the search and the Drake replays run "
+             f"it; the proof covers the {report['proof']['covers_robot_mode']} robot only)",
              f"- method: {report['method']}",
              f"- property: {report['property']}",
              f"- simulations: {report['simulations']} (budget {report['budget']}, seed "
              f"{report['seed']}); first counterexample after "
              f"{report['simulations_to_first_counterexample'] or '-'}",
-             f"- smallest robustness found: {report['min_robustness']}", ""]
+             f"- smallest robustness found: {report['min_robustness']}",
+             f"- vacuous share ({VACUOUS}; robustness +inf): {_share(v['evaluated'])} of "
+             f"the evaluated scenarios, {_share(v['drake_replays'])} of the Drake replays",
+             ""]
     if report["braking_data"] == "placeholder":
         lines += [f"**{PLACEHOLDER_WARNING}**", ""]
+    lines += [f"**{w}**\n" for w in vacuous_warnings(report)]
+    if report["disagreements"]:
+        lines += ["## Disagreements (why the verdict is INCONCLUSIVE)", "",
+                  "The evidence contradicts itself: one evaluator, or the proof, is wrong. "
+                  "Each scenario file reproduces the disagreement: `safety-systems simulate "
+                  "FILE --out DIR` runs it in the Drake diagram.", "",
+                  "| proof | search robustness [m] | Drake robustness [m] | what disagrees "
+                  "| scenario |", "|---|---|---|---|---|"]
+        lines += [f"| {d['proof']} | {_m(d['robustness'])} | {_m(d['drake_robustness'])} | "
+                  f"{'; '.join(d['conflicts'])} | `{d['scenario']}` |"
+                  for d in report["disagreements"]]
+        lines.append("")
     lines += ["## Assumptions", ""]
     lines += [f"- {a}" for a in report["assumptions"]]
-    lines += ["", "## Proof", "", f"Proved: **{report['proof']['proved']}**", "",
+    lines += ["", "## Proof", "", f"Proved: **{report['proof']['proved']}** (the theorem "
+              f"covers the {report['proof']['covers_robot_mode']} robot; this space's is "
+              f"{report['robot_mode']})", "",
               "Premises *checked* against this model, the configuration and the space:", ""]
     lines += [f"- [{'x' if p['holds'] else ' '}] {p['statement']}"
               for p in report["proof"]["premises"] if p["basis"] == "checked"]
@@ -125,10 +197,19 @@ def markdown(report: dict) -> str:
     if not report["counterexamples"]:
         lines.append("None.")
     for i, c in enumerate(report["counterexamples"]):
-        lines += [f"{i + 1}. robustness {c['drake_robustness']:.4f} m (batch "
-                  f"{c['robustness']:.4f}), simulation {c['simulation']}; replay: "
+        lines += [f"{i + 1}. robustness {_m(c['drake_robustness'])} m (search "
+                  f"{_m(c['robustness'])}), simulation {c['simulation']}; replay: "
                   f"`safety-systems simulate {c['scenario']} --out DIR --html`",
                   "   " + ", ".join(f"{k}={v:g}" for k, v in c["parameters"].items())]
+    lines += ["", "## Drake replays (the search's figure beside the Drake diagram's)", "",
+              "The worst violations (or, with none, the worst scenario) and scenarios drawn "
+              "at random from the search's, replayed in the Drake diagram.", "",
+              "| why | simulation | search robustness [m] | Drake robustness [m] |",
+              "|---|---|---|---|"]
+    lines += [f"| {r['why']} | {r['simulation']} | {_m(r['robustness'])} | "
+              f"{_m(r['drake_robustness'])} |" for r in report["drake_replays"]]
+    if not report["drake_replays"]:
+        lines.append("| - | - | - | - |")
     p = report["protective_distance"]
     lines += ["", "## Protective distance (reported beside)", "",
               f"{p['simulations_with_intrusion']} simulations had the robot moving inside the "
