@@ -1,7 +1,7 @@
 """The ``safety-systems`` command line: thin subcommands that parse, call and report.
 
-Exit codes: 0 done (``verify``: proved or passed), 1 (``verify``: falsified), 2 bad
-input (one line on stderr naming the field, the value and what is allowed).
+Exit codes: 0 done, 2 bad input (one line on stderr naming the field, the value and
+what is allowed); ``verify`` has its own table (``verification.verdicts``).
 """
 
 import argparse
@@ -40,8 +40,9 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _verify(args: argparse.Namespace) -> int:
     from safety_systems.scenario import load_controller_config
-    from verification.report import write_report
+    from verification.report import disagreement_lines, vacuous_warnings, write_report
     from verification.space import load_space
+    from verification.verdicts import EXIT_REQUIREMENT, exit_code
     from verification.verify import verify
 
     config = load_controller_config(args.config)
@@ -62,15 +63,25 @@ def _verify(args: argparse.Namespace) -> int:
         from verification.report import PLACEHOLDER_WARNING
 
         print(f"safety-systems: warning: {PLACEHOLDER_WARNING}", file=sys.stderr)
+    for line in vacuous_warnings(report):
+        print(f"safety-systems: warning: {line}", file=sys.stderr)
+    for line in disagreement_lines(report):
+        print(f"safety-systems: {line}", file=sys.stderr)
+    code = exit_code(outcome.verdict, args.require)
     if not args.quiet:
         for name, p in report["properties"].items():
             first = p["simulations_to_first_counterexample"]
+            vacuous = p["vacuous"]["evaluated"]["share"]
             print(f"{name}: {p['verdict']}: min robustness {p['min_robustness']}"
                   + (f", first counterexample after {first} simulations" if first else "")
+                  + (f", {100.0 * vacuous:.0f}% vacuous" if vacuous is not None else "")
                   + (f"; needs {p['proof']['needed_allowance']:.3f} m more Z_d + Z_r"
                      if p["proof"].get("needed_allowance") else ""))
         print(f"{report['verdict']} over {report['simulations']} simulations -> {out}")
-    return 1 if outcome.verdict == "falsified" else 0
+    if code == EXIT_REQUIREMENT:
+        print(f"safety-systems: --require {args.require}: the verdict is {outcome.verdict}",
+              file=sys.stderr)
+    return code
 
 
 def _compare(args: argparse.Namespace) -> int:
@@ -124,10 +135,14 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--duration", type=float, help="override the scenario's duration, s")
     sim.add_argument("--quiet", action="store_true", help="no progress bar or summary line")
     sim.set_defaults(run=_simulate)
+    from verification.verdicts import EXIT_TABLE, REQUIREMENTS  # (light: no Drake)
+
     ver = commands.add_parser(
         "verify", help="prove or falsify 'stopped before contact' and the separation "
                        "invariant (distance never below S while the robot may move) over a "
-                       "scenario space (exit 0 proved/passed, 1 falsified, 2 bad input)")
+                       "scenario space (exit 0 proved/passed, 1 falsified, 2 bad input, "
+                       "3 inconclusive, 4 weaker than --require)",
+        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EXIT_TABLE)
     ver.add_argument("config", help="controller configuration YAML file")
     ver.add_argument("--space", required=True, help="scenario space YAML file")
     ver.add_argument("--out", required=True, help="output directory (reused to resume)")
@@ -142,6 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "separation (distance never below S while motion is permitted) or "
                           "both (default: both; the verdict is the weaker)")
     ver.add_argument("--seed", type=int, default=0)
+    ver.add_argument("--require", default="none", choices=REQUIREMENTS,
+                     help="exit 4 when the verdict is weaker than this (passed under "
+                          "'proved'); falsified (1) and inconclusive (3) fail under any")
     ver.add_argument("--quiet", action="store_true")
     ver.set_defaults(run=_verify)
     cmp_ = commands.add_parser("compare", help="run several controllers on the same scenarios "

@@ -15,7 +15,9 @@ truth (``operator_paths.path_point_one``) and the follower's braked step
 (``braking.path_step_one``). Event order follows the diagram: a tracker update at time
 u is seen by the first control tick after u; outputs at a tick are computed from the
 state before that tick's updates, as Drake's loggers record them.
-``tests/verification`` checks the two agree.
+``tests/verification`` checks the two agree. It refuses dynamic-mode scenarios (the
+plant and its inverse-dynamics controller, whose tracking error it does not model);
+:func:`evaluate_many` runs those in the diagram instead.
 """
 
 import dataclasses
@@ -602,10 +604,14 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
 
 
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
-    """Closed-loop figures of every scenario (kinematic robot)."""
+    """Closed-loop figures of every scenario (kinematic robot only: the dynamic mode's
+    plant and its tracking error are not modelled here)."""
     if any(s.controller.type != "ssm_override" for s in scenarios):
         raise ValueError("evaluate_batch models the ssm_override controller only; "
                          "use evaluate_many")
+    if any(s.robot.mode != "kinematic" for s in scenarios):
+        raise ValueError("evaluate_batch models the kinematic robot only; use evaluate_many "
+                         "(it runs dynamic-mode scenarios in the Drake diagram)")
     c = _Cells(scenarios)
     B, N, dt = c.B, c.N, c.dt
     cfg = c.config
@@ -700,16 +706,17 @@ def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
 
 def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> BatchResult:
     """``evaluate_batch`` over scenarios of any shapes: grouped by ``batch_key`` and cut
-    into batches of at most ``batch_size``; results in the input order. Scenarios whose
-    controller the batched evaluator does not model (the seed-004 speed alteration
-    controllers) run one by one in the Drake diagram."""
+    into batches of at most ``batch_size``; results in the input order. Scenarios the
+    batched evaluator does not model (the seed-004 speed alteration controllers, and
+    every scenario whose robot is in ``dynamic`` mode) run one by one in the Drake
+    diagram, so each is evaluated in the robot mode it asks for."""
     from verification.evaluate_drake import evaluate_drake
 
     out = np.zeros((4, len(scenarios)))
     groups: dict[tuple, list[int]] = {}
     memo: dict = {}
     for i, s in enumerate(scenarios):
-        if s.controller.type != "ssm_override":
+        if s.controller.type != "ssm_override" or s.robot.mode != "kinematic":
             r, _ = evaluate_drake(s)
             out[:, i] = dataclasses.astuple(r)
             continue

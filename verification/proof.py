@@ -1,11 +1,12 @@
 """Proof that the robot is at rest whenever a body is within the contact distance of it.
 
-Theorem (what ``prove`` checks). Take the kinematic workcell with the SSM speed override,
-a configuration whose human-speed term is a constant floor v (``iso`` or
-``estimated_with_floor``), whose monitor measures capsules containing the property's
-(``configuration.monitor_capsules`` against ``contact_capsules``), whose tracker keeps
-hidden bodies as balls growing at ``occlusion_speed`` >= v_max until they are seen
-leaving (``hidden_bodies: hazard``, ``safety_systems.tracks``), and a space whose
+Theorem (what ``prove`` checks). Take the kinematic workcell (``robot.mode: kinematic``,
+a checked premise: the theorem covers no other mode, ``Proof.robot_mode`` says which)
+with the SSM speed override, a configuration whose human-speed term is a constant floor
+v (``iso`` or ``estimated_with_floor``), whose monitor measures capsules containing the
+property's (``configuration.monitor_capsules`` against ``contact_capsules``), whose
+tracker keeps hidden bodies as balls growing at ``occlusion_speed`` >= v_max until they
+are seen leaving (``hidden_bodies: hazard``, ``safety_systems.tracks``), and a space whose
 scenarios satisfy the premises ``prove`` lists (each marked *checked*, against this
 model, or *trusted*, taken from the files). Let
 
@@ -86,6 +87,7 @@ _MAX_BLEND_ACCEL = 10.0 / math.sqrt(3.0)  # max |h''| of the minimum-jerk blend
 _MAX_BLEND_RATE = 1.875
 ERROR_HORIZON = 4000  # frames of the tracker's error recursion
 CONVERGED = 1e-12  # m per unit of noise or speed: the recursion's last frames change less
+COVERED_MODE = "kinematic"  # the theorem's robot follows its braked reference exactly
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,6 +127,7 @@ class Proof:
     # separation: how much larger Z_d + Z_r must be for M_S >= 0 over the box (0 when it
     # is; None when a premise fails)
     needed_allowance: float | None = None
+    robot_mode: str = COVERED_MODE  # the robot mode the theorem covers
 
 
 def joint_rate_bounds(path: JointPath | SplinePath) -> tuple[np.ndarray, np.ndarray]:
@@ -308,6 +311,9 @@ def _setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     checked = [
         ("the controller is the SSM speed override (seed 000, Eq. 12)",
          config.type == "ssm_override"),
+        (f"the space's robot is in {COVERED_MODE} mode, the one this theorem covers "
+         f"(robot.mode: {space.robot.mode}; a dynamic robot's tracking error is not in "
+         "the margin)", space.robot.mode == COVERED_MODE),
         ("the human-speed term is a constant floor (iso or estimated_with_floor)",
          f.human_speed in ("iso", "estimated_with_floor")),
         ("the monitor's robot contains the one contact is measured against "
@@ -347,8 +353,8 @@ def _setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
         f"sensor noise stays below {space.noise_bound_sigmas:g} sigma per axis "
         f"({noise:g} m) in every frame the gate accepts: no marker swap or reflection "
         "passes it",
-        "the robot follows its braked reference exactly (kinematic mode; a dynamic "
-        "robot's tracking error is not covered)",
+        "the real robot follows its braked reference as exactly as the kinematic model "
+        "does (its tracking error is not covered)",
         "the UR5e model's capsules contain the real arm (they contain its collision "
         "geometry: tests/test_robot_geometry.py), the tool fits its payload capsule and "
         "every body fits its sphere",

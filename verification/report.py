@@ -12,12 +12,6 @@ PLACEHOLDER_WARNING = ("The stopping data is the built-in placeholder derived fr
                        "figures, not data measured on this cell: enter the measured stopping "
                        "times and distances (controller.braking) before relying on this "
                        "verdict.")
-
-
-def _finite(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
-
-
 PROPERTY_TEXT = {
     "contact": "stopped before contact: robustness = smallest true clearance between a "
                "body and the robot ({geometry}) while the robot moves, minus the contact "
@@ -27,6 +21,13 @@ PROPERTY_TEXT = {
                   "of the robot ({geometry}); S_true is Eqs. 9-11 on the true speeds with "
                   "the simulated robot's own stopping data, without Z_d and Z_r (>= 0 safe)",
 }
+# What robustness +inf means for each property: the scenario tests nothing.
+VACUOUS = {"contact": "the robot never moved while a body was present",
+           "separation": "the robot was never let move while a body was present"}
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
 
 
 def _clean(x):
@@ -41,8 +42,46 @@ def _clean(x):
     return x
 
 
+def vacuous_share(robustness) -> dict:
+    """How many of the scenarios with these robustness values are vacuous (robustness
+    +inf: ``VACUOUS``); ``share`` None when there are none."""
+    rho = np.array([math.inf if x is None else x for x in robustness], dtype=float)
+    k = int(np.count_nonzero(np.isposinf(rho)))
+    return {"share": k / rho.size if rho.size else None, "vacuous": k, "of": int(rho.size)}
+
+
+def vacuous_warnings(report: dict) -> list[str]:
+    """The vacuous shares above one half, in words, property by property."""
+    words = {"evaluated": "of the evaluated scenarios",
+             "drake_replays": "of the scenarios replayed in the Drake diagram"}
+    out = []
+    for name, p in report["properties"].items():
+        v = p["vacuous"]
+        out += [f"{name}: more than half {words[key]} ({v[key]['vacuous']} of {v[key]['of']}, "
+                f"{100.0 * v[key]['share']:.0f}%) are vacuous: {v['definition']} "
+                f"(robustness +inf), so they test nothing, and a {p['verdict']} verdict over "
+                "this box says less than it appears to."
+                for key in words if v[key]["share"] is not None and v[key]["share"] > 0.5]
+    return out
+
+
+def _m(x: float | None) -> str:
+    """A robustness figure for reading (None: +inf)."""
+    return "+inf" if x is None or x == math.inf else f"{x:.4f}"
+
+
+def disagreement_lines(report: dict) -> list[str]:
+    """Each disagreement in one line: the property, both figures, the proof's claim, the
+    file."""
+    return [f"inconclusive: {d['property']}: search robustness {_m(d['robustness'])} m, "
+            f"Drake {_m(d['drake_robustness'])} m, proof {d['proof']} "
+            f"({'; '.join(d['conflicts'])}): {d['scenario']}"
+            for p in report["properties"].values() for d in p["disagreements"]]
+
+
 def _proof_dict(proof) -> dict:
-    return {"proved": proof.proved, "method": proof.method,
+    return {"proved": proof.proved, "covers_robot_mode": proof.robot_mode,
+            "method": proof.method,
             "premises": [{"statement": x.statement, "holds": bool(x.holds), "basis": x.basis}
                          for x in proof.premises],
             "margin_at_worst_corner": proof.margin_at_worst_corner,
@@ -57,12 +96,17 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
         properties[name] = {
             "verdict": p.verdict,
             "property": PROPERTY_TEXT[name].format(geometry=o.contact_geometry),
-            # null when +inf: never moving (permitted to move) while a body was present
+            # null when +inf: never moving (let move) while a body was present
             "min_robustness": _finite(float(rho.min())) if rho.size else None,
             "simulations_violating": int(np.sum(rho < 0.0)),
             "simulations_to_first_counterexample": o.log.first_violation(p.column),
             "counterexamples": p.counterexamples,
             "unconfirmed_counterexamples": p.unconfirmed,
+            "disagreements": p.disagreements,
+            "drake_replays": p.replays,
+            "vacuous": {"definition": VACUOUS[name], "evaluated": vacuous_share(rho),
+                        "drake_replays": vacuous_share([r["drake_robustness"]
+                                                        for r in p.replays])},
             "proof": _proof_dict(p.proof),
         }
         if name == "separation":
@@ -71,6 +115,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
     return _clean({
         "verdict": o.verdict,
         "method": o.method,
+        "robot_mode": o.robot_mode,
         "properties": properties,
         "config": config_path,
         "config_sha256": o.config_sha256,
@@ -128,13 +173,35 @@ def plot_robustness(o: Outcome, path: Path) -> None:
     plt.close(fig)
 
 
-def _property_markdown(name: str, p: dict) -> list:
+def _share(v: dict) -> str:
+    return "-" if v["share"] is None else (f"{100.0 * v['share']:.0f}% ({v['vacuous']} of "
+                                           f"{v['of']})")
+
+
+def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
+    v = p["vacuous"]
     lines = [f"## {name}: {p['verdict'].upper()}", "", f"- property: {p['property']}",
              f"- smallest robustness found: {p['min_robustness']}; simulations violating it: "
              f"{p['simulations_violating']}; first counterexample after "
-             f"{p['simulations_to_first_counterexample'] or '-'} simulations", ""]
+             f"{p['simulations_to_first_counterexample'] or '-'} simulations",
+             f"- vacuous share ({v['definition']}; robustness +inf): "
+             f"{_share(v['evaluated'])} of the evaluated scenarios, "
+             f"{_share(v['drake_replays'])} of the Drake replays", ""]
+    if p["disagreements"]:
+        lines += [f"### Disagreements (why {name} is INCONCLUSIVE)", "",
+                  "The evidence contradicts itself: one evaluator, or the proof, is wrong. "
+                  "Each scenario file reproduces the disagreement: `safety-systems simulate "
+                  "FILE --out DIR` runs it in the Drake diagram.", "",
+                  "| proof | search robustness [m] | Drake robustness [m] | what disagrees "
+                  "| scenario |", "|---|---|---|---|---|"]
+        lines += [f"| {d['proof']} | {_m(d['robustness'])} | {_m(d['drake_robustness'])} | "
+                  f"{'; '.join(d['conflicts'])} | `{d['scenario']}` |"
+                  for d in p["disagreements"]]
+        lines.append("")
     proof = p["proof"]
-    lines += ["### Proof", "", f"Proved: **{proof['proved']}** ({proof['method']})", "",
+    lines += ["### Proof", "", f"Proved: **{proof['proved']}** ({proof['method']}; the "
+              f"theorem covers the {proof['covers_robot_mode']} robot, this space's is "
+              f"{robot_mode})", "",
               "Premises *checked* against this model, the configuration and the space:", ""]
     lines += [f"- [{'x' if x['holds'] else ' '}] {x['statement']}"
               for x in proof["premises"] if x["basis"] == "checked"]
@@ -153,26 +220,33 @@ def _property_markdown(name: str, p: dict) -> list:
         lines.append("None.")
     for i, c in enumerate(p["counterexamples"]):
         drake = c["drake"]
-        lines += [f"{i + 1}. robustness {c['drake_robustness']:.4f} m (batch "
-                  f"{c['robustness']:.4f}), simulation {c['simulation']}; in Drake: "
-                  f"stopped before contact {_fmt(drake['stopped_before_contact'])} m, "
-                  f"separation {_fmt(drake['separation'])} m; replay: "
+        lines += [f"{i + 1}. robustness {_m(c['drake_robustness'])} m (search "
+                  f"{_m(c['robustness'])}), simulation {c['simulation']}; in Drake: "
+                  f"stopped before contact {_m(drake['stopped_before_contact'])} m, "
+                  f"separation {_m(drake['separation'])} m; replay: "
                   f"`safety-systems simulate {c['scenario']} --out DIR --html`",
                   "   " + ", ".join(f"{k}={v:g}" for k, v in c["parameters"].items())]
-    if p["unconfirmed_counterexamples"]:
-        lines += ["", f"{len(p['unconfirmed_counterexamples'])} batch violations were not "
-                  "reproduced in the Drake diagram (see report.json)."]
+    lines += ["", "### Drake replays (the search's figure beside the Drake diagram's)", "",
+              "The worst violations (or, with none, the worst scenario) and scenarios drawn "
+              "at random from the search's, replayed in the Drake diagram.", "",
+              "| why | simulation | search robustness [m] | Drake robustness [m] |",
+              "|---|---|---|---|"]
+    lines += [f"| {r['why']} | {r['simulation']} | {_m(r['robustness'])} | "
+              f"{_m(r['drake_robustness'])} |" for r in p["drake_replays"]]
+    if not p["drake_replays"]:
+        lines.append("| - | - | - | - |")
+    if name == "separation":
+        lines += ["", f"Longest time the robot was let move with a body inside S_true: "
+                  f"{p['max_violation_time']:.3f} s."]
     return lines + [""]
-
-
-def _fmt(x) -> str:
-    return "inf (never moving near a body)" if x is None else f"{x:.4f}"
 
 
 def markdown(report: dict) -> str:
     lines = [f"# Verification: {report['verdict'].upper()}", "",
              f"- config: `{report['config']}` (sha256 {report['config_sha256'][:12]}...)",
              f"- space: `{report['space']}`",
+             f"- robot mode: {report['robot_mode']} (the search and the Drake replays run "
+             "it; the proofs cover the kinematic robot only)",
              f"- method: {report['method']}",
              "- properties: " + ", ".join(f"{name} {p['verdict']}"
                                           for name, p in report["properties"].items()),
@@ -180,11 +254,12 @@ def markdown(report: dict) -> str:
              f"{report['seed']})", ""]
     if report["braking_data"] == "placeholder":
         lines += [f"**{PLACEHOLDER_WARNING}**", ""]
+    lines += [f"**{w}**\n" for w in vacuous_warnings(report)]
     lines += ["## Assumptions", ""]
     lines += [f"- {a}" for a in report["assumptions"]]
     lines.append("")
     for name, p in report["properties"].items():
-        lines += _property_markdown(name, p)
+        lines += _property_markdown(name, p, report["robot_mode"])
     lines += ["![robustness](robustness.png)", ""]
     return "\n".join(lines)
 

@@ -178,6 +178,9 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     limit and braking data). Controllers other than ``ssm_override`` are not modelled
     (k = 1 but for faults). The Kalman filter and noise are left out. ``horizon``:
     (duration, cycles) to run to.
+    The robot follows its braked reference exactly, as in the kinematic mode, whatever
+    the space's ``robot.mode`` (a dynamic robot tracks it within millimetres,
+    ``tests/test_simulation.py``; its simulations run in the diagram, in its mode).
     The score is the closest a body comes to the real robot (the contact geometry)
     while the robot still moves. It only orders candidates; verdicts rest on the full
     closed-loop simulations.

@@ -168,6 +168,8 @@ def validate_space(space: ScenarioSpace) -> None:
         value = getattr(space, name)
         if not (math.isfinite(value) and value > 0.0):
             raise ScenarioError(name, value, "a finite number > 0")
+    if space.robot.mode not in ("kinematic", "dynamic"):  # checked before any search
+        raise ScenarioError("robot.mode", space.robot.mode, "kinematic | dynamic")
     if space.contact_geometry not in ROBOT_GEOMETRIES:
         raise ScenarioError("contact_geometry", space.contact_geometry,
                             " | ".join(ROBOT_GEOMETRIES))

@@ -69,6 +69,10 @@ def test_iso_config_is_proved_over_the_whole_cell_space(iso_proof):
     bases = {x.basis for x in iso_proof.premises}
     assert bases == {"checked", "trusted"}
     assert iso_proof.premises[-1].statement.startswith("z3")
+    # It states the robot mode it covers, and checks the space's is that one.
+    assert iso_proof.robot_mode == "kinematic"
+    assert any("robot.mode: kinematic" in x.statement for x in iso_proof.premises
+               if x.basis == "checked")
     # The default stopping data is the placeholder, and the premises say so in words.
     assert iso_proof.placeholder_braking
     assert any("PLACEHOLDER" in x.statement for x in iso_proof.premises if x.basis == "trusted")
@@ -117,6 +121,8 @@ NOT_PROVED = {  # name: (config, space, words of the failing premise or None: th
     "payload too small": (_safety(payload_radius=0.04), SPACE, "contains the one"),
     "tool point against capsules": (_safety(robot_geometry="tool_point"), SPACE,
                                     "contains the one"),
+    "dynamic robot": (ISO, dc.replace(SPACE, robot=dc.replace(SPACE.robot, mode="dynamic")),
+                      "robot.mode: dynamic"),
     "exit within reach": (_tracker(exits=[Box([1.0, -1.0, -1.0], [2.0, 1.0, 2.0])]), SPACE,
                           "exit region"),
     "walls within reach": (_tracker(cell=Box([-3.0, -3.0, -1.0], [3.0, 3.0, 3.0])), SPACE,
