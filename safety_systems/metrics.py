@@ -67,6 +67,19 @@ def min_separation_while_moving(separations: np.ndarray, speed: np.ndarray) -> f
     return float(np.min(closest[moving], initial=np.inf))
 
 
+def separation_while_moving(run: Run) -> tuple[np.ndarray, float]:
+    """True separations (T, N) (``true_separations``) and their smallest value while the
+    robot moves (inf if it never does with a body present)."""
+    sep = true_separations(run)
+    return sep, min_separation_while_moving(sep, robot_speed(robot_contact_state(run)[1]))
+
+
+def contact_while_moving(min_separation: float, contact_distance: float) -> bool:
+    """Contact as the safety properties define it: a true separation below the scenario's
+    contact distance while the robot moves."""
+    return bool(min_separation < contact_distance)
+
+
 def task_time(run: Run) -> float | None:
     """Time at which the path parameter reached its end, or None if it did not."""
     finished = np.flatnonzero(run["follower.path_state"][:, 2] > 0.5)
@@ -124,8 +137,7 @@ def summarize(run: Run) -> dict:
     """The summary written to ``summary.json`` (see ``safety_systems.outputs``)."""
     scenario = run.scenario
     _, speed = tool_state(run)
-    sep = true_separations(run)
-    min_sep = min_separation_while_moving(sep, robot_speed(robot_contact_state(run)[1]))
+    sep, min_sep = separation_while_moving(run)
     finite = float(np.nanmin(sep)) if np.any(np.isfinite(sep)) else None
     return {
         "scenario": scenario.name,
@@ -137,7 +149,7 @@ def summarize(run: Run) -> dict:
         "min_separation_while_moving": min_sep if np.isfinite(min_sep) else None,
         "contact_geometry": scenario.contact_geometry,
         "contact_distance": scenario.contact_distance,
-        "contact_while_moving": bool(min_sep < scenario.contact_distance),
+        "contact_while_moving": contact_while_moving(min_sep, scenario.contact_distance),
         "stopped_time": stopped_time(run),
         "min_separation": finite,
         "max_tool_speed": float(np.max(speed)),
