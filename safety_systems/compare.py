@@ -8,6 +8,13 @@ scenario's ``jerk_window`` (the seed's Fig. 9(d) and 11(f) windows). The seed ta
 jerk from the selected velocity; we take it from the speed the robot actually ran,
 which the PathFollower makes follow the selection (and which every controller, the SSM
 override included, has).
+
+Each run is also scored with seed 001's metric (``safety_systems.evaluation``), whose
+contact gate counts as contact a danger index of 1 or more (seed 004's Eqs. 6-7, the
+scenario's ellipsoids) or a true separation below the scenario's contact distance while
+the robot moves (``metrics.contact_while_moving``). For seed 004's two simulations
+``comparison.md`` puts Table 1's jerk figures beside ours, with the ratios, and says why
+where they differ by more than 2x.
 """
 
 import dataclasses
@@ -24,10 +31,11 @@ from safety_systems.evaluation import Thresholds, evaluate
 from safety_systems.joint_path import joint_path_state
 from safety_systems.ssm import directed_speeds
 from safety_systems.ur5e import AddUr5e, tool0_position_and_velocity
-from safety_systems.metrics import task_time
+from safety_systems.metrics import contact_while_moving, separation_while_moving, task_time
 from safety_systems.scenario import Scenario
 from safety_systems.simulation import Run, simulate
 from safety_systems.speed_alteration import operator_ellipsoids_over_time, preprogrammed_speed
+from safety_systems.table_1 import table_1
 from safety_systems.workcell import body_roles, joint_path
 
 
@@ -71,9 +79,10 @@ def inverse_dynamics_torques(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.
     return out
 
 
-def evaluation_of_run(run: Run, *, every: int = 5) -> dict:
+def evaluation_of_run(run: Run, *, contact: bool, every: int = 5) -> dict:
     """Seed 001's metric (``safety_systems.evaluation``) of a run, up to the end of its
-    task (or of the run), sampled every ``every`` control ticks."""
+    task (or of the run), sampled every ``every`` control ticks; ``contact``: whether the
+    robot touched an operator anywhere in the run (the metric's contact gate)."""
     finished = task_time(run)
     elapsed = finished if finished is not None else float(run.time[-1])
     rows = np.flatnonzero(run.time <= elapsed + 1e-9)[::every]
@@ -96,24 +105,31 @@ def evaluation_of_run(run: Run, *, every: int = 5) -> dict:
                     torques=inverse_dynamics_torques(q, v, a), progress=progress,
                     elapsed=elapsed, closest=d[pick, nearest],
                     closing_speed=(v_h + v_r)[pick, nearest], ideal_q=q_ideal,
-                    ideal_a=a_ideal, ideal_duration=max(progress, dt),
+                    ideal_a=a_ideal, ideal_duration=max(progress, dt), contact=contact,
                     thresholds=Thresholds(unsafe=zones.red_distance,
                                           comfortable=zones.green_distance))
 
 
 def controller_metrics(run: Run) -> dict:
     danger = danger_over_run(run)
+    _, min_sep = separation_while_moving(run)
+    contact = bool(danger.max() >= 1.0) or contact_while_moving(min_sep,
+                                                                run.scenario.contact_distance)
     speed, period = sampled_speed(run)
     j = jerk(speed, period)
     window = run.scenario.jerk_window
-    if window:
-        j = j[max(window[0] - 2, 0):max(window[1] - 1, 0)]  # jerk k uses samples k-2..k
+    # Jerk k uses samples k-2..k: the window's jerks use samples first - 2 .. last.
+    used = [max(window[0] - 2, 0), window[1]] if window else [0, len(speed) - 1]
+    j = j[used[0]:max(used[1] - 1, 0)]
     finished = task_time(run)
-    return {"max_danger_index": float(danger.max()), "goal_reached": finished is not None,
-            "evaluation": evaluation_of_run(run),
+    return {"max_danger_index": float(danger.max()),
+            "min_separation_while_moving": float(min_sep) if np.isfinite(min_sep) else None,
+            "contact": contact, "goal_reached": finished is not None,
+            "evaluation": evaluation_of_run(run, contact=contact),
             "goal_time": finished, "jerk_mean": float(j.mean()) if j.size else None,
-            "jerk_sd": float(j.std()) if j.size else None,
-            "samples": speed.tolist(), "danger_at_samples":
+            "jerk_sd": float(j.std()) if j.size else None, "jerk_samples": used,
+            "v_pre": preprogrammed_speed(joint_path(run.scenario.robot)),
+            "period": period, "samples": speed.tolist(), "danger_at_samples":
                 danger[::max(1, int(round(period * run.scenario.robot.control_rate_hz)))
                        ].tolist()}
 
@@ -135,15 +151,16 @@ def compare(scenarios: list[Scenario], controllers: list[str]) -> list[dict]:
 
 
 def markdown_table(rows: list[dict]) -> str:
-    lines = ["| scenario | controller | max DI | goal reached | jerk mean (mm/s^3) | "
-             "jerk SD (mm/s^3) | SD vs first |", "|---|---|---|---|---|---|---|"]
+    lines = ["| scenario | controller | max DI | contact | goal reached | jerk mean (mm/s^3) | "
+             "jerk SD (mm/s^3) | SD vs first |", "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         def mm(x):
             return "-" if x is None else f"{1000 * x:.1f}"
         goal = f"yes, {r['goal_time']:.2f} s" if r["goal_reached"] else "no"
         pct = "-" if r["jerk_sd_percent"] is None else f"{r['jerk_sd_percent']:.0f}%"
-        lines.append(f"| {r['scenario']} | {r['controller']} | {r['max_danger_index']:.4f} | "
-                     f"{goal} | {mm(r['jerk_mean'])} | {mm(r['jerk_sd'])} | {pct} |")
+        lines.append(f"| {r['scenario']} | {r['controller']} | {r['max_danger_index']:.5f} | "
+                     f"{'yes' if r['contact'] else 'no'} | {goal} | {mm(r['jerk_mean'])} | "
+                     f"{mm(r['jerk_sd'])} | {pct} |")
     names = list(rows[0]["evaluation"]) if rows else []
     lines += ["", "Safety and efficiency evaluation (seed 001, Tables IX-X; scores 0-100):", "",
               "| scenario | controller | " + " | ".join(n.replace("_", " ") for n in names) + " |",
@@ -151,7 +168,8 @@ def markdown_table(rows: list[dict]) -> str:
     for r in rows:
         lines.append(f"| {r['scenario']} | {r['controller']} | "
                      + " | ".join(f"{r['evaluation'][n]:.1f}" for n in names) + " |")
-    return "\n".join(lines) + "\n"
+    table = table_1(rows)
+    return "\n".join(lines + ([""] + table if table else [])) + "\n"
 
 
 def plot(rows: list[dict], path: Path) -> None:

@@ -25,6 +25,21 @@ formulas are garbled in print). Our reading, every score in [0, 100]:
   score 100 * min(1, mean PH / ``comfortable``).
 - Time to collision: CRM = distance / (robot and human speeds of approach) per
   instant (infinite when not closing); score 100 * mean min(1, CRM / ``horizon``).
+
+Our addition, not in seed 001: a contact gate. Table IX has no term for contact, and its
+three safety metrics are averages over the run that a brief contact hardly moves (on
+seed 004's simulations the run that hits the hand scored 31.3 on safety against 32.9 for
+ERGA, which does not). No reading of Table IX fixes that: safe navigation efficiency
+counts time inside an "unsafe distance" the seed does not give (we take the red zone,
+0.5 m; a smaller distance would count the contact, but only as a fraction of the run),
+obstacle proximity and time to collision are means. So a run in which the robot
+touches an operator has failed its safety function, and its safety score is 0, below
+every run without contact (whose score is positive: time to collision is positive
+wherever the tool and the bodies are apart). ``contact_free`` reports the
+gate (100 or 0). What counts as contact is the caller's (``compare``: the danger index
+of seed 004's ellipsoids reaching 1, or a true separation below the scenario's contact
+distance while the robot moves). Table X's scores carry no contact, so its 83.87 % is
+unchanged.
 """
 
 import dataclasses
@@ -99,9 +114,10 @@ def time_to_collision(distance: np.ndarray, closing_speed: np.ndarray, horizon: 
     return 100.0 * float(np.mean(np.minimum(1.0, crm / horizon)))
 
 
-def combine(safety: dict, efficiency: dict) -> dict:
-    """The weighted safety, efficiency and overall scores (Section 5)."""
-    s = sum(w * safety[name] for name, w in SAFETY_WEIGHTS.items())
+def combine(safety: dict, efficiency: dict, *, contact: bool = False) -> dict:
+    """The weighted safety, efficiency and overall scores (Section 5); with ``contact``
+    the safety score is 0 (our contact gate, see the module)."""
+    s = 0.0 if contact else sum(w * safety[name] for name, w in SAFETY_WEIGHTS.items())
     e = sum(w * efficiency[name] for name, w in EFFICIENCY_WEIGHTS.items())
     return {"safety_score": s, "efficiency_score": e, "overall_score": A * s + B * e}
 
@@ -109,8 +125,10 @@ def combine(safety: dict, efficiency: dict) -> dict:
 def evaluate(*, time: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray,
              torques: np.ndarray, progress: float, elapsed: float, closest: np.ndarray,
              closing_speed: np.ndarray, ideal_q: np.ndarray, ideal_a: np.ndarray,
-             ideal_duration: float, thresholds: Thresholds = Thresholds()) -> dict:
-    """Every metric and score of one run, from plain arrays (T rows; see the module)."""
+             ideal_duration: float, contact: bool = False,
+             thresholds: Thresholds = Thresholds()) -> dict:
+    """Every metric and score of one run, from plain arrays (T rows; see the module);
+    ``contact``: whether the robot touched an operator anywhere in the run."""
     efficiency = {
         "task_completion": task_completion(progress, elapsed),
         "power_efficiency": power_efficiency(torques, v),
@@ -123,4 +141,5 @@ def evaluate(*, time: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray,
         "obstacle_proximity": obstacle_proximity(closest, thresholds.comfortable),
         "time_to_collision": time_to_collision(closest, closing_speed, thresholds.horizon),
     }
-    return {**efficiency, **safety, **combine(safety, efficiency)}
+    return {**efficiency, **safety, "contact_free": 0.0 if contact else 100.0,
+            **combine(safety, efficiency, contact=contact)}

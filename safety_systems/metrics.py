@@ -155,6 +155,19 @@ def run_separation_margins(run: Run) -> np.ndarray:
     return separation_margins(clearance, s_true, permitted(commanded(run)))
 
 
+def separation_while_moving(run: Run) -> tuple[np.ndarray, float]:
+    """True separations (T, N) (``true_separations``) and their smallest value while the
+    robot moves (inf if it never does with a body present)."""
+    sep = true_separations(run)
+    return sep, min_separation_while_moving(sep, robot_speed(robot_contact_state(run)[1]))
+
+
+def contact_while_moving(min_separation: float, contact_distance: float) -> bool:
+    """Contact as the safety properties define it: a true separation below the scenario's
+    contact distance while the robot moves."""
+    return bool(min_separation < contact_distance)
+
+
 def task_time(run: Run) -> float | None:
     """Time at which the path parameter reached its end, or None if it did not."""
     finished = np.flatnonzero(run["follower.path_state"][:, 2] > 0.5)
@@ -212,8 +225,7 @@ def summarize(run: Run) -> dict:
     """The summary written to ``summary.json`` (see ``safety_systems.outputs``)."""
     scenario = run.scenario
     _, speed = tool_state(run)
-    sep = true_separations(run)
-    min_sep = min_separation_while_moving(sep, robot_speed(robot_contact_state(run)[1]))
+    sep, min_sep = separation_while_moving(run)
     finite = float(np.nanmin(sep)) if np.any(np.isfinite(sep)) else None
     margins = run_separation_margins(run)
     worst = int(np.argmin(margins)) if margins.size else 0
@@ -228,7 +240,7 @@ def summarize(run: Run) -> dict:
         "min_separation_while_moving": min_sep if np.isfinite(min_sep) else None,
         "contact_geometry": scenario.contact_geometry,
         "contact_distance": scenario.contact_distance,
-        "contact_while_moving": bool(min_sep < scenario.contact_distance),
+        "contact_while_moving": contact_while_moving(min_sep, scenario.contact_distance),
         "stopped_time": stopped_time(run),
         # d_true - S_true, smallest while motion was permitted (None: never with a body
         # present), and when

@@ -6,7 +6,8 @@ operators' ellipsoids predicted one step ahead (Eqs. 9-10) and the robot's ellip
 at the pose each speed leads to:
 
 - ``erga``: the elite real-coded GA minimising Eqs. 11-12 (``safety_systems.erga``);
-- ``hwang``: Hwang et al.'s objective, Eq. 13, minimised over a grid of speeds;
+- ``hwang``: Hwang et al.'s objective, Eq. 13 (collision-trend index from the ellipsoids
+  read as Gaussians, with the penalty index), minimised over a grid of speeds;
 - ``bimodal``: Morato et al.'s stop/go: full speed while every ellipsoid pair is more
   than a clearance apart, else stop;
 - ``none``: the pre-programmed speed (no alteration).
@@ -145,15 +146,72 @@ def erga_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, v_pre: float, v_p
                                     bound=limit, rng=rng, params=params)
 
 
+def collision_trend(danger: np.ndarray) -> np.ndarray:
+    """Hwang et al.'s collision-trend index P_ij of each pair from its danger index.
+
+    Seed 004 (Sections I and IV-B) describes P_ij as "defined by projecting the ellipsoids
+    onto a Gaussian distribution" and cites Hwang, Ju and Chen 2003 for it; the formula
+    is printed in neither the seed nor anything we could consult, so this is our reading.
+    Hwang's transformation (Section II-B) turns a pair into the point (0, 0, 0) and one
+    ellipsoid whose quadratic form F_ij is 1 on its surface; F_ij = 1 / DI_ij (Eq. 7).
+    Projecting that ellipsoid onto a Gaussian takes it as the Gaussian's one-sigma
+    surface (the usual correspondence between an ellipsoid and a covariance: F is then
+    the squared Mahalanobis distance of the point), and P_ij is the Gaussian at the point
+    scaled to 1 at its centre: P_ij = exp(-F_ij / 2) = exp(-1 / (2 DI_ij)). So P_ij is 1
+    for coincident centres, exp(-1/2) = 0.61 when the pair touches (DI = 1), and falls
+    to 0 as the pair separates (absent bodies, DI = 0, give 0). The only choice is
+    which contour the ellipsoid is, and one sigma is the convention; no constant is
+    tuned.
+    """
+    danger = np.asarray(danger, dtype=float)
+    with np.errstate(divide="ignore"):
+        return np.exp(-0.5 / danger)
+
+
 def hwang_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, danger_now: np.ndarray,
                 v_pre: float) -> float:
-    """Eq. 13 over the grid: sum_ij P_ij(k) + sum_ij (P_ij(k) - P_ij(k-1)) +
-    |V - V_pre| / V_pre, reading the collision-trend index P_ij as the danger index at
-    the pose the speed leads to (k) and at the current pose (k - 1) (interpretation:
-    the seed does not define P_ij)."""
-    cost = (danger.sum(axis=1) + (danger - danger_now).sum(axis=1)
-            + np.abs(grid_speeds - v_pre) / v_pre)
-    return float(grid_speeds[np.argmin(cost)])
+    """Hwang et al.'s choice of speed (seed 004, Eq. 13, with the penalty index).
+
+    Among ``grid_speeds``, the speed that minimises, first, the penalty index, then
+
+        Eq. 13:  sum_ij P_ij(k) + sum_ij (P_ij(k) - P_ij(k-1)) + |V - V_pre| / |V_pre|,
+
+    with P_ij the collision-trend index (:func:`collision_trend`) of each pair at the pose
+    the speed leads to (``danger`` (G, pairs), k) and at the current pose (``danger_now``
+    (pairs,), k - 1). How each term is read:
+
+    - P_ij(k): at the predicted next pose, so that the choice of V can change it (at the
+      current pose it would not depend on V and Eq. 13 would always return V_pre).
+    - P_ij(k) - P_ij(k-1): the trend, negative for a speed that takes the pair apart
+      (the seed: it forces the robot "to reduce the sum of the collision-trend index").
+    - |V - V_pre| / V_pre: the departure from the pre-programmed speed (Eq. 8).
+    - The penalty index: seed 004 names it beside the collision-trend index (Section I)
+      without printing it, and reports that Hwang's method keeps DI < 1 (Fig. 11(a)),
+      which a bounded P_ij cannot do on its own. We read it as the penalty of a speed
+      whose predicted pose collides, the seed's own measure of collision: the sum over
+      pairs with DI_ij >= 1 of DI_ij^2 (Eq. 12's DI-bar with unit weight,
+      ``erga.danger_penalty``), ranked before Eq. 13 (as if weighted above anything Eq.
+      13 can add up to, so no weight has to be chosen): a colliding speed is taken only
+      when every speed collides, and then the least colliding one.
+
+    Consequence, not a tuning: Eq. 13's last term changes by 1 / V_pre per unit of speed,
+    while the two P_ij(k) terms of a pair change by at most 2 x 0.61 dt / rho per unit of
+    speed (0.61 / rho is the steepest slope of exp(-d^2 / (2 rho^2)), at contact, d = rho,
+    rho the pair's contact distance; a unit of speed moves the robot dt). For seed 004's
+    hand and tool spheres (rho = 0.1 m, dt = 0.1 s, V_pre = 0.05 m/s) that is 1.2 against
+    20: with one such pair the collision-trend terms cannot move the choice, and the
+    method runs at V_pre while that is collision-free, else at the collision-free speed
+    nearest V_pre, switching at once (no smoothing term). Speeds at the limits (the
+    seed's -250/+250 mm/s, Fig. 11(b)) need the collision-trend sum to outweigh the speed
+    term: some 16 pairs near contact at once (seed 004 models every link and the upper
+    body, Fig. 2; its DI and our scenarios keep the hand and tool spheres), or V_pre above
+    rho / (1.2 dt) = 0.83 m/s, beyond the 0.25 m/s cap.
+    """
+    trend = collision_trend(danger)
+    cost = (trend.sum(axis=1) + (trend - collision_trend(danger_now)).sum(axis=1)
+            + np.abs(grid_speeds - v_pre) / abs(v_pre))
+    penalty = danger_penalty(danger, 1.0)
+    return float(grid_speeds[np.lexsort((cost, penalty))[0]])
 
 
 def clearance(a: Ellipsoids, b: Ellipsoids) -> float:

@@ -1,13 +1,18 @@
 """Seed 004's two simulations (Section IV-A/B) on the UR5e, and the compare command."""
 
+import dataclasses
 import json
+import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from safety_systems.cli import main
-from safety_systems.compare import compare
-from safety_systems.scenario import load_scenario
+from safety_systems.compare import compare, controller_metrics, markdown_table
+from safety_systems.scenario import Body, OperatorConfig, Waypoint, load_scenario
+from safety_systems.simulation import simulate
+from safety_systems.table_1 import SEED_JERK_SD
 
 SCENARIOS = Path(__file__).parents[1] / "models" / "scenarios"
 
@@ -33,6 +38,88 @@ def test_erga_keeps_clear_and_reaches_the_goal(rows, name):
     assert rows[(name, "none")]["goal_time"] < erga["goal_time"] < 3.5
     # The robot backs away or waits: its speed leaves the pre-programmed 50 mm/s.
     assert min(erga["samples"]) < 0.045
+
+
+@pytest.mark.parametrize("name", ["erga_positive", "erga_negative"])
+def test_every_controller_but_none_keeps_the_danger_index_below_1(rows, name):
+    for kind in ("erga", "hwang", "bimodal"):
+        assert rows[(name, kind)]["max_danger_index"] < 1.0, kind
+        assert not rows[(name, kind)]["contact"], kind
+    assert rows[(name, "none")]["contact"]
+
+
+@pytest.mark.parametrize("name", ["erga_positive", "erga_negative"])
+def test_jerk_sd_orders_as_table_1(rows, name):
+    # Seed 004, Table 1: the proposed method lowest, Hwang's and Morato's above it.
+    erga = rows[(name, "erga")]["jerk_sd"]
+    assert 0.0 < erga < rows[(name, "hwang")]["jerk_sd"]
+    assert erga < rows[(name, "bimodal")]["jerk_sd"]
+
+
+@pytest.mark.parametrize("name", ["erga_positive", "erga_negative"])
+def test_hwang_alters_speed_abruptly(rows, name):
+    hwang, none, erga = (np.array(rows[(name, k)]["samples"]) for k in ("hwang", "none", "erga"))
+    v_pre = rows[(name, "hwang")]["v_pre"]
+    assert not np.array_equal(hwang, none)
+    assert hwang[:25].min() < 0.1 * v_pre  # it stops for the hand
+    # After the start it switches within one period, with no smoothing: a whole V_pre at
+    # once, where ERGA's largest change is 0.6 V_pre.
+    assert np.abs(np.diff(hwang[1:25])).max() > 0.95 * v_pre
+    assert np.abs(np.diff(erga[1:25])).max() < 0.65 * v_pre
+
+
+@pytest.mark.parametrize("name", ["erga_positive", "erga_negative"])
+def test_a_colliding_run_scores_lower_on_safety(rows, name):
+    runs = [r for (scenario, _), r in rows.items() if scenario == name]
+    hit = [r["evaluation"]["safety_score"] for r in runs if r["contact"]]
+    clear = [r["evaluation"]["safety_score"] for r in runs if not r["contact"]]
+    assert hit and clear and max(hit) < min(clear)
+    assert all(r["contact"] == (r["max_danger_index"] >= 1.0) for r in runs)
+
+
+def test_comparison_prints_table_1_beside_ours_and_explains_big_differences(rows):
+    text = markdown_table(list(rows.values()))
+    notes = text.split("Differences beyond")[1] if "Differences beyond" in text else ""
+    for name, seed in SEED_JERK_SD.items():
+        for kind, seed_sd in seed.items():
+            ours = 1000.0 * rows[(name, kind)]["jerk_sd"]
+            line = next(x for x in text.splitlines() if x.startswith(f"| {name} |")
+                        and f"({kind}) |" in x)
+            assert f"| {ours:.1f} | {seed_sd:.1f} | {ours / seed_sd:.2f} |" in line
+            explained = re.search(rf"- {name}, {kind}: ours is [0-9.]+ x", notes) is not None
+            assert explained == (not 0.5 <= ours / seed_sd <= 2.0), (name, kind)
+
+
+def _crossing():
+    """Seed 004's positive simulation with the hand crossing the tool's line instead: at
+    the tool sphere's height, along -x through y = 0.11 m at 0.1 m/s from t = 0, over the
+    line at t = 1.5 s, coming at the robot's sphere from ahead and to the side."""
+    scenario = load_scenario(SCENARIOS / "erga_positive.yaml")
+    hand = OperatorConfig(name="operator", max_speed=0.1, max_acceleration=10.0,
+                          bodies=[Body(name="right_hand")],
+                          waypoints=[Waypoint(time=0.0, position=[0.518, 0.11, 0.7185]),
+                                     Waypoint(time=0.0001, position=[0.218, 0.11, 0.7185])])
+    return dataclasses.replace(scenario, name="crossing", operators=[hand], jerk_window=[])
+
+
+def test_hwang_on_a_scripted_crossing_backs_away_where_none_hits():
+    scenario = _crossing()
+    runs, out = {}, {}
+    for kind in ("hwang", "none"):
+        runs[kind] = simulate(dataclasses.replace(
+            scenario, controller=dataclasses.replace(scenario.controller, type=kind)))
+        out[kind] = controller_metrics(runs[kind])
+    hwang, none = out["hwang"], out["none"]
+    assert none["max_danger_index"] > 5.0 and none["contact"]
+    assert hwang["samples"] != none["samples"]
+    assert min(hwang["samples"]) < 0.0  # it backs away along its path, then resumes
+    assert hwang["goal_reached"] and hwang["goal_time"] > none["goal_time"]
+    # Every decision keeps the predicted DI one period ahead below 1 (the penalty index).
+    # The seed's scheme checks that pose only, not the motion up to it, and the robot
+    # takes a few ms to reverse, so the true DI may pass 1 in between (here by ~3 %):
+    # still a fifth of the unaltered run's.
+    assert runs["hwang"]["speed.danger_index"].max() < 1.0
+    assert hwang["max_danger_index"] < none["max_danger_index"] / 5.0
 
 
 def test_erga_is_smoother_than_bimodal_stop_and_go(rows):

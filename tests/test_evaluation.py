@@ -133,7 +133,7 @@ def test_combine_uses_the_metric_names_not_their_order():
 
 KEYS = {"task_completion", "power_efficiency", "trajectory_smoothness", "joint_smoothness",
         "safe_navigation_efficiency", "obstacle_proximity", "time_to_collision",
-        "safety_score", "efficiency_score", "overall_score"}
+        "contact_free", "safety_score", "efficiency_score", "overall_score"}
 
 
 def test_evaluate_on_the_hand_trace():
@@ -164,6 +164,19 @@ def test_evaluate_on_the_hand_trace():
                       elapsed=2.0, closest=closest, closing_speed=np.array([0.4, 1.0, -1.0]),
                       ideal_q=_six([0, 2, 4]), ideal_a=A_IDEAL[:3], ideal_duration=1.0,
                       thresholds=Thresholds(unsafe=0.1, comfortable=0.25, horizon=0.5))
+    assert r["contact_free"] == 100.0
+    touched = evaluate(time=time, q=q, v=q, a=A_RUN[:3], torques=np.ones((3, 6)), progress=1.5,
+                       elapsed=2.0, closest=closest, closing_speed=np.array([0.4, 1.0, -1.0]),
+                       ideal_q=_six([0, 2, 4]), ideal_a=A_IDEAL[:3], ideal_duration=1.0,
+                       contact=True)
+    # Our contact gate: the same run with a contact scores 0 on safety; the Table IX
+    # metrics and the efficiency are unchanged.
+    assert touched["contact_free"] == 0.0 and touched["safety_score"] == 0.0
+    assert {k: v for k, v in touched.items() if k not in ("contact_free", "safety_score",
+                                                          "overall_score")} == \
+        {k: v for k, v in r.items() if k not in ("contact_free", "safety_score",
+                                                 "overall_score")}
+    assert touched["overall_score"] == pytest.approx(B * r["efficiency_score"])
     assert strict["safe_navigation_efficiency"] == 100.0
     assert strict["obstacle_proximity"] == 100.0
     assert strict["time_to_collision"] == pytest.approx(100.0)
@@ -194,3 +207,22 @@ def test_evaluate_scores_in_range(run):
     assert set(r) == KEYS
     for key, value in r.items():
         assert 0.0 <= value <= 100.0 + 1e-9, key
+
+
+@FIXED
+@given(runs())
+def test_a_contact_scores_lower_on_safety(run):
+    clear, hit = evaluate(**run), evaluate(**run, contact=True)
+    assert hit["safety_score"] == 0.0 <= clear["safety_score"]
+    if np.all(run["closest"] > 1e-9):  # apart everywhere: time to collision is positive
+        assert hit["safety_score"] < clear["safety_score"]
+        assert hit["overall_score"] < clear["overall_score"]
+
+
+def test_the_contact_gate_leaves_table_x_alone():
+    safety = {"safe_navigation_efficiency": 73.51, "obstacle_proximity": 61.20,
+              "time_to_collision": 44.04}
+    efficiency = {"task_completion": 67.66, "power_efficiency": 48.43,
+                  "trajectory_smoothness": 47.31, "joint_smoothness": 53.14}
+    assert combine(safety, efficiency) == combine(safety, efficiency, contact=False)
+    assert combine(safety, efficiency, contact=True)["safety_score"] == 0.0

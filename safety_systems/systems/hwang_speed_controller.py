@@ -1,12 +1,14 @@
-"""HwangSpeedController: the collision-trend baseline of seed 004 (Eq. 13)."""
+"""HwangSpeedController: the collision-trend baseline of seed 004 (Eq. 13, Hwang et al. 2003)."""
 
 from safety_systems.speed_alteration import hwang_speed
 from safety_systems.systems.speed_alteration_controller import SpeedAlterationController
 
 
 class HwangSpeedController(SpeedAlterationController):
-    """Selects the speed minimising Eq. 13 over a grid of candidate speeds; the ports are
-    ``SpeedAlterationController``'s."""
+    """Selects, among ``hwang_candidates`` speeds evenly spread over [-limit, limit], the
+    one of least penalty index and then least Eq. 13 (collision-trend index of the
+    ellipsoids read as Gaussians, ``speed_alteration.hwang_speed``, which says how each
+    term was read); the ports are ``SpeedAlterationController``'s."""
 
     def __init__(self, *, path, config, operator_of, is_hand, offset_sec: float = 0.0) -> None:
         self.grid_size = config.hwang_candidates

@@ -7,6 +7,7 @@ from safety_systems.cartesian_path import line_path
 from safety_systems.erga import ErgaParameters
 from safety_systems.scenario import EllipsoidConfig, SpeedAlterationConfig
 from safety_systems.speed_alteration import (
+    collision_trend,
     danger_grid,
     erga_speed,
     hwang_speed,
@@ -173,3 +174,67 @@ def test_hwang_picks_from_its_grid(path, candidates, offset):
     now = danger_grid(path, S, np.zeros(1), 0.1, v_pre, humans, e)[0]
     assert out["speed_selected"] == hwang_speed(grid_speeds=grid, danger=danger,
                                                 danger_now=now, v_pre=v_pre)
+
+
+def test_collision_trend_is_the_one_sigma_gaussian():
+    # DI = 1 / F: P = exp(-F / 2); absent bodies (DI 0) give 0, coincident centres 1.
+    di = np.array([0.0, 0.25, 1.0, 4.0, np.inf])
+    np.testing.assert_allclose(collision_trend(di), [0.0, np.exp(-2.0), np.exp(-0.5),
+                                                     np.exp(-0.125), 1.0])
+    assert np.all(np.diff(collision_trend(np.linspace(0.01, 10.0, 50))) > 0)
+
+
+def test_hwang_slows_for_a_hand_ahead_where_none_keeps_going(path):
+    # The glove 0.102 m ahead: the pre-programmed speed would touch it; Hwang takes the
+    # collision-free speed nearest V_pre (between 0 and 0.02 m/s, on its 5 mm/s grid).
+    out, system = _decide(HwangSpeedController, path, AHEAD)
+    plain, _ = _decide(PreprogrammedSpeedController, path, AHEAD)
+    assert plain["speed_selected"] == system.preprogrammed_speed and plain["danger_index"] >= 1
+    assert 0.0 < out["speed_selected"] < 0.02 + 1e-12
+    assert out["danger_index"] < 1.0
+    assert out["speed_scale_commanded"] == pytest.approx(
+        out["speed_selected"] / system.preprogrammed_speed)
+    # The next grid speed up would touch: it is the nearest collision-free one.
+    step = 2 * CONFIG.speed_limit / (CONFIG.hwang_candidates - 1)
+    v_pre = system.preprogrammed_speed
+    above = danger_grid(path, S, np.array([out["speed_selected"] + step]), 0.1, v_pre,
+                        _humans(AHEAD), CONFIG.ellipsoids)
+    assert above.max() >= 1.0
+
+
+def test_hwang_backs_away_when_only_backing_away_is_clear(path):
+    # 0.08 m ahead the spheres overlap now: only backing off 2 cm in 0.1 s clears them.
+    # The penalty index comes first, whatever it costs in Eq. 13 (ERGA with the seed's
+    # R = 10 accepts the overlap instead, test above).
+    out, _ = _decide(HwangSpeedController, path, TOOL + [0.0, 0.08, 0.0])
+    assert -CONFIG.speed_limit <= out["speed_selected"] < -0.19
+    assert out["danger_index"] < 1.0
+
+
+GRID_SPEEDS = np.linspace(-0.25, 0.25, 101)
+
+
+def _pairs_ahead(n, d0, rho=0.1, dt=0.1):
+    """DI of n identical sphere pairs d0 ahead along the path, at each grid speed."""
+    d = d0 - GRID_SPEEDS * dt
+    return np.repeat(((rho / d) ** 2)[:, None], n, axis=1)
+
+
+def test_hwang_collision_trend_needs_many_pairs_to_reach_the_limits():
+    # Pairs 0.14 m ahead (contact at 0.1 m): every speed is collision-free. One pair's
+    # collision trend cannot outweigh |V - V_pre| / V_pre: V_pre. Thirty such pairs do,
+    # and the choice jumps to the speed limit, backing away (seed 004's Fig. 11(b)).
+    v_pre = 0.05
+    for n, expected in ((1, v_pre), (30, -0.25)):
+        danger = _pairs_ahead(n, 0.14)
+        assert danger.max() < 1.0
+        v = hwang_speed(grid_speeds=GRID_SPEEDS, danger=danger, danger_now=danger[50],
+                        v_pre=v_pre)
+        assert v == pytest.approx(expected), n
+
+
+def test_hwang_takes_the_least_colliding_speed_when_all_collide():
+    danger = _pairs_ahead(2, 0.05)  # overlapping at every reachable pose
+    assert danger.min() >= 1.0
+    v = hwang_speed(grid_speeds=GRID_SPEEDS, danger=danger, danger_now=danger[50], v_pre=0.05)
+    assert v == -0.25
