@@ -96,10 +96,12 @@ def write_summary(run: Run, path: Path) -> dict:
     return summary
 
 
-def plot_run(run: Run, path: Path) -> None:
+def plot_run(run: Run, path: Path, summary: dict | None = None) -> None:
     """Two panels in the manner of the seed's Figs. 7 and 9: speeds above; d_i, S_i,
     d_min and k below. Shaded: the intervals a body was hidden (in its colour, below) and
-    the protective stops for a fault of the sensing chain (grey, both panels)."""
+    the protective stops for a fault of the sensing chain (grey, both panels). Marked
+    (with ``summary``): the tick of the smallest separation margin d_true - S_true while
+    the robot was let move (red where it is below 0: the separation invariant broken)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -126,6 +128,12 @@ def plot_run(run: Run, path: Path) -> None:
     if s is not None:
         bottom.axhline(run.scenario.controller.safety.d_min, color="red", label="d_min")
     _shade(top, bottom, run, colors)
+    margin = None if summary is None else summary.get("min_separation_margin")
+    if margin is not None:
+        when = summary["min_separation_margin_time"]
+        bottom.axvline(when, color="red" if margin < 0.0 else "green", lw=1.2, ls=":",
+                       label=f"smallest d_true - S_true while let move: {margin:+.3f} m "
+                             f"at {when:.2f} s")
     bottom.set_ylabel("distance [m]")
     bottom.set_xlabel("time [s]")
     bottom.set_ylim(bottom=min(0.0, float(np.nanmin(s, initial=0.0))) if s is not None else 0.0)
@@ -179,7 +187,7 @@ def write_outputs(run: Run, out_dir: Path, *, html: bool = False) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     write_trace(run, out_dir / "trace.csv")
     summary = write_summary(run, out_dir / "summary.json")
-    plot_run(run, out_dir / "plot.png")
+    plot_run(run, out_dir / "plot.png", summary)
     if html:
         from safety_systems.replay import write_replay
 

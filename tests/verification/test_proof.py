@@ -24,6 +24,7 @@ from verification.proof import (
     joint_rate_bounds,
     operators_reach,
     prove,
+    prove_separation,
     robot_bounds,
     tool_acceleration_bound,
 )
@@ -350,3 +351,76 @@ def test_speed_alteration_controllers_are_not_proved():
     proof = prove(dc.replace(ISO, type="erga"), SPACE)
     assert not proof.proved and not proof.premises[0].holds
     assert "speed override" in proof.premises[0].statement
+
+
+# --- the separation theorem -----------------------------------------------------------
+
+def test_separation_margin_is_the_theorem_s_at_the_worst_corner():
+    proof = prove_separation(ISO, SPACE)
+    t, f, p = proof.terms, ISO.safety, SPACE.parameters
+    assert proof.proved and proof.property == "separation"
+    v_max, n = p.peak_speed.max, SPACE.noise_bound_sigmas * p.noise_std.max
+    e = t["E_per_axis"]
+    m = (t["v_lo"] * (t["T_s"] + t["T_r"]) - t["v_hi"] * (t["T_stop"] + t["T_r"])
+         - 2.0 * t["V_R"] * t["T_r"] + t["B"] - t["D"]
+         + f.human_uncertainty + f.robot_uncertainty
+         - math.sqrt(3.0) * (e["alpha"] * n + e["beta"] * v_max) - v_max * t["tau"])
+    assert proof.margin_at_worst_corner == pytest.approx(m, abs=1e-12)
+    # C is on both sides (the monitor's S and S_true): it cannot buy the invariant.
+    more_c = prove_separation(_safety(ISO, intrusion_distance=0.5), SPACE)
+    assert more_c.margin_at_worst_corner == pytest.approx(proof.margin_at_worst_corner,
+                                                          abs=1e-12)
+
+
+def test_a_floor_below_the_hands_speed_costs_the_difference():
+    # estimated_with_floor at 1.0 m/s: the monitor may use 1.0, S_true the true 2.0 m/s.
+    floor = _safety(ISO, human_speed="estimated_with_floor", iso_human_speed=1.0)
+    proof = prove_separation(floor, SPACE)
+    base = prove_separation(ISO, SPACE)
+    t = proof.terms
+    assert (t["v_lo"], t["v_hi"]) == (1.0, SPACE.parameters.peak_speed.max)
+    assert not proof.proved
+    expected = base.margin_at_worst_corner - (2.0 - 1.0) * (t["T_s"] + t["T_r"]) \
+        - (2.0 - 2.0) * (t["T_stop"] + t["T_r"])
+    assert proof.margin_at_worst_corner == pytest.approx(expected, abs=1e-12)
+    assert proof.needed_allowance == pytest.approx(-expected, abs=1e-12)
+
+
+@pytest.mark.parametrize("config, space, words", [
+    (SEED, SPACE, "human-speed"),
+    (_safety(ISO, robot_geometry="tool_point"), SPACE, "contains the one"),
+    (_tracker(ISO, hidden_bodies="expire"), SPACE, "hidden bodies stay"),
+    (_tracker(ISO, gate=False), SPACE, "outside the gate"),
+], ids=["seed", "tool point", "expire", "no gate"])
+def test_the_separation_proof_names_the_missing_premise(config, space, words):
+    proof = prove_separation(config, space)
+    assert not proof.proved and proof.needed_allowance is None
+    assert any(words in s for s in _failed(proof))
+
+
+@pytest.mark.parametrize("config, space", [
+    (_safety(ISO, stopping_time=0.3), SPACE),
+    (_safety(ISO, stopping_distance=0.05), SPACE),
+    (ISO, _space(braking_time_scale=Range(1.0, 1.5))),
+], ids=["short stopping time", "short stopping distance", "slow brakes"])
+def test_the_separation_proof_fails_on_the_margin_when_a_term_is_short(config, space):
+    proof = prove_separation(config, space)
+    assert _failed(proof) == ["z3: M_S >= 0 for every (v_max, noise) in the box"]
+    assert proof.margin_at_worst_corner < 0.0 < proof.needed_allowance
+
+
+def test_the_tightest_proved_configuration_breaks_the_invariant_in_no_simulation():
+    # Soundness against the closed loop: iso.yaml with just the allowance its proof asks
+    # for, over 1024 Sobol scenarios of the default space (most of them vacuous: its S
+    # keeps the robot at rest while a body is near).
+    from verification.evaluate_batch import evaluate_many
+    from verification.search import sweep_points
+    from verification.space import free_parameters, make_scenario, to_point
+
+    needed = prove_separation(ISO_CONTACT, SPACE).needed_allowance
+    tight = _safety(ISO_CONTACT, robot_uncertainty=needed + 1e-6)
+    assert prove_separation(tight, SPACE).proved
+    points = sweep_points("sobol", 1024, len(free_parameters(SPACE)), seed=5)
+    result = evaluate_many([make_scenario(SPACE, tight, to_point(SPACE, u)) for u in points])
+    assert np.isfinite(result.separation).sum() > 20  # the robot was let move near someone
+    assert result.separation.min() >= 0.0

@@ -12,6 +12,10 @@ from safety_systems.robot_geometry import capsule_ends
 from safety_systems.scenario import load_controller_config, load_scenario
 from safety_systems.simulation import simulate
 from verification.evaluate_drake import robustness_of_run
+from verification.proof import prove, prove_separation
+from verification.report import write_report
+from verification.space import Range, load_space
+from verification.verify import verify
 
 INSPECTION = load_scenario("models/scenarios/inspection.yaml")
 
@@ -99,3 +103,70 @@ def test_the_seed_inspection_run_breaks_the_invariant_without_contact():
     rho = robustness_of_run(simulate(INSPECTION))
     assert rho.stopped_before_contact > 0.0
     assert rho.separation < 0.0 and rho.separation_violation_time > 0.0
+
+
+# --- verify: the three outcomes the separation invariant exists for -------------------
+
+DEFAULT = load_space("models/spaces/default.yaml")
+ISO = load_controller_config("models/configs/iso.yaml")
+SEED = load_controller_config("models/configs/seed_estimated.yaml")
+
+
+def _run_verify(config, space, out, properties="both", budget=40):
+    return verify(config, space, out, budget=budget, workers=1, seed=0, candidates=2048,
+                  properties=properties, stop_at_first=True)
+
+
+def test_the_seed_configuration_breaks_the_invariant_on_the_default_space(tmp_path):
+    outcome = _run_verify(SEED, DEFAULT, tmp_path, properties="separation")
+    separation = outcome.properties["separation"]
+    assert outcome.verdict == separation.verdict == "falsified"
+    worst = separation.counterexamples[0]
+    assert worst["drake_robustness"] < 0.0 and worst["robustness"] < 0.0
+    # It replays in the Drake diagram, and says whether the same scenario makes contact.
+    rho = robustness_of_run(simulate(load_scenario(worst["scenario"])))
+    assert rho.separation == pytest.approx(worst["drake_robustness"], abs=1e-12)
+    assert worst["drake"]["stopped_before_contact"] == rho.stopped_before_contact
+    report = write_report(outcome, tmp_path, config_path="seed", space_path="default",
+                          replay=False)
+    assert "stopped before contact" in (tmp_path / "report.md").read_text().split(
+        "### Counterexamples")[1]
+    assert report["properties"]["separation"]["verdict"] == "falsified"
+
+
+def test_iso_is_proved_for_both_properties_and_needs_its_allowance():
+    assert prove(ISO, DEFAULT).proved
+    proof = prove_separation(ISO, DEFAULT)
+    assert proof.proved and proof.needed_allowance == 0.0
+    # Without the Z_r its file explains, the proof says how much is missing, and exactly
+    # that much more proves it.
+    bare = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety,
+                                                               robot_uncertainty=0.0))
+    short = prove_separation(bare, DEFAULT)
+    assert not short.proved and 0.5 < short.needed_allowance < ISO.safety.robot_uncertainty
+    enough = dataclasses.replace(bare, safety=dataclasses.replace(
+        bare.safety, robot_uncertainty=short.needed_allowance + 1e-9))
+    assert prove_separation(enough, DEFAULT).proved
+    slightly_less = dataclasses.replace(bare, safety=dataclasses.replace(
+        bare.safety, robot_uncertainty=short.needed_allowance - 1e-6))
+    assert not prove_separation(slightly_less, DEFAULT).proved
+
+
+def test_a_sensing_lag_beyond_what_t_r_covers_avoids_contact_but_breaks_the_invariant(
+        tmp_path):
+    # Frames 0.25-0.3 s late where iso.yaml assumes 0.02 s, and a frame timeout (0.4 s)
+    # that lets the late frames through: contact is still proved (the proof counts the
+    # 0.4 s and iso.yaml's margins cover it), but the robot is let move with bodies inside
+    # the S their true speeds ask for, because it sees them where they were.
+    space = dataclasses.replace(DEFAULT, parameters=dataclasses.replace(
+        DEFAULT.parameters, latency=Range(0.25, 0.3)))
+    mutant = dataclasses.replace(ISO, tracker=dataclasses.replace(ISO.tracker,
+                                                                  frame_timeout=0.4))
+    outcome = _run_verify(mutant, space, tmp_path, budget=60)
+    contact, separation = outcome.properties["contact"], outcome.properties["separation"]
+    assert contact.verdict == "proved" and not contact.counterexamples
+    assert outcome.log.robustness.min() > 0.0
+    assert separation.verdict == "falsified" and outcome.verdict == "falsified"
+    for c in separation.counterexamples:
+        assert c["drake_robustness"] < 0.0 and c["drake"]["stopped_before_contact"] > 0.0
+    assert not prove_separation(mutant, space).proved
