@@ -11,7 +11,6 @@ override included, has).
 """
 
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +24,7 @@ from safety_systems.joint_path import joint_path_state
 from safety_systems.ssm import directed_speeds
 from safety_systems.ur5e import AddUr5e, tool0_position_and_velocity
 from safety_systems.metrics import task_time
+from safety_systems.output_files import save_figure, write_json, write_text
 from safety_systems.scenario import Scenario
 from safety_systems.simulation import Run, simulate
 from safety_systems.speed_alteration import operator_ellipsoids_over_time, preprogrammed_speed
@@ -173,13 +173,15 @@ def plot(rows: list[dict], path: Path) -> None:
         axes[1, c].set_xlabel("sample")
         axes[0, c].legend(fontsize="small")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
-def write_comparison(rows: list[dict], out: Path) -> None:
+def write_comparison(rows: list[dict], out: Path, *, origin: dict | None = None) -> None:
+    """comparison.json (``{"provenance": origin, "rows": rows}``), comparison.md and
+    comparison.png, each written atomically."""
     out.mkdir(parents=True, exist_ok=True)
-    (out / "comparison.json").write_text(json.dumps(rows, indent=2) + "\n")
-    (out / "comparison.md").write_text(markdown_table(rows))
+    write_json(out / "comparison.json", {"provenance": origin, "rows": rows})
+    write_text(out / "comparison.md", markdown_table(rows))
     plot(rows, out / "comparison.png")
 

@@ -73,11 +73,11 @@ class InputError(ValueError):
 
 
 _SHORT = reprlib.Repr()
-_SHORT.maxstring, _SHORT.maxother, _SHORT.maxlist, _SHORT.maxdict = 60, 60, 6, 4
+_SHORT.maxstring, _SHORT.maxother, _SHORT.maxlist, _SHORT.maxdict = 120, 60, 6, 4
 _SHORT.maxlevel = 3
 
 
-def shorten(value: typing.Any, most: int = 100) -> str:
+def shorten(value: typing.Any, most: int = 160) -> str:
     """A one-line repr of ``value`` of at most ``most`` characters."""
     text = " ".join(_SHORT.repr(value).split())
     return text if len(text) <= most else text[:most - 3] + "..."

@@ -1,12 +1,12 @@
 """What ``safety-systems simulate`` writes: trace.csv, summary.json and plot.png."""
 
 import csv
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
+from safety_systems.braking import PLACEHOLDER_WARNING
 from safety_systems.metrics import (
     hidden,
     robot_contact_state,
@@ -16,9 +16,12 @@ from safety_systems.metrics import (
     tool_state,
     true_separations,
 )
+from safety_systems.output_files import atomic_path, save_figure, write_json
+from safety_systems.provenance import provenance, scenario_seeds
 from safety_systems.simulation import Run
 from safety_systems.ssm import separation_distances
 from safety_systems.stops import REJECT_CAUSES, STOP_SEPARATION
+from safety_systems.workcell import placeholder_braking
 
 
 def commanded_speed(run: Run) -> np.ndarray:
@@ -83,16 +86,25 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
 
 def write_trace(run: Run, path: Path) -> None:
     header, rows = trace_table(run)
-    with open(path, "w", newline="") as f:
+    with atomic_path(path) as temporary, open(temporary, "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(header)
         for row in rows:
             writer.writerow(["" if not math.isfinite(x) else f"{x:.6g}" for x in row])
 
 
-def write_summary(run: Run, path: Path) -> dict:
+def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
+    """``summarize(run)``, whether the stopping data is the built-in placeholder
+    (``braking_data``: ``placeholder`` with the warning, or ``configured``), and where
+    the run came from (``provenance``: ``origin``, by default this process's)."""
     summary = summarize(run)
-    path.write_text(json.dumps(summary, indent=2) + "\n")
+    if placeholder_braking(run.scenario.controller):
+        summary["braking_data"] = "placeholder"
+        summary["braking_data_warning"] = PLACEHOLDER_WARNING
+    else:
+        summary["braking_data"] = "configured"
+    summary["provenance"] = origin or provenance(scenario_seeds(run.scenario))
+    write_json(path, summary)
     return summary
 
 
@@ -148,7 +160,7 @@ def plot_run(run: Run, path: Path) -> None:
     fig.suptitle(f"{run.scenario.name}: SSM speed override (human speed: {c.safety.human_speed})"
                  if c.type == "ssm_override" else f"{run.scenario.name}: controller {c.type}")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -174,11 +186,13 @@ def _shade(top, bottom, run: Run, colors: list) -> None:
                            label=f"{name} hidden" if k == 0 else None)
 
 
-def write_outputs(run: Run, out_dir: Path, *, html: bool = False) -> dict:
-    """Writes trace.csv, summary.json, plot.png (and replay.html) into ``out_dir``."""
+def write_outputs(run: Run, out_dir: Path, *, html: bool = False,
+                  origin: dict | None = None) -> dict:
+    """Writes trace.csv, summary.json (with ``origin`` as its provenance), plot.png (and
+    replay.html) into ``out_dir``, each atomically."""
     out_dir.mkdir(parents=True, exist_ok=True)
     write_trace(run, out_dir / "trace.csv")
-    summary = write_summary(run, out_dir / "summary.json")
+    summary = write_summary(run, out_dir / "summary.json", origin=origin)
     plot_run(run, out_dir / "plot.png")
     if html:
         from safety_systems.replay import write_replay

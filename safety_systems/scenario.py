@@ -21,13 +21,11 @@ from pydrake.common.yaml import yaml_dump_typed
 
 from safety_systems.documents import SEED_MAX, InputError, check_limits, load_document, number
 from safety_systems.documents import parse_typed as _parse_typed
-
 from safety_systems.joint_path import make_joint_path
 from safety_systems.operator_paths import make_operator_path
 from safety_systems.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
 from safety_systems.ssm import HUMAN_SPEED_MODES
 from safety_systems.tracks import HIDDEN_BODY_RULES
-
 
 ScenarioError = InputError  # the name this module's callers know
 

@@ -13,7 +13,6 @@ and vertical cylinders standing on the table.
 """
 
 import dataclasses as dc
-import math
 import typing
 from pathlib import Path
 

@@ -6,19 +6,17 @@ from pathlib import Path
 
 import numpy as np
 
+from safety_systems.braking import PLACEHOLDER_WARNING  # noqa: F401 - named here too
+from safety_systems.output_files import save_figure, write_json, write_text
 from verification.verify import Outcome
-
-PLACEHOLDER_WARNING = ("The stopping data is the built-in placeholder derived from UR5/CB3 "
-                       "figures, not data measured on this cell: enter the measured stopping "
-                       "times and distances (controller.braking) before relying on this "
-                       "verdict.")
 
 
 def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
+def report_dict(o: Outcome, *, config_path: str, space_path: str,
+                origin: dict | None = None) -> dict:
     rho = o.log.robustness
     figures = np.array(o.log.figures) if o.log.figures else np.zeros((0, 4))
     return {
@@ -55,6 +53,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
             "margin_at_worst_corner": o.proof.margin_at_worst_corner,
             "terms": o.proof.terms,
         },
+        "provenance": origin,
     }
 
 
@@ -92,7 +91,7 @@ def plot_robustness(o: Outcome, path: Path) -> None:
     right.set_ylabel("robustness [m]")
     right.set_title(f"verdict: {o.verdict}")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -139,10 +138,12 @@ def markdown(report: dict) -> str:
 
 
 def write_report(o: Outcome, out: Path, *, config_path: str, space_path: str,
-                 replay: bool = True) -> dict:
-    report = report_dict(o, config_path=config_path, space_path=space_path)
-    (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
-    (out / "report.md").write_text(markdown(report))
+                 replay: bool = True, origin: dict | None = None) -> dict:
+    """report.json (with ``origin`` as its provenance), report.md, robustness.png and
+    the worst counterexample's replay.html, each written atomically."""
+    report = report_dict(o, config_path=config_path, space_path=space_path, origin=origin)
+    write_json(out / "report.json", report)
+    write_text(out / "report.md", markdown(report))
     plot_robustness(o, out / "robustness.png")
     if replay and o.counterexamples:
         from safety_systems.replay import write_replay

@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from safety_systems.documents import check_limits, load_document, number
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import segment_profile
 from safety_systems.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
@@ -61,7 +62,6 @@ from safety_systems.scenario import (
     read_task_path,
     validate_scenario,
 )
-from safety_systems.documents import check_limits, load_document, number
 from safety_systems.workcell import joint_path
 
 OTHER_HAND_OFFSET = 0.35  # m, sideways from the approaching hand

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from safety_systems.output_files import write_text
 from safety_systems.scenario import ControllerConfig, dump_scenario
 from verification.evaluate_drake import evaluate_drake
 from verification.proof import Proof, prove
@@ -105,7 +106,7 @@ def _confirm(space, config, log, out):
         if drake.stopped_before_contact < 0.0:
             path = out / "counterexamples" / f"{scenario.name}.yaml"
             path.parent.mkdir(exist_ok=True)
-            path.write_text(dump_scenario(scenario))
+            write_text(path, dump_scenario(scenario))
             entry["scenario"] = str(path)
             confirmed.append(entry)
         else:
