@@ -110,6 +110,8 @@ def read_input(path: str | Path, *, max_bytes: int | None = None) -> bytes:
             data = f.read(max_bytes + 1)
     except OSError as e:
         raise InputError("path", str(path), f"a readable file ({e.strerror})") from None
+    except ValueError as e:  # a NUL byte in the name
+        raise InputError("path", str(path), f"a readable file ({e})") from None
     if len(data) > max_bytes:
         raise InputError("<file>", f"more than {max_bytes} bytes",
                          f"a file of at most {max_bytes} bytes", file=path)
@@ -148,6 +150,12 @@ def parse_yaml(text: str, file: str | Path) -> typing.Any:
             return None
         _check_nodes(node, "", set(), set(), file)
         return loader.construct_document(node)
+    except yaml.reader.ReaderError as e:
+        character = e.character if isinstance(e.character, str) else chr(e.character)
+        line = text.count("\n", 0, e.position)
+        column = e.position - (text.rfind("\n", 0, e.position) + 1)
+        raise InputError(f"line {line + 1}, column {column + 1}", character,
+                         "printable text (no control characters)", file=file) from None
     except yaml.constructor.ConstructorError as e:
         mark = e.problem_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "<document>"

@@ -163,3 +163,13 @@ def test_shipped_files_load_and_their_hashes_are_remembered():
     assert any(p.endswith("paper_task_path.yaml") for p in read)
     documents.forget_inputs()
     assert documents.inputs_read() == {}
+
+
+@pytest.mark.parametrize("name", ["a\\0b", "/", "x" * 300, "../none.yaml"])
+def test_a_task_path_file_that_cannot_be_read_is_named(tmp_path, name):
+    path = tmp_path / "scenario.yaml"
+    path.write_text(f'robot: {{path: {{task_path: {{file: "{name}"}}}}}}\n')
+    with pytest.raises(InputError) as e:
+        load_scenario(path)
+    assert e.value.field == "robot.path.task_path.file" and "\n" not in str(e.value)
+    assert str(e.value).startswith(f"{path}: ")
