@@ -113,7 +113,7 @@ def controller_metrics(run: Run) -> dict:
             "evaluation": evaluation_of_run(run),
             "goal_time": finished, "jerk_mean": float(j.mean()) if j.size else None,
             "jerk_sd": float(j.std()) if j.size else None,
-            "samples": speed.tolist(), "danger_at_samples":
+            "samples": speed.tolist(), "sample_period": period, "danger_at_samples":
                 danger[::max(1, int(round(period * run.scenario.robot.control_rate_hz)))
                        ].tolist()}
 
@@ -155,26 +155,39 @@ def markdown_table(rows: list[dict]) -> str:
 
 
 def plot(rows: list[dict], path: Path) -> None:
-    """Danger index and speed per sample, one column per scenario (seed Figs. 8, 11)."""
+    """Writes :func:`comparison_figure` to ``path`` (PNG)."""
+    fig = comparison_figure(rows)
+    import matplotlib.pyplot as plt
+
+    save_figure(fig, path, dpi=100)
+    plt.close(fig)
+
+
+def comparison_figure(rows: list[dict]):
+    """Danger index and speed at each controller sample over time, one column per
+    scenario (seed Figs. 8, 11); one legend beside the panels, off the data."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = list(dict.fromkeys(r["scenario"] for r in rows))
-    fig, axes = plt.subplots(2, len(names), figsize=(6 * len(names), 7), squeeze=False)
+    fig, axes = plt.subplots(2, len(names), figsize=(6 * len(names) + 1.5, 7),
+                             squeeze=False, layout="constrained")
     for c, name in enumerate(names):
+        period = None
         for r in (r for r in rows if r["scenario"] == name):
-            axes[0, c].plot(r["danger_at_samples"], ".-", label=r["controller"])
-            axes[1, c].plot(1000 * np.array(r["samples"]), ".-", label=r["controller"])
+            period = r["sample_period"]
+            t = period * np.arange(len(r["samples"]))
+            axes[0, c].plot(t, r["danger_at_samples"][:len(t)], ".-", label=r["controller"])
+            axes[1, c].plot(t, 1000 * np.array(r["samples"]), ".-", label=r["controller"])
         axes[0, c].axhline(1.0, color="red", lw=0.8)
         axes[0, c].set_title(f"{name}: danger index")
         axes[1, c].set_title(f"{name}: speed along the path [mm/s]")
-        axes[1, c].set_xlabel("sample")
-        axes[0, c].legend(fontsize="small")
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
+        axes[1, c].set_xlabel(f"time [s] (a sample every {period:g} s)")
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside right upper",
+               fontsize="small")
+    return fig
 
 
 def write_comparison(rows: list[dict], out: Path, *, origin: dict | None = None) -> None:

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from safety_systems.cli import build_parser, main
+from safety_systems.stops import STOP_REASONS
 
 INSPECTION = Path(__file__).parents[1] / "models" / "scenarios" / "inspection.yaml"
 
@@ -42,7 +43,9 @@ def test_simulate_writes_every_output(tmp_path, capsys, caplog):
     assert origin["safety_systems_version"] == importlib.metadata.version("safety-systems")
     lines = (out / "trace.csv").read_text().splitlines()
     assert len(lines) == 1 + 751  # header + one row per 2 ms tick in [0, 1.5]
-    assert lines[0].startswith("time,k,path_rate,robot_speed")
+    assert lines[0].startswith("time,k,path_rate,robot_speed,stop_reason,S_max")
+    reasons = {line.split(",")[4] for line in lines[1:]}
+    assert "none" in reasons and reasons <= set(STOP_REASONS)  # by name, not by code
     html = (out / "replay.html").read_text()
     # Meshcat embeds its commands as base64 msgpack: the bodies, S spheres and an animation.
     commands = b"".join(base64.b64decode(blob) for blob in
