@@ -398,14 +398,26 @@ def field_limits(schema: type, name: str) -> Limits | None:
 def check_limits(obj: typing.Any, prefix: str = "") -> None:
     """Raises InputError at the first number of the dataclass ``obj`` (and of the
     dataclasses it holds) outside its declared range."""
-    for f in dc.fields(obj):
-        value = getattr(obj, f.name)
-        path = f"{prefix}.{f.name}" if prefix else f.name
-        limits = f.metadata.get("limits")
-        if limits is not None:
-            _check_numbers(value, limits, path, f.name)
+    for name, limits in _fields_to_check(type(obj)):
+        value = getattr(obj, name)
+        if limits is None:
+            _check_nested(value, f"{prefix}.{name}" if prefix else name)
+        elif type(value) is float and limits.holds(value):
+            continue  # the common cases first
+        elif type(value) is list and all(type(x) is float and limits.holds(x) for x in value):
+            continue
         else:
-            _check_nested(value, path)
+            _check_numbers(value, limits, f"{prefix}.{name}" if prefix else name, name)
+
+
+@functools.lru_cache(maxsize=None)
+def _fields_to_check(schema: type) -> tuple:
+    """(name, limits) of the ranged fields, (name, None) of those that may hold
+    dataclasses, in field order."""
+    return tuple((f.name, f.metadata["limits"]) if "limits" in f.metadata else (f.name, None)
+                 for f in dc.fields(schema)
+                 if "limits" in f.metadata
+                 or any(dc.is_dataclass(t) for t in _leaf_types(_hints(schema)[f.name])))
 
 
 def _check_numbers(value, limits: Limits, path: str, name: str) -> None:

@@ -469,6 +469,10 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
     """Ranges (``check_limits``) and checks between a controller configuration's
     fields; raises :class:`ScenarioError`."""
     check_limits(c, prefix)
+    _controller_rules(c, prefix)
+
+
+def _controller_rules(c: ControllerConfig, prefix: str) -> None:
     validate_sensor(c.sensor, f"{prefix}.sensor")
     s = c.sensor
     t = c.tracker
@@ -577,7 +581,7 @@ def validate_scenario(s: Scenario) -> None:
         except ValueError as e:
             raise ScenarioError("robot.path.segment_durations", p.segment_durations,
                                 str(e)) from None
-    validate_controller(s.controller)
+    _controller_rules(s.controller, "controller")
     if s.sensor is not None:
         validate_sensor(s.sensor, "sensor")
     _check(1 <= len(s.operators) <= MAX_OPERATORS, "operators", len(s.operators),
