@@ -177,6 +177,9 @@ def check_scheduler(address: str, timeout: float | None = None) -> None:
     except asyncio.TimeoutError:
         raise InputError("--scheduler", address,
                          f"{allowed} (no answer within {timeout:g} s)") from None
+    except MemoryError:  # what Dask makes of bytes that are not its protocol
+        raise InputError("--scheduler", address,
+                         f"{allowed} (something that is not Dask answered)") from None
     except Exception as e:  # noqa: BLE001 - anything here means: not a scheduler
         reason = " ".join(str(e).split()) or type(e).__name__
         raise InputError("--scheduler", address, f"{allowed} ({reason})") from None
