@@ -14,7 +14,9 @@ import argparse
 import dataclasses
 import sys
 
-from safety_systems.documents import SEED_MAX, InputError, forget_inputs
+from safety_systems.documents import forget_inputs
+from safety_systems.input_error import InputError
+from safety_systems.ranges import SEED_MAX
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130

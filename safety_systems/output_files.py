@@ -10,7 +10,7 @@ import typing
 import uuid
 from pathlib import Path
 
-from safety_systems.documents import InputError
+from safety_systems.input_error import InputError
 
 
 def prepare_out(path: str | Path, option: str = "--out") -> Path:

@@ -1,9 +1,9 @@
 """Typed scenario files: the cell, the controller configuration and the operators.
 
 Read under the rules of ``safety_systems.documents`` (strict typed YAML, no duplicate
-keys; every number within the range declared on its field with ``number(...)``, units
-beside it) and then checked field against field by :func:`validate_scenario`; every
-problem is raised as :class:`ScenarioError` (``documents.InputError``) naming the file,
+keys; every number within the range declared on its field with ``ranges.number``,
+units beside it) and then checked field against field by :func:`validate_scenario`;
+every problem is raised as :class:`ScenarioError` (``InputError``) naming the file,
 the field, the value and what is allowed. Upper bounds are physical: ``MAX_DURATION``
 for any time, ``MAX_CELL`` for any position, 360 deg for any angle, ``SEED_MAX`` for
 seeds, and the ones given on the fields.
@@ -19,10 +19,12 @@ from pathlib import Path
 import numpy as np
 from pydrake.common.yaml import yaml_dump_typed
 
-from safety_systems.documents import SEED_MAX, InputError, check_limits, load_document, number
+from safety_systems.documents import load_document
 from safety_systems.documents import parse_typed as _parse_typed
+from safety_systems.input_error import InputError
 from safety_systems.joint_path import make_joint_path
 from safety_systems.operator_paths import make_operator_path
+from safety_systems.ranges import SEED_MAX, check_limits, number
 from safety_systems.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
 from safety_systems.ssm import HUMAN_SPEED_MODES
 from safety_systems.tracks import HIDDEN_BODY_RULES

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.documents import SEED_MAX, check_limits, load_document, number
+from safety_systems.documents import load_document
+from safety_systems.ranges import SEED_MAX, check_limits, number
 from safety_systems.scenario import ScenarioError
 from safety_systems.ur5e import DH_D
 

@@ -8,7 +8,9 @@ from pathlib import Path
 import pytest
 
 from safety_systems import documents
-from safety_systems.documents import InputError, load_document, number, unranged_fields
+from safety_systems.documents import load_document
+from safety_systems.input_error import InputError
+from safety_systems.ranges import Limits, field_limits, number, unranged_fields
 from safety_systems.scenario import (
     MAX_DURATION,
     ControllerConfig,
@@ -141,10 +143,10 @@ def test_unranged_fields_finds_a_number_without_a_range():
 
 
 def test_limits_are_open_or_closed_and_infinity_only_where_declared():
-    limits = documents.Limits(0.0, 1.0, low_open=True)
+    limits = Limits(0.0, 1.0, low_open=True)
     assert [limits.holds(x) for x in (0.0, 1e-300, 1.0, 1.0 + 1e-12, math.inf, math.nan)] == [
         False, True, True, False, False, False]
-    never = documents.field_limits(OperatorConfig, "leave_time")
+    never = field_limits(OperatorConfig, "leave_time")
     assert never.holds(math.inf) and not never.holds(-math.inf) and not never.holds(math.nan)
 
 

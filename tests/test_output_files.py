@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from safety_systems.documents import InputError
+from safety_systems.input_error import InputError
 from safety_systems.output_files import atomic_path, prepare_out, write_json, write_text
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from safety_systems.documents import InputError
+from safety_systems.input_error import InputError
 from safety_systems.scenario import Scenario, dump_scenario
 from verification.evaluate_batch import evaluate_many
 

@@ -43,9 +43,10 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.documents import check_limits, load_document, number
+from safety_systems.documents import load_document
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import segment_profile
+from safety_systems.ranges import check_limits, number
 from safety_systems.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
 from safety_systems.scenario import (
     ROBOT_GEOMETRIES,

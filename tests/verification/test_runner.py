@@ -43,7 +43,7 @@ def test_check_scheduler_accepts_a_scheduler_and_refuses_anything_else():
     import socket
     import threading
 
-    from safety_systems.documents import InputError
+    from safety_systems.input_error import InputError
     from verification.runner import check_scheduler
 
     with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
