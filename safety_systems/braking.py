@@ -27,6 +27,10 @@ import math
 import numba
 import numpy as np
 
+PLACEHOLDER_WARNING = ("The stopping data is the built-in placeholder derived from UR5/CB3 "
+                       "figures, not data measured on this cell: enter the measured stopping "
+                       "times and distances (controller.braking) before relying on this "
+                       "result.")
 UR5_SHOULDER_STOP_TIME = 0.530  # s, stop category 0, 100 % speed (UR5/CB3 manual, App. A)
 UR5_SHOULDER_STOP_ANGLE = 0.70  # rad
 UR5_REACH = 0.85  # m

@@ -1,33 +1,69 @@
 """The ``safety-systems`` command line: thin subcommands that parse, call and report.
 
-Exit codes: 0 done, 2 bad input (one line on stderr naming the field, the value and
-what is allowed); ``verify`` has its own table (``verification.verdicts``).
+Every subcommand reads and checks all its inputs first (``safety_systems.documents``),
+then creates (or refuses) its output folder, and only then does its work; every
+result file is written atomically (``safety_systems.output_files``) and carries its
+provenance (``safety_systems.provenance``).
+
+Exit codes: 0 done, 1 (``plan``: the IAPF did not reach the goal), 2 bad input (one
+line on stderr naming the file, the field, the value and what is allowed), 130
+interrupted; ``verify`` has its own table (``verification.verdicts``).
 """
 
 import argparse
 import dataclasses
 import sys
-from pathlib import Path
 
-from safety_systems.scenario import ScenarioError, load_scenario
+from safety_systems.documents import forget_inputs
+from safety_systems.input_error import InputError
+from safety_systems.ranges import SEED_MAX
 
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+MAX_BUDGET = 10_000_000  # simulations of one verify run
+MAX_WORKERS = 1024
+
+
+def _warn(message: str) -> None:
+    print(f"safety-systems: warning: {message}", file=sys.stderr)
+
+
+def _origin(argv: list[str], seeds: dict[str, int]) -> dict:
+    from safety_systems.provenance import provenance
+
+    return provenance(seeds, ["safety-systems", *argv])
+
+
+def _whole(name: str, value: int | None, low: int, high: int) -> None:
+    if value is not None and not low <= value <= high:
+        raise InputError(name, value, f"an integer, {low} <= {name.lstrip('-')} <= {high:,}")
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    from safety_systems.braking import PLACEHOLDER_WARNING
+    from safety_systems.output_files import prepare_out
+    from safety_systems.provenance import scenario_seeds
+    from safety_systems.scenario import MAX_DURATION, load_scenario
+    from safety_systems.workcell import placeholder_braking
+
     scenario = load_scenario(args.scenario)
     if args.mode is not None:
         scenario = dataclasses.replace(
             scenario, robot=dataclasses.replace(scenario.robot, mode=args.mode))
     if args.duration is not None:
-        if not args.duration > 0.0:
-            raise ScenarioError("--duration", args.duration, "a number of seconds > 0")
+        if not 0.0 < args.duration <= MAX_DURATION:
+            raise InputError("--duration", args.duration,
+                             f"0 < duration <= {MAX_DURATION:g} s")
         scenario = dataclasses.replace(scenario, duration=args.duration)
+    out = prepare_out(args.out)
+    if placeholder_braking(scenario.controller):
+        _warn(PLACEHOLDER_WARNING)
     from safety_systems.outputs import write_outputs
     from safety_systems.simulation import simulate
 
     run = simulate(scenario, progress=not args.quiet)
-    summary = write_outputs(run, Path(args.out), html=args.html)
+    summary = write_outputs(run, out, html=args.html,
+                            origin=_origin(args.argv, scenario_seeds(scenario)))
     if not args.quiet:
         task = summary["task_time"]
         sep = summary["min_separation_while_moving"]
@@ -39,32 +75,34 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _verify(args: argparse.Namespace) -> int:
+    from safety_systems.braking import PLACEHOLDER_WARNING
+    from safety_systems.documents import read_text
+    from safety_systems.output_files import prepare_out
     from safety_systems.scenario import load_controller_config
     from verification.report import disagreement_lines, vacuous_warnings, write_report
+    from verification.runner import check_scheduler
     from verification.space import load_space
     from verification.verdicts import EXIT_REQUIREMENT, exit_code
     from verification.verify import verify
 
     config = load_controller_config(args.config)
     space = load_space(args.space)
-    for name in ("budget", "workers"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            raise ScenarioError(f"--{name}", value, "an integer >= 1")
-    if args.seed < 0:
-        raise ScenarioError("--seed", args.seed, "an integer >= 0")
-    out = Path(args.out)
+    _whole("--budget", args.budget, 1, MAX_BUDGET)
+    _whole("--workers", args.workers, 1, MAX_WORKERS)
+    _whole("--seed", args.seed, 0, SEED_MAX)
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    out = prepare_out(args.out)
     outcome = verify(config, space, out, budget=args.budget, method=args.method,
                      workers=args.workers, scheduler=args.scheduler, seed=args.seed,
-                     progress=not args.quiet, config_text=Path(args.config).read_text(),
+                     progress=not args.quiet, config_text=read_text(args.config),
                      properties=args.property)
-    report = write_report(outcome, out, config_path=args.config, space_path=args.space)
+    report = write_report(outcome, out, config_path=args.config, space_path=args.space,
+                          origin=_origin(args.argv, {"search": args.seed}))
     if report["braking_data"] == "placeholder":
-        from verification.report import PLACEHOLDER_WARNING
-
-        print(f"safety-systems: warning: {PLACEHOLDER_WARNING}", file=sys.stderr)
+        _warn(PLACEHOLDER_WARNING)
     for line in vacuous_warnings(report):
-        print(f"safety-systems: warning: {line}", file=sys.stderr)
+        _warn(line)
     for line in disagreement_lines(report):
         print(f"safety-systems: {line}", file=sys.stderr)
     code = exit_code(outcome.verdict, args.require)
@@ -85,16 +123,26 @@ def _verify(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from safety_systems.compare import compare, markdown_table, write_comparison
-    from safety_systems.scenario import CONTROLLER_TYPES
+    from safety_systems.output_files import prepare_out
+    from safety_systems.provenance import scenario_seeds
+    from safety_systems.scenario import CONTROLLER_TYPES, load_scenario
 
     controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
+    allowed = "a comma-separated list of " + " | ".join(CONTROLLER_TYPES)
+    if not controllers:
+        raise InputError("--controllers", args.controllers, allowed + " (one or more)")
     for c in controllers:
         if c not in CONTROLLER_TYPES:
-            raise ScenarioError("--controllers", c, " | ".join(CONTROLLER_TYPES))
+            raise InputError("--controllers", c, allowed)
     scenarios = [load_scenario(path) for path in args.scenarios]
+    out = prepare_out(args.out)
+    from safety_systems.compare import compare, markdown_table, write_comparison
+
     rows = compare(scenarios, controllers)
-    write_comparison(rows, Path(args.out))
+    seeds = {}
+    for i, s in enumerate(scenarios):
+        seeds.update(scenario_seeds(s, prefix=f"{s.name or i}."))
+    write_comparison(rows, out, origin=_origin(args.argv, seeds))
     if not args.quiet:
         print(markdown_table(rows), end="")
     return 0
@@ -103,14 +151,20 @@ def _compare(args: argparse.Namespace) -> int:
 def _plan(args: argparse.Namespace) -> int:
     """Plan with IAPF (+ Eq. 5 optimisation), GDA and RRT*; exit 1 when the IAPF does
     not reach the goal (no ``task_path.yaml`` is written then)."""
-    from safety_systems.plan_report import write_plan
-    from safety_systems.plan_sweeps import SWEEPS
+    from safety_systems.output_files import prepare_out
+    from safety_systems.plan_sweeps import SWEEPS, sweep_scenes
     from safety_systems.task_space import load_scene
 
     if args.sweep is not None and args.sweep not in SWEEPS:
-        raise ScenarioError("--sweep", args.sweep, " | ".join(SWEEPS))
+        raise InputError("--sweep", args.sweep, " | ".join(SWEEPS))
     scene = load_scene(args.scene)
-    report = write_plan(scene, Path(args.out), sweep=args.sweep)
+    if args.sweep is not None:
+        sweep_scenes(scene, args.sweep)  # raises InputError before any work
+    out = prepare_out(args.out)
+    from safety_systems.plan_report import write_plan
+
+    report = write_plan(scene, out, sweep=args.sweep,
+                        origin=_origin(args.argv, {"planner": scene.planner.seed}))
     rows = {r["planner"]: r for r in report["rows"]}
     if not args.quiet:
         from safety_systems.plan_report import markdown_table
@@ -120,20 +174,56 @@ def _plan(args: argparse.Namespace) -> int:
     return 0 if rows["IAPF"]["reached_goal"] else 1
 
 
+def _loaders() -> dict:
+    from safety_systems.scenario import (
+        TaskPoints,
+        load_controller_config,
+        load_scenario,
+        load_typed,
+    )
+    from safety_systems.task_space import load_scene
+    from verification.space import load_space
+
+    return {"scenario": load_scenario, "config": load_controller_config, "space": load_space,
+            "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path)}
+
+
+KINDS = ("scenario", "config", "space", "scene", "task-path")
+
+
+def _check(args: argparse.Namespace) -> int:
+    load = _loaders()[args.kind]
+    for path in args.files:
+        load(path)
+        if not args.quiet:
+            print(f"{path}: ok")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from safety_systems.provenance import version_line
+
     parser = argparse.ArgumentParser(
         prog="safety-systems",
         description="Simulate, verify and tune ISO/TS 15066 speed and separation monitoring "
-                    "of a collaborative UR5e cell.")
+                    "of a collaborative UR5e cell. Exit codes: 0 done, 1 verify falsified "
+                    "or plan short of its goal, 2 bad input (one line naming the file, the "
+                    "field, the value and what is allowed), 130 interrupted.")
+    parser.add_argument("--version", action="version", version=version_line(),
+                        help="print the versions of safety-systems and Drake and exit")
     commands = parser.add_subparsers(dest="command", required=True)
+    quiet = "no progress bar or summary on stdout (default: off)"
     sim = commands.add_parser("simulate", help="run one scenario and write its outputs")
     sim.add_argument("scenario", help="scenario YAML file")
-    sim.add_argument("--out", required=True, help="output directory")
-    sim.add_argument("--html", action="store_true", help="also write replay.html (Meshcat)")
+    sim.add_argument("--out", required=True,
+                     help="output folder, created if missing (required; no default)")
+    sim.add_argument("--html", action="store_true",
+                     help="also write replay.html, a Meshcat recording (default: off)")
     sim.add_argument("--mode", choices=("kinematic", "dynamic"),
-                     help="override the scenario's robot.mode")
-    sim.add_argument("--duration", type=float, help="override the scenario's duration, s")
-    sim.add_argument("--quiet", action="store_true", help="no progress bar or summary line")
+                     help="override the scenario's robot.mode (default: the scenario's)")
+    sim.add_argument("--duration", type=float,
+                     help="override the scenario's duration, s (default: the scenario's)")
+    sim.add_argument("--quiet", action="store_true", help=quiet)
     sim.set_defaults(run=_simulate)
     from verification.verdicts import EXIT_TABLE, REQUIREMENTS  # (light: no Drake)
 
@@ -144,52 +234,80 @@ def build_parser() -> argparse.ArgumentParser:
                        "3 inconclusive, 4 weaker than --require)",
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EXIT_TABLE)
     ver.add_argument("config", help="controller configuration YAML file")
-    ver.add_argument("--space", required=True, help="scenario space YAML file")
-    ver.add_argument("--out", required=True, help="output directory (reused to resume)")
-    ver.add_argument("--budget", type=int, default=200, help="closed-loop simulations")
+    ver.add_argument("--space", required=True,
+                     help="scenario space YAML file (required; no default)")
+    ver.add_argument("--out", required=True,
+                     help="output folder, created if missing; run again with the same "
+                          "folder to resume (required; no default)")
+    ver.add_argument("--budget", type=int, default=200,
+                     help="closed-loop simulations (default: %(default)s)")
     ver.add_argument("--method", default="falsify",
-                     choices=("falsify", "sobol", "halton", "grid", "uniform", "corners"))
+                     choices=("falsify", "sobol", "halton", "grid", "uniform", "corners"),
+                     help="how the space is searched (default: %(default)s)")
     where = ver.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, help="local processes (default: all cores)")
-    where.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
+    where.add_argument("--workers", type=int,
+                       help="local processes (default: all cores)")
+    where.add_argument("--scheduler",
+                       help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: "
+                            "none, run on local processes)")
     ver.add_argument("--property", default="both", choices=("contact", "separation", "both"),
                      help="which property to verify: contact (stopped before contact), "
                           "separation (distance never below S while motion is permitted) or "
-                          "both (default: both; the verdict is the weaker)")
-    ver.add_argument("--seed", type=int, default=0)
+                          "both (default: %(default)s; the verdict is the weaker)")
+    ver.add_argument("--seed", type=int, default=0,
+                     help="seed of the search (default: %(default)s)")
     ver.add_argument("--require", default="none", choices=REQUIREMENTS,
                      help="exit 4 when the verdict is weaker than this (passed under "
-                          "'proved'); falsified (1) and inconclusive (3) fail under any")
-    ver.add_argument("--quiet", action="store_true")
+                          "'proved'); falsified (1) and inconclusive (3) fail under any "
+                          "(default: %(default)s)")
+    ver.add_argument("--quiet", action="store_true", help=quiet)
     ver.set_defaults(run=_verify)
     cmp_ = commands.add_parser("compare", help="run several controllers on the same scenarios "
                                                 "and tabulate danger index, goal and jerk")
     cmp_.add_argument("scenarios", nargs="+", help="scenario YAML files")
     cmp_.add_argument("--controllers", default="erga,hwang,bimodal,none",
-                      help="comma-separated controller types; the first is the reference")
-    cmp_.add_argument("--out", required=True, help="output directory")
-    cmp_.add_argument("--quiet", action="store_true")
+                      help="comma-separated controller types; the first is the reference "
+                           "(default: %(default)s)")
+    cmp_.add_argument("--out", required=True,
+                      help="output folder, created if missing (required; no default)")
+    cmp_.add_argument("--quiet", action="store_true", help=quiet)
     cmp_.set_defaults(run=_compare)
     plan = commands.add_parser(
         "plan", help="plan a tool path around static obstacles with IAPF, GDA and RRT* "
                      "(seed 001) and write paths, tables, a plot and task_path.yaml "
                      "(exit 1 if the IAPF does not reach the goal)")
     plan.add_argument("scene", help="task-space scene YAML file (models/scenes/)")
-    plan.add_argument("--out", required=True, help="output directory")
+    plan.add_argument("--out", required=True,
+                      help="output folder, created if missing (required; no default)")
     plan.add_argument("--sweep", help="also run one of the seed's sweeps: obstacles, "
-                                      "radius, radii, height, k_att, k_rep, zeta")
-    plan.add_argument("--quiet", action="store_true")
+                                      "radius, radii, height, k_att, k_rep, zeta "
+                                      "(default: none)")
+    plan.add_argument("--quiet", action="store_true", help=quiet)
     plan.set_defaults(run=_plan)
+    check = commands.add_parser(
+        "check", help="read and check input files without running anything (exit 0 all "
+                      "good, 2 at the first bad one)")
+    check.add_argument("kind", choices=KINDS, help="what the files are")
+    check.add_argument("files", nargs="+", help="YAML files")
+    check.add_argument("--quiet", action="store_true",
+                       help="print nothing for good files (default: off)")
+    check.set_defaults(run=_check)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(argv)
+    args.argv = argv
+    forget_inputs()  # the inputs of this command alone go into its results
     try:
         return args.run(args)
-    except ScenarioError as e:
+    except InputError as e:
         print(f"safety-systems: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("safety-systems: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

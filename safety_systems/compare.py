@@ -18,7 +18,6 @@ where they differ by more than 2x.
 """
 
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +31,7 @@ from safety_systems.joint_path import joint_path_state
 from safety_systems.ssm import directed_speeds
 from safety_systems.ur5e import AddUr5e, tool0_position_and_velocity
 from safety_systems.metrics import contact_while_moving, separation_while_moving, task_time
+from safety_systems.output_files import save_figure, write_json, write_text
 from safety_systems.scenario import Scenario
 from safety_systems.simulation import Run, simulate
 from safety_systems.speed_alteration import operator_ellipsoids_over_time, preprogrammed_speed
@@ -129,7 +129,7 @@ def controller_metrics(run: Run) -> dict:
             "goal_time": finished, "jerk_mean": float(j.mean()) if j.size else None,
             "jerk_sd": float(j.std()) if j.size else None, "jerk_samples": used,
             "v_pre": preprogrammed_speed(joint_path(run.scenario.robot)),
-            "period": period, "samples": speed.tolist(), "danger_at_samples":
+            "samples": speed.tolist(), "sample_period": period, "danger_at_samples":
                 danger[::max(1, int(round(period * run.scenario.robot.control_rate_hz)))
                        ].tolist()}
 
@@ -173,31 +173,46 @@ def markdown_table(rows: list[dict]) -> str:
 
 
 def plot(rows: list[dict], path: Path) -> None:
-    """Danger index and speed per sample, one column per scenario (seed Figs. 8, 11)."""
+    """Writes :func:`comparison_figure` to ``path`` (PNG)."""
+    fig = comparison_figure(rows)
+    import matplotlib.pyplot as plt
+
+    save_figure(fig, path, dpi=100)
+    plt.close(fig)
+
+
+def comparison_figure(rows: list[dict]):
+    """Danger index and speed at each controller sample over time, one column per
+    scenario (seed Figs. 8, 11); one legend beside the panels, off the data."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = list(dict.fromkeys(r["scenario"] for r in rows))
-    fig, axes = plt.subplots(2, len(names), figsize=(6 * len(names), 7), squeeze=False)
+    fig, axes = plt.subplots(2, len(names), figsize=(6 * len(names) + 1.5, 7),
+                             squeeze=False, layout="constrained")
     for c, name in enumerate(names):
+        period = None
         for r in (r for r in rows if r["scenario"] == name):
-            axes[0, c].plot(r["danger_at_samples"], ".-", label=r["controller"])
-            axes[1, c].plot(1000 * np.array(r["samples"]), ".-", label=r["controller"])
+            period = r["sample_period"]
+            t = period * np.arange(len(r["samples"]))
+            axes[0, c].plot(t, r["danger_at_samples"][:len(t)], ".-", label=r["controller"])
+            axes[1, c].plot(t, 1000 * np.array(r["samples"]), ".-", label=r["controller"])
         axes[0, c].axhline(1.0, color="red", lw=0.8)
         axes[0, c].set_title(f"{name}: danger index")
         axes[1, c].set_title(f"{name}: speed along the path [mm/s]")
-        axes[1, c].set_xlabel("sample")
-        axes[0, c].legend(fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+        axes[1, c].set_xlabel(f"time [s] (a sample every {period:g} s)")
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside right upper",
+               fontsize="small")
+    return fig
 
 
-def write_comparison(rows: list[dict], out: Path) -> None:
+def write_comparison(rows: list[dict], out: Path, *, origin: dict | None = None) -> None:
+    """comparison.json (``{"provenance": origin, "rows": rows}``), comparison.md and
+    comparison.png, each written atomically."""
     out.mkdir(parents=True, exist_ok=True)
-    (out / "comparison.json").write_text(json.dumps(rows, indent=2) + "\n")
-    (out / "comparison.md").write_text(markdown_table(rows))
+    write_json(out / "comparison.json", {"provenance": origin, "rows": rows})
+    write_text(out / "comparison.md", markdown_table(rows))
     plot(rows, out / "comparison.png")
 

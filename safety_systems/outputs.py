@@ -1,12 +1,12 @@
 """What ``safety-systems simulate`` writes: trace.csv, summary.json and plot.png."""
 
 import csv
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
+from safety_systems.braking import PLACEHOLDER_WARNING
 from safety_systems.metrics import (
     hidden,
     robot_contact_state,
@@ -16,9 +16,15 @@ from safety_systems.metrics import (
     tool_state,
     true_separations,
 )
+from safety_systems.output_files import atomic_path, save_figure, write_json
+from safety_systems.provenance import provenance, scenario_seeds
 from safety_systems.simulation import Run
 from safety_systems.ssm import separation_distances
-from safety_systems.stops import REJECT_CAUSES, STOP_SEPARATION
+from safety_systems.stops import REJECT_CAUSES, STOP_REASONS, STOP_SEPARATION
+from safety_systems.workcell import placeholder_braking
+from safety_systems.zones import ZONE_NAMES
+
+WORDS = {"stop_reason": STOP_REASONS, "zone": ZONE_NAMES}  # trace.csv columns written as words
 
 
 def commanded_speed(run: Run) -> np.ndarray:
@@ -43,9 +49,10 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
     real robot's speed, m/s: its fastest capsule axis end, the tool flange on the tool
     point; see ``safety_systems.metrics``); for the SSM override stop_reason
     (``safety_systems.stops``: 0 none, 1 separation, 2 stale frame, 3 lost track, 4 bad
-    frame time, 5 non-finite position, 6 unknown body id, 7 gate) and S_max (m), for the
-    seed-004 controllers danger_index (the controller's predicted DI), for the zones zone
-    (0 green, 1 yellow, 2 red) and closest_distance (m, Eq. 6b); ``rejected_<cause>``:
+    frame time, 5 non-finite position, 6 unknown body id, 7 gate; trace.csv writes
+    their names, ``STOP_REASONS``) and S_max (m), for the seed-004 controllers
+    danger_index (the controller's predicted DI), for the zones zone (0 green, 1 yellow,
+    2 red; written as names) and closest_distance (m, Eq. 6b); ``rejected_<cause>``:
     measurements the tracker has rejected so far, by cause; then for each body
     ``<body>:d_true`` (true clearance to the robot as the scenario's
     ``contact_geometry`` measures it, empty when absent), ``<body>:d_measured`` (the
@@ -82,26 +89,59 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
 
 
 def write_trace(run: Run, path: Path) -> None:
+    """trace.csv: :func:`trace_table`, numbers to 6 significant digits (empty where not
+    finite), stop reasons and zones by name (``WORDS``)."""
     header, rows = trace_table(run)
-    with open(path, "w", newline="") as f:
+    words = {header.index(name): names for name, names in WORDS.items() if name in header}
+
+    def cell(j: int, x: float) -> str:
+        if not math.isfinite(x):
+            return ""
+        return words[j][int(x)] if j in words else f"{x:.6g}"
+
+    with atomic_path(path) as temporary, open(temporary, "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(header)
         for row in rows:
-            writer.writerow(["" if not math.isfinite(x) else f"{x:.6g}" for x in row])
+            writer.writerow([cell(j, x) for j, x in enumerate(row)])
 
 
-def write_summary(run: Run, path: Path) -> dict:
+def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
+    """``summarize(run)``, whether the stopping data is the built-in placeholder
+    (``braking_data``: ``placeholder`` with the warning, or ``configured``), and where
+    the run came from (``provenance``: ``origin``, by default this process's)."""
     summary = summarize(run)
-    path.write_text(json.dumps(summary, indent=2) + "\n")
+    if placeholder_braking(run.scenario.controller):
+        summary["braking_data"] = "placeholder"
+        summary["braking_data_warning"] = PLACEHOLDER_WARNING
+    else:
+        summary["braking_data"] = "configured"
+    summary["provenance"] = origin or provenance(scenario_seeds(run.scenario))
+    write_json(path, summary)
     return summary
 
 
+S_NOTE = ("S < 0 where a body moves away from the robot: the estimated directed speeds "
+          "(seed Eqs. 10-11) are then negative; drawn as computed, not clipped.")
+
+
 def plot_run(run: Run, path: Path, summary: dict | None = None) -> None:
+    """Writes :func:`run_figure` to ``path`` (PNG)."""
+    fig = run_figure(run, summary)
+    import matplotlib.pyplot as plt
+
+    save_figure(fig, path, dpi=110)
+    plt.close(fig)
+
+
+def run_figure(run: Run, summary: dict | None = None):
     """Two panels in the manner of the seed's Figs. 7 and 9: speeds above; d_i, S_i,
     d_min and k below. Shaded: the intervals a body was hidden (in its colour, below) and
     the protective stops for a fault of the sensing chain (grey, both panels). Marked
     (with ``summary``): the tick of the smallest separation margin d_true - S_true while
-    the robot was let move (red where it is below 0: the separation invariant broken)."""
+    the robot was let move (red where it is below 0: the separation invariant broken).
+    Legends stand beside the panels, off the data; a note under the figure explains S < 0
+    when it occurs."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -112,12 +152,13 @@ def plot_run(run: Run, path: Path, summary: dict | None = None) -> None:
     v_est = np.linalg.norm(run.bodies("tracker.velocities_estimated"), axis=-1)
     d = measured_distances(run)
     s = run.signals.get("monitor.protective_distances")
-    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(10, 7))
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(13, 7.5),
+                                      layout="constrained")
     for i, name in enumerate(run.body_names):
         top.plot(t, v_est[:, i], label=f"v {name} (estimated)")
     top.plot(t, speed, color="goldenrod", label="v_R (tool)")
     top.set_ylabel("speed [m/s]")
-    top.legend(loc="upper right", fontsize="small")
+    top.legend(loc="upper left", bbox_to_anchor=(1.07, 1.0), fontsize="small")
     top.grid(alpha=0.3)
     colors = []
     for i, name in enumerate(run.body_names):
@@ -149,15 +190,15 @@ def plot_run(run: Run, path: Path, summary: dict | None = None) -> None:
     k_axis.set_ylabel("commanded speed k" + ("" if s is not None else ", DI / zone"))
     lines = bottom.get_legend_handles_labels()
     k_lines = k_axis.get_legend_handles_labels()
-    bottom.legend(lines[0] + k_lines[0], lines[1] + k_lines[1], loc="upper right",
-                  fontsize="small", ncol=2)
+    bottom.legend(lines[0] + k_lines[0], lines[1] + k_lines[1], loc="upper left",
+                  bbox_to_anchor=(1.07, 1.0), fontsize="small")
     bottom.grid(alpha=0.3)
+    if s is not None and np.nanmin(s, initial=0.0) < 0.0:
+        fig.supxlabel(S_NOTE, fontsize="small")
     c = run.scenario.controller
     fig.suptitle(f"{run.scenario.name}: SSM speed override (human speed: {c.safety.human_speed})"
                  if c.type == "ssm_override" else f"{run.scenario.name}: controller {c.type}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
 
 
 def _intervals(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
@@ -182,11 +223,13 @@ def _shade(top, bottom, run: Run, colors: list) -> None:
                            label=f"{name} hidden" if k == 0 else None)
 
 
-def write_outputs(run: Run, out_dir: Path, *, html: bool = False) -> dict:
-    """Writes trace.csv, summary.json, plot.png (and replay.html) into ``out_dir``."""
+def write_outputs(run: Run, out_dir: Path, *, html: bool = False,
+                  origin: dict | None = None) -> dict:
+    """Writes trace.csv, summary.json (with ``origin`` as its provenance), plot.png (and
+    replay.html) into ``out_dir``, each atomically."""
     out_dir.mkdir(parents=True, exist_ok=True)
     write_trace(run, out_dir / "trace.csv")
-    summary = write_summary(run, out_dir / "summary.json")
+    summary = write_summary(run, out_dir / "summary.json", origin=origin)
     plot_run(run, out_dir / "plot.png", summary)
     if html:
         from safety_systems.replay import write_replay

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.common.yaml import yaml_dump_typed
 
+from safety_systems.output_files import save_figure, write_json, write_text
 from safety_systems.path_metrics import (
     bending_energy,
     min_clearance,
@@ -170,29 +171,30 @@ def plot(scene: TaskScene, paths: dict[str, PlannedPath], path: Path) -> None:
     top_view.set_title("seen from above (UR5e base frame)")
     top_view.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
-def write_plan(scene: TaskScene, out: Path, sweep: str | None = None) -> dict:
+def write_plan(scene: TaskScene, out: Path, sweep: str | None = None, *,
+               origin: dict | None = None) -> dict:
     """Plans ``scene`` (and every setting of ``sweep``) and writes ``paths.json``,
-    ``plan.md``, ``plan.json``, ``plan.png`` and, when the IAPF reached the goal,
-    ``task_path.yaml`` (the optimised IAPF path, a ``TaskPoints`` mapping, m). Returns
-    the contents of ``plan.json``."""
+    ``plan.md``, ``plan.json`` (with ``origin`` as its provenance), ``plan.png`` and,
+    when the IAPF reached the goal, ``task_path.yaml`` (the optimised IAPF path, a
+    ``TaskPoints`` mapping, m), each atomically. Returns the contents of ``plan.json``."""
     variants = sweep_scenes(scene, sweep) if sweep is not None else []
     out.mkdir(parents=True, exist_ok=True)
     paths = run_planners(scene)
     rows = [path_row(p, scene) for p in paths.values()]
-    report = {"scene": scene.name, "rows": rows}
+    report = {"scene": scene.name, "rows": rows, "provenance": origin}
     text = f"# Planned paths: {scene.name or 'scene'}\n\n" + markdown_table(rows)
     if sweep is not None:
         settings = [{"setting": label, "rows": [path_row(p, v) for p in run_planners(v).values()]}
                     for label, v in variants]
         report["sweep"] = {"name": sweep, "settings": settings}
         text += f"\n## Sweep: {sweep}\n\n" + sweep_table(settings)
-    (out / "plan.md").write_text(text)
-    (out / "plan.json").write_text(json.dumps(report, indent=2) + "\n")
-    (out / "paths.json").write_text(json.dumps(
+    write_text(out / "plan.md", text)
+    write_json(out / "plan.json", report)
+    write_text(out / "paths.json", json.dumps(
         {name: {"reached_goal": p.reached_goal, "planning_time": p.planning_time,
                 "points": np.asarray(p.points).tolist()} for name, p in paths.items()},
         indent=1) + "\n")
@@ -200,7 +202,7 @@ def write_plan(scene: TaskScene, out: Path, sweep: str | None = None) -> dict:
     optimised = paths["IAPF+opt"]
     task = out / "task_path.yaml"
     if optimised.reached_goal:
-        task.write_text(yaml_dump_typed(TaskPoints(points=np.asarray(optimised.points).tolist())))
+        write_text(task, yaml_dump_typed(TaskPoints(points=np.asarray(optimised.points).tolist())))
     elif task.exists():
         task.unlink()
     return report

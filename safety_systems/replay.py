@@ -9,6 +9,7 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
+from safety_systems.output_files import write_text
 from safety_systems.simulation import Run
 from safety_systems.ur5e import AddUr5e
 
@@ -83,4 +84,4 @@ def replay_html(run: Run, *, meshcat: Meshcat | None = None) -> str:
 
 
 def write_replay(run: Run, path: Path) -> None:
-    path.write_text(replay_html(run))
+    write_text(path, replay_html(run))

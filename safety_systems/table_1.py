@@ -27,9 +27,9 @@ def largest_step(row: dict) -> tuple[float, float, float]:
     first, last = row["jerk_samples"]
     v = 1000.0 * np.asarray(row["samples"][first:last + 1])
     if v.size < 2:
-        return 0.0, first * row["period"], first * row["period"]
+        return 0.0, first * row["sample_period"], first * row["sample_period"]
     i = int(np.argmax(np.abs(np.diff(v))))
-    return float(abs(v[i + 1] - v[i])), (first + i) * row["period"], (first + i + 1) * row["period"]
+    return float(abs(v[i + 1] - v[i])), (first + i) * row["sample_period"], (first + i + 1) * row["sample_period"]
 
 
 def shifted_sd(row: dict, shift: int) -> float:
@@ -37,7 +37,7 @@ def shifted_sd(row: dict, shift: int) -> float:
     from safety_systems.compare import jerk  # compare imports this module
 
     first, last = row["jerk_samples"]
-    j = jerk(np.asarray(row["samples"]), row["period"])[max(first + shift, 0):last - 1 + shift]
+    j = jerk(np.asarray(row["samples"]), row["sample_period"])[max(first + shift, 0):last - 1 + shift]
     return 1000.0 * float(j.std()) if j.size else 0.0
 
 

@@ -13,13 +13,14 @@ and vertical cylinders standing on the table.
 """
 
 import dataclasses as dc
-import math
 import typing
 from pathlib import Path
 
 import numpy as np
 
-from safety_systems.scenario import ScenarioError, load_typed
+from safety_systems.documents import load_document
+from safety_systems.ranges import SEED_MAX, check_limits, number
+from safety_systems.scenario import ScenarioError
 from safety_systems.ur5e import DH_D
 
 UR5E_REACH = 0.85  # m, from the shoulder (datasheet reach)
@@ -32,8 +33,8 @@ class Sphere:
     """A sphere: ``centre`` (m) and ``radius`` (m)."""
 
     name: str = ""
-    centre: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
-    radius: float = 0.03
+    centre: list[float] = number([0.0, 0.0, 0.0], ge=-MAX_EXTENT, le=MAX_EXTENT, unit="m")
+    radius: float = number(0.03, gt=0.0, le=MAX_EXTENT, unit="m")
 
 
 @dc.dataclass
@@ -41,8 +42,8 @@ class Box:
     """An axis-aligned box: ``centre`` (m) and ``half_sizes`` along x, y, z (m)."""
 
     name: str = ""
-    centre: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
-    half_sizes: list[float] = dc.field(default_factory=lambda: [0.03, 0.03, 0.03])
+    centre: list[float] = number([0.0, 0.0, 0.0], ge=-MAX_EXTENT, le=MAX_EXTENT, unit="m")
+    half_sizes: list[float] = number([0.03, 0.03, 0.03], gt=0.0, le=MAX_EXTENT, unit="m")
 
 
 @dc.dataclass
@@ -51,10 +52,10 @@ class Cylinder:
     up to ``height`` (m), of ``radius`` (m)."""
 
     name: str = ""
-    x: float = 0.0
-    y: float = 0.0
-    radius: float = 0.03
-    height: float = 0.20
+    x: float = number(0.0, ge=-MAX_EXTENT, le=MAX_EXTENT, unit="m")
+    y: float = number(0.0, ge=-MAX_EXTENT, le=MAX_EXTENT, unit="m")
+    radius: float = number(0.03, gt=0.0, le=MAX_EXTENT, unit="m")
+    height: float = number(0.20, gt=0.0, le=MAX_EXTENT, unit="m")
 
 
 @dc.dataclass
@@ -99,31 +100,31 @@ class PlannerSettings:
     1 m/s^2 for the tool.
     """
 
-    k_att: float = 0.03
-    k_rep: float = 0.1
-    d_goal: float = 0.10
-    zeta: float = 0.04
-    d_factor_n: float = 2.0
+    k_att: float = number(0.03, gt=0.0, le=1e6)
+    k_rep: float = number(0.1, gt=0.0, le=1e6)
+    d_goal: float = number(0.10, gt=0.0, le=MAX_EXTENT, unit="m")
+    zeta: float = number(0.04, gt=0.0, le=MAX_EXTENT, unit="m")
+    d_factor_n: float = number(2.0, ge=0.0, le=4.0)
     d_factor: bool = True
-    field_unit: float = 0.01
-    gda_k_att: float = 1.0 / 150.0
-    gda_k_rep: float = 900.0
-    step: float = 0.005
-    max_iterations: int = 2000
-    escape_attempts: int = 4
-    escape_steps: int = 600
-    omega1: float = 1.0
-    omega2: float = 0.001
-    opt_points: int = 12
-    clearance: float = 0.02
-    workspace_margin: float = 0.10
-    rrt_time: float = 1.0
-    rrt_max_iterations: typing.Optional[int] = None
-    rrt_range: float = 0.2
-    max_tool_speed: float = 0.25
-    max_tool_acceleration: float = 1.0
-    metric_spacing: float = 0.005
-    seed: int = 0
+    field_unit: float = number(0.01, gt=0.0, le=1.0, unit="m")
+    gda_k_att: float = number(1.0 / 150.0, gt=0.0, le=1e6)
+    gda_k_rep: float = number(900.0, gt=0.0, le=1e6)
+    step: float = number(0.005, gt=0.0, le=MAX_EXTENT, unit="m")
+    max_iterations: int = number(2000, ge=1, le=10**6)
+    escape_attempts: int = number(4, ge=0, le=100)
+    escape_steps: int = number(600, ge=1, le=10**5)
+    omega1: float = number(1.0, ge=0.0, le=1e6, unit="1/m")
+    omega2: float = number(0.001, ge=0.0, le=1e6, unit="m")
+    opt_points: int = number(12, ge=4, le=100)
+    clearance: float = number(0.02, gt=0.0, le=MAX_EXTENT, unit="m")
+    workspace_margin: float = number(0.10, ge=0.0, le=MAX_EXTENT, unit="m")
+    rrt_time: float = number(1.0, gt=0.0, le=600.0, unit="s")
+    rrt_max_iterations: typing.Optional[int] = number(None, ge=1, le=10**7)
+    rrt_range: float = number(0.2, gt=0.0, le=MAX_EXTENT, unit="m")
+    max_tool_speed: float = number(0.25, gt=0.0, le=3.0, unit="m/s")
+    max_tool_acceleration: float = number(1.0, gt=0.0, le=100.0, unit="m/s^2")
+    metric_spacing: float = number(0.005, gt=0.0, le=MAX_EXTENT, unit="m")
+    seed: int = number(0, ge=0, le=SEED_MAX)
 
 
 @dc.dataclass
@@ -132,8 +133,8 @@ class TaskScene:
     obstacles and planner settings."""
 
     name: str = ""
-    start: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
-    goal: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    start: list[float] = number([0.0, 0.0, 0.0], ge=-MAX_EXTENT, le=MAX_EXTENT, unit="m")
+    goal: list[float] = number([0.0, 0.0, 0.0], ge=-MAX_EXTENT, le=MAX_EXTENT, unit="m")
     obstacles: Obstacles = dc.field(default_factory=Obstacles)
     planner: PlannerSettings = dc.field(default_factory=PlannerSettings)
 
@@ -257,17 +258,13 @@ def _check(ok: bool, field: str, value: typing.Any, allowed: str) -> None:
 
 
 def _point(field: str, value: list[float]) -> None:
-    _check(len(value) == 3 and all(math.isfinite(v) and abs(v) <= MAX_EXTENT for v in value),
-           field, value, f"3 finite numbers in m, each within +-{MAX_EXTENT}")
-
-
-def _positive(field: str, value: float, most: float = math.inf) -> None:
-    _check(math.isfinite(value) and 0.0 < value <= most, field, value,
-           "a finite number > 0" + ("" if most == math.inf else f" and <= {most}"))
+    _check(len(value) == 3, field, value, f"3 numbers in m, each within +-{MAX_EXTENT}")
 
 
 def validate_scene(scene: TaskScene) -> None:
-    """Range checks; raises :class:`ScenarioError` naming the field."""
+    """Ranges (``check_limits``) and checks between fields; raises
+    :class:`ScenarioError` naming the field."""
+    check_limits(scene)
     for name in ("start", "goal"):
         value = getattr(scene, name)
         _point(name, value)
@@ -280,16 +277,10 @@ def validate_scene(scene: TaskScene) -> None:
     o = scene.obstacles
     for i, s in enumerate(o.spheres):
         _point(f"obstacles.spheres[{i}].centre", s.centre)
-        _positive(f"obstacles.spheres[{i}].radius", s.radius, MAX_EXTENT)
     for i, b in enumerate(o.boxes):
         _point(f"obstacles.boxes[{i}].centre", b.centre)
-        _check(len(b.half_sizes) == 3 and all(math.isfinite(h) and 0.0 < h <= MAX_EXTENT
-                                              for h in b.half_sizes),
-               f"obstacles.boxes[{i}].half_sizes", b.half_sizes, "3 numbers > 0 in m")
-    for i, c in enumerate(o.cylinders):
-        _point(f"obstacles.cylinders[{i}]", [c.x, c.y, 0.0])
-        _positive(f"obstacles.cylinders[{i}].radius", c.radius, MAX_EXTENT)
-        _positive(f"obstacles.cylinders[{i}].height", c.height, MAX_EXTENT)
+        _check(len(b.half_sizes) == 3, f"obstacles.boxes[{i}].half_sizes", b.half_sizes,
+               "3 numbers > 0 in m")
     names = obstacle_set(o).names
     _check(len(set(names)) == len(names), "obstacles", list(names), "unique obstacle names")
     _validate_planner(scene.planner)
@@ -304,33 +295,13 @@ def validate_scene(scene: TaskScene) -> None:
 
 def _validate_planner(p: PlannerSettings) -> None:
     f = "planner"
-    for name in ("k_att", "k_rep", "gda_k_att", "gda_k_rep", "field_unit", "d_goal", "zeta",
-                 "step", "clearance", "rrt_time",
-                 "rrt_range", "max_tool_speed", "max_tool_acceleration", "metric_spacing"):
-        _positive(f"{f}.{name}", getattr(p, name))
     _check(p.clearance < p.zeta, f"{f}.clearance", p.clearance,
            f"less than planner.zeta ({p.zeta} m): the field must act before the bound")
     _check(p.step <= p.clearance, f"{f}.step", p.step,
            f"at most planner.clearance ({p.clearance} m)")
-    _check(math.isfinite(p.d_factor_n) and 0.0 <= p.d_factor_n <= 4.0, f"{f}.d_factor_n",
-           p.d_factor_n, "0 to 4")
-    for name, low, high in (("max_iterations", 1, 10**6), ("escape_attempts", 0, 100),
-                            ("escape_steps", 1, 10**5), ("opt_points", 4, 100)):
-        value = getattr(p, name)
-        _check(low <= value <= high, f"{f}.{name}", value, f"an integer from {low} to {high}")
-    for name in ("omega1", "omega2", "workspace_margin"):
-        value = getattr(p, name)
-        _check(math.isfinite(value) and value >= 0.0, f"{f}.{name}", value,
-               "a finite number >= 0")
     _check(p.omega1 + p.omega2 > 0.0, f"{f}.omega1", p.omega1, "omega1 + omega2 > 0")
-    if p.rrt_max_iterations is not None:
-        _check(p.rrt_max_iterations >= 1, f"{f}.rrt_max_iterations", p.rrt_max_iterations,
-               "an integer >= 1 (or null: no cap)")
-    _check(p.seed >= 0, f"{f}.seed", p.seed, "an integer >= 0")
 
 
 def load_scene(path: str | Path) -> TaskScene:
     """Load and validate a scene file; raises :class:`ScenarioError`."""
-    scene = load_typed(TaskScene, path)
-    validate_scene(scene)
-    return scene
+    return load_document(path, TaskScene, validate_scene)

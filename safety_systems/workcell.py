@@ -61,10 +61,15 @@ DYNAMIC_KP = 900.0
 DYNAMIC_KD = 60.0
 
 
+def placeholder_braking(config: ControllerConfig) -> bool:
+    """Whether ``config`` gives no stopping data, so the UR5 placeholder table is used."""
+    return not config.braking.speed_fraction
+
+
 def braking_table(config: ControllerConfig) -> BrakingTable:
     """The configured stopping data, or the UR5 placeholder table when none is given."""
     b = config.braking
-    if not b.speed_fraction:
+    if placeholder_braking(config):
         return default_braking_table()
     return BrakingTable(np.array(b.speed_fraction), np.array(b.stopping_time),
                         np.array(b.stopping_distance))

@@ -10,6 +10,7 @@ strictly between the thresholds and green at or beyond ``green_distance``.
 import numpy as np
 
 GREEN, YELLOW, RED = 0, 1, 2
+ZONE_NAMES = ("green", "yellow", "red")  # by code
 # Gesture codes: the latest gesture at a time (0: none yet).
 NO_GESTURE, START, STOP, RESUME = 0, 1, 2, 3
 GESTURE_CODES = {"start": START, "stop": STOP, "resume": RESUME}

@@ -137,7 +137,8 @@ def test_compare_command_writes_table_json_and_plot(tmp_path, capsys):
     assert table.startswith("| scenario | controller | max DI")
     assert "| erga_positive | erga |" in table and "| erga_positive | none |" in table
     data = json.loads((out / "comparison.json").read_text())
-    assert {r["controller"] for r in data} == {"erga", "none"}
+    assert {r["controller"] for r in data["rows"]} == {"erga", "none"}
+    assert data["provenance"]["inputs"] and data["provenance"]["drake_version"]
     assert (out / "comparison.png").stat().st_size > 10_000
     assert "erga_positive" in capsys.readouterr().out
 

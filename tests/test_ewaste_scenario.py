@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from safety_systems.compare import compare
-from safety_systems.metrics import tool_state
+from safety_systems.metrics import task_time, tool_state
 from safety_systems.scenario import load_scenario
 from safety_systems.simulation import simulate
 
@@ -15,7 +15,12 @@ SCENARIO = Path(__file__).parents[1] / "models" / "scenarios" / "ewaste_sorting.
 
 @pytest.fixture(scope="module")
 def run():
-    return simulate(load_scenario(SCENARIO), duration=30.0)
+    return simulate(load_scenario(SCENARIO))
+
+
+def test_the_cycles_finish_within_the_duration(run):
+    finished = task_time(run)
+    assert finished is not None and finished < run.scenario.duration
 
 
 def test_the_robot_runs_the_planned_path(run):

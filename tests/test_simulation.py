@@ -68,8 +68,9 @@ def _read_trace(path):
     with open(path) as f:
         rows = list(csv.reader(f))
     header, body = rows[0], rows[1:]
-    cols = {h: np.array([float(r[i]) if r[i] else np.nan for r in body])
-            for i, h in enumerate(header)}
+    words = {"stop_reason", "zone"}  # written as names
+    cols = {h: np.array([r[i] if h in words else float(r[i]) if r[i] else np.nan
+                         for r in body]) for i, h in enumerate(header)}
     return cols
 
 

@@ -155,10 +155,10 @@ operators:
 @pytest.mark.parametrize("zones, field", [
     ("{red_speed: 0.6, yellow_speed: 0.5}", "controller.zones.red_speed"),
     ("{yellow_speed: 0.9, green_speed: 0.8}", "controller.zones.red_speed"),
-    ("{green_speed: 1.2}", "controller.zones.red_speed"),
+    ("{green_speed: 1.2}", "controller.zones.green_speed"),
     ("{green_distance: 0.5, red_distance: 0.5}", "controller.zones.green_distance"),
     ("{green_distance: 0.4, red_distance: 0.5}", "controller.zones.green_distance"),
-    ("{red_distance: 0.0}", "controller.zones.green_distance"),
+    ("{red_distance: 0.0}", "controller.zones.red_distance"),
     ("{max_jerk: 0.0}", "controller.zones.max_jerk"),
 ])
 def test_bad_zones_config_names_the_field(zones, field):

@@ -75,7 +75,13 @@ from safety_systems.scenario import ControllerConfig
 from safety_systems.stopping import stop_from_full_speed
 from safety_systems.tracks import MIN_MEASUREMENT_STD
 from safety_systems.ur5e import DH_A, DH_D
-from safety_systems.workcell import assumed_stopping, braking_table, frame_timeout, joint_path
+from safety_systems.workcell import (
+    assumed_stopping,
+    braking_table,
+    frame_timeout,
+    joint_path,
+    placeholder_braking,
+)
 from verification.space import HEAD_BACK, HEAD_UP, OTHER_HAND_OFFSET, ScenarioSpace
 
 # Its compiled functions inline kalman's (see compiled_cache).
@@ -307,7 +313,7 @@ def _setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     outliers = p.outlier_frames.max >= 1
     gate_widest = ((t.gate_speed + v_max) * p.outlier_frames.max * period + t.gate_width
                    + f.human_uncertainty + e_worst + math.sqrt(3.0) * noise)
-    placeholder = not config.braking.speed_fraction
+    placeholder = placeholder_braking(config)
     checked = [
         ("the controller is the SSM speed override (seed 000, Eq. 12)",
          config.type == "ssm_override"),

@@ -6,12 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
+from safety_systems.braking import PLACEHOLDER_WARNING  # noqa: F401 - named here too
+from safety_systems.output_files import save_figure, write_json, write_text
 from verification.verify import Outcome
 
-PLACEHOLDER_WARNING = ("The stopping data is the built-in placeholder derived from UR5/CB3 "
-                       "figures, not data measured on this cell: enter the measured stopping "
-                       "times and distances (controller.braking) before relying on this "
-                       "verdict.")
 PROPERTY_TEXT = {
     "contact": "stopped before contact: robustness = smallest true clearance between a "
                "body and the robot ({geometry}) while the robot moves, minus the contact "
@@ -88,7 +86,8 @@ def _proof_dict(proof) -> dict:
             "needed_allowance": proof.needed_allowance, "terms": proof.terms}
 
 
-def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
+def report_dict(o: Outcome, *, config_path: str, space_path: str,
+                origin: dict | None = None) -> dict:
     figures = np.array(o.log.figures) if o.log.figures else np.zeros((0, 4))
     properties = {}
     for name, p in o.properties.items():
@@ -127,6 +126,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str) -> dict:
         "seed": o.seed,
         "budget": o.budget,
         "braking_data": "placeholder" if o.proof.placeholder_braking else "configured",
+        "provenance": origin,
     })
 
 
@@ -169,7 +169,7 @@ def plot_robustness(o: Outcome, path: Path) -> None:
     right.set_ylabel("robustness [m]")
     right.set_title(f"verdict: {o.verdict}")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -265,10 +265,12 @@ def markdown(report: dict) -> str:
 
 
 def write_report(o: Outcome, out: Path, *, config_path: str, space_path: str,
-                 replay: bool = True) -> dict:
-    report = report_dict(o, config_path=config_path, space_path=space_path)
-    (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
-    (out / "report.md").write_text(markdown(report))
+                 replay: bool = True, origin: dict | None = None) -> dict:
+    """report.json (with ``origin`` as its provenance), report.md, robustness.png and
+    the worst counterexample's replay.html, each written atomically."""
+    report = report_dict(o, config_path=config_path, space_path=space_path, origin=origin)
+    write_json(out / "report.json", report)
+    write_text(out / "report.md", markdown(report))
     plot_robustness(o, out / "robustness.png")
     if replay and o.counterexamples:  # the first property's worst, else the next's
         from safety_systems.replay import write_replay

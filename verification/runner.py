@@ -3,7 +3,8 @@
 Drake objects never cross process boundaries: workers receive scenario dataclasses and
 build what they need. Every evaluation goes through an :class:`EvaluationCache` kept in
 a JSON-lines file, so an interrupted run, started again with the same output folder,
-does not repeat finished work.
+does not repeat finished work: a run killed at any point leaves at worst its last line
+cut short, which the next run drops (and evaluates again).
 """
 
 import dataclasses
@@ -16,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from safety_systems.input_error import InputError
 from safety_systems.scenario import Scenario, dump_scenario
 from verification.evaluate_batch import evaluate_many
 
@@ -24,6 +26,7 @@ FIELDS = ("robustness", "min_separation_while_moving", "separation",
 # Changes whenever FIELDS or what they measure change, so that a resumed run never
 # reads figures of another kind from an older evaluations.jsonl.
 FIGURES_VERSION = "2: contact, min separation, separation invariant, its violation time"
+SCHEDULER_TIMEOUT = 5.0  # s to reach a Dask scheduler before giving up
 
 
 def _evaluate_chunk(scenarios: list[Scenario]) -> np.ndarray:
@@ -46,18 +49,31 @@ def scenario_key(scenario: Scenario) -> str:
 
 
 class EvaluationCache:
-    """Figures by scenario key, appended to ``path`` (JSON lines) as they arrive."""
+    """Figures by scenario key, appended to ``path`` (JSON lines) as they arrive.
+
+    Opening drops what an interrupted run may have left at the end of the file: a
+    line cut short (the file is cut back to its last complete line, so the next line
+    appended starts on a line of its own); any line that is not a complete row is
+    skipped."""
 
     def __init__(self, path: Path | None):
         self.path = path
         self.values: dict[str, list[float]] = {}
-        if path is not None and path.exists():
-            for line in path.read_text().splitlines():
-                try:
-                    row = json.loads(line)
-                except json.JSONDecodeError:
-                    continue  # a line cut short by an interruption
-                self.values[row["key"]] = [float(x) for x in row["figures"]]
+        if path is None or not path.exists():
+            return
+        data = path.read_bytes()
+        end = data.rfind(b"\n") + 1
+        if end < len(data):
+            with open(path, "r+b") as f:
+                f.truncate(end)
+        for line in data[:end].decode("utf-8", errors="replace").splitlines():
+            try:
+                row = json.loads(line)
+                key, figures = row["key"], [float(x) for x in row["figures"]]
+            except (ValueError, TypeError, KeyError):
+                continue
+            if isinstance(key, str) and len(figures) == len(FIELDS):
+                self.values[key] = figures
 
     def add(self, key: str, figures: np.ndarray) -> None:
         self.values[key] = [float(x) for x in figures]
@@ -136,7 +152,7 @@ class Runner:
             if self._client is None:
                 from dask.distributed import Client
 
-                self._client = Client(self.scheduler)
+                self._client = Client(self.scheduler, timeout=2 * SCHEDULER_TIMEOUT)
             futures = self._client.map(fn, items, pure=False)
             return (f.result() for f in futures)
         if self.workers <= 1 or len(items) == 1:
@@ -144,3 +160,32 @@ class Runner:
         if self._pool is None:
             self._pool = ProcessPoolExecutor(max_workers=self.workers)
         return self._pool.map(fn, items)
+
+
+def check_scheduler(address: str, timeout: float | None = None) -> None:
+    """Raises InputError (``--scheduler``) unless a Dask scheduler answers at
+    ``address`` within ``timeout`` seconds (default ``SCHEDULER_TIMEOUT``)."""
+    import asyncio
+
+    from distributed.core import rpc
+
+    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+
+    async def identity():
+        async with rpc(address, timeout=timeout) as scheduler:
+            return await scheduler.identity()
+
+    allowed = "the address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786"
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), timeout))
+    except asyncio.TimeoutError:
+        raise InputError("--scheduler", address,
+                         f"{allowed} (no answer within {timeout:g} s)") from None
+    except MemoryError:  # what Dask makes of bytes that are not its protocol
+        raise InputError("--scheduler", address,
+                         f"{allowed} (something that is not Dask answered)") from None
+    except Exception as e:  # noqa: BLE001 - anything here means: not a scheduler
+        reason = " ".join(str(e).split()) or type(e).__name__
+        raise InputError("--scheduler", address, f"{allowed} ({reason})") from None
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        raise InputError("--scheduler", address, f"{allowed} (something else answered)")

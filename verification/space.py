@@ -43,8 +43,10 @@ from pathlib import Path
 
 import numpy as np
 
+from safety_systems.documents import load_document
 from safety_systems.joint_path import joint_path_state
 from safety_systems.operator_paths import segment_profile
+from safety_systems.ranges import check_limits, number
 from safety_systems.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
 from safety_systems.scenario import (
     ROBOT_GEOMETRIES,
@@ -58,7 +60,6 @@ from safety_systems.scenario import (
     ScenarioError,
     SensorFault,
     Waypoint,
-    load_typed,
     read_task_path,
     validate_scenario,
 )
@@ -73,8 +74,9 @@ MIN_GAP = 1e-9  # s; shorter dropouts and occlusions are none
 
 @dc.dataclass
 class Range:
-    """A closed interval [min, max]."""
+    """A closed interval [min, max]; each parameter's bounds are ``_LIMITS``."""
 
+    limits_checked_by = "validate_space"  # not a field: its ranges depend on the parameter
     min: float = 0.0
     max: float = 0.0
 
@@ -124,13 +126,13 @@ class ScenarioSpace:
     """
 
     name: str = ""
-    settle_time: float = 1.0
-    tail_time: float = 1.5
+    settle_time: float = number(1.0, gt=0.0, le=60.0, unit="s")
+    tail_time: float = number(1.5, gt=0.0, le=60.0, unit="s")
     contact_geometry: str = "capsules"
-    contact_distance: float = 0.0
-    hand_radius: float = 0.05
-    head_radius: float = 0.12
-    noise_bound_sigmas: float = 4.0
+    contact_distance: float = number(0.0, ge=0.0, le=1.0, unit="m")
+    hand_radius: float = number(0.05, ge=0.0, le=0.5, unit="m")
+    head_radius: float = number(0.12, ge=0.0, le=0.5, unit="m")
+    noise_bound_sigmas: float = number(4.0, gt=0.0, le=10.0)
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     parameters: SpaceParameters = dc.field(default_factory=SpaceParameters)
     notes: list[str] = dc.field(default_factory=list)
@@ -153,6 +155,7 @@ WHOLE = ("target_link", "operators", "heads", "occluded_bodies", "outlier_frames
 
 def validate_space(space: ScenarioSpace) -> None:
     """Range checks; raises ScenarioError naming the field."""
+    check_limits(space)
     for name in NAMES:
         r = getattr(space.parameters, name)
         lo, hi = _LIMITS[name]
@@ -164,26 +167,20 @@ def validate_space(space: ScenarioSpace) -> None:
         r = getattr(space.parameters, name)
         if r.min != round(r.min) or r.max != round(r.max):
             raise ScenarioError(f"parameters.{name}", [r.min, r.max], "whole numbers")
-    for name in ("settle_time", "tail_time", "noise_bound_sigmas"):
-        value = getattr(space, name)
-        if not (math.isfinite(value) and value > 0.0):
-            raise ScenarioError(name, value, "a finite number > 0")
     if space.robot.mode not in ("kinematic", "dynamic"):  # checked before any search
         raise ScenarioError("robot.mode", space.robot.mode, "kinematic | dynamic")
     if space.contact_geometry not in ROBOT_GEOMETRIES:
         raise ScenarioError("contact_geometry", space.contact_geometry,
                             " | ".join(ROBOT_GEOMETRIES))
-    for name, hi in (("contact_distance", 1.0), ("hand_radius", 0.5), ("head_radius", 0.5)):
-        value = getattr(space, name)
-        if not (math.isfinite(value) and 0.0 <= value <= hi):
-            raise ScenarioError(name, value, f"0 to {hi} m")
 
 
 def load_space(path: str | Path) -> ScenarioSpace:
-    space = load_typed(ScenarioSpace, path)
-    read_task_path(space.robot, Path(path).parent)
-    validate_space(space)
-    return space
+    """Load and validate a space file (its task path's ``file`` relative to it)."""
+    def validate(space: ScenarioSpace) -> None:
+        read_task_path(space.robot, Path(path).parent)
+        validate_space(space)
+
+    return load_document(path, ScenarioSpace, validate)
 
 
 def lower_upper(space: ScenarioSpace) -> tuple[np.ndarray, np.ndarray]:

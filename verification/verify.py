@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from safety_systems.output_files import write_text
 from safety_systems.scenario import ControllerConfig, dump_scenario
 from verification.evaluate_drake import evaluate_drake
 from verification.proof import Proof, prove, prove_separation
@@ -231,7 +232,7 @@ def replay_in_drake(space, config, log, out: Path, *, seed: int = 0, name: str =
         if folder is not None:
             path = out / folder / f"{label}.yaml"
             path.parent.mkdir(exist_ok=True)
-            path.write_text(dump_scenario(dataclasses.replace(scenario, name=label)))
+            write_text(path, dump_scenario(dataclasses.replace(scenario, name=label)))
             entry["scenario"] = str(path)
         replays.append(entry)
     return replays

@@ -37,3 +37,32 @@ def test_repeated_scenarios_run_once(scenarios, tmp_path):
         figures = runner.evaluate(scenarios[:2] + scenarios[:2])
     assert len(cache.read_text().splitlines()) == 2
     np.testing.assert_array_equal(figures[:2], figures[2:])
+
+
+def test_check_scheduler_accepts_a_scheduler_and_refuses_anything_else():
+    import socket
+    import threading
+
+    from safety_systems.input_error import InputError
+    from verification.runner import check_scheduler
+
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
+        check_scheduler(cluster.scheduler_address, timeout=5.0)
+    # A server that answers with bytes that are not Dask's protocol.
+    server = socket.create_server(("127.0.0.1", 0))
+    port = server.getsockname()[1]
+
+    def answer():
+        connection, _ = server.accept()
+        with connection:
+            connection.sendall(b"HTTP/1.1 400 Bad Request\r\n\r\n" + b"\xff" * 64)
+
+    thread = threading.Thread(target=answer, daemon=True)
+    thread.start()
+    try:
+        with pytest.raises(InputError) as e:
+            check_scheduler(f"tcp://127.0.0.1:{port}", timeout=2.0)
+    finally:
+        server.close()
+        thread.join(timeout=5.0)
+    assert e.value.field == "--scheduler" and "\n" not in str(e.value)
