@@ -408,7 +408,10 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     v_H), and 0 when one pair per body (its capsule nearest at its last full evaluation,
     ``hint`` (B, N)) already puts a clearance below d_min or below that pair's S (d_i is
     at most, S_i at least, that pair's); a body's properties are skipped when the sphere
-    bound shows it can lower neither figure (nor come inside S_true).
+    bound shows it can lower neither figure (nor come inside S_true), and so is a pair's
+    when the same holds through a sphere around its capsule (its axis' midpoint out to
+    its ends, plus its radius; S_true bounded by the body's speed in its mode and the
+    capsule's fastest end).
     """
     mode, t_sr, t_r, const, iso, iso_reduced = monitor
     h_iso = max(iso, iso_reduced)
@@ -424,6 +427,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     m_velocities = np.empty((ma.size, 2, 3))
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
+    c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
     speed = 0.0
     m_sphere, c_sphere = (0.0, 0.0, 0.0, np.inf), (0.0, 0.0, 0.0, np.inf)
     memo[:, 1] = np.nan  # the tracker's outputs may have changed: no k to reuse
@@ -463,10 +467,19 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                 capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
                 speed = 0.0  # the robot's: its fastest capsule end
                 for j in range(ca.size):
+                    c_fast[j] = 0.0  # capsule j's fastest end (every axis point is slower)
                     for e in range(2):
                         w0, w1, w2 = c_velocities[j, e, 0], c_velocities[j, e, 1], \
                             c_velocities[j, e, 2]
-                        speed = max(speed, np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+                        c_fast[j] = max(c_fast[j], np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+                    speed = max(speed, c_fast[j])
+                    # A sphere around capsule j: its axis' midpoint, out to its ends.
+                    for i in range(3):
+                        c_mid[j, i] = 0.5 * (c_ends[j, 0, i] + c_ends[j, 1, i])
+                    x0 = c_ends[j, 1, 0] - c_mid[j, 0]
+                    x1 = c_ends[j, 1, 1] - c_mid[j, 1]
+                    x2 = c_ends[j, 1, 2] - c_mid[j, 2]
+                    c_reach[j] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + c_radius[j]
                 if bound_monitor:
                     m_sphere = _bounding_sphere(m_ends, m_radius)
                 if bound_contact:
@@ -566,18 +579,32 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     v_H = (w0, w1, w2)
                     h = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)  # S_true's upper bound
                     h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
-                    s_true_ub = h * truth_t[b] + speed * t_r + truth_b[b] + _MARGIN
+                    s_human_ub = h * truth_t[b] + truth_b[b] + _MARGIN
+                    s_true_ub = s_human_ub + speed * t_r
                     if mode == 1:
                         s_true_ub = max(s_true_ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                    # Below these a pair could lower a figure (or come inside S_true).
+                    contact_floor = min_sep[b] if moving else -np.inf
+                    separation_floor = max(sep_min[b], 0.0) if allowed else -np.inf
                     for i in range(op_first[o], op_first[o + 1]):
                         p_H = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
                                x2 + offsets[b, i, 2])
                         if bound_contact:
                             lb = _beyond(c_sphere, p_H[0], p_H[1], p_H[2], r_contact[b, i])
-                            if ((not moving or lb > min_sep[b]) and (
-                                    not allowed or lb - s_true_ub > max(sep_min[b], 0.0))):
+                            if lb > contact_floor and lb - s_true_ub > separation_floor:
                                 continue  # can lower neither figure
                         for j in range(ca.size):
+                            if bound_contact:  # the pair, through the sphere around capsule j
+                                g0 = p_H[0] - c_mid[j, 0]
+                                g1 = p_H[1] - c_mid[j, 1]
+                                g2 = p_H[2] - c_mid[j, 2]
+                                lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_reach[j]
+                                      - r_contact[b, i] - _MARGIN)
+                                ub = s_human_ub + c_fast[j] * t_r
+                                if mode == 1:
+                                    ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                                if lb > contact_floor and lb - ub > separation_floor:
+                                    continue  # this pair can lower neither figure
                             end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
                             axis, vh_true, vr_true = segment_pair(p_H, v_H, end_a, end_b,
                                                                   vel_a, vel_b)
