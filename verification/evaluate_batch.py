@@ -66,9 +66,8 @@ from safety_systems.robot_geometry import (
 )
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.sensor_faults import FAULT_COLUMNS, apply_faults
-from safety_systems.separation import body_separation, capsule_axis
+from safety_systems.separation import body_separation, capsule_axis, pair_separation
 from safety_systems.ssm import (
-    HUMAN_SPEED_MODES,
     ISO_REDUCED_SPEED_THRESHOLD,
     hidden_ball_radius,
     override_command,
@@ -77,12 +76,7 @@ from safety_systems.ssm import (
 from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
 from safety_systems.tracks import TRACK_LOST, TRACK_SLOT, estimate_rows, frame_step, usable
 from safety_systems.ur5e import tool0_one_memo
-from safety_systems.workcell import (
-    assumed_stopping,
-    braking_table,
-    frame_timeout,
-    joint_path,
-)
+from safety_systems.workcell import braking_table, frame_timeout, joint_path, monitor_terms
 from verification.properties import MOVING_SPEED
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
@@ -358,6 +352,14 @@ def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor
     return body_separation(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor)
 
 
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def monitor_pair(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
+    """The SeparationMonitor's clearance and S (and speeds) of one body and capsule j: the
+    product's ``separation.pair_separation``, which ``body_separation`` runs over every
+    capsule (a seam for the broken-variant test, as :func:`monitor_body`)."""
+    return pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor)
+
+
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
              status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_t,
@@ -380,7 +382,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     - SeparationMonitor and SpeedOverride on the estimates: d_i and S_i of every usable
       body (``separation.body_separation`` via :func:`monitor_body`: Eqs. 6-11 over the
       capsules, bodies of radius ``r_monitor``, a hidden body's d less its ball,
-      ``monitor`` = (mode, T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced), Z_d =
+      ``monitor`` = ``workcell.monitor_terms`` (mode, T_s + T_r, T_r, B + C + Z_r, v_iso,
+      v_iso_reduced, robot speed term), Z_d =
       ``z_d_terms`` (base, sigmas, occlusion speed) base + sigmas std per body), k,
       S_max and the stop reason by ``ssm.override_command`` (Eq. 12 over the usable
       tracks, a lost track, the tracker's fault, or its newest good frame older than
@@ -413,7 +416,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     its ends, plus its radius; S_true bounded by the body's speed in its mode and the
     capsule's fastest end).
     """
-    mode, t_sr, t_r, const, iso, iso_reduced = monitor
+    mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     h_iso = max(iso, iso_reduced)
     z_d_base, z_d_sigmas, occlusion_speed = z_d_terms
     fractions, deceleration, acceleration = brakes
@@ -535,15 +538,12 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     for i in range(N):
                         if usable(status[b, i]):
                             j = hint[b, i]
-                            end_a, end_b, vel_a, vel_b = capsule_axis(m_ends, m_velocities, j)
-                            axis, h, r = segment_pair(
+                            c_j, s_j, _, _ = monitor_pair(
                                 (est_p[b, i, 0], est_p[b, i, 1], est_p[b, i, 2]),
-                                (est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]), end_a, end_b,
-                                vel_a, vel_b)
-                            s_j = protective_one(h, r, z_d_base + z_d_sigmas * std[b, i], mode,
-                                                 t_sr, t_r, const, iso, iso_reduced)
-                            c_j = (axis - m_radius[j] - r_monitor[b, i]
-                                   - hidden_ball_radius(unseen[b, i], occlusion_speed))
+                                (est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]),
+                                r_monitor[b, i], z_d_base + z_d_sigmas * std[b, i], m_ends,
+                                m_velocities, m_radius, j, monitor)
+                            c_j -= hidden_ball_radius(unseen[b, i], occlusion_speed)
                             if not (math.isnan(c_j) or math.isnan(s_j)):
                                 d_ub, s_lb = min(d_ub, c_j), max(s_lb, s_j)
                     near = d_ub + _MARGIN < d_min or (s_lb > 0.0 and d_ub + _MARGIN < s_lb)
@@ -643,10 +643,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     B, N, dt = c.B, c.N, c.dt
     cfg = c.config
     f, tr = cfg.safety, cfg.tracker
-    t_s, b_stop = assumed_stopping(cfg)
-    monitor = (HUMAN_SPEED_MODES.index(f.human_speed), t_s + f.reaction_time, f.reaction_time,
-               b_stop + f.intrusion_distance + f.robot_uncertainty, f.iso_human_speed,
-               f.iso_reduced_human_speed)
+    monitor = monitor_terms(cfg)
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
     # S_true of the separation invariant: the simulated robot's own stopping data.
