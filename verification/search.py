@@ -19,6 +19,7 @@ Points live in the unit cube over the space's free parameters
 import dataclasses
 import itertools
 import math
+import warnings
 
 import cma
 import numpy as np
@@ -107,7 +108,7 @@ def evaluate_points(space: ScenarioSpace, config: ControllerConfig, runner: Runn
 
 
 def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, budget: int,
-            seed: int = 0, candidates: int = 8192, pool: int = 16384, opening: int = 8,
+            seed: int = 0, candidates: int = 8192, pool: int = 16384, opening: int = 1,
             quick: int | None = None, explore: int = 10, round_size: int = 16,
             max_round: int = 256, stop_at_first: bool = False,
             objectives: tuple | list = (0,), confirm=None) -> SearchLog:
@@ -116,8 +117,8 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
     simulations, cheapest routes first:
 
     1. opening: the first ``opening`` points (at most an eighth of the budget) of a Sobol
-       set of ``pool`` points are simulated as one batch, unranked (where violations are
-       common, this is all it takes);
+       set of ``pool`` points are simulated as one batch, unranked, before anything else
+       (where violations are common, this is all it takes);
     2. quick: the corners (at most 10 free parameters) and the rest of the Sobol set are
        scored at once by the proofs' margins evaluated pointwise
        (``ranking.bound_scores``, microseconds each) and up to ``quick`` of them (default:
@@ -143,9 +144,15 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         evaluate_points(space, config, runner, np.zeros((1, 0)), log)
         return log
     search = _Search(space, config, runner, log, budget, stop_at_first, confirm)
-    sobol = sweep_points("sobol", max(pool, candidates), d, seed=seed)
-    opening = min(opening, max(1, budget // 8))
-    search.simulate(sobol[:opening])
+    # sweep_points("sobol", max(pool, candidates), d, seed=seed), drawn in two parts so
+    # that the opening batch is simulated before the rest is drawn (the same points)
+    engine = qmc.Sobol(d, scramble=True, seed=seed)
+    opening = min(opening, max(1, budget // 8), max(pool, candidates))
+    with warnings.catch_warnings():  # (the whole set is a power of 2, its parts need not)
+        warnings.simplefilter("ignore", UserWarning)
+        first = engine.random(opening)
+        search.simulate(first)
+        sobol = np.vstack([first, engine.random(max(pool, candidates) - opening)])
     rest = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)), sobol[opening:]])
     quick = budget // 8 if quick is None else quick
     stop = len(log.points) + quick

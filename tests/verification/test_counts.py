@@ -115,7 +115,8 @@ def test_stop_at_first_returns_at_the_first_confirmed_counterexample(tmp_path, m
     assert stopped["counterexamples"][0]["drake_stopped_at"] is not None  # cut short
     assert stopped["first_counterexample"]["confirmed"]["evaluations"] == calls.total()
     # The search ended with the batch that held it: 200 was the budget.
-    assert len(calls.batches) == 1 and report["simulations"] == 8  # (the opening batch)
+    assert len(calls.batches) == 1  # the opening batch held it
+    assert report["simulations"] == calls.counts["simulations"] <= 8
     assert set(report["unchecked_properties"]) | set(report["properties"]) == {
         "contact", "separation"}
     assert "stopped at the first confirmed counterexample" in (out / "report.md").read_text()
