@@ -81,3 +81,13 @@ def test_interrupted_sweep_resumes_without_repeating_work(tmp_path, monkeypatch)
     with Runner(workers=1) as runner:
         fresh = sweep(SPACE, SEED_CONFIG, runner, method="sobol", budget=8, seed=0)
     np.testing.assert_array_equal(fresh.robustness, resumed.robustness)
+
+
+def test_the_opening_batch_is_the_first_sobol_points_simulated_unranked():
+    # The opening batch is drawn before the rest of the Sobol set, and is its start.
+    with Runner(workers=1) as runner:
+        log = falsify(SPACE, SEED_CONFIG, runner, budget=16, seed=4, opening=2, quick=0,
+                      explore=0)
+    np.testing.assert_array_equal(np.array(log.points[:2]),
+                                  sweep_points("sobol", 16384, D, seed=4)[:2])
+    assert runner.tally.rankings == 0  # nothing ranked: the CMA-ES phase came next
