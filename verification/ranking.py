@@ -10,14 +10,16 @@ scenario is built): microseconds per candidate, some thousand times cheaper than
 closed-loop simulation. It knows nothing of the geometry of an approach; it tells which
 candidates' sensing and speeds come closest to breaking the theorem.
 
-:func:`danger_scores`, the reduced model of the loop, steps the configured monitor and the robot's braked path rate
-on the scenario as the sensor shows it (see :func:`_danger_scores` for what it keeps and
-what it leaves out) and returns two scores per candidate: the closest a body comes to
-the real robot while it moves ("stopped before contact") and the smallest d_true -
-S_true while motion is permitted (the separation invariant, on the true speeds and the
-simulated robot's own stopping data). It costs about as much as a batched
-closed-loop simulation of the same candidate (it builds the scenario and steps it), so
-the falsifier no longer ranks with it; ``sweep`` orders corners with it.
+:func:`danger_scores`, the reduced model of the loop, steps the configured monitor and
+the robot's braked path rate on the scenario as the sensor shows it (see
+:func:`_danger_scores` for what it keeps and what it leaves out) and returns two scores
+per candidate: the closest a body comes to the real robot while it moves ("stopped
+before contact") and the smallest d_true - S_true while motion is permitted (the
+separation invariant, on the true speeds and the simulated robot's own stopping data).
+It sees the geometry of an approach, occlusions and faults, and costs about as much as
+a batched closed-loop simulation of the same candidate (it builds the scenario and
+steps it): the falsifier turns to it only after the cheap ranking (``search.falsify``),
+and ``sweep`` orders corners with it.
 """
 
 import dataclasses

@@ -4,16 +4,16 @@ Points live in the unit cube over the space's free parameters
 (``verification.space.to_point`` maps them to values).
 
 - Sweeps: ``grid``, ``sobol``, ``halton``, ``uniform`` and ``corners`` (every vertex).
-- Falsification (:func:`falsify`), multi-fidelity: a first batch of Sobol points is
-  simulated at once (where violations are common it finds them with no ranking at
-  all); then the rest of the Sobol set is scored by a cheap model of the loop (the
-  proofs' margins evaluated pointwise: ``verification.ranking``) chunk by chunk, and after each chunk its most dangerous
-  candidates for each property are simulated, so the search simulates the best while
-  it still ranks the rest and stops ranking once it has what it needs; then CMA-ES (the
-  ``cma`` package) minimises each property's closed-loop robustness from the best
-  point found, each population simulated as one batch. Every evaluation of any model
-  is counted (``verification.counts``: the runner's tally); every verdict rests on
-  closed-loop simulations.
+- Falsification (:func:`falsify`), cheapest routes first: one Sobol point simulated
+  at once (where violations are common that is all it takes); then the rest of the
+  Sobol set ordered by the proofs' margins evaluated pointwise (``verification
+  .ranking.bound_scores``, microseconds a candidate) and its best simulated in doubling
+  batches; then the reduced model of the loop (``ranking.danger_scores``, about a
+  simulation's cost a candidate) and the best it ranks; then CMA-ES (the ``cma``
+  package) minimises each property's closed-loop robustness from the best point found,
+  each population simulated as one batch. Every evaluation of any model is counted
+  (``verification.counts``: the runner's tally); every verdict rests on closed-loop
+  simulations.
 """
 
 import dataclasses
@@ -128,8 +128,9 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
        sensing are found here;
     3. thorough: the reduced model of the loop (``ranking.danger_scores``, about a
        simulation's cost each) ranks the corners and the first ``candidates`` of the
-       Sobol set, and ``explore`` simulations go to them in danger order (four ranked
-       for one plain Sobol point), in rounds of five: violations that come of the
+       Sobol set, and ``explore`` simulations go to them in danger order (each property
+       still searched in turn down its own score; four ranked for one plain Sobol
+       point), in rounds of five: violations that come of the
        geometry of an approach, occlusions or faults are found here;
     4. property by property, each with an even share of what is left, CMA-ES from the
        best point so far for it, restarted from the next candidates whenever it stops.
@@ -183,8 +184,10 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         ranked = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)),
                             sobol[:candidates]])
         danger = danger_scores(space, config, ranked, runner=runner)
-        queue = _interleave(ranked[np.argsort(danger[:, SCORE_OF[objectives[0]]],
-                                              kind="stable")], sobol[:candidates], 4)
+        orders = [np.argsort(danger[:, SCORE_OF[j]], kind="stable")
+                  for j in search.wanted(objectives)]  # each property's, in turn
+        queue = _interleave(ranked[[i for row in zip(*orders) for i in row]],
+                            sobol[:candidates], 4)
         seen = {tuple(np.round(p, 12)) for p in log.points}
         queue = [p for p in queue if tuple(np.round(p, 12)) not in seen]
     stop = len(log.points) + min(explore, budget - len(log.points))

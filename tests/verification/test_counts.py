@@ -3,6 +3,7 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import verification.runner as runner_module
@@ -120,3 +121,18 @@ def test_stop_at_first_returns_at_the_first_confirmed_counterexample(tmp_path, m
     assert set(report["unchecked_properties"]) | set(report["properties"]) == {
         "contact", "separation"}
     assert "stopped at the first confirmed counterexample" in (out / "report.md").read_text()
+
+
+def test_workers_cpu_time_is_counted():
+    from verification.runner import Runner
+    from verification.space import make_scenario, to_point
+
+    config = load_controller_config(MODELS / "configs" / "seed_estimated.yaml")
+    scenarios = [make_scenario(SPACE, config, to_point(SPACE, u))
+                 for u in np.linspace(0.1, 0.9, 6)[:, None].repeat(20, axis=1)]
+    tally = Tally()
+    with Runner(workers=2, chunk=3, tally=tally) as runner:
+        runner.evaluate(scenarios)
+        runner.evaluate(scenarios)  # (read back: not evaluated again)
+    assert tally.simulations == 6 and tally.worker_cpu > 0.0
+    assert tally.cpu_seconds() >= tally.worker_cpu
