@@ -13,9 +13,9 @@ and SpeedOverride call (``separation.separation_rows``, ``ssm.speed_override_com
 the tool point's one capsule beside it), each beside its goal. Beside the real-time
 factors it prints Drake's own floor on this machine: the same 500 Hz clock driving
 one, two and four chained Python LeafSystems that do nothing (one periodic update and
-one output each), which bounds what any diagram of Python systems at 500 Hz can reach (the control loop has four such
-parts at 500 Hz: RobotCapsules, SeparationMonitor, SpeedOverride, PathFollower),
-and the dynamic mode's UR5e plant with its inverse-dynamics controller alone (no Python
+one output each), which bounds what any diagram of Python systems at 500 Hz can reach
+(the control loop has four such parts at 500 Hz: RobotCapsules, SeparationMonitor,
+SpeedOverride, PathFollower), and the dynamic mode's UR5e plant with its inverse-dynamics controller alone (no Python
 system) and beside four idle Python systems at 500 Hz, which bound the dynamic mode.
 Run it pinned to one core for the one-core figure (e.g.
 ``taskset -c 0 python benchmarks/bench_simulate.py``).
