@@ -5,18 +5,19 @@
 Prints the real-time factor of the inspection scenario in kinematic and dynamic mode
 (simulated seconds per wall-clock second, best of N runs; building the diagram is not
 timed), and of its first ten seconds in kinematic mode, the length of a scenario the
-verifier confirms in the diagram (goal 25x, about half of Drake's floor below, so that
-a confirmation takes well under a second), with its ratio to that floor, and the cost
-of one control tick's monitor + override for 10 tracked bodies against the iso
+verifier confirms in the diagram (goal 25x, about half of Drake's floor below, so that a
+confirmation takes well under a second), with its ratio to that floor, and the cost of
+one control tick's monitor + override for 10 tracked bodies against the iso
 configuration's 7 robot capsules, through the compiled functions the SeparationMonitor
 and SpeedOverride call (``separation.separation_rows``, ``ssm.speed_override_command``;
 the tool point's one capsule beside it), each beside its goal. Beside the real-time
-factors it prints Drake's own floor on this machine: the same 500 Hz clock driving
-one, two and four chained Python LeafSystems that do nothing (one periodic update and
-one output each), which bounds what any diagram of Python systems at 500 Hz can reach
-(the control loop has four such parts at 500 Hz: RobotCapsules, SeparationMonitor,
-SpeedOverride, PathFollower), and the dynamic mode's UR5e plant with its inverse-dynamics controller alone (no Python
-system) and beside four idle Python systems at 500 Hz, which bound the dynamic mode.
+factors it prints Drake's own floor on this machine: the same 500 Hz clock driving one,
+two and four chained Python LeafSystems that do nothing (one periodic update and one
+output each), which bounds what any diagram of Python systems at 500 Hz can reach (the
+control loop has four such parts at 500 Hz: RobotCapsules, SeparationMonitor,
+SpeedOverride, PathFollower), and the dynamic mode's UR5e plant with its
+inverse-dynamics controller alone (no Python system) and beside four idle Python systems
+at 500 Hz, which bound the dynamic mode.
 Run it pinned to one core for the one-core figure (e.g.
 ``taskset -c 0 python benchmarks/bench_simulate.py``).
 """
