@@ -1,4 +1,4 @@
-"""The rules every input file is read under (``safety_systems.documents``)."""
+"""The rules every input file is read under (``safety_systems.files.documents``)."""
 
 import dataclasses as dc
 import hashlib
@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from safety_systems import documents
-from safety_systems.documents import load_document
-from safety_systems.input_error import InputError
-from safety_systems.ranges import Limits, field_limits, number, unranged_fields
-from safety_systems.scenario import (
+from safety_systems.files import documents
+from safety_systems.files.documents import load_document
+from safety_systems.files.input_error import InputError
+from safety_systems.files.ranges import Limits, field_limits, number, unranged_fields
+from safety_systems.config.scenario import (
     MAX_DURATION,
     ControllerConfig,
     OperatorConfig,
@@ -20,7 +20,7 @@ from safety_systems.scenario import (
     load_controller_config,
     load_scenario,
 )
-from safety_systems.task_space import TaskScene, load_scene
+from safety_systems.planning.task_space import TaskScene, load_scene
 from verification.space import ScenarioSpace, load_space
 
 MODELS = Path(__file__).parents[1] / "models"

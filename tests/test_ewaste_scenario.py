@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.compare import compare
-from safety_systems.metrics import task_time, tool_state
-from safety_systems.scenario import load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.outputs.compare import compare
+from safety_systems.outputs.metrics import task_time, tool_state
+from safety_systems.config.scenario import load_scenario
+from safety_systems.diagrams.simulation import simulate
 
 SCENARIO = Path(__file__).parents[1] / "models" / "scenarios" / "ewaste_sorting.yaml"
 

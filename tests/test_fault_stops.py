@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from safety_systems import stops
-from safety_systems.outputs import write_outputs
-from safety_systems.scenario import scenario_from_text
-from safety_systems.simulation import simulate
+from safety_systems.sensing import stops
+from safety_systems.outputs.run_files import write_outputs
+from safety_systems.config.scenario import scenario_from_text
+from safety_systems.diagrams.simulation import simulate
 
 # An operator standing 3.5 m from the robot: far enough that separation never stops it.
 SCENARIO = """

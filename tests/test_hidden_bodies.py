@@ -5,11 +5,11 @@ the coast time when their last estimate lies beyond the exit radius from the bas
 import numpy as np
 import pytest
 
-from safety_systems.metrics import summarize
-from safety_systems.scenario import scenario_from_text
-from safety_systems.simulation import simulate
-from safety_systems.stops import STOP_SEPARATION
-from safety_systems.tracks import TRACK_HIDDEN, TRACK_NONE
+from safety_systems.outputs.metrics import summarize
+from safety_systems.config.scenario import scenario_from_text
+from safety_systems.diagrams.simulation import simulate
+from safety_systems.sensing.stops import STOP_SEPARATION
+from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_NONE
 from verification.evaluate_drake import robustness_of_run
 
 # An operator 2.6 m out from the base (about 2 m from the arm, just outside S), beyond

@@ -1,4 +1,4 @@
-"""The tracker's rules (safety_systems.tracks): the Kalman step, hidden bodies, exits,
+"""The tracker's rules (safety_systems.sensing.tracks): the Kalman step, hidden bodies, exits,
 the gate and rejected frames."""
 
 import math
@@ -8,10 +8,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems import stops
-from safety_systems.kalman import initial_covariance, predict, process_noise, transition_matrix
-from safety_systems.kalman import update as kf_update
-from safety_systems.tracks import (
+from safety_systems.sensing import stops
+from kalman_reference import predict
+from kalman_reference import update as kf_update
+from safety_systems.sensing.kalman import initial_covariance, process_noise, transition_matrix
+from safety_systems.sensing.tracks import (
     _P,
     _STATUS,
     _T_SEEN,

@@ -7,14 +7,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.scenario import (
+from safety_systems.config.scenario import (
     ControllerConfig,
     ScenarioError,
     ZonesConfig,
     scenario_from_text,
     validate_controller,
 )
-from safety_systems.zones import (
+from safety_systems.planning.zones import (
     GREEN,
     RED,
     YELLOW,

@@ -27,22 +27,13 @@ import threading
 import numba
 import numpy as np
 
-import safety_systems.joint_path
-from safety_systems import (
-    braking,
-    kalman,
-    operator_paths,
-    robot_geometry,
-    sensor_faults,
-    separation,
-    ssm,
-    stops,
-    tracks,
-    ur5e,
-)
-from safety_systems.braking import path_step_one
+import safety_systems.cell.joint_path
+from safety_systems.cell import braking, operator_paths, robot_geometry, ur5e
+from safety_systems.sensing import kalman, sensor_faults, stops, tracks
+from safety_systems.ssm import separation, formulas as ssm
+from safety_systems.cell.braking import path_step_one
 from safety_systems.compiled_cache import drop_stale_builds
-from safety_systems.configuration import (
+from safety_systems.config.configuration import (
     contact_body_radii,
     contact_capsules,
     monitor_capsules,
@@ -50,33 +41,33 @@ from safety_systems.configuration import (
     tracker_regions,
     tracker_rules,
 )
-from safety_systems.configuration import sensor_faults as scenario_faults
-from safety_systems.joint_path import path_arrays, path_state_one
-from safety_systems.metrics import robot_stopping
-from safety_systems.operator_paths import (
+from safety_systems.config.configuration import sensor_faults as scenario_faults
+from safety_systems.cell.joint_path import path_arrays, path_state_one
+from safety_systems.outputs.metrics import robot_stopping
+from safety_systems.cell.operator_paths import (
     check_bodies,
     path_point_one,
     stack_operator_paths,
 )
-from safety_systems.robot_geometry import (
+from safety_systems.cell.robot_geometry import (
     NUM_POINTS,
     capsule_ends_one,
     robot_points_one_memo,
     segment_pair,
 )
-from safety_systems.scenario import Scenario, actual_sensor
-from safety_systems.sensor_faults import FAULT_COLUMNS, apply_faults
-from safety_systems.separation import body_separation, capsule_axis, pair_separation
-from safety_systems.ssm import (
+from safety_systems.config.scenario import Scenario, actual_sensor
+from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_faults
+from safety_systems.ssm.separation import body_separation, capsule_axis, pair_separation
+from safety_systems.ssm.formulas import (
     ISO_REDUCED_SPEED_THRESHOLD,
     hidden_ball_radius,
     override_command,
     protective_one,
 )
 from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
-from safety_systems.tracks import TRACK_LOST, TRACK_SLOT, estimate_rows, frame_step, usable
-from safety_systems.ur5e import tool0_one_memo
-from safety_systems.workcell import braking_table, frame_timeout, joint_path, monitor_terms
+from safety_systems.sensing.tracks import TRACK_LOST, TRACK_SLOT, estimate_rows, frame_step, usable
+from safety_systems.cell.ur5e import tool0_one_memo
+from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms
 from verification.properties import MOVING_SPEED
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
@@ -310,7 +301,7 @@ def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, 
 
 
 # Its compiled functions inline compiled code from these modules (see compiled_cache).
-drop_stale_builds(__file__, (ssm, braking, safety_systems.joint_path, ur5e, operator_paths,
+drop_stale_builds(__file__, (ssm, braking, safety_systems.cell.joint_path, ur5e, operator_paths,
                              kalman, tracks, stops, sensor_faults, robot_geometry, separation))
 
 

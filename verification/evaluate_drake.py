@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from safety_systems.metrics import (
+from safety_systems.outputs.metrics import (
     command_signal,
     commanded,
     permitted,
@@ -11,9 +11,9 @@ from safety_systems.metrics import (
     true_pairs,
     true_protective_distances,
 )
-from safety_systems.scenario import Scenario
-from safety_systems.simulation import Run, simulate_workcell
-from safety_systems.workcell import MakeWorkcell
+from safety_systems.config.scenario import Scenario
+from safety_systems.diagrams.simulation import Run, simulate_workcell
+from safety_systems.diagrams.workcell import MakeWorkcell
 from verification.properties import (
     PROPERTIES,
     Robustness,

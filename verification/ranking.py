@@ -29,34 +29,29 @@ import math
 import numba
 import numpy as np
 
-from safety_systems import braking, robot_geometry, separation, ssm
-from safety_systems.braking import path_step_one
+from safety_systems.cell import braking, robot_geometry
+from safety_systems.ssm import separation, formulas as ssm
+from safety_systems.cell.braking import path_step_one
 from safety_systems.compiled_cache import drop_stale_builds
-from safety_systems.configuration import (
+from safety_systems.config.configuration import (
     contact_body_radii,
     contact_capsules,
     monitor_capsules,
     monitored_body_radii,
 )
-from safety_systems.joint_path import joint_path_state
-from safety_systems.metrics import robot_stopping
-from safety_systems.operator_paths import stack_paths, stacked_position_velocity
-from safety_systems.robot_geometry import (
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.outputs.metrics import robot_stopping
+from safety_systems.cell.operator_paths import stack_paths, stacked_position_velocity
+from safety_systems.cell.robot_geometry import (
     NUM_POINTS,
     capsule_ends_one,
     robot_points_one,
     segment_pair,
 )
-from safety_systems.scenario import ControllerConfig, actual_sensor
-from safety_systems.separation import body_separation, capsule_axis
-from safety_systems.ssm import _eq12, protective_one
-from safety_systems.workcell import (
-    braking_table,
-    frame_timeout,
-    joint_path,
-    monitor_terms,
-    scripted_operators,
-)
+from safety_systems.config.scenario import ControllerConfig, actual_sensor
+from safety_systems.ssm.separation import body_separation, capsule_axis
+from safety_systems.ssm.formulas import _eq12, protective_one
+from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms, scripted_operators
 from verification.counts import Tally
 from verification.evaluate_batch import delivered_frames, dropout_table
 from verification.properties import MOVING_SPEED

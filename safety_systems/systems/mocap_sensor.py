@@ -13,7 +13,7 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from safety_systems.sensor_faults import FAULT_COLUMNS, apply_to_frame
+from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_to_frame
 
 MIN_PERIOD_SEC = 1.0 / 1000.0  # OptiTrack frame rates: 20 Hz up to 1000 Hz (seed Sec. 4.1)
 MAX_PERIOD_SEC = 1.0 / 20.0
@@ -48,7 +48,7 @@ class MocapSensor(LeafSystem):
 
     Each frame carries its frame number k (as a motion-capture stream does) and, per
     entry, the id of the body it reports (entry i: id i + 1). ``faults`` (a table of
-    ``safety_systems.sensor_faults``) corrupt the frames captured in their intervals:
+    ``safety_systems.sensing.sensor_faults``) corrupt the frames captured in their intervals:
     outliers, marker swaps, non-finite positions, unknown ids, repeated or earlier
     capture times.
 
@@ -78,7 +78,7 @@ class MocapSensor(LeafSystem):
         latency_sec: delay from capture to delivery, seconds (>= 0).
         occlusions: (body_index, t_start, t_end) rows, seconds: body not seen.
         dropped_frames: (t_start, t_end) rows, seconds: no frame at all is captured.
-        faults: a fault table (``safety_systems.sensor_faults.fault_table``).
+        faults: a fault table (``safety_systems.sensing.sensor_faults.fault_table``).
         seed: noise seed (integer >= 0).
     """
 

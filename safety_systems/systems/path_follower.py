@@ -3,15 +3,15 @@
 import numpy as np
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
-from safety_systems.braking import BrakingTable, path_step_one
-from safety_systems.joint_path import JointPath, joint_path_state
+from safety_systems.cell.braking import BrakingTable, path_step_one
+from safety_systems.cell.joint_path import JointPath, joint_path_state
 
 
 class PathFollower(LeafSystem):
     """Advances the path parameter s at rate sigma towards the commanded speed scale.
 
     Every control period the rate sigma moves towards the commanded value as the
-    braking model allows (:func:`safety_systems.braking.path_rate_step`), and
+    braking model allows (:func:`safety_systems.cell.braking.path_rate_step`), and
     s advances by the mean of the old and new rates times the period. At the end of the
     task (s = ``path.end``) the robot rests; s never goes below 0. The outputs are the
     braked joint reference: q(s), v = q'(s) sigma and a = q''(s) sigma^2 + q'(s) dsigma/dt,

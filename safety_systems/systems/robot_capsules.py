@@ -11,7 +11,7 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from safety_systems.robot_geometry import (
+from safety_systems.cell.robot_geometry import (
     NUM_POINTS,
     Capsules,
     capsule_ends_one,
@@ -32,7 +32,7 @@ class RobotCapsules(LeafSystem):
     seed Eq. 5.
 
     ``capsule_ends`` holds, capsule by capsule, the two ends of its axis
-    (``safety_systems.robot_geometry``; the seed's tool point is one capsule whose ends
+    (``safety_systems.cell.robot_geometry``; the seed's tool point is one capsule whose ends
     are both tool0). ``capsule_velocities`` is the change of each end since the previous
     control tick divided by the period (Eq. 5: the seed differences successive
     end-effector transforms). Before the first tick the velocities are NaN, which the

@@ -3,8 +3,8 @@
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
-from safety_systems.ellipsoids import danger_index
-from safety_systems.speed_alteration import (
+from safety_systems.speed_alteration.ellipsoids import danger_index
+from safety_systems.speed_alteration.methods import (
     GRID,
     clearance,
     danger_grid,
@@ -12,7 +12,7 @@ from safety_systems.speed_alteration import (
     preprogrammed_speed,
     robot_at,
 )
-from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_TRACKING
+from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_TRACKING
 
 # Discrete state: [V_select, max DI at the chosen pose, decision count, positions (3N)].
 _V, _DI, _K = 0, 1, 2

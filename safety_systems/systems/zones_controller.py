@@ -3,10 +3,10 @@
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
-from safety_systems.joint_path import joint_path_state
-from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_TRACKING
-from safety_systems.ur5e import tool0_position
-from safety_systems.zones import (
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_TRACKING
+from safety_systems.cell.ur5e import tool0_position
+from safety_systems.planning.zones import (
     RED,
     STOP,
     closest_distance,

@@ -6,8 +6,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from safety_systems.braking import default_braking_table, stopping_time
-from safety_systems.joint_path import default_joint_path, joint_path_state, make_joint_path
+from safety_systems.cell.braking import default_braking_table, stopping_time
+from safety_systems.cell.joint_path import default_joint_path, joint_path_state, make_joint_path
 from safety_systems.systems.path_follower import PathFollower
 
 DT = 0.002

@@ -3,10 +3,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from safety_systems.cartesian_path import line_path
-from safety_systems.erga import ErgaParameters
-from safety_systems.scenario import EllipsoidConfig, SpeedAlterationConfig
-from safety_systems.speed_alteration import (
+from safety_systems.cell.cartesian_path import line_path
+from safety_systems.speed_alteration.erga import ErgaParameters
+from safety_systems.config.scenario import EllipsoidConfig, SpeedAlterationConfig
+from safety_systems.speed_alteration.methods import (
     collision_trend,
     danger_grid,
     erga_speed,

@@ -5,12 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from safety_systems.joint_path import default_joint_path, joint_path_state
-from safety_systems.scenario import ZonesConfig
+from safety_systems.cell.joint_path import default_joint_path, joint_path_state
+from safety_systems.config.scenario import ZonesConfig
 from safety_systems.systems.gesture_source import GestureSource
 from safety_systems.systems.zones_controller import ZonesController
-from safety_systems.ur5e import tool0_position
-from safety_systems.zones import GREEN, RED, YELLOW, recovery_step
+from safety_systems.cell.ur5e import tool0_position
+from safety_systems.planning.zones import GREEN, RED, YELLOW, recovery_step
 
 PATH = default_joint_path()
 CONFIG = ZonesConfig(green_distance=1.0, red_distance=0.5, green_speed=0.8, yellow_speed=0.4,

@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from safety_systems.scenario import SensorFault, load_controller_config
+from safety_systems.config.scenario import SensorFault, load_controller_config
 from verification.evaluate_batch import evaluate_batch, evaluate_many
 from verification.evaluate_drake import evaluate_drake
 from verification.space import Range, free_parameters, load_space, make_scenario, to_point
