@@ -112,11 +112,11 @@ def test_a_missing_file_names_it(tmp_path):
 
 
 def test_validation_errors_name_the_file(tmp_path):
-    error = _load(tmp_path, "controller: {zones: {green_distance: 0.4, red_distance: 0.5}}\n",
+    error = _load(tmp_path, "controller: {zones: {green_distance: 0.4, yellow_distance: 0.5}}\n",
                   ControllerConfig, None)
     assert error.field == "controller"  # ControllerConfig has no field 'controller'
     path = tmp_path / "config.yaml"
-    path.write_text("zones: {green_distance: 0.4, red_distance: 0.5}\n")
+    path.write_text("zones: {green_distance: 0.4, yellow_distance: 0.5}\n")
     with pytest.raises(InputError) as e:
         load_controller_config(path)
     assert str(e.value).startswith(f"{path}: config.zones.green_distance: got [0.4, 0.5]")

@@ -35,7 +35,7 @@ def test_the_robot_runs_the_planned_path(run):
 
 def test_zone_speeds_and_gestures(run):
     cfg = run.scenario.controller.zones
-    k = run["zones.speed_scale_commanded"][:, 0]
+    k = run["zones.path_speed_commanded"][:, 0]
     zone = run["zones.zone"][:, 0]
     assert {0.0, 1.0, 2.0} <= set(np.unique(zone))  # the operator visits every zone
     assert np.all(k[zone == 2] <= cfg.red_speed + 1e-12)

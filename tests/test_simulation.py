@@ -26,7 +26,7 @@ def inspection(tmp_path_factory):
 
 
 def _k(run):
-    return run["override.speed_scale_commanded"][:, 0]
+    return run["override.path_speed_commanded"][:, 0]
 
 
 def test_full_speed_while_the_operator_is_far(inspection):

@@ -9,10 +9,10 @@ MocapSensor's capture (:func:`_capture`; the unit noise of each capture index dr
 by the sensor's rule, ``mocap_sensor.unit_noise``, and kept for a sweep's next batches)
 and the KalmanTracker's rows (``kalman_tracker._track_rows``, Eqs. 2-4), and
 between two updates every control tick of every scenario in :func:`_advance`: the
-joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_one_memo``), Eq. 5,
+joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_reusing_trig``), Eq. 5,
 the monitor and the override (``ssm``: Eqs. 6-12), the properties on the operators'
 truth (``operator_paths.path_point_one``) and the follower's braked step
-(``braking.path_step_one``). Event order follows the diagram: a tracker update at time
+(``braking.path_follower_step``). Event order follows the diagram: a tracker update at time
 u is seen by the first control tick after u; outputs at a tick are computed from the
 state before that tick's updates, as Drake's loggers record them.
 ``tests/verification`` checks the two agree. It refuses dynamic-mode scenarios (the
@@ -27,12 +27,8 @@ import threading
 import numba
 import numpy as np
 
-import safety_systems.cell.joint_path
-from safety_systems.cell import braking, operator_paths, robot_geometry, ur5e
-from safety_systems.sensing import kalman, sensor_faults, stops, tracks
-from safety_systems.ssm import separation, formulas as ssm
-from safety_systems.cell.braking import path_step_one
-from safety_systems.compiled_cache import drop_stale_builds
+from safety_systems.sensing import stops
+from safety_systems.cell.braking import path_follower_step
 from safety_systems.config.configuration import (
     contact_body_radii,
     contact_capsules,
@@ -62,11 +58,17 @@ from safety_systems.ssm.formulas import (
     ISO_REDUCED_SPEED_THRESHOLD,
     hidden_ball_radius,
     override_command,
-    protective_one,
+    body_protective_distance,
 )
 from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
-from safety_systems.sensing.tracks import TRACK_LOST, TRACK_SLOT, estimate_rows, frame_step, usable
-from safety_systems.cell.ur5e import tool0_one_memo
+from safety_systems.sensing.tracks import (
+    TRACK_SLOT,
+    estimate_rows,
+    frame_step,
+    tracker_stop,
+    usable,
+)
+from safety_systems.cell.ur5e import tool0_reusing_trig
 from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms
 from verification.properties import MOVING_SPEED
 
@@ -300,9 +302,6 @@ def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, 
         carried[r] = apply_faults(faults[b], k, period, _TIME_TOL, p[r], valid[r], ids[r])
 
 
-# Its compiled functions inline compiled code from these modules (see compiled_cache).
-drop_stale_builds(__file__, (ssm, braking, safety_systems.cell.joint_path, ur5e, operator_paths,
-                             kalman, tracks, stops, sensor_faults, robot_geometry, separation))
 
 
 _MARGIN = 1e-9  # m: the bounds below skip work only when rounding could not matter
@@ -385,11 +384,11 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
       op_first[o] to op_first[o + 1] - 1), while a scenario's ticks last (k <= ``last``):
       the smallest clearance to the real robot's capsules while the robot moves (its
       fastest capsule end); while the override's k is not 0, the smallest clearance
-      less S_true of any pair (``protective_one`` with the monitor's mode and speeds,
+      less S_true of any pair (``body_protective_distance`` with the monitor's mode and speeds,
       T_r, the pair's true directed speeds and, per scenario, ``truth_t`` = T_stop +
       T_r and ``truth_b`` = the robot's stopping distance + C: ``metrics.
       true_protective_args``) and the time some pair is inside S_true;
-    - the PathFollower's update (``braking.path_step_one``; ``brakes`` = speed
+    - the PathFollower's update (``braking.path_follower_step``; ``brakes`` = speed
       fractions, decelerations, acceleration limit).
 
     Work that cannot change a figure is skipped, and each skip is exact (the tests hold
@@ -452,7 +451,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     v_joint[j] = dq[j] * rate[b]
                 if tool_only:
                     (points[6, 0], points[6, 1], points[6, 2], point_v[6, 0], point_v[6, 1],
-                     point_v[6, 2]) = tool0_one_memo(q, v_joint, trig[b])
+                     point_v[6, 2]) = tool0_reusing_trig(q, v_joint, trig[b])
                 else:
                     robot_points_one_memo(q, v_joint, m_tool, trig[b], points, point_v)
                 capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_unused)
@@ -501,12 +500,12 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                             w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
                                 m_velocities[j, e, 2]
                             v_end = max(v_end, np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
-                far = bound_monitor and fault == 0.0 and not math.isnan(v_end)  # k = 1?
+                # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
+                far = bound_monitor and not math.isnan(v_end) \
+                    and tracker_stop(status[b], fault) == stops.STOP_NONE
                 if far:
                     closest_lb, s_ub = np.inf, -np.inf
                     for i in range(N):
-                        if status[b, i] == TRACK_LOST:
-                            far = False
                         if usable(status[b, i]):
                             v0, v1, v2 = est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]
                             h = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
@@ -601,7 +600,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                                                                   vel_a, vel_b)
                             sep = axis - c_radius[j] - r_contact[b, i]
                             closest = min(closest, sep)
-                            margin = min(margin, sep - protective_one(
+                            margin = min(margin, sep - body_protective_distance(
                                 vh_true, vr_true, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
                                 iso_reduced))
                 if moving:
@@ -617,8 +616,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                         for i in range(3):
                             ends_prev[b, j, e, i] = m_ends[j, e, i]
             s_last[b] = s[b]
-            s[b], rate[b] = path_step_one(s[b], rate[b], k_override, end[b], brake_scale[b], dt,
-                                          fractions, deceleration, acceleration, 1.0)
+            s[b], rate[b] = path_follower_step(s[b], rate[b], k_override, end[b], brake_scale[b],
+                                               dt, fractions, deceleration, acceleration, 1.0)
 
 
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:

@@ -98,9 +98,7 @@ import numba
 import numpy as np
 import z3
 
-from safety_systems.sensing import kalman
 from safety_systems.cell.braking import braking_deceleration
-from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.config.configuration import contact_capsules, monitor_capsules
 from safety_systems.cell.joint_path import JointPath, SplinePath, joint_path_state
 from safety_systems.sensing.kalman import axis_predict, axis_update
@@ -112,8 +110,6 @@ from safety_systems.cell.ur5e import DH_A, DH_D
 from safety_systems.config.configuration import assumed_stopping, braking_table, frame_timeout, joint_path, placeholder_braking
 from verification.space import HEAD_BACK, HEAD_UP, OTHER_HAND_OFFSET, ScenarioSpace
 
-# Its compiled functions inline kalman's (see compiled_cache).
-drop_stale_builds(__file__, (kalman,))
 
 # Longest distance from any joint axis to the tool flange, bounded by the link lengths.
 REACH_BOUND = sum(abs(a) for a in DH_A) + sum(DH_D[1:])

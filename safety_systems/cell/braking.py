@@ -109,7 +109,7 @@ def _interp_one(x, xp, fp):
         while xp[j + 1] <= x:  # the cell xp[j] <= x < xp[j + 1] (tables are short)
             j += 1
         y = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (x - xp[j]) + fp[j]
-    return y  # one exit (see operator_paths.path_point_one)
+    return y
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -133,7 +133,7 @@ def rate_step_one(r, c, time_scale, dt, fractions, deceleration, acceleration_li
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def path_step_one(s, rate, cmd, end, time_scale, dt, fractions, deceleration,
+def path_follower_step(s, rate, cmd, end, time_scale, dt, fractions, deceleration,
                   acceleration_limit, max_rate):
     """One tick of the PathFollower: the new path parameter and rate (s, sigma) from
     (s, sigma) and the command: sigma by :func:`rate_step_one`, s by the trapezoid rule,
@@ -147,7 +147,7 @@ def path_step_one(s, rate, cmd, end, time_scale, dt, fractions, deceleration,
         s_new = s + 0.5 * (rate + new) * dt
         if s_new >= end or s_new <= 0.0:
             s_new, new = min(max(s_new, 0.0), end), 0.0
-    return s_new, new  # one exit (see operator_paths.path_point_one)
+    return s_new, new
 
 
 @numba.njit(cache=True)

@@ -228,9 +228,15 @@ def path_state_one(s, arrays, q, dq, ddq):
     back running the spline backwards (dq/ds negated), as ``SplinePath.state``. The kind
     is chosen when compiling (by the arrays' types), not at run time: a run-time branch
     between the two made every compiled caller several times slower (numba then keeps
-    reference counting of the arrays in the hot loop).
+    reference counting of the arrays in the hot loop). Called from Python, it runs the
+    same compiled code.
     """
-    raise NotImplementedError("path_state_one runs in compiled code; use joint_path_state")
+    _path_state_from_python(s, arrays, q, dq, ddq)
+
+
+@numba.njit(cache=True)
+def _path_state_from_python(s, arrays, q, dq, ddq):
+    path_state_one(s, arrays, q, dq, ddq)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element

@@ -246,8 +246,7 @@ def path_point_one(departures, ta, tc, vp, lengths, a_max, directions, waypoints
     speed of the trapezoidal profile ``tau`` = t - departure seconds in (clipped to the
     segment): a tau^2 / 2 and a tau while accelerating, then cruising at the peak speed,
     then the length minus a rest^2 / 2 and a rest while braking (rest = time to the
-    segment's end). One exit: a return per branch made callers' loops several times
-    slower (numba then keeps reference counting of the arrays in them)."""
+    segment's end)."""
     k = -1
     for j in range(departures.shape[1]):
         if departures[p, j] <= t:

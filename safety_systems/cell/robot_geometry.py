@@ -31,8 +31,6 @@ import numba
 import numpy as np
 
 from safety_systems.cell import ur5e
-from safety_systems.ssm import formulas as ssm
-from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.ssm.formulas import separation_pair
 from safety_systems.cell.ur5e import _cos_sin, _tool0_from_trig
 
@@ -42,8 +40,6 @@ NUM_POINTS = 8  # P0 ... P6 and the tool tip P7
 RADIUS_STEP = 0.0005  # m; fitted radii are rounded up to it
 _RIM_SAMPLES = 1 << 14  # per rim circle; the sampling error is bounded below
 
-# Its compiled functions inline ur5e's and ssm's (see compiled_cache).
-drop_stale_builds(__file__, (ur5e, ssm))
 
 
 def _rim_bounds(m, u, w, r, e):
@@ -233,7 +229,7 @@ def robot_points_one(q, v, tool_length, p, pv):
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def robot_points_one_memo(q, v, tool_length, memo, p, pv):
     """:func:`robot_points_one`, equal bit for bit, reusing the trig kept in ``memo`` (15,)
-    as ur5e.tool0_one_memo does (one memo can serve both)."""
+    as ur5e.tool0_reusing_trig does (one memo can serve both)."""
     q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
     c1, s1 = _cos_sin(q1, memo, 0)
     c2, s2 = _cos_sin(q2, memo, 1)
@@ -305,7 +301,7 @@ def nearest_capsule_one(p_B, v_B, r_B, ends, end_velocities, radius):
             best, best_h, best_r, index = c, v_h, v_r, j
     if faulty:
         best, best_h, best_r, index = np.nan, np.nan, np.nan, -1
-    return best, best_h, best_r, index  # one exit (see operator_paths.path_point_one)
+    return best, best_h, best_r, index
 
 
 @numba.njit(cache=True)

@@ -44,7 +44,7 @@ def stop_from_full_speed(table: BrakingTable, braking_time_scale: float,
                          period: float) -> tuple[float, float]:
     """(time, path_travel) of a stop commanded at full path speed, as the PathFollower
     runs it: whole control periods until the rate is 0, and the path parameter covered
-    (trapezoid rule, as ``braking.path_step_one``). Kept for the next calls (a sweep
+    (trapezoid rule, as ``braking.path_follower_step``). Kept for the next calls (a sweep
     asks for the same few)."""
     return _stop(tuple(table.speed_fraction), tuple(table.stopping_time),
                  tuple(table.stopping_distance), float(braking_time_scale), float(period))

@@ -139,7 +139,7 @@ def _cos_sin(angle, memo, j):
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def tool0_one_memo(q, v, memo):
+def tool0_reusing_trig(q, v, memo):
     """:func:`tool0_one`, equal bit for bit, keeping the cosines and sines of its five
     angles in ``memo`` (15,) (NaN at first) to reuse them at the next call with the same
     angle: a robot at rest, or joints that do not move in a path segment, costs no

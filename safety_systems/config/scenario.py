@@ -332,7 +332,8 @@ class SpeedAlterationConfig:
 @dc.dataclass
 class ZonesConfig:
     """Safety zones (seed 001, Section 2.5, Eq. 6): green while the closest tracked body
-    is at least ``green_distance`` from the tool, red within ``red_distance``, yellow in
+    is at least ``green_distance`` (d_green) from the tool, red within ``yellow_distance``
+    (the seed's d_yellow, the inner threshold of Eq. 6c), yellow in
     between; each zone has a speed (fraction of the nominal path speed). Performance
     recovery (Section 2.6): speeding up (after a zone change or a resume) follows a
     bounded-jerk profile, path acceleration at most ``max_acceleration`` (1/s) and its
@@ -340,7 +341,7 @@ class ZonesConfig:
     Decisions at ``rate_hz``."""
 
     green_distance: float = number(1.0, gt=0.0, le=MAX_CELL, unit="m")
-    red_distance: float = number(0.5, gt=0.0, le=MAX_CELL, unit="m")
+    yellow_distance: float = number(0.5, gt=0.0, le=MAX_CELL, unit="m")
     green_speed: float = number(1.0, ge=0.0, le=1.0)
     yellow_speed: float = number(0.5, ge=0.0, le=1.0)
     red_speed: float = number(0.1, ge=0.0, le=1.0)
@@ -508,8 +509,8 @@ def _controller_rules(c: ControllerConfig, prefix: str) -> None:
     _check(c.type in CONTROLLER_TYPES, f"{prefix}.type", c.type, " | ".join(CONTROLLER_TYPES))
     validate_alteration(c.alteration, f"{prefix}.alteration")
     z = c.zones
-    _check(z.green_distance > z.red_distance, f"{prefix}.zones.green_distance",
-           [z.green_distance, z.red_distance], "green_distance > red_distance > 0 (m)")
+    _check(z.green_distance > z.yellow_distance, f"{prefix}.zones.green_distance",
+           [z.green_distance, z.yellow_distance], "green_distance > yellow_distance > 0 (m)")
     _check(z.red_speed <= z.yellow_speed <= z.green_speed, f"{prefix}.zones.red_speed",
            [z.red_speed, z.yellow_speed, z.green_speed],
            "0 <= red_speed <= yellow_speed <= green_speed <= 1")

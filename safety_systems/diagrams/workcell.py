@@ -109,7 +109,7 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         for name in ("positions_estimated", "track_status", "fault"):
             builder.Connect(tracker.GetOutputPort(name), zones.GetInputPort(name))
         return SafetyController(tracker, {"zones": zones},
-                                zones.GetOutputPort("speed_scale_commanded"))
+                                zones.GetOutputPort("path_speed_commanded"))
     if config.type != "ssm_override":
         # Decide one control tick after the tracker has processed the newest frame.
         offset = s.latency + t.processing_time + control_period
@@ -119,7 +119,7 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         for name in ("positions_estimated", "velocities_estimated", "track_status", "fault"):
             builder.Connect(tracker.GetOutputPort(name), speed.GetInputPort(name))
         return SafetyController(tracker, {"speed": speed},
-                                speed.GetOutputPort("speed_scale_commanded"))
+                                speed.GetOutputPort("path_speed_commanded"))
     t_s, b = assumed_stopping(config)
     capsules = monitor_capsules(config)
     robot = builder.AddNamedSystem("robot_capsules", RobotCapsules(
@@ -146,7 +146,7 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
     builder.Connect(tracker.GetOutputPort("fault"), override.GetInputPort("fault"))
     return SafetyController(tracker, {"robot_capsules": robot, "monitor": monitor,
                                       "override": override},
-                            override.GetOutputPort("speed_scale_commanded"))
+                            override.GetOutputPort("path_speed_commanded"))
 
 
 @dataclasses.dataclass
@@ -245,7 +245,7 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
         braking_time_scale=robot.braking_time_scale, period_sec=dt,
         max_rate=1.0 if speed is None else config.alteration.speed_limit
         / speed.preprogrammed_speed))
-    builder.Connect(safety.command, follower.GetInputPort("speed_scale_commanded"))
+    builder.Connect(safety.command, follower.GetInputPort("path_speed_commanded"))
     q_port, v_port, plant = _add_robot(builder, robot, follower, dt)
     systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker, **safety.systems,
                    follower=follower)

@@ -107,7 +107,7 @@ def evaluation_of_run(run: Run, *, contact: bool, every: int = 5) -> dict:
                     elapsed=elapsed, closest=d[pick, nearest],
                     closing_speed=(v_h + v_r)[pick, nearest], ideal_q=q_ideal,
                     ideal_a=a_ideal, ideal_duration=max(progress, dt), contact=contact,
-                    thresholds=Thresholds(unsafe=zones.red_distance,
+                    thresholds=Thresholds(unsafe=zones.yellow_distance,
                                           comfortable=zones.green_distance))
 
 

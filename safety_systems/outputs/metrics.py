@@ -92,9 +92,9 @@ def min_separation_while_moving(separations: np.ndarray, speed: np.ndarray) -> f
 def command_signal(controller_type: str) -> str:
     """The logged signal that carries a controller's commanded path speed: k of the
     SpeedOverride, the scale of a seed-004 speed controller or of the zones."""
-    return {"ssm_override": "override.speed_scale_commanded",
-            "zones": "zones.speed_scale_commanded"}.get(controller_type,
-                                                        "speed.speed_scale_commanded")
+    return {"ssm_override": "override.path_speed_commanded",
+            "zones": "zones.path_speed_commanded"}.get(controller_type,
+                                                        "speed.path_speed_commanded")
 
 
 def commanded(run: Run) -> np.ndarray:

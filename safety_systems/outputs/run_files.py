@@ -30,8 +30,8 @@ WORDS = {"stop_reason": STOP_REASONS, "zone": ZONE_NAMES}  # trace.csv columns w
 def commanded_speed(run: Run) -> np.ndarray:
     """(T,) the controller's commanded path speed (k for the SSM override)."""
     key = next(k for k in ("override", "speed", "zones")
-               if f"{k}.speed_scale_commanded" in run.signals)
-    return run[f"{key}.speed_scale_commanded"][:, 0]
+               if f"{k}.path_speed_commanded" in run.signals)
+    return run[f"{key}.path_speed_commanded"][:, 0]
 
 
 def measured_distances(run: Run) -> np.ndarray:

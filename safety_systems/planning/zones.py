@@ -3,7 +3,7 @@
 Dsouza et al. 2025 classify the closest human-robot distance (Eq. 6b) into green,
 yellow and red zones (Eq. 6c) and give each zone a speed; when the operator leaves,
 the robot recovers its speed. Eq. 6c as printed makes red "d >= d_yellow", which
-would overlap green; we read red as d <= the red threshold (``red_distance``), yellow
+would overlap green; we read red as d <= d_yellow (``yellow_distance``), yellow
 strictly between the thresholds and green at or beyond ``green_distance``.
 """
 
@@ -24,10 +24,11 @@ def closest_distance(p_robot: np.ndarray, bodies: np.ndarray, usable: np.ndarray
     return float(np.min(np.where(usable, d, np.inf), initial=np.inf))
 
 
-def zone_of(distance: np.ndarray, *, green_distance: float, red_distance: float) -> np.ndarray:
+def zone_of(distance: np.ndarray, *, green_distance: float,
+            yellow_distance: float) -> np.ndarray:
     """Eq. 6c (as read in the module docstring): 0 green, 1 yellow, 2 red."""
     d = np.asarray(distance, dtype=float)
-    return np.where(d >= green_distance, GREEN, np.where(d > red_distance, YELLOW, RED))
+    return np.where(d >= green_distance, GREEN, np.where(d > yellow_distance, YELLOW, RED))
 
 
 def zone_speed(zone: np.ndarray, speeds: tuple[float, float, float]) -> np.ndarray:

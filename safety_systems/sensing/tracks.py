@@ -48,13 +48,14 @@ import math
 import numba
 import numpy as np
 
-from safety_systems.sensing import kalman, stops
-from safety_systems.compiled_cache import drop_stale_builds
+from safety_systems.sensing import stops
 from safety_systems.sensing.kalman import axis_predict, axis_update
 
 TRACK_NONE, TRACK_TRACKING, TRACK_HIDDEN, TRACK_LOST = 0, 1, 2, 3
 TRACK_SLOT = 11
-_P, _C, _W, _STATUS, _T_SEEN = 6, 7, 8, 9, 10
+# Offsets in a track slot: the axis covariance [[p, c], [c, w]] of (position, velocity),
+# then the status and the capture time of the last accepted measurement.
+_POS_VAR, _COVAR, _VEL_VAR, _STATUS, _T_SEEN = 6, 7, 8, 9, 10
 HIDDEN_BODY_RULES = ("hazard", "expire")
 MIN_MEASUREMENT_STD = 1e-6  # m; keeps R positive definite for a noise-free sensor
 GAP_PERIODS = 1.5  # a measurement more than this many periods after the last one ends a gap
@@ -64,8 +65,6 @@ GAP_PERIODS = 1.5  # a measurement more than this many periods after the last on
  R_GATE_WIDTH, R_Z_D) = range(11)
 NUM_RULES = 11
 
-# Its compiled functions inline kalman's and read stops' codes (see compiled_cache).
-drop_stale_builds(__file__, (kalman, stops))
 
 
 def make_rules(*, measurement_std: float, velocity_process_noise: float,
@@ -215,14 +214,15 @@ def frame_step(tracks, base, n, t, z, valid, ids, t_good, counts, rules, regions
                     for k in range(3):
                         track[k], track[k + 3] = z[e, k], 0.0
                 else:  # Eqs. 2 and 4, then Eq. 3
-                    p, c, w = axis_predict(track[_P], track[_C], track[_W], elapsed, rules[R_Q2])
+                    p, c, w = axis_predict(track[_POS_VAR], track[_COVAR], track[_VEL_VAR],
+                                           elapsed, rules[R_Q2])
                     k_p, k_v, p, c, w = axis_update(p, c, w, r2)
                     for k in range(3):
                         prior = track[k] + elapsed * track[k + 3]
                         innovation = z[e, k] - prior
                         track[k] = prior + k_p * innovation
                         track[k + 3] += k_v * innovation
-                track[_P], track[_C], track[_W] = p, c, w
+                track[_POS_VAR], track[_COVAR], track[_VEL_VAR] = p, c, w
                 track[_STATUS], track[_T_SEEN] = TRACK_TRACKING, t
             elif status == TRACK_TRACKING or status == TRACK_HIDDEN:
                 track[_STATUS] = TRACK_HIDDEN
@@ -244,8 +244,34 @@ def frame_step(tracks, base, n, t, z, valid, ids, t_good, counts, rules, regions
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def usable(status):
-    """Whether a track is monitored: tracking, or hidden (a ball)."""
+    """Whether a track is monitored: tracking, or hidden (a ball). The one rule: the
+    monitor, the override, every controller, the batched evaluator and the runtime ask
+    this function."""
     return status == TRACK_TRACKING or status == TRACK_HIDDEN
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def tracker_stop(status, fault):
+    """Why the tracker holds the robot (a ``stops`` code, ``STOP_NONE`` if it does not):
+    its ``fault`` (NaN or an unknown code counts as a stale frame), else a lost track
+    (the ``expire`` rule's body hidden near the robot). The one stop rule of every
+    controller that reads the tracker, and of the batched evaluator."""
+    reason = float(stops.STOP_NONE)
+    if fault != 0.0:  # NaN too
+        known = fault >= stops.STOP_STALE_FRAME and fault < len(stops.STOP_REASONS)
+        reason = fault if known else float(stops.STOP_STALE_FRAME)
+    else:
+        for i in range(status.size):
+            if status[i] == TRACK_LOST:
+                reason = float(stops.STOP_LOST_TRACK)
+    return reason
+
+
+def usable_bodies(status: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """(N,) bool: the bodies a controller may use, a usable track (:func:`usable`) with a
+    finite position (N, 3)."""
+    return np.array([usable(s) for s in status], dtype=bool) & np.all(
+        np.isfinite(positions), axis=1)
 
 
 @numba.njit(cache=True)
@@ -263,7 +289,7 @@ def estimate_rows(tracks, base, n, t_good, p, v, status, std, unseen):
         for k in range(3):
             p[i, k] = np.nan if none else track[k]
             v[i, k] = np.nan if none else track[k + 3]
-        std[i] = 0.0 if none else math.sqrt(max(track[_P], 0.0))
+        std[i] = 0.0 if none else math.sqrt(max(track[_POS_VAR], 0.0))
         unseen[i] = t_good - track[_T_SEEN] if (s == TRACK_HIDDEN or s == TRACK_LOST) else 0.0
 
 

@@ -13,17 +13,14 @@ import math
 import numba
 import numpy as np
 
-from safety_systems.sensing import stops, tracks
-from safety_systems.compiled_cache import drop_stale_builds
-from safety_systems.sensing.tracks import TRACK_LOST, usable
+from safety_systems.sensing import stops
+from safety_systems.sensing.tracks import tracker_stop, usable
 
 HUMAN_SPEED_MODES = ("estimated", "iso", "estimated_with_floor")
 # The robot's speed in S (SafetyConfig.robot_speed): Eq. 7's directed speed, or the speed
 # of the capsule's fastest point (safety_systems.ssm.separation).
 ROBOT_SPEED_TERMS = ("directed", "fastest_point")
 
-# Its compiled functions inline tracks' and read stops' codes (see compiled_cache).
-drop_stale_builds(__file__, (stops, tracks))
 
 # ISO/TS 15066 Eq. 1 (seed Section 2) after ISO 13855: 2000 mm/s, or 1600 mm/s where
 # the resulting S exceeds 500 mm (and then S is not taken below 500 mm).
@@ -46,7 +43,7 @@ def separation_pair(p_R, v_R, p_B, v_B):
         v_h, v_r = np.sqrt(h0 * h0 + h1 * h1 + h2 * h2), np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
     else:  # a NaN position
         v_h, v_r = np.nan, np.nan
-    return dist, v_h, v_r  # one exit (see operator_paths.path_point_one)
+    return dist, v_h, v_r
 
 
 @numba.njit(cache=True)
@@ -138,7 +135,7 @@ _MODE_CODES = {mode: code for code, mode in enumerate(HUMAN_SPEED_MODES)}
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def protective_one(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced):
+def body_protective_distance(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced):
     """S of one body, compiled and callable from other compiled code:
     ((v_H (T_s + T_r) + v_R T_r) + (B + C + Z_r)) + Z_d with ``t_sr`` = T_s + T_r and
     ``const`` = B + C + Z_r, v_H by ``mode`` (its index in ``HUMAN_SPEED_MODES``) and
@@ -155,12 +152,12 @@ def protective_one(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced):
 
 @numba.njit(cache=True)
 def _protective_kernel(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced, out):
-    """:func:`protective_one` of every element (flat arrays; ``z_d`` of length 1 or of the
+    """:func:`body_protective_distance` of every element (flat arrays; ``z_d`` of length 1 or of the
     outputs)."""
     one_z = z_d.size == 1
     for i in range(out.size):
-        out[i] = protective_one(v_h[i], v_r[i], z_d[0] if one_z else z_d[i], mode, t_sr, t_r,
-                                const, iso, iso_reduced)
+        out[i] = body_protective_distance(v_h[i], v_r[i], z_d[0] if one_z else z_d[i], mode,
+                                          t_sr, t_r, const, iso, iso_reduced)
 
 
 def protective_separation_distance(
@@ -277,7 +274,7 @@ _S_MAX_CAP = 1e100
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def _eq12(d, s_max, delta_s, d_min):
+def _speed_scale_eq12(d, s_max, delta_s, d_min):
     """Eq. 12 for one distance (see :func:`speed_override`), compiled."""
     s = _S_MAX_CAP if math.isnan(s_max) else min(max(s_max, -_S_MAX_CAP), _S_MAX_CAP)
     if not (d >= d_min and d < np.inf):  # also NaN
@@ -289,10 +286,10 @@ def _eq12(d, s_max, delta_s, d_min):
 
 
 @numba.njit(cache=True)
-def _eq12_elements(d, s_max, delta_s, d_min, out):
+def _speed_scale_eq12_elements(d, s_max, delta_s, d_min, out):
     one_s = s_max.size == 1
     for i in range(out.size):
-        out[i] = _eq12(d[i], s_max[0] if one_s else s_max[i], delta_s, d_min)
+        out[i] = _speed_scale_eq12(d[i], s_max[0] if one_s else s_max[i], delta_s, d_min)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -315,31 +312,25 @@ def override_row(d, s, inc, delta_s, d_min):
     elif faulty:  # a non-finite d_i or S_i: stop
         k, top = 0.0, np.inf
     else:
-        k = _eq12(closest, top, delta_s, d_min)
-    return k, top  # one exit (see operator_paths.path_point_one)
+        k = _speed_scale_eq12(closest, top, delta_s, d_min)
+    return k, top
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def override_command(d, s, status, fault, delta_s, d_min, included):
     """The SpeedOverride's (k, S_max, stop reason) of one robot, compiled: Eq. 12 over
     the bodies with a usable track (``tracks.usable``: tracking or hidden; their flags
-    are written into ``included`` (N,)) by :func:`override_row`, then fail safe: a lost
-    track (the ``expire`` rule) stops the robot (``stops.STOP_LOST_TRACK``), and so does a
-    tracker ``fault``, which is its own stop reason (``safety_systems.sensing.stops``; NaN or an
-    unknown code counts as a stale frame). The stop rule of every controller that reads
-    the tracker is this one."""
-    lost = False
+    are written into ``included`` (N,)) by :func:`override_row`, then fail safe: the
+    tracker's stop rule (``tracks.tracker_stop``: its fault, else a lost track) holds the
+    robot with that reason."""
     for i in range(d.size):
-        lost = lost or status[i] == TRACK_LOST
         included[i] = usable(status[i])
     k, top = override_row(d, s, included, delta_s, d_min)
-    reason = stops.STOP_SEPARATION if k <= 0.0 else stops.STOP_NONE
-    if lost:
-        k, reason = 0.0, stops.STOP_LOST_TRACK
-    if fault != 0.0:  # NaN too
-        known = fault >= stops.STOP_STALE_FRAME and fault < len(stops.STOP_REASONS)
-        k, reason = 0.0, fault if known else stops.STOP_STALE_FRAME
-    return k, top, reason  # one exit (see operator_paths.path_point_one)
+    reason = float(stops.STOP_SEPARATION if k <= 0.0 else stops.STOP_NONE)
+    held = tracker_stop(status, fault)
+    if held != stops.STOP_NONE:
+        k, reason = 0.0, held
+    return k, top, reason
 
 
 @numba.njit(cache=True)
@@ -392,7 +383,7 @@ def speed_override(
     d = np.ascontiguousarray(np.broadcast_to(d, shape)).reshape(-1)
     s = s.reshape(1) if s.size == 1 else np.ascontiguousarray(np.broadcast_to(s, shape)).reshape(-1)
     out = np.empty(shape)
-    _eq12_elements(d, s, float(delta_s), float(d_min), out.reshape(-1))
+    _speed_scale_eq12_elements(d, s, float(delta_s), float(d_min), out.reshape(-1))
     return out
 
 

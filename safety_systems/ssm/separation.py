@@ -5,7 +5,7 @@ Every tracked body is a sphere (its radius from the scenario) and the robot a se
 capsules (``safety_systems.cell.robot_geometry``; the seed's tool point is one capsule of
 length and radius 0, and then bodies count as points). For each body-capsule pair,
 ``robot_geometry.segment_pair`` gives Eqs. 6-8 with the robot point taken as the nearest
-point of the capsule's axis, and ``ssm.protective_one`` gives S (Eqs. 9-11) from the
+point of the capsule's axis, and ``ssm.body_protective_distance`` gives S (Eqs. 9-11) from the
 pair's directed speeds. A body's d_i is its smallest clearance over the capsules (axis
 distance - capsule radius - body radius; less the radius of its ball while hidden,
 ``ssm.hidden_ball_radius``) and its S_i the largest S over its pairs: Eq. 12 then
@@ -19,15 +19,10 @@ import math
 import numba
 import numpy as np
 
-from safety_systems.cell import robot_geometry
-from safety_systems.ssm import formulas as ssm
-from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.cell.robot_geometry import segment_pair
-from safety_systems.ssm.formulas import hidden_ball_radius, protective_one
+from safety_systems.ssm.formulas import hidden_ball_radius, body_protective_distance
 from safety_systems.sensing.tracks import usable
 
-# Its compiled functions inline robot_geometry's and ssm's (see compiled_cache).
-drop_stale_builds(__file__, (robot_geometry, ssm))
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -46,7 +41,7 @@ def pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
     """(clearance, S, v_human_directed, v_robot) of one body (at ``p``, moving at ``w``:
     tuples; radius r_B, Z_d ``z_d``) and capsule j: Eqs. 6-8 to the nearest point of the
     capsule's axis (``robot_geometry.segment_pair``), the clearance less the capsule's
-    and the body's radii, and S by ``ssm.protective_one``. ``monitor`` = (mode index,
+    and the body's radii, and S by ``ssm.body_protective_distance``. ``monitor`` = (mode index,
     T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced, robot speed index in
     ``ssm.ROBOT_SPEED_TERMS``): v_robot is Eq. 7's directed speed, or (``fastest_point``)
     the speed of the capsule's faster end, which no point of its axis exceeds (a rigid
@@ -58,7 +53,7 @@ def pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
         r = max(math.sqrt(vel_a[0] * vel_a[0] + vel_a[1] * vel_a[1] + vel_a[2] * vel_a[2]),
                 math.sqrt(vel_b[0] * vel_b[0] + vel_b[1] * vel_b[1] + vel_b[2] * vel_b[2]))
     return (axis - radius[j] - r_B,
-            protective_one(h, r, z_d, mode, t_sr, t_r, const, iso, iso_reduced), h, r)
+            body_protective_distance(h, r, z_d, mode, t_sr, t_r, const, iso, iso_reduced), h, r)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -81,7 +76,7 @@ def body_separation(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, moni
             s = max(s, s_j)
     if faulty:
         d, s, v_h, v_r, nearest = np.nan, np.nan, np.nan, np.nan, -1
-    return d - ball, s, v_h, v_r, nearest  # one exit (see operator_paths.path_point_one)
+    return d - ball, s, v_h, v_r, nearest
 
 
 @numba.njit(cache=True)

@@ -3,7 +3,7 @@
 import numpy as np
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
-from safety_systems.cell.braking import BrakingTable, path_step_one
+from safety_systems.cell.braking import BrakingTable, path_follower_step
 from safety_systems.cell.joint_path import JointPath, joint_path_state
 
 
@@ -23,7 +23,7 @@ class PathFollower(LeafSystem):
 
         name: PathFollower
         input_ports:
-        - speed_scale_commanded
+        - path_speed_commanded
         output_ports:
         - joint_positions_desired
         - joint_velocities_desired
@@ -59,7 +59,7 @@ class PathFollower(LeafSystem):
         self._path_state = self.DeclareDiscreteState(np.array([0.0, 0.0, 0.0]))
         self._reference = [self.DeclareDiscreteState(row)
                            for row in self._reference_at(0.0, 0.0, 0.0)]
-        self._cmd = self.DeclareVectorInputPort("speed_scale_commanded", 1)
+        self._cmd = self.DeclareVectorInputPort("path_speed_commanded", 1)
         self.DeclarePeriodicDiscreteUpdateEvent(period_sec=period_sec, offset_sec=0.0,
                                                 update=self._step)
         for group, name in zip(self._reference, ("joint_positions_desired",
@@ -75,8 +75,8 @@ class PathFollower(LeafSystem):
     def _step(self, context: Context, discrete_state: DiscreteValues) -> None:
         s, rate, _ = context.get_discrete_state(self._path_state).value()
         end = self._path.end
-        # path_step_one holds s and sigma at the end (sigma is 0 from the tick that got there).
-        s_new, new = path_step_one(s, rate, float(self._cmd.Eval(context)[0]), end,
+        # path_follower_step holds s and sigma at the end (sigma is 0 from the tick that got there).
+        s_new, new = path_follower_step(s, rate, float(self._cmd.Eval(context)[0]), end,
                                    self._brake_scale, self._dt, self._fractions,
                                    self._deceleration, self._accel, self._max_rate)
         discrete_state.set_value(self._path_state, [s_new, new, float(s_new >= end)])

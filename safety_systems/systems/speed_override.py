@@ -19,7 +19,7 @@ class SpeedOverride(LeafSystem):
         - track_status
         - fault
         output_ports:
-        - speed_scale_commanded
+        - path_speed_commanded
         - max_protective_distance
         - stop_reason
 
@@ -53,7 +53,7 @@ class SpeedOverride(LeafSystem):
             ),
             prerequisites_of_calc={self.all_input_ports_ticket()},
         )
-        for i, name in enumerate(("speed_scale_commanded", "max_protective_distance",
+        for i, name in enumerate(("path_speed_commanded", "max_protective_distance",
                                   "stop_reason")):
             self.DeclareVectorOutputPort(
                 name, 1, lambda c, o, i=i: o.SetAtIndex(0, self._cache.Eval(c)[i]),

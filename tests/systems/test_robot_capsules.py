@@ -108,7 +108,7 @@ def test_velocity_from_path_follower():
                                               acceleration_limit=2.0, period_sec=DT))
     command = builder.AddSystem(ConstantVectorSource([1.0]))
     ee = builder.AddSystem(RobotCapsules(capsules=CAPSULES, period_sec=DT))
-    builder.Connect(command.get_output_port(), follower.GetInputPort("speed_scale_commanded"))
+    builder.Connect(command.get_output_port(), follower.GetInputPort("path_speed_commanded"))
     builder.Connect(follower.GetOutputPort("joint_positions_desired"),
                     ee.GetInputPort("joint_positions"))
     simulator = Simulator(builder.Build())

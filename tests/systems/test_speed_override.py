@@ -15,7 +15,7 @@ def _eval(d, s, status, fault=0.0, **kw):
     o.GetInputPort("track_status").FixValue(c, np.asarray(status, float))
     o.GetInputPort("fault").FixValue(c, [fault])
     return [o.GetOutputPort(n).Eval(c)[0]
-            for n in ("speed_scale_commanded", "max_protective_distance", "stop_reason")]
+            for n in ("path_speed_commanded", "max_protective_distance", "stop_reason")]
 
 
 def test_matches_plain_function():
