@@ -6,7 +6,7 @@ their operators (number of operators, bodies and waypoints), as the scenarios of
 space do. It runs the compiled functions the LeafSystems wrap, in compiled loops: at
 each tracker update, in one call (:func:`_update`), the frame each sensor delivers, the
 MocapSensor's capture (:func:`_capture`; the unit noise of each capture index drawn once
-by the sensor's rule, ``mocap_sensor.unit_noise``, and kept for a sweep's next batches)
+by the sensor's rule, ``delivery.unit_noise``, and kept for a sweep's next batches)
 and the KalmanTracker's rows (``kalman_tracker._track_rows``, Eqs. 2-4), and
 between two updates every control tick of every scenario in :func:`_advance`: the
 joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_reusing_trig``), Eq. 5,
@@ -60,7 +60,7 @@ from safety_systems.ssm.formulas import (
     override_command,
     body_protective_distance,
 )
-from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
+from safety_systems.sensing.delivery import TIME_TOL, delivered_frame, unit_noise
 from safety_systems.sensing.tracks import (
     TRACK_SLOT,
     estimate_rows,
@@ -105,25 +105,9 @@ def dropout_table(sensors: list) -> np.ndarray:
 
 @numba.njit(cache=True)
 def _delivered_rows(u, latency, period, drops, out):
-    """:func:`delivered_frames` of every row, compiled (the same arithmetic)."""
+    """:func:`delivered_frames` of every row, compiled (``delivery.delivered_frame``)."""
     for b in range(latency.size):
-        now = u[b] + _TIME_TOL - latency[b]
-        i = math.floor(now / period)
-        if (i + 1) * period <= now:
-            i += 1
-        if i * period > now:
-            i -= 1
-        for _ in range(drops.shape[1] + 1):  # step back over dropped captures
-            t = i * period
-            first, inside = i, False
-            for j in range(drops.shape[1]):
-                if drops[b, j, 0] <= t < drops[b, j, 1]:
-                    inside = True
-                    first = min(first, math.ceil(drops[b, j, 0] / period - 1e-9) - 1)
-            if not inside:
-                break
-            i = first
-        out[b] = max(i, -1)
+        out[b] = delivered_frame(u[b], latency[b], period, drops[b])
 
 
 def delivered_frames(u: float | np.ndarray, latency: np.ndarray, period: float,
@@ -217,7 +201,7 @@ _UNIT_NOISE_LOCK = threading.Lock()  # (a Dask worker runs batches in threads)
 
 def unit_noise_table(seed: int, n: int, frames: int) -> np.ndarray:
     """(frames, n, 3) unit noise of captures 0 .. frames - 1 of a sensor with ``seed``
-    and n bodies (``mocap_sensor.unit_noise``); kept for the next batches of a sweep
+    and n bodies (``delivery.unit_noise``); kept for the next batches of a sweep
     (never changed in place: a longer table is a new array)."""
     with _UNIT_NOISE_LOCK:
         table = _UNIT_NOISE.pop((seed, n), np.zeros((0, n, 3)))
@@ -299,7 +283,7 @@ def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, 
                     p[r, i, j] = p[r, i, j] + noise[b] * units[k, i, j]
                 if not seen:
                     p[r, i, j] = np.nan
-        carried[r] = apply_faults(faults[b], k, period, _TIME_TOL, p[r], valid[r], ids[r])
+        carried[r] = apply_faults(faults[b], k, period, TIME_TOL, p[r], valid[r], ids[r])
 
 
 

@@ -9,7 +9,9 @@ jerk from the selected velocity; we take it from the speed the robot actually ra
 which the PathFollower makes follow the selection (and which every controller, the SSM
 override included, has).
 
-Each run is also scored with seed 001's metric (``safety_systems.planning.evaluation``), whose
+The measures live beside this module: seed 004's danger index and jerk in
+``danger_and_jerk``, seed 001's metric in ``evaluation_of_run``, the UR5e's inverse
+dynamics in ``cell.ur5e_dynamics``. Each run is scored with seed 001's metric, whose
 contact gate counts as contact a danger index of 1 or more (seed 004's Eqs. 6-7, the
 scenario's ellipsoids) or a true separation below the scenario's contact distance while
 the robot moves (``metrics.contact_while_moving``). For seed 004's two simulations
@@ -22,93 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
-from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import MultibodyForces
-
-from safety_systems.speed_alteration.ellipsoids import danger_index, robot_ellipsoids
-from safety_systems.planning.evaluation import Thresholds, evaluate
-from safety_systems.cell.joint_path import joint_path_state
-from safety_systems.ssm.formulas import directed_speeds
-from safety_systems.cell.ur5e import AddUr5e, tool0_position_and_velocity
-from safety_systems.outputs.metrics import contact_while_moving, separation_while_moving, task_time
-from safety_systems.files.output_files import save_figure, write_json, write_text
+from safety_systems.config.configuration import joint_path
 from safety_systems.config.scenario import Scenario
 from safety_systems.diagrams.simulation import Run, simulate
-from safety_systems.speed_alteration.methods import operator_ellipsoids_over_time, preprogrammed_speed
+from safety_systems.files.output_files import save_figure, write_json, write_text
+from safety_systems.outputs.danger_and_jerk import danger_over_run, jerk, sampled_speed
+from safety_systems.outputs.evaluation_of_run import evaluation_of_run
+from safety_systems.outputs.metrics import contact_while_moving, separation_while_moving, task_time
 from safety_systems.outputs.table_1 import table_1
-from safety_systems.diagrams.workcell import body_roles
-from safety_systems.config.configuration import joint_path
-
-
-def danger_over_run(run: Run) -> np.ndarray:
-    """(T,) largest DI over every robot-operator ellipsoid pair at each tick."""
-    sizes = run.scenario.controller.alteration.ellipsoids
-    operator_of, is_hand = body_roles(run.scenario)
-    robot = robot_ellipsoids(run["q"], sizes.link_radii, sizes.tool_radius, sizes.tool_offset)
-    humans = operator_ellipsoids_over_time(run.bodies("operators.positions_true"),
-                                           run["operators.present"] > 0.5, operator_of,
-                                           is_hand, sizes)
-    return danger_index(robot, humans).max(axis=(1, 2))
-
-
-def sampled_speed(run: Run) -> tuple[np.ndarray, float]:
-    """The tool's signed speed along the path (path rate times Eq. 8's V_pre), m/s,
-    sampled every controller period, and that period."""
-    period = 1.0 / run.scenario.controller.alteration.rate_hz
-    step = max(1, int(round(period * run.scenario.robot.control_rate_hz)))
-    v_pre = preprogrammed_speed(joint_path(run.scenario.robot))
-    return run["follower.path_state"][::step, 1] * v_pre, period
-
-
-def jerk(speed: np.ndarray, period: float) -> np.ndarray:
-    """Second difference of the speed over the period squared, m/s^3."""
-    return np.diff(speed, 2) / period**2
-
-
-def inverse_dynamics_torques(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """(T, 6) joint torques of the UR5e model for the given motion (gravity included)."""
-    plant = MultibodyPlant(0.0)
-    AddUr5e(plant)
-    plant.Finalize()
-    context = plant.CreateDefaultContext()
-    forces = MultibodyForces(plant)
-    out = np.empty_like(q)
-    for i in range(len(q)):
-        plant.SetPositions(context, q[i])
-        plant.SetVelocities(context, v[i])
-        out[i] = plant.CalcInverseDynamics(context, a[i], forces)
-    return out
-
-
-def evaluation_of_run(run: Run, *, contact: bool, every: int = 5) -> dict:
-    """Seed 001's metric (``safety_systems.planning.evaluation``) of a run, up to the end of its
-    task (or of the run), sampled every ``every`` control ticks; ``contact``: whether the
-    robot touched an operator anywhere in the run (the metric's contact gate)."""
-    finished = task_time(run)
-    elapsed = finished if finished is not None else float(run.time[-1])
-    rows = np.flatnonzero(run.time <= elapsed + 1e-9)[::every]
-    progress = float(run["follower.path_state"][rows[-1], 0])
-    q, v = run["q"][rows], run["v"][rows]
-    a = run["follower.joint_accelerations_desired"][rows]
-    p_tool, v_tool = tool0_position_and_velocity(q, v)
-    bodies = run.bodies("operators.positions_true")[rows]
-    d = np.where(run["operators.present"][rows] > 0.5,
-                 np.linalg.norm(bodies - p_tool[:, None, :], axis=-1), np.inf)
-    nearest = np.argmin(d, axis=1)
-    v_h, v_r = directed_speeds(p_tool, v_tool, bodies, run.bodies("operators.velocities_true")[rows])
-    pick = np.arange(len(rows))
-    path = joint_path(run.scenario.robot)
-    dt = float(run.time[rows[1]] - run.time[rows[0]]) if len(rows) > 1 else 1.0
-    s_ideal = np.arange(0.0, max(progress, dt), dt)
-    q_ideal, _, a_ideal = joint_path_state(path, s_ideal)
-    zones = run.scenario.controller.zones
-    return evaluate(time=run.time[rows], q=q, v=v, a=a,
-                    torques=inverse_dynamics_torques(q, v, a), progress=progress,
-                    elapsed=elapsed, closest=d[pick, nearest],
-                    closing_speed=(v_h + v_r)[pick, nearest], ideal_q=q_ideal,
-                    ideal_a=a_ideal, ideal_duration=max(progress, dt), contact=contact,
-                    thresholds=Thresholds(unsafe=zones.yellow_distance,
-                                          comfortable=zones.green_distance))
+from safety_systems.speed_alteration.methods import preprogrammed_speed
 
 
 def controller_metrics(run: Run) -> dict:

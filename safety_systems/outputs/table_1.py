@@ -13,6 +13,8 @@ the table prints ours.
 
 import numpy as np
 
+from safety_systems.outputs.danger_and_jerk import jerk
+
 SEED_JERK_SD = {  # mm/s^3, seed 004 Table 1
     "erga_positive": {"erga": 216.218, "hwang": 436.477, "bimodal": 2041.241},
     "erga_negative": {"erga": 1462.905, "hwang": 56694.670, "bimodal": 3273.268},
@@ -34,8 +36,6 @@ def largest_step(row: dict) -> tuple[float, float, float]:
 
 def shifted_sd(row: dict, shift: int) -> float:
     """Our jerk SD (mm/s^3) over the jerk window moved by ``shift`` samples."""
-    from safety_systems.outputs.compare import jerk  # compare imports this module
-
     first, last = row["jerk_samples"]
     j = jerk(np.asarray(row["samples"]), row["sample_period"])[max(first + shift, 0):last - 1 + shift]
     return 1000.0 * float(j.std()) if j.size else 0.0
