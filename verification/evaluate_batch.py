@@ -58,8 +58,8 @@ from safety_systems.ssm.formulas import (
     ISO_REDUCED_SPEED_THRESHOLD,
     hidden_ball_radius,
     override_command,
-    body_protective_distance,
 )
+from safety_systems.ssm.true_measures import is_moving, is_permitted, true_margin
 from safety_systems.sensing.delivery import TIME_TOL, delivered_frame, unit_noise
 from safety_systems.sensing.tracks import (
     TRACK_SLOT,
@@ -70,7 +70,6 @@ from safety_systems.sensing.tracks import (
 )
 from safety_systems.cell.ur5e import tool0_reusing_trig
 from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms
-from verification.properties import MOVING_SPEED
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
 
@@ -540,8 +539,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                                                   included)[0]
                 memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
             # The properties, on the true state at this tick.
-            moving = speed > MOVING_SPEED and k <= last[b]
-            allowed = k_override != 0.0 and k <= last[b]
+            moving = is_moving(speed) and k <= last[b]
+            allowed = is_permitted(k_override) and k <= last[b]
             if moving or allowed:  # (they count only then)
                 closest, margin = np.inf, np.inf
                 for o in range(K):  # each operator's point once, then its bodies
@@ -584,8 +583,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                                                                   vel_a, vel_b)
                             sep = axis - c_radius[j] - r_contact[b, i]
                             closest = min(closest, sep)
-                            margin = min(margin, sep - body_protective_distance(
-                                vh_true, vr_true, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
+                            margin = min(margin, true_margin(
+                                sep, vh_true, vr_true, mode, truth_t[b], t_r, truth_b[b], iso,
                                 iso_reduced))
                 if moving:
                     min_sep[b] = min(min_sep[b], closest)

@@ -27,11 +27,8 @@ import dataclasses
 
 import numpy as np
 
-from safety_systems.outputs.metrics import (
-    MOVING_SPEED,
-    min_separation_while_moving,
-    separation_margins,
-)
+from safety_systems.outputs.metrics import min_separation_while_moving, separation_margins
+from safety_systems.ssm.true_measures import MOVING_SPEED
 
 __all__ = ["MOVING_SPEED", "PROPERTIES", "Robustness", "stopped_before_contact",
            "separation_invariant"]

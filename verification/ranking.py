@@ -47,11 +47,11 @@ from safety_systems.cell.robot_geometry import (
 )
 from safety_systems.config.scenario import ControllerConfig, actual_sensor
 from safety_systems.ssm.separation import body_separation, capsule_axis
-from safety_systems.ssm.formulas import _speed_scale_eq12, body_protective_distance
+from safety_systems.ssm.formulas import _speed_scale_eq12
 from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms, scripted_operators
 from verification.counts import Tally
 from verification.evaluate_batch import delivered_frames, dropout_table
-from verification.properties import MOVING_SPEED
+from safety_systems.ssm.true_measures import is_moving, true_margin
 from verification.space import (
     NAMES,
     WHOLE,
@@ -144,7 +144,7 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
     Z_d ``z_d``, hidden balls ``ball``, d and S of each by ``separation.body_separation``;
     1 with no tracked body, 0 on a NaN); the smallest clearance of the ``present`` true bodies ``truth`` to
     the real capsules; the smallest d_true - S_true over them (S_true: Eqs. 9-11 by
-    ``ssm.body_protective_distance`` on the true directed speeds (``truth_v`` the bodies'
+    ``true_measures.true_margin`` on the true directed speeds (``truth_v`` the bodies'
     velocities), no Z_d or Z_r, the robot's own stopping time ``truth_t`` and distance
     ``truth_b`` (n,) with T_r and C folded in, as ``evaluate_batch`` measures it);
     whether the robot moves (its fastest capsule end). The two figures are computed
@@ -184,7 +184,7 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
             for e in range(2):
                 w0, w1, w2 = c_vel[j, e, 0], c_vel[j, e, 1], c_vel[j, e, 2]
                 speed = max(speed, math.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
-        moving = speed > MOVING_SPEED
+        moving = is_moving(speed)
         allowed = free[c] == 1 or (free[c] == 2 and k > 0.0)
         for i in range(truth.shape[1]):
             if present[c, i] and (moving or allowed):
@@ -197,8 +197,8 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
                     if moving:
                         gap = min(gap, clearance)
                     if allowed:
-                        margin = min(margin, clearance - body_protective_distance(
-                            vh, vr, 0.0, mode, truth_t[c], t_r, truth_b[c], iso,
+                        margin = min(margin, true_margin(
+                            clearance, vh, vr, mode, truth_t[c], t_r, truth_b[c], iso,
                             iso_reduced))
         k_out[c], gap_out[c], margin_out[c], moving_out[c] = k, gap, margin, moving
 

@@ -6,7 +6,9 @@ cell, as the scenario's ``contact_geometry`` defines contact
 each body's sphere, or the seed's tool flange and body centres (``tool_point``). The
 robot is where forward kinematics of the actual joint positions puts it. "Moving" means
 the robot's speed, the fastest of its capsules' axis ends (the tool flange on the tool
-point), exceeds ``MOVING_SPEED`` (1 mm/s).
+point), exceeds ``ssm.true_measures.MOVING_SPEED`` (1 mm/s); motion is permitted and
+a pair's margin taken by the same module's compiled rules, which the batched evaluator
+calls too.
 
 **Separation margin** (the separation invariant's measure, ``verification.properties``):
 at each control tick where the safety controller permits motion (its commanded path
@@ -40,8 +42,8 @@ from safety_systems.cell.stopping import StoppingData, true_stopping
 from safety_systems.sensing.stops import REJECT_CAUSES, STOP_REASONS
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.cell.ur5e import tool0_position_and_velocity
+from safety_systems.ssm.true_measures import moving, permitted
 
-MOVING_SPEED = 1e-3  # m/s
 
 
 def tool_state(run: Run) -> tuple[np.ndarray, np.ndarray]:
@@ -83,10 +85,9 @@ def true_separations(run: Run) -> np.ndarray:
 
 def min_separation_while_moving(separations: np.ndarray, speed: np.ndarray) -> float:
     """Smallest true separation over the instants when the tool moves (inf if none)."""
-    moving = speed > MOVING_SPEED
     closest = np.min(np.where(np.isnan(separations), np.inf, separations), axis=-1,
                      initial=np.inf)
-    return float(np.min(closest[moving], initial=np.inf))
+    return float(np.min(closest[moving(speed)], initial=np.inf))
 
 
 def command_signal(controller_type: str) -> str:
@@ -100,13 +101,6 @@ def command_signal(controller_type: str) -> str:
 def commanded(run: Run) -> np.ndarray:
     """(T,) the safety controller's commanded path speed at each tick."""
     return run[command_signal(run.scenario.controller.type)][:, 0]
-
-
-def permitted(command: np.ndarray) -> np.ndarray:
-    """Whether the controller permits motion: a command other than 0 (a NaN counts as 0,
-    as the PathFollower takes it)."""
-    command = np.asarray(command, dtype=float)
-    return np.isfinite(command) & (command != 0.0)
 
 
 def robot_stopping(scenario: Scenario) -> StoppingData:
