@@ -14,7 +14,8 @@ depend on where modules live. The reference set:
 - ``simulate``: every scenario in ``models/scenarios/`` in the kinematic and in the
   dynamic robot mode (Drake traces, byte for byte, and summaries);
 - ``compare``: ``erga_positive`` and ``erga_negative`` under the four controllers;
-- ``plan``: ``models/scenes/paper.yaml`` with its obstacle sweep;
+- ``plan``: ``models/scenes/paper.yaml`` with its obstacle sweep (RRT*'s rows left out:
+  it plans for a wall-clock budget, so its paths differ from run to run);
 - ``verify``: ``iso.yaml`` on the default space, a Sobol sweep of 148 closed-loop
   scenarios with both properties (every scenario's figures, the proofs' margins, the
   Drake confirmations), and ``seed_estimated.yaml`` searched for its first counterexample.
@@ -22,7 +23,8 @@ depend on where modules live. The reference set:
 The manifest holds a SHA-256 per output file after dropping what legitimately differs
 between runs (provenance, versions, paths, CPU and wall times) and the figures themselves
 (``summary.json``, the comparison rows, ``report.json``'s verdicts and robustness), so a
-difference names the file and the field. Plots and HTML replays are not compared (their
+difference names the file and the field. Input files' digests are left out too (a comment
+edited in a configuration changes them); what the inputs mean shows in the figures. Plots and HTML replays are not compared (their
 bytes carry timestamps); their inputs are.
 """
 
@@ -42,15 +44,25 @@ SOBOL_BUDGET = 148
 VOLATILE = {"provenance", "origin", "versions", "cpu_seconds", "wall_seconds", "seconds",
             "elapsed", "command", "inputs", "created", "date", "time_to_verdict", "timing",
             "wall", "cpu", "rate", "real_time_factor", "host", "python", "out", "path",
-            "replay", "scenario_file", "file", "files"}
+            "replay", "scenario_file", "file", "files", "planning_time",
+            # digests of input files: a comment edited in a configuration changes them;
+            # what the inputs mean is compared through the figures they produce
+            "config_sha256", "space_sha256", "sha256"}
+# Planners run for a wall-clock budget (RRT*'s 1 s): their rows cannot repeat bit for bit.
+TIME_BUDGETED = {"RRT*"}
 COMPARED = (".json", ".jsonl", ".csv", ".md", ".yaml")
+# plan.md sets planning times and RRT*'s figures in the same rows as the others; its
+# figures are compared through plan.json.
+NOT_COMPARED = {"plan.md"}
 
 
 def _clean(value):
     if isinstance(value, dict):
-        return {k: _clean(v) for k, v in sorted(value.items()) if k not in VOLATILE}
+        return {k: _clean(v) for k, v in sorted(value.items())
+                if k not in VOLATILE and k not in TIME_BUDGETED}
     if isinstance(value, list):
-        return [_clean(v) for v in value]
+        return [_clean(v) for v in value
+                if not (isinstance(v, dict) and v.get("planner") in TIME_BUDGETED)]
     if isinstance(value, float) and not math.isfinite(value):
         return repr(value)
     return value
@@ -70,7 +82,9 @@ def _digest(path: Path, out: Path) -> tuple[str, object]:
     if path.suffix == ".md":  # reports carry times and versions in prose: keep figures only
         lines = [ln for ln in text.splitlines()
                  if not any(w in ln.lower() for w in ("second", " s ", "version", "cpu",
-                                                      "wall", "command", "date", "python"))]
+                                                      "wall", "command", "date", "python",
+                                                      "sha256"))
+                 and not any(f"| {p} |" in ln for p in TIME_BUDGETED)]
         text = "\n".join(lines)
     return hashlib.sha256(text.encode()).hexdigest(), None
 
@@ -106,7 +120,8 @@ def produce(out: Path) -> None:
         out, allowed=(0, 1, 3, 4))
     manifest = {"exit_codes": codes, "files": {}, "figures": {}}
     for path in sorted(out.rglob("*")):
-        if path.is_file() and path.suffix in COMPARED and path.name != "manifest.json":
+        if (path.is_file() and path.suffix in COMPARED and path.name != "manifest.json"
+                and path.name not in NOT_COMPARED):
             rel = str(path.relative_to(out))
             digest, figures = _digest(path, out)
             manifest["files"][rel] = digest
