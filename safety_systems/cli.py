@@ -22,6 +22,8 @@ EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 MAX_BUDGET = 10_000_000  # simulations of one verify run
 MAX_WORKERS = 1024
+MAX_CANDIDATES = 10_000  # configurations one tune run simulates
+MAX_SCREEN = 1_000  # screened points per simulated candidate
 
 
 def _warn(message: str) -> None:
@@ -162,6 +164,52 @@ def _verify(args: argparse.Namespace) -> int:
         print(f"safety-systems: --require {args.require}: the verdict is {outcome.verdict}",
               file=sys.stderr)
     return code
+
+
+def _tune(args: argparse.Namespace) -> int:
+    """Search the tunable parameters for the shortest task time under the verdict
+    constraint; exit 1 when no candidate meets it."""
+    from safety_systems.output_files import prepare_out
+    from safety_systems.scenario import load_scenario
+    from verification.runner import check_scheduler
+    from verification.space import load_space
+    from verification.tune import TASKS, Tuner
+    from verification.tune_report import write_tune
+    from verification.tune_space import check_block, load_tunable
+
+    config, block = load_tunable(args.config, args.tune)
+    space = load_space(args.space)
+    tasks = [load_scenario(path) for path in (args.tasks or TASKS)]
+    try:
+        check_block(block, config, control_period=1.0 / space.robot.control_rate_hz)
+    except InputError as e:
+        raise e.in_file(args.tune or args.config) from None
+    _whole("--budget", args.budget, 1, MAX_BUDGET)
+    _whole("--candidates", args.candidates, 1, MAX_CANDIDATES)
+    _whole("--screen", args.screen, 1, MAX_SCREEN)
+    _whole("--workers", args.workers, 1, MAX_WORKERS)
+    _whole("--seed", args.seed, 0, SEED_MAX)
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    out = prepare_out(args.out)
+    say = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
+    result = Tuner(config, block, space, tasks, out, space_path=args.space, allow=args.allow,
+                   budget=args.budget, candidates=args.candidates, screen=args.screen,
+                   workers=args.workers, scheduler=args.scheduler, seed=args.seed,
+                   origin=_origin(args.argv, {"search": args.seed}), say=say).run()
+    write_tune(result, out)
+    if not args.quiet:
+        for row in result["table"]:
+            print(f"{row['configuration']}: {row['verdict']}, total task time "
+                  f"{row['total_task_time']} s, lost {row['total_lost_time']} s")
+        reduction = result["lost_time_reduction_vs_iso"]
+        if reduction is not None:
+            print(f"time lost: {100.0 * reduction:.1f}% less than iso.yaml")
+        print(f"-> {out / 'tune.md'}")
+    if result["chosen"] is None:
+        print(f"safety-systems: tune: no candidate was {args.allow}", file=sys.stderr)
+        return 1
+    return 0
 
 
 def _compare(args: argparse.Namespace) -> int:
@@ -371,6 +419,39 @@ def build_parser() -> argparse.ArgumentParser:
     ver.add_argument("--unverified", action="store_true", help=unverified)
     ver.add_argument("--quiet", action="store_true", help=quiet)
     ver.set_defaults(run=_verify)
+    tune = commands.add_parser(
+        "tune", help="search the tunable parameters for the shortest task time whose "
+                     "verdict is proved (or passed with --allow passed); exit 1 when none is")
+    tune.add_argument("config", help="controller configuration YAML file; its tune: block "
+                                     "lists the tunable parameters unless --tune is given")
+    tune.add_argument("--space", required=True,
+                      help="scenario space YAML file (required; no default)")
+    tune.add_argument("--tasks", nargs="+",
+                      help="task scenario YAML files (default: models/scenarios/"
+                           "inspection.yaml and co_kitting.yaml)")
+    tune.add_argument("--out", required=True,
+                      help="output folder, created if missing (required; no default)")
+    tune.add_argument("--tune", help="YAML file with a tune: block (default: the "
+                                     "configuration's own)")
+    tune.add_argument("--allow", default="proved", choices=("proved", "passed"),
+                      help="weakest verdict accepted (default: %(default)s)")
+    tune.add_argument("--budget", type=int, default=200,
+                      help="simulations of each verification (default: %(default)s)")
+    tune.add_argument("--candidates", type=int, default=24,
+                      help="candidates simulated besides the base configuration "
+                           "(default: %(default)s)")
+    tune.add_argument("--screen", type=int, default=16,
+                      help="configurations screened by the proofs per candidate simulated "
+                           "(default: %(default)s)")
+    tune_where = tune.add_mutually_exclusive_group()
+    tune_where.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    tune_where.add_argument("--scheduler", help="Dask scheduler address (default: none, run "
+                                                "on local processes)")
+    tune.add_argument("--seed", type=int, default=0,
+                      help="seed of the search and of the verifications (default: "
+                           "%(default)s)")
+    tune.add_argument("--quiet", action="store_true", help=quiet)
+    tune.set_defaults(run=_tune)
     cmp_ = commands.add_parser("compare", help="run several controllers on the same scenarios "
                                                 "and tabulate danger index, goal and jerk")
     cmp_.add_argument("scenarios", nargs="+", help="scenario YAML files")

@@ -1,8 +1,9 @@
 """Shared fixtures: iso.yaml verified on the default space (a small budget) and
-exported."""
+exported; a small tune run from iso.yaml and its chosen configuration exported."""
 
 import contextlib
 import io
+import json
 from pathlib import Path
 
 import pytest
@@ -41,3 +42,36 @@ def exported(tmp_path_factory) -> Path:
     assert code == 0, err
     return root
 
+
+TUNE_BLOCK = """\
+tune:
+- {name: safety.intrusion_distance, min: 0.0, max: 0.12}
+- {name: safety.robot_uncertainty, min: 0.4, max: 0.7}
+- {name: safety.reaction_time, min: 0.1, max: 0.2}
+"""
+SMALL_SPACE = Path(__file__).parent / "small_space.yaml"
+
+
+@pytest.fixture(scope="session")
+def tuned(tmp_path_factory) -> Path:
+    """A small tune run from iso.yaml (DIR/tune/) over a small space, its one task the
+    inspection scenario cut to 3 cycles, and the chosen configuration exported with the
+    counterexamples kept on the way (DIR/export/)."""
+    import yaml
+
+    root = tmp_path_factory.mktemp("tuned")
+    (root / "tune.yaml").write_text(TUNE_BLOCK)
+    task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
+    task["duration"], task["robot"]["cycles"] = 25.0, 3
+    (root / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
+    code, _, err = run_cli(["tune", ISO, "--tune", root / "tune.yaml", "--space", SMALL_SPACE,
+                            "--tasks", root / "task.yaml", "--out", root / "tune", "--budget",
+                            "6", "--candidates", "3", "--screen", "4", "--workers", "1",
+                            "--quiet"])
+    assert code == 0, err
+    result = json.loads((root / "tune" / "tune.json").read_text())
+    chosen = result["chosen"]
+    code, _, err = run_cli(["export", chosen["config"], "--report", chosen["report"], "--tune",
+                            root / "tune" / "tune.json", "--out", root / "export", "--quiet"])
+    assert code == 0, err
+    return root

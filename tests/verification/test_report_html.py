@@ -55,7 +55,15 @@ def test_the_page_holds_what_the_assessor_needs(exported):
     assert "data:image/png;base64," in page  # the robustness figure, inline
 
 
-@pytest.mark.parametrize("fixture", ["exported"])
+def test_the_page_has_the_counterexamples_found_on_the_way_with_their_plots(tuned):
+    page = _html(tuned)
+    cert, _ = read_certificate(tuned / "export" / "certificate.json")
+    assert cert["counterexamples"] and all(c["found_for"] == "seed_estimated.yaml (tune)"
+                                           for c in cert["counterexamples"])
+    assert page.count('<img alt="counterexample') == min(6, len(cert["counterexamples"]))
+
+
+@pytest.mark.parametrize("fixture", ["exported", "tuned"])
 def test_the_page_refers_to_nothing_outside_itself(request, fixture):
     page = _html(request.getfixturevalue(fixture))
     assert "<script" not in page.lower()
@@ -198,7 +206,7 @@ RENDERED = """JSON.stringify({
 
 
 @needs_chromium
-def test_the_page_renders_in_a_headless_browser_and_fetches_nothing(exported, tmp_path,
+def test_the_page_renders_in_a_headless_browser_and_fetches_nothing(tuned, tmp_path,
                                                                     proxy_port):
     browser = Browser(tmp_path / "profile", proxy_port)
     try:
@@ -210,7 +218,7 @@ def test_the_page_renders_in_a_headless_browser_and_fetches_nothing(exported, tm
         asked = browser.load(control)
         assert {"http://example.invalid/style.css",
                 "https://example.invalid/pixel.png"} <= set(asked), asked
-        report = exported / "export" / "report.html"
+        report = tuned / "export" / "report.html"
         # Without its Content-Security-Policy too: the page itself asks for nothing.
         bare = tmp_path / "bare.html"
         bare.write_text(re.sub(r'<meta http-equiv="Content-Security-Policy"[^>]*>', "",
@@ -219,7 +227,7 @@ def test_the_page_renders_in_a_headless_browser_and_fetches_nothing(exported, tm
             assert browser.load(page) == [], page.name
             rendered = json.loads(browser.evaluate(RENDERED))
             assert rendered["headings"] == SECTIONS, page.name
-            assert rendered["images"] and all(rendered["images"]), page.name
+            assert len(rendered["images"]) >= 2 and all(rendered["images"]), page.name
             assert rendered["height"] > 3000
             assert rendered["signOff"][:5] == ["Integrator", "", "", "", ""]
     finally:
