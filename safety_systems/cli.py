@@ -5,9 +5,11 @@ then creates (or refuses) its output folder, and only then does its work; every
 result file is written atomically (``safety_systems.output_files``) and carries its
 provenance (``safety_systems.provenance``).
 
-Exit codes: 0 done, 1 (``plan``: the IAPF did not reach the goal), 2 bad input (one
+Exit codes: 0 done, 1 (``plan``: the IAPF did not reach the goal; ``tune``: no
+candidate met its constraint; ``check``: parameters not certified), 2 bad input (one
 line on stderr naming the file, the field, the value and what is allowed), 130
-interrupted; ``verify`` has its own table (``verification.verdicts``).
+interrupted; ``verify`` has its own table (``verification.verdicts``), ``check`` exits 4
+on a verdict weaker than ``--require``.
 """
 
 import argparse
@@ -199,9 +201,12 @@ def _tune(args: argparse.Namespace) -> int:
                    origin=_origin(args.argv, {"search": args.seed}), say=say).run()
     write_tune(result, out)
     if not args.quiet:
+        def seconds(x):
+            return "unfinished" if x is None else f"{x:.2f} s"
+
         for row in result["table"]:
             print(f"{row['configuration']}: {row['verdict']}, total task time "
-                  f"{row['total_task_time']} s, lost {row['total_lost_time']} s")
+                  f"{seconds(row['total_task_time'])}, lost {seconds(row['total_lost_time'])}")
         reduction = result["lost_time_reduction_vs_iso"]
         if reduction is not None:
             print(f"time lost: {100.0 * reduction:.1f}% less than iso.yaml")
@@ -352,9 +357,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="safety-systems",
         description="Simulate, verify and tune ISO/TS 15066 speed and separation monitoring "
-                    "of a collaborative UR5e cell. Exit codes: 0 done, 1 verify falsified "
-                    "or plan short of its goal, 2 bad input (one line naming the file, the "
-                    "field, the value and what is allowed), 130 interrupted.")
+                    "of a collaborative UR5e cell, and export verified parameters. Exit "
+                    "codes: 0 done, 1 verify falsified, plan short of its goal, tune without "
+                    "a configuration meeting its constraint or check of parameters not "
+                    "certified, 2 bad input (one line naming the file, the field, the value "
+                    "and what is allowed), 130 interrupted.")
     parser.add_argument("--version", action="version", version=version_line(),
                         help="print the versions of safety-systems and Drake and exit")
     commands = parser.add_subparsers(dest="command", required=True)
