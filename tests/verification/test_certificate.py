@@ -180,3 +180,42 @@ def test_simulate_and_verify_take_params_and_refuse_unchecked_ones(exported, tmp
     code, _, err = cli(["simulate", scenario, "--config", params, "--out", tmp_path / "b",
                             "--duration", "1", "--quiet", "--unverified"])
     assert code == 0 and "UNVERIFIED" in err
+
+
+ODD = [None, True, -1, 0, 2**63, 1e308, -1e308, float("inf"), float("nan"), "", "iso", "1e400",
+       [], [1.0, "a"], [[1.0]], {"a": 1.0}, [None], 0.5, [0.1, 0.2, 0.3]]
+
+
+def test_mutated_params_are_refused_in_one_line(exported, tmp_path, cli):
+    import yaml
+
+    folder = _copy(exported, tmp_path)
+    original = (folder / "params.yaml").read_text()
+    tree = yaml.safe_load(original)
+    (node, body), = tree.items()
+    keys = list(body["ros__parameters"])
+
+    @settings(max_examples=60, deadline=None, derandomize=True, database=None,
+              suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+    @given(data=st.data())
+    def mutate(data):
+        params = dict(body["ros__parameters"])
+        for _ in range(data.draw(st.integers(1, 3), label="mutations")):
+            key = data.draw(st.sampled_from(keys), label="key")
+            kind = data.draw(st.sampled_from(["value", "delete", "rename"]), label="kind")
+            if kind == "value":
+                params[key] = data.draw(st.sampled_from(ODD), label="value")
+            elif kind == "delete":
+                params.pop(key, None)
+            else:
+                params[key + data.draw(st.sampled_from(["_x", ".item0", ".x"]))] = \
+                    params.pop(key, 0.0)
+        text = yaml.safe_dump({node: {"ros__parameters": params}}, sort_keys=False)
+        (folder / "params.yaml").write_text(text)
+        code, out, err = cli(["check", folder / "params.yaml"])
+        assert code in (1, 2) and out == "", (code, err)
+        assert len(err.splitlines()) == 1 and err.startswith("safety-systems: "), err
+
+    mutate()
+    (folder / "params.yaml").write_text(original)
+    assert cli(["check", folder / "params.yaml"])[0] == 0
