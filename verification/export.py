@@ -24,7 +24,7 @@ import json
 import platform
 from pathlib import Path
 
-from safety_systems.documents import inputs_read, read_text
+from safety_systems.documents import inputs_read, read_input, read_text
 from safety_systems.input_error import InputError
 from safety_systems.output_files import write_text
 from safety_systems.params_file import Params, deployed_robot, flat_parameters, params_text
@@ -43,8 +43,6 @@ from verification.certificate import (
 from verification.space import ScenarioSpace, load_space
 
 DEPENDENCIES = ("drake", "numpy", "scipy", "numba", "z3-solver", "cma", "filterpy")
-REPORT_FIELDS = ("verdict", "method", "robot_mode", "properties", "config_sha256", "space",
-                 "assumptions", "box", "free_parameters", "simulations")
 VERDICT_MEANING = {
     "proved": "proved over the whole continuous box of the scenario space (verification/"
               "proof.py), the search and the Drake replays agreeing",
@@ -59,16 +57,58 @@ COUNTS_MEANING = ("simulations: closed-loop simulations of the space's scenarios
                   "The proofs are not simulations.")
 
 
+NUMBER = (int, float)
+MAYBE_NUMBER = (int, float, type(None))
+PREMISE = {"statement": str, "basis": str, "holds": bool}
+PROOF = {"proved": bool, "method": str, "premises": [PREMISE],
+         "margin_at_worst_corner": MAYBE_NUMBER}
+COUNTEREXAMPLE = {"drake_robustness": NUMBER, "parameters": dict, "scenario": str}
+PROPERTY = {"verdict": str, "min_robustness": MAYBE_NUMBER, "proof": PROOF,
+            "counterexamples": [COUNTEREXAMPLE], "drake_replays": [{"simulation": int}]}
+REPORT = {"verdict": str, "method": str, "robot_mode": str, "config_sha256": str,
+          "space": str, "assumptions": [str], "box": dict, "free_parameters": [str],
+          "simulations": int, "properties": {"*": PROPERTY}}
+
+
+def _expect(value, shape, where: str, path) -> None:
+    """Raises InputError unless ``value`` has ``shape``: a type (or tuple of types), a
+    list of one shape, or a mapping of keys to shapes ("*": every value)."""
+    if isinstance(shape, list):
+        if not isinstance(value, list):
+            raise InputError(where, value, "a list", file=path)
+        for i, item in enumerate(value):
+            _expect(item, shape[0], f"{where}[{i}]", path)
+    elif isinstance(shape, dict):
+        if not isinstance(value, dict):
+            raise InputError(where, value, "a mapping", file=path)
+        for key, inner in shape.items():
+            items = value.items() if key == "*" else [(key, value.get(key, KeyError))]
+            for name, item in items:
+                if item is KeyError:
+                    raise InputError(f"{where}.{name}".lstrip("."), "missing", "a report.json "
+                                     "of safety-systems verify (every field it writes)",
+                                     file=path)
+                _expect(item, inner, f"{where}.{name}".lstrip("."), path)
+    elif isinstance(value, bool) and shape is not bool and bool not in (
+            shape if isinstance(shape, tuple) else (shape,)):
+        raise InputError(where, value, f"{_name(shape)} (not true or false)", file=path)
+    elif not isinstance(value, shape):
+        raise InputError(where, value, _name(shape), file=path)
+
+
+def _name(shape) -> str:
+    kinds = shape if isinstance(shape, tuple) else (shape,)
+    return " or ".join({"int": "an integer", "float": "a number", "str": "a string",
+                        "bool": "true or false", "dict": "a mapping",
+                        "NoneType": "null"}.get(k.__name__, k.__name__) for k in kinds)
+
+
 def read_report(path: str | Path) -> dict:
-    """A verification's report.json, its fields checked; raises InputError."""
+    """A verification's report.json, the fields export uses checked; raises InputError."""
     report = read_json(path)
-    if not isinstance(report, dict):
-        raise InputError("<document>", report, "a report.json of safety-systems verify",
-                         file=path)
-    for key in REPORT_FIELDS:
-        if key not in report:
-            raise InputError(key, "missing", "a report.json of safety-systems verify "
-                             "(every field it writes)", file=path)
+    _expect(report, REPORT, "", path)
+    if report["verdict"] not in VERDICT_MEANING:
+        raise InputError("verdict", report["verdict"], " | ".join(VERDICT_MEANING), file=path)
     return report
 
 
@@ -76,9 +116,10 @@ def _space(report: dict, report_path: Path) -> tuple[ScenarioSpace, str, str]:
     """The report's space, loaded, with its path and SHA-256 (checked against the
     report's provenance when it has one)."""
     path = report["space"]
+    sha = hashlib.sha256(read_input(path)).hexdigest()
     space = load_space(path)
-    sha = inputs_read()[str(path)]
-    recorded = ((report.get("provenance") or {}).get("inputs") or {}).get(str(path))
+    inputs = (report.get("provenance") or {}).get("inputs") or {}
+    recorded = inputs.get(str(Path(path)), inputs.get(str(path)))
     if recorded is not None and recorded != sha:
         raise InputError("space", path, "the space file as verified (its SHA-256 differs "
                          "from the one the report records)", file=report_path)
@@ -143,7 +184,8 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
                           "sha256": inputs_read().get(str(report_path), "")},
                "space": {"path": space_path, "sha256": space_sha}}
     if tune_path is not None:
-        sources["tune"] = {"path": tune_path, "sha256": inputs_read().get(tune_path, "")}
+        sources["tune"] = {"path": tune_path,
+                           "sha256": inputs_read().get(str(Path(tune_path)), "")}
     certificate = {
         "schema": SCHEMA, "schema_version": SCHEMA_VERSION,
         "checksum": checksum, "checksum_short": short(checksum),

@@ -4,6 +4,7 @@ exported; a small tune run from iso.yaml and its chosen configuration exported."
 import contextlib
 import io
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -29,10 +30,35 @@ def cli():
     return run_cli
 
 
+def _shared(tmp_path_factory, worker_id: str, name: str, build) -> Path:
+    """``build(folder)`` once per test run: under pytest-xdist the workers share the
+    run's temporary root, and the first to come builds while the others wait on a lock
+    (the results are only read afterwards)."""
+    if worker_id == "master":
+        folder = tmp_path_factory.mktemp(name)
+        build(folder)
+        return folder
+    import fcntl
+
+    root = tmp_path_factory.getbasetemp().parent  # this run's, shared by its workers
+    folder = root / name
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (folder / "done").exists():
+            shutil.rmtree(folder, ignore_errors=True)
+            folder.mkdir()
+            build(folder)
+            (folder / "done").touch()
+    return folder
+
+
 @pytest.fixture(scope="session")
-def exported(tmp_path_factory) -> Path:
+def exported(tmp_path_factory, worker_id) -> Path:
     """A folder holding iso.yaml's verification (verified/) and its export (export/)."""
-    root = tmp_path_factory.mktemp("exported")
+    return _shared(tmp_path_factory, worker_id, "exported", _export_iso)
+
+
+def _export_iso(root: Path) -> None:
     verified, export = root / "verified", root / "export"
     code, _, err = run_cli(["verify", ISO, "--space", SPACE, "--out", verified, "--budget",
                             "6", "--workers", "1", "--quiet"])
@@ -40,7 +66,6 @@ def exported(tmp_path_factory) -> Path:
     code, _, err = run_cli(["export", ISO, "--report", verified / "report.json", "--out",
                             export, "--quiet"])
     assert code == 0, err
-    return root
 
 
 TUNE_BLOCK = """\
@@ -53,13 +78,16 @@ SMALL_SPACE = Path(__file__).parent / "small_space.yaml"
 
 
 @pytest.fixture(scope="session")
-def tuned(tmp_path_factory) -> Path:
+def tuned(tmp_path_factory, worker_id) -> Path:
     """A small tune run from iso.yaml (DIR/tune/) over a small space, its one task the
     inspection scenario cut to 3 cycles, and the chosen configuration exported with the
     counterexamples kept on the way (DIR/export/)."""
+    return _shared(tmp_path_factory, worker_id, "tuned", _tune_iso)
+
+
+def _tune_iso(root: Path) -> None:
     import yaml
 
-    root = tmp_path_factory.mktemp("tuned")
     (root / "tune.yaml").write_text(TUNE_BLOCK)
     task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
     task["duration"], task["robot"]["cycles"] = 25.0, 3
@@ -74,4 +102,3 @@ def tuned(tmp_path_factory) -> Path:
     code, _, err = run_cli(["export", chosen["config"], "--report", chosen["report"], "--tune",
                             root / "tune" / "tune.json", "--out", root / "export", "--quiet"])
     assert code == 0, err
-    return root
