@@ -129,7 +129,7 @@ def monitor_and_override_us(capsules: Capsules, n: int = 10, number: int = 20000
     std, unseen = np.full(n, 0.01), np.zeros(n)
     z_d_terms = (0.1, 2.0, 1.6)
     monitor = (HUMAN_SPEED_MODES.index("estimated"), 0.53 + 0.1, 0.1, 0.26 + 0.1 + 0.02,
-               1.6, 0.0)
+               1.6, 0.0, 0)  # (the seed's directed robot speed)
     out, nearest = np.empty((4, n)), np.empty(n, dtype=np.int64)
 
     def once():

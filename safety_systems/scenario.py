@@ -26,7 +26,7 @@ from safety_systems.joint_path import make_joint_path
 from safety_systems.operator_paths import make_operator_path
 from safety_systems.ranges import SEED_MAX, check_limits, number
 from safety_systems.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
-from safety_systems.ssm import HUMAN_SPEED_MODES
+from safety_systems.ssm import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS
 from safety_systems.tracks import HIDDEN_BODY_RULES
 
 ScenarioError = InputError  # the name this module's callers know
@@ -165,9 +165,17 @@ class SafetyConfig:
     and the tool from the flange along its z axis for ``tool_length`` m with
     ``payload_radius`` m) or ``tool_point`` (the seed's Eq. 8: the tool flange as a
     point, bodies as points).
+
+    ``robot_speed``: the robot's speed in S (Eq. 11's S_R = v_R T_r): ``directed`` (the
+    seed's and ISO/TS 15066's v_R^d, Eq. 7: the speed of the capsule's point nearest
+    the body towards it, negative when it moves away) or ``fastest_point`` (the speed of
+    the capsule's fastest point, whatever its direction: never credits a robot moving
+    away, so S does not hang on where the body is thought to be, and the separation
+    invariant's proof needs far less Z_d + Z_r; ``verification.proof``).
     """
 
     robot_geometry: str = "capsules"
+    robot_speed: str = "directed"
     payload_radius: float = number(0.05, gt=0.0, le=1.0, unit="m")
     tool_length: float = number(0.0, ge=0.0, le=1.0, unit="m")
     link_radii: list[float] = number([], gt=0.0, le=0.5, unit="m")
@@ -495,6 +503,8 @@ def _controller_rules(c: ControllerConfig, prefix: str) -> None:
            "empty (the UR5e model's capsules) or 6 radii in m, each 0 < r <= 0.5")
     _check(f.human_speed in HUMAN_SPEED_MODES, f"{prefix}.safety.human_speed", f.human_speed,
            " | ".join(HUMAN_SPEED_MODES))
+    _check(f.robot_speed in ROBOT_SPEED_TERMS, f"{prefix}.safety.robot_speed", f.robot_speed,
+           " | ".join(ROBOT_SPEED_TERMS))
     _check(c.type in CONTROLLER_TYPES, f"{prefix}.type", c.type, " | ".join(CONTROLLER_TYPES))
     validate_alteration(c.alteration, f"{prefix}.alteration")
     z = c.zones

@@ -41,21 +41,37 @@ def capsule_axis(ends, end_velocities, j):
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
+    """(clearance, S, v_human_directed, v_robot) of one body (at ``p``, moving at ``w``:
+    tuples; radius r_B, Z_d ``z_d``) and capsule j: Eqs. 6-8 to the nearest point of the
+    capsule's axis (``robot_geometry.segment_pair``), the clearance less the capsule's
+    and the body's radii, and S by ``ssm.protective_one``. ``monitor`` = (mode index,
+    T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced, robot speed index in
+    ``ssm.ROBOT_SPEED_TERMS``): v_robot is Eq. 7's directed speed, or (``fastest_point``)
+    the speed of the capsule's faster end, which no point of its axis exceeds (a rigid
+    link's velocity is affine along the axis)."""
+    mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
+    end_a, end_b, vel_a, vel_b = capsule_axis(ends, end_velocities, j)
+    axis, h, r = segment_pair(p, w, end_a, end_b, vel_a, vel_b)
+    if robot_speed == 1:
+        r = max(math.sqrt(vel_a[0] * vel_a[0] + vel_a[1] * vel_a[1] + vel_a[2] * vel_a[2]),
+                math.sqrt(vel_b[0] * vel_b[0] + vel_b[1] * vel_b[1] + vel_b[2] * vel_b[2]))
+    return (axis - radius[j] - r_B,
+            protective_one(h, r, z_d, mode, t_sr, t_r, const, iso, iso_reduced), h, r)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def body_separation(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor):
-    """(d_i, S_i, v_human_directed, v_robot_directed, nearest capsule) of one body (at
-    p_B, moving at v_B, radius r_B; Z_d ``z_d``, hidden-ball radius ``ball``, m) against K
-    capsules (ends and end_velocities (K, 2, 3), radius (K,)); ``monitor`` = (mode index,
-    T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced) as ``ssm.protective_one`` takes
-    them. The speeds and index are the nearest pair's. A NaN in any pair gives NaN d_i and
-    S_i (the override stops), index -1."""
-    mode, t_sr, t_r, const, iso, iso_reduced = monitor
+    """(d_i, S_i, v_human_directed, v_robot, nearest capsule) of one body (at p_B, moving
+    at v_B, radius r_B; Z_d ``z_d``, hidden-ball radius ``ball``, m) against K capsules
+    (ends and end_velocities (K, 2, 3), radius (K,)) by :func:`pair_separation`
+    (``monitor`` as it takes it). The speeds and index are the nearest pair's. A NaN in
+    any pair gives NaN d_i and S_i (the override stops), index -1."""
     d, s, v_h, v_r, nearest, faulty = np.inf, -np.inf, np.nan, np.nan, -1, False
     p, w = (p_B[0], p_B[1], p_B[2]), (v_B[0], v_B[1], v_B[2])
     for j in range(radius.size):
-        end_a, end_b, vel_a, vel_b = capsule_axis(ends, end_velocities, j)
-        axis, h, r = segment_pair(p, w, end_a, end_b, vel_a, vel_b)
-        c = axis - radius[j] - r_B
-        s_j = protective_one(h, r, z_d, mode, t_sr, t_r, const, iso, iso_reduced)
+        c, s_j, h, r = pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j,
+                                       monitor)
         if math.isnan(c) or math.isnan(s_j):
             faulty = True
         else:

@@ -18,6 +18,9 @@ from safety_systems.compiled_cache import drop_stale_builds
 from safety_systems.tracks import TRACK_LOST, usable
 
 HUMAN_SPEED_MODES = ("estimated", "iso", "estimated_with_floor")
+# The robot's speed in S (SafetyConfig.robot_speed): Eq. 7's directed speed, or the speed
+# of the capsule's fastest point (safety_systems.separation).
+ROBOT_SPEED_TERMS = ("directed", "fastest_point")
 
 # Its compiled functions inline tracks' and read stops' codes (see compiled_cache).
 drop_stale_builds(__file__, (stops, tracks))

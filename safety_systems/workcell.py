@@ -33,6 +33,7 @@ from safety_systems.configuration import (
 )
 from safety_systems.joint_path import JointPath, SplinePath, default_joint_path, make_joint_path
 from safety_systems.operator_paths import ScriptedOperator, make_operator_path
+from safety_systems.ssm import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS
 from safety_systems.scenario import (
     ControllerConfig,
     RobotConfig,
@@ -82,6 +83,18 @@ def assumed_stopping(config: ControllerConfig) -> tuple[float, float]:
     b = config.safety.stopping_distance
     return (float(table_stopping_time(table, 1.0)) if t_s is None else t_s,
             float(stopping_distance(table, 1.0)) if b is None else b)
+
+
+def monitor_terms(config: ControllerConfig) -> tuple:
+    """The SeparationMonitor's S terms as ``separation.pair_separation`` takes them:
+    (human-speed mode index, T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced, robot
+    speed index), T_s and B by :func:`assumed_stopping`."""
+    f = config.safety
+    t_s, b = assumed_stopping(config)
+    return (HUMAN_SPEED_MODES.index(f.human_speed), float(t_s + f.reaction_time),
+            float(f.reaction_time), float(b + f.intrusion_distance + f.robot_uncertainty),
+            float(f.iso_human_speed), float(f.iso_reduced_human_speed),
+            ROBOT_SPEED_TERMS.index(f.robot_speed))
 
 
 def frame_timeout(config: ControllerConfig) -> float:
@@ -192,7 +205,7 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
         human_uncertainty_sigmas=f.human_uncertainty_sigmas, occlusion_speed=f.occlusion_speed,
         iso_speed=f.iso_human_speed,
-        iso_reduced_speed=f.iso_reduced_human_speed))
+        iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed))
     override = builder.AddNamedSystem("override", SpeedOverride(
         num_bodies=num_bodies, delta_s=f.delta_s, d_min=f.d_min))
     for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std",

@@ -66,9 +66,8 @@ from safety_systems.robot_geometry import (
 )
 from safety_systems.scenario import Scenario, actual_sensor
 from safety_systems.sensor_faults import FAULT_COLUMNS, apply_faults
-from safety_systems.separation import body_separation, capsule_axis
+from safety_systems.separation import body_separation, capsule_axis, pair_separation
 from safety_systems.ssm import (
-    HUMAN_SPEED_MODES,
     ISO_REDUCED_SPEED_THRESHOLD,
     hidden_ball_radius,
     override_command,
@@ -77,12 +76,7 @@ from safety_systems.ssm import (
 from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
 from safety_systems.tracks import TRACK_LOST, TRACK_SLOT, estimate_rows, frame_step, usable
 from safety_systems.ur5e import tool0_one_memo
-from safety_systems.workcell import (
-    assumed_stopping,
-    braking_table,
-    frame_timeout,
-    joint_path,
-)
+from safety_systems.workcell import braking_table, frame_timeout, joint_path, monitor_terms
 from verification.properties import MOVING_SPEED
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
@@ -358,6 +352,14 @@ def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor
     return body_separation(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor)
 
 
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def monitor_pair(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
+    """The SeparationMonitor's clearance and S (and speeds) of one body and capsule j: the
+    product's ``separation.pair_separation``, which ``body_separation`` runs over every
+    capsule (a seam for the broken-variant test, as :func:`monitor_body`)."""
+    return pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor)
+
+
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
              status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_t,
@@ -380,7 +382,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     - SeparationMonitor and SpeedOverride on the estimates: d_i and S_i of every usable
       body (``separation.body_separation`` via :func:`monitor_body`: Eqs. 6-11 over the
       capsules, bodies of radius ``r_monitor``, a hidden body's d less its ball,
-      ``monitor`` = (mode, T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced), Z_d =
+      ``monitor`` = ``workcell.monitor_terms`` (mode, T_s + T_r, T_r, B + C + Z_r, v_iso,
+      v_iso_reduced, robot speed term), Z_d =
       ``z_d_terms`` (base, sigmas, occlusion speed) base + sigmas std per body), k,
       S_max and the stop reason by ``ssm.override_command`` (Eq. 12 over the usable
       tracks, a lost track, the tracker's fault, or its newest good frame older than
@@ -408,9 +411,12 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     v_H), and 0 when one pair per body (its capsule nearest at its last full evaluation,
     ``hint`` (B, N)) already puts a clearance below d_min or below that pair's S (d_i is
     at most, S_i at least, that pair's); a body's properties are skipped when the sphere
-    bound shows it can lower neither figure (nor come inside S_true).
+    bound shows it can lower neither figure (nor come inside S_true), and so is a pair's
+    when the same holds through a sphere around its capsule (its axis' midpoint out to
+    its ends, plus its radius; S_true bounded by the body's speed in its mode and the
+    capsule's fastest end).
     """
-    mode, t_sr, t_r, const, iso, iso_reduced = monitor
+    mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     h_iso = max(iso, iso_reduced)
     z_d_base, z_d_sigmas, occlusion_speed = z_d_terms
     fractions, deceleration, acceleration = brakes
@@ -424,6 +430,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     m_velocities = np.empty((ma.size, 2, 3))
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
+    c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
     speed = 0.0
     m_sphere, c_sphere = (0.0, 0.0, 0.0, np.inf), (0.0, 0.0, 0.0, np.inf)
     memo[:, 1] = np.nan  # the tracker's outputs may have changed: no k to reuse
@@ -463,10 +470,19 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                 capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
                 speed = 0.0  # the robot's: its fastest capsule end
                 for j in range(ca.size):
+                    c_fast[j] = 0.0  # capsule j's fastest end (every axis point is slower)
                     for e in range(2):
                         w0, w1, w2 = c_velocities[j, e, 0], c_velocities[j, e, 1], \
                             c_velocities[j, e, 2]
-                        speed = max(speed, np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+                        c_fast[j] = max(c_fast[j], np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+                    speed = max(speed, c_fast[j])
+                    # A sphere around capsule j: its axis' midpoint, out to its ends.
+                    for i in range(3):
+                        c_mid[j, i] = 0.5 * (c_ends[j, 0, i] + c_ends[j, 1, i])
+                    x0 = c_ends[j, 1, 0] - c_mid[j, 0]
+                    x1 = c_ends[j, 1, 1] - c_mid[j, 1]
+                    x2 = c_ends[j, 1, 2] - c_mid[j, 2]
+                    c_reach[j] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + c_radius[j]
                 if bound_monitor:
                     m_sphere = _bounding_sphere(m_ends, m_radius)
                 if bound_contact:
@@ -522,15 +538,12 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     for i in range(N):
                         if usable(status[b, i]):
                             j = hint[b, i]
-                            end_a, end_b, vel_a, vel_b = capsule_axis(m_ends, m_velocities, j)
-                            axis, h, r = segment_pair(
+                            c_j, s_j, _, _ = monitor_pair(
                                 (est_p[b, i, 0], est_p[b, i, 1], est_p[b, i, 2]),
-                                (est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]), end_a, end_b,
-                                vel_a, vel_b)
-                            s_j = protective_one(h, r, z_d_base + z_d_sigmas * std[b, i], mode,
-                                                 t_sr, t_r, const, iso, iso_reduced)
-                            c_j = (axis - m_radius[j] - r_monitor[b, i]
-                                   - hidden_ball_radius(unseen[b, i], occlusion_speed))
+                                (est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]),
+                                r_monitor[b, i], z_d_base + z_d_sigmas * std[b, i], m_ends,
+                                m_velocities, m_radius, j, monitor)
+                            c_j -= hidden_ball_radius(unseen[b, i], occlusion_speed)
                             if not (math.isnan(c_j) or math.isnan(s_j)):
                                 d_ub, s_lb = min(d_ub, c_j), max(s_lb, s_j)
                     near = d_ub + _MARGIN < d_min or (s_lb > 0.0 and d_ub + _MARGIN < s_lb)
@@ -566,18 +579,32 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     v_H = (w0, w1, w2)
                     h = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)  # S_true's upper bound
                     h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
-                    s_true_ub = h * truth_t[b] + speed * t_r + truth_b[b] + _MARGIN
+                    s_human_ub = h * truth_t[b] + truth_b[b] + _MARGIN
+                    s_true_ub = s_human_ub + speed * t_r
                     if mode == 1:
                         s_true_ub = max(s_true_ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                    # Below these a pair could lower a figure (or come inside S_true).
+                    contact_floor = min_sep[b] if moving else -np.inf
+                    separation_floor = max(sep_min[b], 0.0) if allowed else -np.inf
                     for i in range(op_first[o], op_first[o + 1]):
                         p_H = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
                                x2 + offsets[b, i, 2])
                         if bound_contact:
                             lb = _beyond(c_sphere, p_H[0], p_H[1], p_H[2], r_contact[b, i])
-                            if ((not moving or lb > min_sep[b]) and (
-                                    not allowed or lb - s_true_ub > max(sep_min[b], 0.0))):
+                            if lb > contact_floor and lb - s_true_ub > separation_floor:
                                 continue  # can lower neither figure
                         for j in range(ca.size):
+                            if bound_contact:  # the pair, through the sphere around capsule j
+                                g0 = p_H[0] - c_mid[j, 0]
+                                g1 = p_H[1] - c_mid[j, 1]
+                                g2 = p_H[2] - c_mid[j, 2]
+                                lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_reach[j]
+                                      - r_contact[b, i] - _MARGIN)
+                                ub = s_human_ub + c_fast[j] * t_r
+                                if mode == 1:
+                                    ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                                if lb > contact_floor and lb - ub > separation_floor:
+                                    continue  # this pair can lower neither figure
                             end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
                             axis, vh_true, vr_true = segment_pair(p_H, v_H, end_a, end_b,
                                                                   vel_a, vel_b)
@@ -616,10 +643,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     B, N, dt = c.B, c.N, c.dt
     cfg = c.config
     f, tr = cfg.safety, cfg.tracker
-    t_s, b_stop = assumed_stopping(cfg)
-    monitor = (HUMAN_SPEED_MODES.index(f.human_speed), t_s + f.reaction_time, f.reaction_time,
-               b_stop + f.intrusion_distance + f.robot_uncertainty, f.iso_human_speed,
-               f.iso_reduced_human_speed)
+    monitor = monitor_terms(cfg)
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
     # S_true of the separation invariant: the simulated robot's own stopping data.

@@ -1,6 +1,7 @@
-"""Proof that the robot is at rest whenever a body is within the contact distance of it.
+"""Proofs that the robot is at rest whenever a body is within the contact distance of it,
+and that it never moves with a body inside the protective distance of the true speeds.
 
-Theorem (what ``prove`` checks). Take the kinematic workcell (``robot.mode: kinematic``,
+Theorem 1 (what ``prove`` checks). Take the kinematic workcell (``robot.mode: kinematic``,
 a checked premise: the theorem covers no other mode, ``Proof.robot_mode`` says which)
 with the SSM speed override, a configuration whose human-speed term is a constant floor
 v (``iso`` or ``estimated_with_floor``), whose monitor measures capsules containing the
@@ -10,7 +11,7 @@ are seen leaving (``hidden_bodies: hazard``, ``safety_systems.tracks``), and a s
 scenarios satisfy the premises ``prove`` lists (each marked *checked*, against this
 model, or *trusted*, taken from the files). Let
 
-    M = v (T_s + T_r) - V_R T_r + B + C + Z_d + Z_r          (the configured S, lower bound)
+    M = v (T_s + T_r) + r_low T_r + B + C + Z_d + Z_r        (the configured S, lower bound)
         - E                                                  (tracker position error)
         - v_max (tau + T_stop + h)                           (human travel)
         - V_R h - D                                          (robot travel)
@@ -18,7 +19,8 @@ model, or *trusted*, taken from the files). Let
 
 where T_s, T_r, B, C, Z_d, Z_r are the configuration's, tau its frame timeout, h the
 control period, V_R the largest speed of any point of the monitor's capsule axes on
-the path, T_stop the longest stop from full speed under the real brakes and D the
+the path, r_low the least the monitor's robot speed term can be (-V_R for Eq. 7's
+directed speed, 0 for ``robot_speed: fastest_point``), T_stop the longest stop from full speed under the real brakes and D the
 longest travel of any capsule axis point in it (plus one tick), and E a bound on the
 distance between a tracked body and its estimate at the estimate's capture time. If
 M >= 0 over the whole box, no scenario in it has a body within c of any capsule of the
@@ -43,8 +45,40 @@ outliers are checked to fall outside it), and the ball covers the rest. Then
     clearance_ij(t_c) >= d_i(t') - E - v_max (t_c - t_f) - (V_R h + D),
 the real capsules being inside the monitor's (a larger radius, a longer axis) and the
 robot's axis points moving at most V_R h in the tick after t' and D while braking, and
-S_ij >= v (T_s + T_r) - V_R T_r + B + C + Z_d + Z_r (Eq. 5's speed of any axis point
+S_ij >= v (T_s + T_r) + r_low T_r + B + C + Z_d + Z_r (Eq. 5's speed of any axis point
 towards the body is at least -V_R). Together clearance_ij(t_c) >= M + c >= c.
+
+Theorem 2 (what ``prove_separation`` checks): the separation invariant
+(``verification.properties``): at every tick t where the override's k > 0, every body
+i and every capsule j of the real robot have clearance_ij(t) >= S_true_ij(t), seed Eqs.
+9-11 on the true directed speeds with T_r and C, and the simulated robot's stopping
+time T* and distance B* (``safety_systems.stopping``), without Z_d and Z_r. Under the
+premises of Theorem 1 but the ordering of braking speeds (S_true uses the full-speed
+stop), let
+
+    M_S = v_lo (T_s + T_r) - v_hi (T_stop + T_r)     (the human terms)
+          + g T_r                                   (the robot speed terms)
+          + B - D + Z_d + Z_r                       (stopping distance, allowances)
+          - E - v_max tau                           (what the monitor does not see)
+
+with v_lo the monitor's least human speed (the 1.6 m/s rule's lower speed, or the
+floor), v_hi the most S_true can use (the larger iso speed, or max(v_max, floor)), and
+g = -2 V_R for the directed robot speed (the monitor's capsule point may move away from
+the estimate at V_R while the true body's moves towards it at V_R) or -a h for
+``fastest_point`` (the monitor's speed is the capsule's fastest end by Eq. 5, its ends
+differenced over the last tick, at most a h short of the instant's speed of any of its
+axis points, a: ``robot_acceleration_bound``). If M_S >= 0 over the box, the invariant
+holds in every scenario of it. C cancels (it is in both S), so only Z_d + Z_r can buy
+the margin; ``Proof.needed_allowance`` says how much is missing.
+
+Proof sketch. At a tick t with k(t) > 0 there is no fault, the newest good frame is
+at most tau old, every body's track is usable, and the closest d_i exceeds S_max. The
+monitor's robot is the true robot at t (the same joint state). As in Theorem 1 the true
+position is within E + v_max (t - t_f) of the estimate beyond its ball, so
+clearance_ij(t) >= d_i(t) - E - v_max tau > S_max - E - v_max tau. S_max is at least
+v_lo (T_s + T_r) + r T_r + B + C + Z_d + Z_r with r the monitor's robot speed term, and
+S_true_ij at most v_hi (T* + T_r) + r* T_r + B* + C with T* <= T_stop, B* <= D and r*
+the true directed speed: r* - r <= -g. So clearance_ij(t) - S_true_ij(t) > M_S >= 0.
 
 The bounds V_R, D, T_stop and E are computed here, soundly: V_R and D by a Lipschitz
 covering of the path (grid values of every capsule end's speed, whose maximum bounds
@@ -53,8 +87,8 @@ rigid point's acceleration); T_stop by running the braking model from full speed
 running the filter's deterministic gain recursion from a new track until it converges
 and propagating worst-case error and velocity bounds (linear in noise and v_max). M is
 then checked over the continuous box of (v_max, noise) by z3 (unsatisfiability of
-M < 0), with the robot bounds taken at the largest braking time scale (stopping time and
-distance grow with it).
+M < 0, and of M_S < 0), with the robot bounds taken at the largest braking time scale
+(stopping time and distance grow with it).
 """
 
 import dataclasses
@@ -196,6 +230,20 @@ def robot_bounds(path: JointPath, config: ControllerConfig, *, period: float,
     window = int(math.ceil((travelled + period) / delta)) + 1  # + the tick after t'
     arcs = np.convolve(np.tile(cell_bound, 2), np.ones(window), "valid")[:cells] * delta
     return RobotBounds(float(cell_bound.max()), stop_time, float(arcs.max()), delta)
+
+
+def robot_acceleration_bound(path: JointPath | SplinePath, config: ControllerConfig,
+                             space: ScenarioSpace, tool_speed: float) -> float:
+    """A bound (m/s^2) on the acceleration of any point of the monitor's capsule axes:
+    |d2p/ds2| sigma^2 + |dp/ds| |d sigma/dt| with sigma <= 1 and the path rate changing
+    no faster than the robot's acceleration limit or the brakes' fastest deceleration
+    (at the space's shortest braking time scale); ``tool_speed`` bounds |dp/ds|."""
+    capsules = monitor_capsules(config)
+    rate_change = max(space.robot.acceleration_limit,
+                      float(np.max(braking_table(config).deceleration))
+                      / space.parameters.braking_time_scale.min)
+    return (tool_acceleration_bound(path, capsule_reach(capsules))
+            + tool_speed * rate_change)
 
 
 def braking_is_monotone(config: ControllerConfig, period: float, scale: float) -> bool:
@@ -412,7 +460,10 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
     t_s, b = assumed_stopping(config)
     tau = frame_timeout(config)
-    fixed = (v * (t_s + f.reaction_time) - rb.tool_speed * f.reaction_time + b
+    # The monitor's robot speed term is at least -V_R T_r (directed: a robot moving away
+    # lowers S), or 0 (fastest_point: a speed).
+    robot_low = 0.0 if f.robot_speed == "fastest_point" else -rb.tool_speed
+    fixed = (v * (t_s + f.reaction_time) + robot_low * f.reaction_time + b
              + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty
              - rb.tool_speed * h - rb.stop_travel - space.contact_distance)
     k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
@@ -420,7 +471,8 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     holds = _unsat_below_zero(fixed, k_noise, k_speed, space)
     worst = fixed - k_noise * p.noise_std.max - k_speed * p.peak_speed.max
     terms = {"v": v, "T_s": t_s, "T_r": f.reaction_time, "B": b, "tau": tau, "h": h,
-             "V_R": rb.tool_speed, "T_stop": rb.stop_time, "D": rb.stop_travel,
+             "V_R": rb.tool_speed, "robot_speed": f.robot_speed,
+             "T_stop": rb.stop_time, "D": rb.stop_travel,
              "E_per_axis": {"alpha": alpha, "beta": beta},
              "C+Z_d+Z_r": f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty,
              "contact_distance": space.contact_distance}
@@ -444,12 +496,23 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
               "tracker error by gain recursion")
     if not all(x.holds for x in premises):
         return Proof(False, method, box, premises, None, {}, placeholder, "separation")
-    rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
+    path = joint_path(space.robot)
+    rb = robot_bounds(path, config, period=h, braking_time_scale=scale)
     t_s, b = assumed_stopping(config)
     tau = frame_timeout(config)
     t_true = rb.stop_time + f.reaction_time  # T_stop + T_r of S_true
+    # The robot's speed towards the true body in S_true against the monitor's term:
+    # directed, up to 2 V_R apart (the monitor's robot may move away from the estimate
+    # while S_true's moves towards the body); fastest_point, the monitor's speed is the
+    # capsule's fastest end by Eq. 5 (its ends differenced over the last tick), at
+    # most a h short of the instant's (a: robot_acceleration_bound), and no axis point
+    # moves faster.
+    if f.robot_speed == "fastest_point":
+        robot_gap = -robot_acceleration_bound(path, config, space, rb.tool_speed) * h
+    else:
+        robot_gap = -2.0 * rb.tool_speed
     allowance = f.human_uncertainty + f.robot_uncertainty
-    fixed = (v_lo * (t_s + f.reaction_time) - 2.0 * rb.tool_speed * f.reaction_time
+    fixed = (v_lo * (t_s + f.reaction_time) + robot_gap * f.reaction_time
              + b - rb.stop_travel + allowance)
     k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
     k_speed = math.sqrt(3.0) * beta + tau
@@ -477,7 +540,7 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
              "E_per_axis": {"alpha": alpha, "beta": beta}, "Z_d+Z_r": allowance,
              "human_speed_term": v_lo * (t_s + f.reaction_time) - v_hi(p.peak_speed.max)
              * t_true,
-             "robot_direction_term": -2.0 * rb.tool_speed * f.reaction_time,
+             "robot_speed": f.robot_speed, "robot_speed_term": robot_gap * f.reaction_time,
              "stopping_distance_term": b - rb.stop_travel,
              "sensing_term": -(k_noise * p.noise_std.max + k_speed * p.peak_speed.max)}
     premises = premises + [Premise("z3: M_S >= 0 for every (v_max, noise) in the box", holds,

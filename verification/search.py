@@ -45,12 +45,12 @@ from safety_systems.robot_geometry import (
 )
 from safety_systems.scenario import ControllerConfig, actual_sensor
 from safety_systems.separation import body_separation, capsule_axis
-from safety_systems.ssm import HUMAN_SPEED_MODES, _eq12
+from safety_systems.ssm import _eq12
 from safety_systems.workcell import (
-    assumed_stopping,
     braking_table,
     frame_timeout,
     joint_path,
+    monitor_terms,
     scripted_operators,
 )
 from verification.evaluate_batch import delivered_frames, dropout_table
@@ -267,10 +267,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
         i, rejected = frame_seen(j)
         return (j < 0) | (i < 0) | (now - i * period > timeout) | rejected
 
-    t_s, b = assumed_stopping(config)
-    monitor = (HUMAN_SPEED_MODES.index(f.human_speed), t_s + f.reaction_time, f.reaction_time,
-               b + f.intrusion_distance + f.robot_uncertainty, f.iso_human_speed,
-               f.iso_reduced_human_speed)
+    monitor = monitor_terms(config)
     mine_arrays = (mine.a, mine.b, mine.t0, mine.t1, mine.radius, mine.tool_length)
     real_arrays = (real.a, real.b, real.t0, real.t1, real.radius, real.tool_length)
     k_ssm, gap, moving = np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_)

@@ -5,7 +5,12 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from safety_systems import separation
-from safety_systems.ssm import HUMAN_SPEED_MODES, ISO_HUMAN_SPEED, ISO_REDUCED_HUMAN_SPEED
+from safety_systems.ssm import (
+    HUMAN_SPEED_MODES,
+    ISO_HUMAN_SPEED,
+    ISO_REDUCED_HUMAN_SPEED,
+    ROBOT_SPEED_TERMS,
+)
 
 
 class SeparationMonitor(LeafSystem):
@@ -58,6 +63,8 @@ class SeparationMonitor(LeafSystem):
         occlusion_speed: metres per second at which a hidden body's ball grows (0: a
             hidden body stays where it was last seen, as in the seed).
         iso_speed, iso_reduced_speed: ISO/TS 15066 human speeds in metres per second.
+        robot_speed: the robot's speed in S: ``directed`` (Eq. 7) or ``fastest_point``
+            (``separation.pair_separation``).
     """
 
     def __init__(
@@ -77,12 +84,15 @@ class SeparationMonitor(LeafSystem):
         occlusion_speed: float = 0.0,
         iso_speed: float = ISO_HUMAN_SPEED,
         iso_reduced_speed: float = ISO_REDUCED_HUMAN_SPEED,
+        robot_speed: str = "directed",
     ):
         super().__init__()
         if num_bodies < 0:
             raise ValueError(f"num_bodies: got {num_bodies}; allowed: an integer >= 0")
         if human_speed not in HUMAN_SPEED_MODES:
             raise ValueError(f"human_speed: got {human_speed!r}; allowed: {HUMAN_SPEED_MODES}")
+        if robot_speed not in ROBOT_SPEED_TERMS:
+            raise ValueError(f"robot_speed: got {robot_speed!r}; allowed: {ROBOT_SPEED_TERMS}")
         for name, value in dict(
             reaction_time=reaction_time, stopping_time=stopping_time,
             stopping_distance=stopping_distance, human_uncertainty_sigmas=human_uncertainty_sigmas,
@@ -105,7 +115,8 @@ class SeparationMonitor(LeafSystem):
         self._monitor = (HUMAN_SPEED_MODES.index(human_speed),
                          float(stopping_time + reaction_time), float(reaction_time),
                          float(stopping_distance + intrusion_distance + robot_uncertainty),
-                         float(iso_speed), float(iso_reduced_speed))
+                         float(iso_speed), float(iso_reduced_speed),
+                         ROBOT_SPEED_TERMS.index(robot_speed))
         self._ends = self.DeclareVectorInputPort("capsule_ends", 6 * k)
         self._end_v = self.DeclareVectorInputPort("capsule_velocities", 6 * k)
         self._p_B = self.DeclareVectorInputPort("positions_estimated", 3 * num_bodies)

@@ -55,6 +55,36 @@ def test_monitor_is_the_pairs_smallest_clearance_and_largest_s():
             np.testing.assert_array_equal(nearest, j)
 
 
+def test_fastest_point_robot_speed_is_each_capsules_faster_end():
+    # robot_speed: fastest_point: S of a pair takes the speed of its capsule's faster end,
+    # whatever its direction, for v_R (Eq. 11); d and the human speed are as before.
+    rng = np.random.default_rng(13)
+    n = 4
+    r_B = rng.uniform(0.03, 0.12, n)
+    for _ in range(5):
+        q, dq = rng.uniform(-np.pi, np.pi, 6), rng.normal(size=6)
+        ends, end_v = capsule_ends(q, CAPSULES, dq)
+        p_B, v_B = rng.normal(size=(n, 3)) * 0.8, rng.normal(size=(n, 3))
+        m = SeparationMonitor(num_bodies=n, capsule_radii=CAPSULES.radius, body_radii=r_B,
+                              human_speed="iso", robot_speed="fastest_point", **ARGS)
+        d, s, v_h, v_r, nearest = _outputs(m, _fixed(m, ends, end_v, p_B, v_B, np.ones(n),
+                                                     np.zeros(n)))
+        clearance, h, _ = pair_figures(ends, end_v, CAPSULES.radius, p_B, v_B, r_B)
+        fastest = np.linalg.norm(end_v, axis=-1).max(axis=-1)  # (K,)
+        s_pairs = monitor_protective_distances(h, np.broadcast_to(fastest, h.shape),
+                                               mode="iso", **ARGS)
+        j = clearance.argmin(axis=1)
+        rows = np.arange(n)
+        np.testing.assert_array_equal(d, clearance[rows, j])
+        np.testing.assert_array_equal(s, s_pairs.max(axis=1))
+        np.testing.assert_array_equal(v_r, fastest[j])
+        # Never below the directed speed's S: a robot moving away earns no credit.
+        directed = SeparationMonitor(num_bodies=n, capsule_radii=CAPSULES.radius,
+                                     body_radii=r_B, human_speed="iso", **ARGS)
+        assert np.all(s >= _outputs(directed, _fixed(directed, ends, end_v, p_B, v_B,
+                                                     np.ones(n), np.zeros(n)))[1])
+
+
 def test_tool_point_is_the_seeds_eq8_bit_for_bit():
     rng = np.random.default_rng(4)
     n = 4

@@ -86,7 +86,8 @@ def _tracker(config, **kw):
     _config("iso_previous"),
     _tracker(_config("iso", human_speed="estimated_with_floor", human_uncertainty_sigmas=2.0,
                      tool_length=0.2), hidden_bodies="expire", gate=False),
-], ids=["seed", "iso", "previous", "expire_floor_sigmas_tool"])
+    _config("iso", robot_speed="fastest_point", robot_uncertainty=0.0),
+], ids=["seed", "iso", "previous", "expire_floor_sigmas_tool", "fastest_point"])
 def test_batch_agrees_with_drake_on_the_whole_cell_space(config):
     # Capsules or the tool point, heads, long occlusions of several bodies, outlier frames,
     # both tracker rules, the gate on and off, and every kind of sensor fault.

@@ -25,6 +25,7 @@ from verification.proof import (
     operators_reach,
     prove,
     prove_separation,
+    robot_acceleration_bound,
     robot_bounds,
     tool_acceleration_bound,
 )
@@ -424,3 +425,28 @@ def test_the_tightest_proved_configuration_breaks_the_invariant_in_no_simulation
     result = evaluate_many([make_scenario(SPACE, tight, to_point(SPACE, u)) for u in points])
     assert np.isfinite(result.separation).sum() > 20  # the robot was let move near someone
     assert result.separation.min() >= 0.0
+
+
+def test_the_fastest_point_robot_speed_needs_a_small_allowance():
+    # S from the capsule's fastest point never credits a robot moving away: the robot
+    # term of M_S shrinks from -2 V_R T_r to -a h T_r, and contact gains V_R T_r.
+    fast = _safety(ISO_CONTACT, robot_speed="fastest_point")
+    directed_sep, fast_sep = prove_separation(ISO_CONTACT, SPACE), prove_separation(fast, SPACE)
+    t = fast_sep.terms
+    assert fast_sep.terms["robot_speed_term"] == pytest.approx(
+        -robot_acceleration_bound(PATH, fast, SPACE, t["V_R"]) * H * t["T_r"], abs=1e-15)
+    assert 0.0 < fast_sep.needed_allowance < directed_sep.needed_allowance - 2 * t["V_R"] * t[
+        "T_r"] + 0.05
+    assert prove(fast, SPACE).margin_at_worst_corner == pytest.approx(
+        prove(ISO_CONTACT, SPACE).margin_at_worst_corner + t["V_R"] * t["T_r"], abs=1e-12)
+    tight = _safety(fast, robot_uncertainty=fast_sep.needed_allowance + 1e-6)
+    assert prove_separation(tight, SPACE).proved and prove(tight, SPACE).proved
+    # Soundness against the closed loop, over 1024 Sobol scenarios of the default space.
+    from verification.evaluate_batch import evaluate_many
+    from verification.search import sweep_points
+    from verification.space import free_parameters, make_scenario, to_point
+
+    points = sweep_points("sobol", 1024, len(free_parameters(SPACE)), seed=6)
+    result = evaluate_many([make_scenario(SPACE, tight, to_point(SPACE, u)) for u in points])
+    assert np.isfinite(result.separation).sum() > 50
+    assert result.separation.min() >= 0.0 and result.robustness.min() >= 0.0

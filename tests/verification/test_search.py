@@ -130,3 +130,4 @@ def test_interrupted_sweep_resumes_without_repeating_work(tmp_path, monkeypatch)
     with Runner(workers=1) as runner:
         fresh = sweep(SPACE, SEED_CONFIG, runner, method="sobol", budget=8, seed=0)
     np.testing.assert_array_equal(fresh.robustness, resumed.robustness)
+

@@ -205,16 +205,18 @@ def _rebuilt(function, **names):
 @pytest.fixture
 def flipped_sign(monkeypatch):
     """Eqs. 6-7 with the wrong sign: closing in counts as moving away. The product's
-    compiled monitor (``separation.body_separation``) is rebuilt with the pair's speeds
-    flipped, and so are the functions that inline it: the diagram's SeparationMonitor
-    (through ``separation.separation_rows``) and the batched evaluator's ticks."""
+    compiled monitor pair (``separation.pair_separation``) is rebuilt with the pair's
+    speeds flipped, and so are the functions that inline it: ``body_separation``, the
+    diagram's SeparationMonitor (through ``separation.separation_rows``) and the batched
+    evaluator's ticks (both its seams, ``monitor_body`` and ``monitor_pair``)."""
 
     @numba.njit(inline="always")
     def flipped_pair(p_B, v_B, A, B, v_A, v_B2):
         d, v_h, v_r = segment_pair(p_B, v_B, A, B, v_A, v_B2)
         return d, -v_h, -v_r
 
-    body = _rebuilt(separation_module.body_separation, segment_pair=flipped_pair)
+    pair = _rebuilt(separation_module.pair_separation, segment_pair=flipped_pair)
+    body = _rebuilt(separation_module.body_separation, pair_separation=pair)
     monkeypatch.setattr(separation_module, "separation_rows",
                         _rebuilt(separation_module.separation_rows, body_separation=body))
 
@@ -222,8 +224,13 @@ def flipped_sign(monkeypatch):
     def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor):
         return body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor)
 
+    @numba.njit(inline="always")
+    def monitor_pair(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
+        return pair(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor)
+
     monkeypatch.setattr(batch_module, "_advance",
-                        _rebuilt(batch_module._advance, monitor_body=monitor_body))
+                        _rebuilt(batch_module._advance, monitor_body=monitor_body,
+                                 monitor_pair=monitor_pair))
 
 
 GENTLE = dict(start_distance=(1.0, 2.5), peak_speed=(0.5, 1.2), acceleration=(1.0, 3.0),
