@@ -108,6 +108,7 @@ def _cell(params: Params, space: ScenarioSpace, certificate: dict) -> str:
                          or "none declared")],
             ["contact", _e(f"{space.contact_geometry}, contact distance "
                            f"{space.contact_distance:g} m")],
+            *_whole_cell(certificate["cell"]),
             ["stopping data", _e(f"{b['origin']}: speed fractions {_g(b['speed_fraction'])}, "
                                  f"times {_g(b['stopping_time'])} s, distances "
                                  f"{_g(b['stopping_distance'])} m")]]
@@ -117,6 +118,35 @@ def _cell(params: Params, space: ScenarioSpace, certificate: dict) -> str:
                "from UR5/CB3 figures, not data measured on this cell. Enter the measured "
                "stopping times and distances before relying on this report.</p>\n" + out)
     return out
+
+
+def _whole_cell(cell: dict) -> list[list[str]]:
+    """Rows of the cell table for the certificate's ``cell`` (the whole-cell settings)."""
+    m, c = cell["monitor"], cell["contact"]
+    speed = {"directed": "the directed speed of the nearest capsule point towards the body "
+                         "(ISO/TS 15066, seed 000 Eq. 7)",
+             "fastest_point": "the speed of the capsule's fastest point, whatever its "
+                              "direction"}.get(m["robot_speed"], m["robot_speed"])
+    h, g = cell["hidden_bodies"], cell["frames"]
+    return [
+        ["robot as the monitor measures it", _e(
+            f"{m['robot_geometry']}: {', '.join(m['capsules'])}, radii {_g(m['radii'])} m, "
+            f"tool length {m['tool_length']:g} m")],
+        ["robot as contact is measured", _e(
+            f"{c['geometry']}: radii {_g(c['radii'])} m, tool length {c['tool_length']:g} m")],
+        ["robot's speed in S", _e(speed)],
+        ["bodies", _e(f"spheres: hands {cell['bodies']['hand_radius']:g} m, head "
+                      f"{cell['bodies']['head_radius']:g} m")],
+        ["hidden bodies", _e(
+            f"{h['rule']}: " + ("a hidden body stays a hazard, a ball growing at "
+                                f"{h['occlusion_speed']:g} m/s, until seen leaving through "
+                                f"an exit ({h['exits']} declared)" if h["rule"] == "hazard" else
+                                "a hidden body's track ends after a time"))],
+        ["frames", _e(("gated: a frame farther from its track than "
+                       f"{g['gate_speed']:g} m/s times the time elapsed plus "
+                       f"{g['gate_width']:g} m is rejected" if g["gate"] else "not gated")
+                      + f"; a stop when no good frame came for {g['timeout']:.3g} s")],
+    ]
 
 
 def _configuration(certificate: dict, params: Params) -> str:

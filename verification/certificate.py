@@ -48,10 +48,10 @@ FIELDS = {  # every key of a certificate and the type of its value
     "schema": str, "schema_version": int, "checksum": str, "checksum_short": str,
     "checksum_covers": str, "params_file": str, "params_file_sha256": str, "verdict": str,
     "verdict_meaning": str, "method": str, "robot_mode": str, "properties": dict,
-    "premises": list, "braking_data": dict, "assumptions": dict, "simulations": int,
-    "model_evaluations": int, "counts_meaning": str, "min_robustness": dict,
-    "counterexamples": list, "versions": dict, "parameters": dict, "sources": dict,
-    "exported": str, DIGEST: str,
+    "premises": list, "cell": dict, "braking_data": dict, "assumptions": dict,
+    "simulations": int, "model_evaluations": int, "counts_meaning": str,
+    "min_robustness": dict, "counterexamples": list, "versions": dict, "parameters": dict,
+    "sources": dict, "exported": str, DIGEST: str,
 }
 EXIT_NOT_CERTIFIED = 1
 EXIT_UNREADABLE = 2

@@ -7,8 +7,10 @@ it writes into OUTDIR:
 - ``params.yaml``: the configuration and the robot it was verified for
   (``safety_systems.params_file``: the project's loader reads it; a ROS 2 parameter
   file);
-- ``certificate.json`` (``verification.certificate``): the verdict and method, every
-  premise marked checked or trusted, the braking data's origin, the assumptions and the
+- ``certificate.json`` (``verification.certificate``): the verdict and method, each
+  property's verdict (contact and separation), every premise marked checked or trusted,
+  the whole cell's settings those premises speak of (capsules, body spheres, hidden
+  bodies, frame gating), the braking data's origin, the assumptions and the
   scenario space, the counts of simulations and model evaluations, the minimum
   robustness, the versions, the safety checksum and the digests of both files;
 - ``report.html`` (``verification.assessor_report``): one self-contained page for the
@@ -24,12 +26,14 @@ import json
 import platform
 from pathlib import Path
 
+from safety_systems.configuration import contact_capsules, monitor_capsules
 from safety_systems.documents import inputs_read, read_input, read_text
 from safety_systems.input_error import InputError
 from safety_systems.output_files import write_text
 from safety_systems.params_file import Params, deployed_robot, flat_parameters, params_text
 from safety_systems.provenance import version
 from safety_systems.scenario import ControllerConfig
+from safety_systems.workcell import frame_timeout
 from verification.certificate import (
     SCHEMA,
     SCHEMA_VERSION,
@@ -40,6 +44,7 @@ from verification.certificate import (
     safety_checksum,
     short,
 )
+from verification.properties import PROPERTIES
 from verification.space import ScenarioSpace, load_space
 
 DEPENDENCIES = ("drake", "numpy", "scipy", "numba", "z3-solver", "cma", "filterpy")
@@ -109,6 +114,10 @@ def read_report(path: str | Path) -> dict:
     _expect(report, REPORT, "", path)
     if report["verdict"] not in VERDICT_MEANING:
         raise InputError("verdict", report["verdict"], " | ".join(VERDICT_MEANING), file=path)
+    if sorted(report["properties"]) != sorted(PROPERTIES):
+        raise InputError("properties", sorted(report["properties"]), f"both properties "
+                         f"{sorted(PROPERTIES)} (verify --property both): a certificate "
+                         "carries the verdict of each", file=path)
     return report
 
 
@@ -137,6 +146,30 @@ def premises(report: dict) -> list[dict]:
             entry["holds"] = entry["holds"] and x["holds"]
             entry["properties"].append(name)
     return list(out.values())
+
+
+def whole_cell(params: Params, space: ScenarioSpace) -> dict:
+    """The whole-cell settings the premises speak of, as figures: the robot as the
+    monitor measures it (its capsules' radii) against the real robot the properties
+    measure, the robot's speed in S, the bodies' spheres, how hidden bodies are kept and
+    how frames are gated (the proofs' premises say whether each suffices)."""
+    c, f, t = params.controller, params.controller.safety, params.controller.tracker
+    mine, real = monitor_capsules(c), contact_capsules(space.robot, space.contact_geometry)
+    return {
+        "monitor": {"robot_geometry": f.robot_geometry, "capsules": list(mine.names),
+                    "radii": [float(r) for r in mine.radius],
+                    "tool_length": float(mine.tool_length), "robot_speed": f.robot_speed},
+        "contact": {"geometry": space.contact_geometry, "capsules": list(real.names),
+                    "radii": [float(r) for r in real.radius],
+                    "tool_length": float(real.tool_length),
+                    "contact_distance": float(space.contact_distance)},
+        "bodies": {"hand_radius": float(space.hand_radius),
+                   "head_radius": float(space.head_radius)},
+        "hidden_bodies": {"rule": t.hidden_bodies, "occlusion_speed": float(f.occlusion_speed),
+                          "exits": len(t.exits), "walls": t.cell is not None},
+        "frames": {"gate": bool(t.gate), "gate_speed": float(t.gate_speed),
+                   "gate_width": float(t.gate_width), "timeout": float(frame_timeout(c))},
+    }
 
 
 def counterexamples(report: dict, tune: dict | None) -> list[dict]:
@@ -195,6 +228,7 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
         "verdict": report["verdict"], "verdict_meaning": VERDICT_MEANING[report["verdict"]],
         "method": report["method"], "robot_mode": report["robot_mode"],
         "properties": properties, "premises": premises(report),
+        "cell": whole_cell(params, space),
         "braking_data": braking_data(params), "assumptions": assumptions,
         "simulations": int(report["simulations"]), "model_evaluations": len(replays),
         "counts_meaning": COUNTS_MEANING,

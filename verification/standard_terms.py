@@ -51,6 +51,12 @@ TERMS = {
                            "the tool's length along the flange's z axis, m"),
     "safety.link_radii": ("-", "project", "the links' capsule radii (empty: the UR5e "
                           "model's)"),
+    "safety.robot_speed": ("v_R (S_R = v_R T_r)", f"{ISO_SSM}; seed 000 Eqs. 5, 7",
+                           "the robot's speed in S: the directed speed of the capsule "
+                           "point nearest the body towards it (directed, the standard's "
+                           "and the seed's) or the speed of the capsule's fastest point, "
+                           "whatever its direction (fastest_point: never credits a robot "
+                           "moving away)"),
     "safety.human_speed": ("v_H", f"{ISO_SSM}; seed 000 Eq. 10", "how the operator's speed "
                            "enters S: a constant (iso), the estimate (estimated, the seed's) "
                            "or the larger of the two (estimated_with_floor)"),

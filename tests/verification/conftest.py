@@ -73,6 +73,7 @@ tune:
 - {name: safety.intrusion_distance, min: 0.0, max: 0.12}
 - {name: safety.robot_uncertainty, min: 0.4, max: 0.7}
 - {name: safety.reaction_time, min: 0.1, max: 0.2}
+- {name: safety.robot_speed, choices: [directed, fastest_point]}
 """
 SMALL_SPACE = Path(__file__).parent / "small_space.yaml"
 

@@ -43,6 +43,26 @@ def test_the_export_checks(exported, cli):
     assert cert["assumptions"]["assumptions"] and cert["assumptions"]["box"]
     assert cert["simulations"] == 6 and cert["model_evaluations"] >= 1
     assert set(cert["min_robustness"]) == {"contact", "separation"}
+    # Both properties' verdicts (contact and separation), each with its proof's premises.
+    assert {n: p["verdict"] for n, p in cert["properties"].items()} == {
+        "contact": "proved", "separation": "proved"}
+    assert all(p["proved"] and p["premises"] for p in cert["properties"].values())
+    # The whole cell: capsules, body spheres, hidden bodies, frame gating, the robot's
+    # speed in S, as figures beside the premises that speak of them.
+    cell = cert["cell"]
+    assert cell["monitor"]["robot_geometry"] == "capsules"
+    assert len(cell["monitor"]["radii"]) == len(cell["contact"]["radii"]) == 7
+    assert all(m >= r for m, r in zip(cell["monitor"]["radii"], cell["contact"]["radii"]))
+    assert cell["monitor"]["robot_speed"] == "directed"
+    assert cell["bodies"] == {"hand_radius": 0.05, "head_radius": 0.12}
+    assert cell["hidden_bodies"]["rule"] == "hazard"
+    assert cell["hidden_bodies"]["occlusion_speed"] == 2.0
+    assert cell["frames"]["gate"] is True and cell["frames"]["gate_width"] > 0.0
+    statements = " ".join(x["statement"] for x in cert["premises"])
+    for words in ("monitor's robot contains", "hidden bodies stay hazards",
+                  "pass the gate", "capsules contain the real arm", "fits its sphere"):
+        assert words in statements, words
+    assert cert["parameters"]["controller.safety.robot_speed"] == '"directed"'
     assert {"safety-systems", "drake", "numpy"} <= set(cert["versions"])
     assert len(cert["checksum"]) == 64 and cert["checksum_short"] == cert["checksum"][:8].upper()
 
@@ -60,6 +80,8 @@ def test_the_checksum_covers_parameters_braking_path_and_assumptions(exported):
     changed = [
         dataclasses.replace(params, controller=dataclasses.replace(
             c, safety=dataclasses.replace(c.safety, d_min=c.safety.d_min + 1e-9))),
+        dataclasses.replace(params, controller=dataclasses.replace(
+            c, safety=dataclasses.replace(c.safety, robot_speed="fastest_point"))),
         dataclasses.replace(params, controller=dataclasses.replace(
             c, braking=dataclasses.replace(c.braking, speed_fraction=[1.0],
                                            stopping_time=[0.53], stopping_distance=[0.6]))),

@@ -50,3 +50,13 @@ def test_export_refuses_a_changed_space(exported, tmp_path, cli):
     path.write_text(json.dumps(report))
     code, _, err = cli(["export", ISO, "--report", path, "--out", tmp_path / "x"])
     assert code == 2 and "space file as verified" in err
+
+
+def test_export_refuses_a_report_of_one_property(exported, tmp_path, cli):
+    report = json.loads((exported / "verified" / "report.json").read_text())
+    del report["properties"]["separation"]
+    path = tmp_path / "report.json"
+    path.write_text(json.dumps(report))
+    code, _, err = cli(["export", ISO, "--report", path, "--out", tmp_path / "x"])
+    assert code == 2 and "both properties" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "x").exists()

@@ -50,6 +50,13 @@ def test_the_page_holds_what_the_assessor_needs(exported):
             .replace(">", "&gt;").replace('"', "&quot;").replace("'", "&#x27;") in page
     assert "ISO/TS 15066:2016" in page and "ISO 13855:2010" in page
     assert "<code>safety.reaction_time</code>" in page and ">T_r<" in page
+    assert "<code>safety.robot_speed</code>" in page and "v_R (S_R = v_R T_r)" in page
+    # The whole cell in words: the capsules, the body spheres, hidden bodies, the gate.
+    for words in ("robot as the monitor measures it", "hands 0.05 m, head 0.12 m",
+                  "a ball growing at 2 m/s", "gated: a frame farther"):
+        assert words in page, words
+    for name in ("contact", "separation"):  # both properties' verdicts
+        assert f'<h3>{name}: <span class="proved">proved</span></h3>' in page
     assert page.count('<tr><td>') >= 3 and re.search(
         r"<tr><td>Safety assessor</td>(<td></td>){4}</tr>", page)  # empty sign-off fields
     assert "data:image/png;base64," in page  # the robustness figure, inline

@@ -35,6 +35,17 @@ def test_the_chosen_configuration_reverifies_with_the_same_verdict(tuned, tmp_pa
     assert all(p.proof.proved for p in outcome.properties.values())
 
 
+def test_the_robot_speed_term_is_tuned_and_exported(tuned):
+    chosen = _result(tuned)["chosen"]
+    value = chosen["values"]["safety.robot_speed"]
+    assert value in ("directed", "fastest_point")
+    assert load_controller_config(chosen["config"]).safety.robot_speed == value
+    params = (tuned / "export" / "params.yaml").read_text()
+    assert f'controller.safety.robot_speed: "{value}"' in params
+    cert = json.loads((tuned / "export" / "certificate.json").read_text())
+    assert cert["cell"]["monitor"]["robot_speed"] == value
+
+
 def test_the_chosen_configuration_is_never_slower_than_iso_on_the_tuning_scenarios(tuned):
     result = _result(tuned)
     task = load_scenario(tuned / "task.yaml")
