@@ -142,7 +142,7 @@ def _verify(args: argparse.Namespace) -> int:
     outcome = verify(config, space, out, budget=args.budget, method=args.method,
                      workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      progress=not args.quiet, config_text=read_text(args.config),
-                     properties=args.property)
+                     properties=args.property, stop_at_first=args.stop_at_first)
     report = write_report(outcome, out, config_path=args.config, space_path=args.space,
                           origin=_origin(args.argv, {"search": args.seed}))
     if report["braking_data"] == "placeholder":
@@ -161,7 +161,11 @@ def _verify(args: argparse.Namespace) -> int:
                   + (f", {100.0 * vacuous:.0f}% vacuous" if vacuous is not None else "")
                   + (f"; needs {p['proof']['needed_allowance']:.3f} m more Z_d + Z_r"
                      if p["proof"].get("needed_allowance") else ""))
-        print(f"{report['verdict']} over {report['simulations']} simulations -> {out}")
+        e = report["evaluations"]
+        print(f"{report['verdict']} over {report['simulations']} simulations "
+              f"({e['total']} model evaluations: {e['simulations']} simulations, "
+              f"{e['rankings']} rankings, {e['drake']} Drake runs; "
+              f"{report['cpu_seconds']:.1f} s CPU) -> {out}")
     if code == EXIT_REQUIREMENT:
         print(f"safety-systems: --require {args.require}: the verdict is {outcome.verdict}",
               file=sys.stderr)
@@ -424,6 +428,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "'proved'); falsified (1) and inconclusive (3) fail under any "
                           "(default: %(default)s)")
     ver.add_argument("--unverified", action="store_true", help=unverified)
+    ver.add_argument("--stop-at-first", action="store_true",
+                     help="return as soon as one counterexample is confirmed in the Drake "
+                          "diagram (exit 1; other properties are left unchecked; default: "
+                          "off, every property searched with the whole budget)")
     ver.add_argument("--quiet", action="store_true", help=quiet)
     ver.set_defaults(run=_verify)
     tune = commands.add_parser(

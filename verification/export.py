@@ -212,6 +212,9 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
                   for name, p in report["properties"].items()}
     replays = {r["simulation"] for p in report["properties"].values()
                for r in p.get("drake_replays", [])}
+    counted = report.get("evaluations")  # every evaluation by kind (verification/counts.py)
+    drake_runs = (counted["drake"] if isinstance(counted, dict)
+                  and type(counted.get("drake")) is int else len(replays))
     sources = {"config": {"path": config_path, "sha256": sha},
                "report": {"path": str(report_path),
                           "sha256": inputs_read().get(str(report_path), "")},
@@ -230,7 +233,7 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
         "properties": properties, "premises": premises(report),
         "cell": whole_cell(params, space),
         "braking_data": braking_data(params), "assumptions": assumptions,
-        "simulations": int(report["simulations"]), "model_evaluations": len(replays),
+        "simulations": int(report["simulations"]), "model_evaluations": drake_runs,
         "counts_meaning": COUNTS_MEANING,
         "min_robustness": {n: p["min_robustness"] for n, p in report["properties"].items()},
         "counterexamples": counterexamples(report, tune),
