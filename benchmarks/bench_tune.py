@@ -114,8 +114,9 @@ def main() -> int:
             for (name, d), s in zip(distances, seconds)))
     print("   (an operator standing still within the full-speed distance holds the robot; "
           "a proof over hands of up to 2.0 m/s needs at least 2.0 m/s x (T_r + T_s) + B "
-          "and the sensing allowance: about 1.9 m for both properties here, e.g. T_r "
-          "0.1 s, C 0, Z_r 0.38 m)")
+          "and the sensing allowance: for both properties here about 1.92 m with the "
+          "directed robot speed (T_r 0.1 s, C 0, Z_r 0.38 m) and 1.74 m with "
+          "fastest_point (Z_r 0.2 m), whose S counts the robot's speed even moving away)")
     print(f"\n3. tune wall time: {wall:.0f} s ({result['counts']})")
     return 0
 
