@@ -20,8 +20,10 @@ from safety_systems.config.scenario import (
     load_controller_config,
     load_scenario,
 )
+from safety_systems.config.params_file import Params
 from safety_systems.planning.task_space import TaskScene, load_scene
 from verification.space import ScenarioSpace, load_space
+from verification.tune_space import TunableConfig, TuneFile
 
 MODELS = Path(__file__).parents[1] / "models"
 INSPECTION = MODELS / "scenarios" / "inspection.yaml"
@@ -123,7 +125,7 @@ def test_validation_errors_name_the_file(tmp_path):
 
 
 @pytest.mark.parametrize("schema", [Scenario, ControllerConfig, ScenarioSpace, TaskScene,
-                                    TaskPoints])
+                                    TaskPoints, Params, TunableConfig, TuneFile])
 def test_every_number_of_every_schema_declares_its_range(schema):
     assert unranged_fields(schema) == []
 

@@ -107,7 +107,13 @@ from safety_systems.config.scenario import ControllerConfig
 from safety_systems.cell.stopping import stop_from_full_speed
 from safety_systems.sensing.tracks import MIN_MEASUREMENT_STD
 from safety_systems.cell.ur5e import DH_A, DH_D
-from safety_systems.config.configuration import assumed_stopping, braking_table, frame_timeout, joint_path, placeholder_braking
+from safety_systems.config.configuration import (
+    assumed_stopping,
+    braking_table,
+    frame_timeout,
+    joint_path,
+    placeholder_braking,
+)
 from verification.space import HEAD_BACK, HEAD_UP, OTHER_HAND_OFFSET, ScenarioSpace
 
 

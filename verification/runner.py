@@ -10,6 +10,7 @@ cut short, which the next run drops (and evaluates again).
 import dataclasses
 import hashlib
 import json
+import multiprocessing
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -176,7 +177,8 @@ class Runner:
             timed = (f.result() for f in futures)
         else:
             if self._pool is None:
-                self._pool = ProcessPoolExecutor(max_workers=self.workers)
+                self._pool = ProcessPoolExecutor(max_workers=self.workers,
+                                                 mp_context=_worker_context())
             timed = self._pool.map(_timed, [(fn, c) for c in items])
         return self._collect(timed)
 
@@ -184,6 +186,15 @@ class Runner:
         for result, cpu in timed:
             self.tally.worker_cpu += cpu
             yield result
+
+
+def _worker_context():
+    """Local workers start from a fork server that imported this module once: forking
+    this process instead (Linux's default) copies a process whose threads (Drake's,
+    numba's, a test runner's) may hold locks, and a child can then abort or hang."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload([__name__])
+    return context
 
 
 def check_scheduler(address: str, timeout: float | None = None) -> None:
