@@ -54,7 +54,9 @@ VOLATILE = {"provenance", "origin", "versions", "cpu_seconds", "wall_seconds", "
             "replay", "scenario_file", "file", "files", "planning_time",
             # digests of input files: a comment edited in a configuration changes them;
             # what the inputs mean is compared through the figures they produce
-            "config_sha256", "space_sha256", "sha256"}
+            "config_sha256", "space_sha256", "sha256",
+            # the evaluation cache's key hashes the scenario's text, field names included
+            "key"}
 # Planners run for a wall-clock budget (RRT*'s 1 s): their rows cannot repeat bit for bit.
 TIME_BUDGETED = {"RRT*"}
 COMPARED = (".json", ".jsonl", ".csv", ".md", ".yaml")
