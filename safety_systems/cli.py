@@ -181,14 +181,16 @@ def _loaders() -> dict:
         load_scenario,
         load_typed,
     )
+    from safety_systems.recording_mapping import load_mapping
     from safety_systems.task_space import load_scene
     from verification.space import load_space
 
     return {"scenario": load_scenario, "config": load_controller_config, "space": load_space,
-            "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path)}
+            "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path),
+            "mapping": load_mapping}
 
 
-KINDS = ("scenario", "config", "space", "scene", "task-path")
+KINDS = ("scenario", "config", "space", "scene", "task-path", "mapping")
 
 
 def _check(args: argparse.Namespace) -> int:

@@ -49,6 +49,7 @@ from safety_systems.systems.kalman_tracker import KalmanTracker
 from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
 from safety_systems.systems.path_follower import PathFollower
+from safety_systems.systems.recorded_motion import RecordedMotion, RecordedOperator
 from safety_systems.systems.preprogrammed_speed_controller import PreprogrammedSpeedController
 from safety_systems.systems.robot_capsules import RobotCapsules
 from safety_systems.systems.separation_monitor import SeparationMonitor
@@ -134,6 +135,38 @@ def scripted_operators(scenario: Scenario) -> list[ScriptedOperator]:
         )
         for o in scenario.operators
     ]
+
+
+def is_recorded(scenario: Scenario) -> bool:
+    """Whether the scenario's operators are played from recordings (they are all
+    recorded or all scripted)."""
+    return any(o.recording for o in scenario.operators)
+
+
+def recorded_operators(scenario: Scenario) -> list[RecordedOperator]:
+    """The scenario's recorded operators (``safety_systems.recording_mapping``)."""
+    from safety_systems.recording_mapping import load_recorded_operator
+
+    return [RecordedOperator(bodies=load_recorded_operator(o.recording, o.mapping, o.name),
+                             start=o.start, time_scale=o.time_scale, shift=tuple(o.shift),
+                             enter_time=o.enter_time, leave_time=o.leave_time)
+            for o in scenario.operators]
+
+
+def AddOperators(builder: DiagramBuilder, scenario: Scenario):
+    """Adds the operators' ground truth, named ``operators``: ``OperatorMotion`` of the
+    scripted operators, or ``RecordedMotion`` of the recorded ones (the same ports);
+    returns (the system, the occlusions the recordings imply: (body slot, start, end)
+    over each recording's gaps)."""
+    if not is_recorded(scenario):
+        return builder.AddNamedSystem(
+            "operators", OperatorMotion(operators=scripted_operators(scenario))), []
+    operators = recorded_operators(scenario)
+    hidden, first = [], 0
+    for op in operators:
+        hidden += [(first + i, a, b) for i, a, b in op.hidden_intervals()]
+        first += op.num_bodies
+    return builder.AddNamedSystem("operators", RecordedMotion(operators=operators)), hidden
 
 
 @dataclasses.dataclass
@@ -295,9 +328,9 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     names = body_names(scenario)
     n = len(names)
     builder = DiagramBuilder()
-    motion = builder.AddNamedSystem(
-        "operators", OperatorMotion(operators=scripted_operators(scenario)))
+    motion, recorded_gaps = AddOperators(builder, scenario)
     occlusions, dropouts = _sensor_intervals(scenario)
+    occlusions += recorded_gaps
     real = actual_sensor(scenario)
     sensor = builder.AddNamedSystem("mocap", MocapSensor(
         num_bodies=n, period_sec=1.0 / real.rate_hz, noise_std=real.noise_std,

@@ -11,6 +11,7 @@ from safety_systems import documents
 from safety_systems.documents import load_document
 from safety_systems.input_error import InputError
 from safety_systems.ranges import Limits, field_limits, number, unranged_fields
+from safety_systems.recording_mapping import RecordingMapping
 from safety_systems.scenario import (
     MAX_DURATION,
     ControllerConfig,
@@ -123,7 +124,7 @@ def test_validation_errors_name_the_file(tmp_path):
 
 
 @pytest.mark.parametrize("schema", [Scenario, ControllerConfig, ScenarioSpace, TaskScene,
-                                    TaskPoints])
+                                    TaskPoints, RecordingMapping])
 def test_every_number_of_every_schema_declares_its_range(schema):
     assert unranged_fields(schema) == []
 
