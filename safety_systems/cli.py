@@ -174,6 +174,12 @@ def _plan(args: argparse.Namespace) -> int:
     return 0 if rows["IAPF"]["reached_goal"] else 1
 
 
+def _run(args: argparse.Namespace) -> int:
+    from safety_systems.runtime.command import run
+
+    return run(args, _origin(args.argv, {}))
+
+
 def _loaders() -> dict:
     from safety_systems.scenario import (
         TaskPoints,
@@ -294,6 +300,10 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--quiet", action="store_true",
                        help="print nothing for good files (default: off)")
     check.set_defaults(run=_check)
+    from safety_systems.runtime.command import add_parser
+
+    add_parser(commands)
+    commands.choices["run"].set_defaults(run=_run)
     return parser
 
 

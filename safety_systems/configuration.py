@@ -61,9 +61,14 @@ def monitor_capsules(config: ControllerConfig) -> Capsules:
 def monitored_body_radii(scenario: Scenario) -> np.ndarray:
     """(N,) body radii the monitor uses: the scenario's, or 0 on the tool point (Eq. 8
     measures points)."""
-    if scenario.controller.safety.robot_geometry == "tool_point":
-        return np.zeros(sum(len(o.bodies) for o in scenario.operators))
-    return body_radii(scenario)
+    return monitored_radii(scenario.controller, body_radii(scenario))
+
+
+def monitored_radii(config: ControllerConfig, radii: np.ndarray) -> np.ndarray:
+    """The radii (N,) the monitor uses for bodies of these ``radii``: as given, or 0 on
+    the tool point (Eq. 8 measures points)."""
+    radii = np.asarray(radii, dtype=float)
+    return np.zeros_like(radii) if config.safety.robot_geometry == "tool_point" else radii
 
 
 def contact_capsules(robot: RobotConfig, contact_geometry: str) -> Capsules:

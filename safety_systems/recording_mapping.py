@@ -71,8 +71,13 @@ class MappedOperator:
 
 @dc.dataclass
 class RecordingMapping:
+    """See the module docstring. ``ignore_ids``: streaming ids of other rigid bodies in
+    the live stream (a tool, the robot base's calibration body) that the runtime leaves
+    out; any other id it does not know stops the robot (the tracker's ``unknown_id``)."""
+
     capture_to_cell: CaptureToCell = dc.field(default_factory=CaptureToCell)
     operators: list[MappedOperator] = dc.field(default_factory=list)
+    ignore_ids: list[int] = number([], ge=1, le=MAX_STREAMING_ID)
 
 
 def validate_mapping(m: RecordingMapping) -> None:
@@ -111,6 +116,9 @@ def validate_mapping(m: RecordingMapping) -> None:
                 raise InputError(f"{where}.streaming_id", b.streaming_id,
                                  "a streaming id given to one body only")
             ids.add(b.streaming_id)
+    for i, x in enumerate(m.ignore_ids):
+        if x in ids:
+            raise InputError(f"ignore_ids[{i}]", x, "ids of bodies the mapping does not map")
 
 
 def load_mapping(path: str | Path) -> RecordingMapping:

@@ -76,7 +76,14 @@ from safety_systems.ssm import (
     protective_one,
 )
 from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
-from safety_systems.tracks import TRACK_LOST, TRACK_SLOT, estimate_rows, frame_step, usable
+from safety_systems.tracks import (
+    TRACK_LOST,
+    TRACK_SLOT,
+    estimate_rows,
+    frame_step,
+    tracker_fault,
+    usable,
+)
 from safety_systems.ur5e import tool0_one_memo
 from safety_systems.workcell import (
     braking_table,
@@ -497,9 +504,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     c_sphere = _bounding_sphere(c_ends, c_radius)
                 s_before, rate_before = s[b], rate[b]
             # SeparationMonitor and SpeedOverride on the tracker's estimates.
-            fault = frames[b, _F_FAULT]
-            if fault == 0.0 and not t - frames[b, _F_GOOD] <= timeout:
-                fault = stops.STOP_STALE_FRAME
+            fault = tracker_fault(frames[b, _F_FAULT], t, frames[b, _F_GOOD], timeout)
             resting = s[b] == s_last[b]  # the ends as at the last tick: Eq. 5 gives 0
             if resting and memo[b, 1] == s[b] and memo[b, 2] == fault:
                 k_override = memo[b, 0]  # the same inputs as when it was computed

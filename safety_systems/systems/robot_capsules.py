@@ -20,8 +20,10 @@ from safety_systems.robot_geometry import (
 
 
 @numba.njit(cache=True)
-def _ends(q, tool_length, a, b, t0, t1, out):
-    """The capsule ends (K, 2, 3) at joint positions q into out (velocities unused)."""
+def capsule_ends_at(q, tool_length, a, b, t0, t1, out):
+    """The capsule ends (K, 2, 3) at joint positions q into out (velocities unused), of
+    ``robot_geometry.Capsules`` (a, b, t0, t1, tool_length); compiled, shared by this
+    system and the live runtime."""
     p, pv = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
     robot_points_one(q, np.zeros(6), tool_length, p, pv)
     capsule_ends_one(p, pv, a, b, t0, t1, out, np.empty_like(out))
@@ -79,7 +81,8 @@ class RobotCapsules(LeafSystem):
     def _calc_ends(self, context: Context, value: AbstractValue) -> None:
         c = self._capsules
         out = value.get_mutable_value().reshape(-1, 2, 3)
-        _ends(np.asarray(self._q.Eval(context), dtype=float), c.tool_length, c.a, c.b, c.t0,
+        capsule_ends_at(np.asarray(self._q.Eval(context), dtype=float), c.tool_length, c.a, c.b,
+                        c.t0,
               c.t1, out)
 
     def _store(self, context: Context, discrete_state: DiscreteValues) -> None:
