@@ -96,8 +96,8 @@ def run(args: argparse.Namespace, origin: dict) -> int:
             server, port = start_replay(mocap_address.file, options, rate)
             mocap_address = MocapAddress("natnet", "127.0.0.1", port, "127.0.0.1")
         mocap = NatNetSource(mocap_address, time.monotonic)
-        mocap.connect()
         robot = connect_robot(robot_address, params.robot, params.controller)
+        mocap.connect()  # last: frames flow from here on, and the loop starts at once
     except ConnectionError as e:
         print(f"safety-systems: {e}", file=sys.stderr)
         if server is not None:

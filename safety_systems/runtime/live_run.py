@@ -130,13 +130,16 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
             z, valid, ids = bodies.entries(frame.rigid_bodies)
             loop.frame(t_capture, z, valid, ids)
             state["frames"] += 1
-        if frames:
-            if mocap.bad_packets == before:
-                state["bad"] = False
+        if frames and mocap.bad_packets == before:
+            state["bad"] = False
+        if frames or state["bad"]:  # a new k at once, not at the next tick
             state["good_frame"] = loop.t_good[0]
             command(now())
+        if frames:
             latencies.append(now() - frames[-1][0])
 
+    mocap.poll()  # frames queued while connecting are old: the loop starts afresh
+    mocap.frames.clear()
     t_start = now()
     end_at = math.inf if options.duration is None else t_start + options.duration
     next_tick, end = t_start, "duration"
@@ -157,6 +160,7 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
             lateness.append(late)
             if late > options.max_overrun:
                 state["overrun_until"] = t + options.overrun_hold
+            robot.advance_to(next_tick - t_start)  # a model robot's time: the tick's
             try:
                 q, t_q = robot.read()
                 loop.robot(q, t_q)
@@ -177,7 +181,6 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
             row[10 + 4 * n:] = (state["good_frame"] - t_start, state["frames"],
                                 mocap.bad_packets, late)
             log.add(row)
-            robot.step()
             if options.status and t >= status_due:
                 status_due = t + STATUS_PERIOD
                 _status(t - t_start, k, reason, loop, names, state["frames"])
@@ -203,8 +206,9 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
     if options.status:
         print(file=sys.stderr)
     rows = log.rows()
-    return LiveResult(header, rows, _summary(rows, header, names, latencies, lateness,
-                                             period, state, end, mocap), end)
+    summary = _summary(rows, header, names, latencies, lateness, period, state, end, mocap)
+    summary["clock_start"] = t_start  # the monotonic clock's reading at time 0
+    return LiveResult(header, rows, summary, end)
 
 
 def _status(t: float, k: float, reason: int, loop: SafetyLoop, names: list, frames: int

@@ -42,6 +42,10 @@ from safety_systems.runtime.natnet_packets import (
 )
 
 
+START_DELAY = 0.3  # s from the server info to the first frame (the client's connect polls
+#                   at 10 Hz; frames before it returns would queue up)
+
+
 @dataclasses.dataclass(frozen=True)
 class Misbehaviour:
     """Faults to stream on purpose (recording times, s; None: none)."""
@@ -94,7 +98,7 @@ def serve(rec: Recording, *, rate: float, start: float = 0.0, duration: float | 
     if client is None:
         return 0
     sock.sendto(server_info(), client)
-    t0 = time.monotonic() + 0.05
+    t0 = time.monotonic() + START_DELAY
     sent, rng = 0, np.random.default_rng(0)
     late_frame, late_until = None, -math.inf
     if misbehave.late is not None:

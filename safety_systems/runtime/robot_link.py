@@ -17,6 +17,7 @@ commanded k by the simulator's own PathFollower step (``braking.path_step_one`` 
 simulated one would; what would have been commanded is logged.
 """
 
+import ctypes
 import dataclasses
 import math
 import time
@@ -89,13 +90,16 @@ class ModelRobot:
     def command(self, k: float) -> None:
         self.sent = k
 
-    def step(self) -> None:
-        """One control period at the last command (the PathFollower's update)."""
+    def advance_to(self, t: float) -> None:
+        """Control periods at the last command (the PathFollower's update) until the
+        model's time reaches ``t`` (the loop's time: when the loop skips ticks, the model
+        robot keeps moving, as a real one would)."""
         fractions, deceleration, acceleration = self._brakes
-        self.s, self.rate = path_step_one(self.s, self.rate, self.sent if math.isfinite(
-            self.sent) else 0.0, self.path.end, 1.0, self._dt, fractions, deceleration,
-            acceleration, 1.0)
-        self.time += self._dt
+        while self.time < t - 1e-9:
+            self.s, self.rate = path_step_one(self.s, self.rate, self.sent if math.isfinite(
+                self.sent) else 0.0, self.path.end, 1.0, self._dt, fractions, deceleration,
+                acceleration, 1.0)
+            self.time += self._dt
 
     def protective_stop(self, on: bool) -> None:
         pass
@@ -152,7 +156,7 @@ class UrRtdeRobot:
             except RuntimeError:
                 self.lost = True
 
-    def step(self) -> None:
+    def advance_to(self, t: float) -> None:
         pass
 
     def protective_stop(self, on: bool) -> None:
@@ -170,7 +174,16 @@ class UrRtdeRobot:
             try:
                 interface.disconnect()
             except RuntimeError:
-                pass
+                _keep_alive(interface)
+
+
+def _keep_alive(interface) -> None:
+    """Never destroys ``interface``: ur-rtde 1.6's interfaces disconnect again in their
+    destructor, and after a broken connection that throws there, which aborts the
+    process (std::terminate; seen with RTDEIOInterface after the robot's side closed).
+    One reference is added and never released, so the object lives until the process
+    ends and the operating system closes its socket."""
+    ctypes.pythonapi.Py_IncRef(ctypes.py_object(interface))
 
 
 def connect_robot(address: RobotAddress, robot: RobotConfig, config: ControllerConfig):
