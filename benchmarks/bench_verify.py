@@ -1,7 +1,8 @@
 """Speed and sample efficiency of the verification layer, measured in one run.
 
-    python benchmarks/bench_verify.py [--seeds 10] [--budget 100] [--batch 512]
-                                      [--parts throughput,proof,search]
+    python benchmarks/bench_verify.py [--seeds 10] [--budget 4096] [--batch 512]
+        [--parts throughput,proof,search,fraction] [--configs seed,subtle]
+        [--searches ours,UniformRandom,DualAnnealing]
 
 Prints, each beside its goal:
 1. the batched evaluator's throughput in 10-second scenarios per second on one core,
@@ -11,24 +12,33 @@ Prints, each beside its goal:
    and a head) over the default space) beside the tool point (the seed's configuration,
    one operator's two hands over the flange space), and the ratio to the Drake diagram
    on the whole-cell scenarios;
-2. for the seed's configuration over the default space: in how many of ``--seeds``
-   searches the falsifier found a counterexample and the median number of closed-loop
-   simulations to the first one (and the time of the reduced-model ranking of
-   candidates that comes first, not counted as simulations), beside uniform random
-   sampling with the same budget
-   (its first violation, in sampling order), and with a longer uniform budget to
-   measure its median;
-3. the wall time to prove the iso configuration over the default space (the proof
-   alone, and ``verify`` with a 64-simulation cross-check on 2 workers).
+2. the wall time to prove the iso configuration over the default space (the proof
+   alone, and ``verify`` with a 64-simulation cross-check on 2 workers);
+3. time to the first counterexample (``search``), for the seed's configuration and for
+   a subtly unsafe one (``benchmarks/subtle_unsafe.yaml``) over the default space, both
+   properties searched as ``verify`` does, ``--seeds`` searches each, in this process
+   (one core; the compiled code loaded first, not timed): for this project's falsifier
+   and for psy-taliro's UniformRandom and DualAnnealing (the ``bench`` extra:
+   ``pip install -e '.[bench]'``) on the same batched evaluator and the same box, one
+   scenario per evaluation, stopping at the first cost below 0 (the smallest robustness
+   of the two properties): falsified out of ``--seeds``, the median evaluations to the
+   first counterexample (every evaluation of any model in order: for this project the
+   candidates ranked before it and the simulations up to it; a search that found none
+   counts as the budget + 1) and the median CPU seconds until it was found (for this
+   project, when the batch that held it was done), and the ratios; then the Drake
+   diagram's wall time to confirm this project's first counterexample (the run stops a
+   quarter second after the violation shows) beside the whole run's;
+4. how much of the default space the subtle configuration leaves unsafe (``fraction``:
+   16384 Sobol points simulated).
 
-Run it on an otherwise idle machine: the throughput is one core's, timed as this
-process' CPU time (so other work on the machine slows it less than it would a wall
-clock, but still shares the caches).
+Run it on an otherwise idle machine, pinned to one core (``taskset -c 0``). The
+throughput is one core's, timed as this process' CPU time (so other work on the machine
+slows it less than it would a wall clock, but still shares the caches).
 """
 
 import argparse
 import dataclasses
-import inspect
+import math
 import statistics
 import tempfile
 import time
@@ -41,13 +51,7 @@ from verification.evaluate_batch import evaluate_many
 from verification.evaluate_drake import evaluate_drake
 from verification.proof import prove
 from verification.runner import Runner
-from verification.search import (
-    SearchLog,
-    danger_scores,
-    evaluate_points,
-    falsify,
-    sweep_points,
-)
+from verification.search import falsify, sweep_points
 from verification.space import free_parameters, load_space, make_scenario, to_point
 from verification.verify import verify
 
@@ -61,6 +65,7 @@ ISO = load_controller_config(ROOT / "models" / "configs" / "iso.yaml")
 # little, which would flatter the throughput. The whole-cell throughput is taken on this.
 ISO_MOVING = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety,
                                                                  robot_uncertainty=0.0))
+SUBTLE = load_controller_config(ROOT / "benchmarks" / "subtle_unsafe.yaml")
 
 
 def _row(name: str, figure: str, goal: str, meets: bool | None) -> None:
@@ -123,44 +128,177 @@ def throughput(batch: int) -> None:
     _row("  ratio batched / Drake", f"{cell_rate / drake_rate:.0f}x", "", None)
 
 
-def first_violations(seeds: int, budget: int, uniform_budget: int) -> None:
-    d = len(free_parameters(SPACE))
-    found, uniform = [], []
+def _first(log, objectives) -> dict | None:
+    """The earliest first violation of the ``objectives`` (columns) in a search's log:
+    its simulation's number, and the evaluations and CPU seconds by then."""
+    firsts = [log.first[j] for j in objectives if j in log.first]
+    return min(firsts, key=lambda f: f["simulation"]) if firsts else None
+
+
+def ours(space, config, seed: int, budget: int, objectives) -> dict | None:
+    """This project's falsifier, stopping at the first violation of any objective: the
+    evaluations in order up to it (the rankings made before it and the simulations up
+    to and including it), all evaluations made by then, CPU seconds by then."""
     with Runner(workers=1) as runner:
-        for seed in range(seeds):
-            log = falsify(SPACE, SEED, runner, budget=budget, seed=seed, stop_at_first=True)
-            found.append(log.first_violation())
-            # Uniform random sampling in order; its first violation within the budgets.
-            points = sweep_points("uniform", max(budget, uniform_budget), d, seed=1000 + seed)
-            sample = SearchLog()
-            evaluate_points(SPACE, SEED, runner, points, sample)
-            uniform.append(sample.first_violation())
-            print(f"  seed {seed}: falsifier {found[-1]}, uniform {uniform[-1]}", flush=True)
+        log = falsify(space, config, runner, budget=budget, seed=seed, stop_at_first=True,
+                      objectives=objectives)
+    first = _first(log, objectives)
+    if first is None:
+        return None
+    e = first["evaluations"]
+    return {"evaluations": e["rankings"] + first["simulation"], "made": e["total"],
+            "simulations": first["simulation"], "rankings": e["rankings"],
+            "cpu": first["cpu_seconds"], "point": log.points[first["simulation"] - 1]}
 
-    def median(values, cap):  # searches without a violation count as cap + 1
-        return statistics.median(v if v is not None and v <= cap else cap + 1 for v in values)
 
-    hits = sum(v is not None for v in found)
-    same = sum(v is not None and v <= budget for v in uniform)
-    _row(f"seed config: falsifier searches with a counterexample (budget {budget})",
-         f"{hits}/{seeds}", f"{seeds}/{seeds}", hits == seeds)
-    _row("  uniform random with the same budget", f"{same}/{seeds}", "", None)
-    m_f = median(found, budget)
-    m_same = median(uniform, budget)
-    m_long = median(uniform, max(budget, uniform_budget))
-    _row("  median simulations to the first, falsifier", f"{m_f:g}", "<= 10", m_f <= 10)
-    pool = inspect.signature(falsify).parameters["candidates"].default
+class _Objective:
+    """psy-taliro's objective: one scenario at a time through the same batched evaluator
+    (``evaluate_many``) over the same unit box; the cost is the smallest robustness of the
+    ``objectives``. Notes the evaluation and the CPU time of the first violation."""
+
+    def __init__(self, space, config, objectives):
+        self.space, self.config, self.objectives = space, config, list(objectives)
+        self.calls, self.first, self.start = 0, None, time.process_time()
+
+    def eval_sample(self, sample) -> float:
+        from verification.runner import FIELDS  # (the figures' order)
+
+        self.calls += 1
+        scenario = make_scenario(self.space, self.config,
+                                 to_point(self.space, np.asarray(sample.values)))
+        r = evaluate_many([scenario])
+        cost = min(float(getattr(r, FIELDS[j])[0]) for j in self.objectives)
+        if cost < 0.0 and self.first is None:
+            self.first = {"evaluations": self.calls, "made": self.calls,
+                          "cpu": time.process_time() - self.start}
+        return cost
+
+    def eval_samples(self, samples):
+        return [self.eval_sample(s) for s in samples]
+
+
+def taliro(name: str, space, config, seed: int, budget: int, objectives) -> dict | None:
+    """psy-taliro's ``name`` optimizer (UniformRandom or DualAnnealing), stopping at the
+    first cost below 0 (``min_cost=0.0``), with ``budget`` evaluations."""
+    from staliro.optimizers import DualAnnealing, Optimizer, UniformRandom
+    from staliro.signals import Interval
+
+    optimizer = {"UniformRandom": UniformRandom, "DualAnnealing": DualAnnealing}[name](
+        min_cost=0.0)
+    objective = _Objective(space, config, objectives)
+    d = len(free_parameters(space))
+    optimizer.optimize(objective, Optimizer.Params(seed=seed, budget=budget,
+                                                   input_bounds=[Interval(0.0, 1.0)] * d))
+    return objective.first
+
+
+GOALS = {"seed": 1.0, "subtle": 3.0}  # s CPU to the first counterexample (median)
+
+
+def first_counterexamples(seeds: int, budget: int, which: list[str], searches: list[str]
+                          ) -> None:
+    """Point 2 and 3 of the issue: each search on each configuration, ``seeds`` times."""
+    configs = {"seed": (SEED, "seed config (seed_estimated.yaml)"),
+               "subtle": (SUBTLE, "subtle config (subtle_unsafe.yaml)")}
+    objectives = [0, 2]  # contact and separation, as verify's default
+    with Runner(workers=1) as runner:  # loads the compiled code (not timed)
+        falsify(SPACE, ISO, runner, budget=16, seed=99, objectives=objectives)
+    warm = make_scenario(SPACE, ISO, to_point(SPACE, np.full(20, 0.5)))
+    evaluate_many([warm])
+    evaluate_drake(warm)  # (the diagram's first build loads the robot model: not timed)
+    for key in which:
+        config, label = configs[key]
+        rows = {}
+        for search in searches:
+            results = []
+            for seed in range(seeds):
+                if search == "ours":
+                    r = ours(SPACE, config, seed, budget, objectives)
+                else:
+                    r = taliro(search, SPACE, config, seed, budget, objectives)
+                results.append(r)
+                print(f"  {key} {search} seed {seed}: "
+                      + ("none" if r is None else f"{r['evaluations']} evaluations in order "
+                         f"({r['made']} made), {r['cpu']:.3f} s CPU"), flush=True)
+            rows[search] = results
+        _table(label, rows, budget, GOALS[key])
+        if "ours" in rows and any(rows["ours"]):
+            confirm_time(config, next(r for r in rows["ours"] if r))
+
+
+def _median(results, key, cap):
+    """Median of ``key`` over the seeds; a search that found nothing counts as ``cap``."""
+    return statistics.median(r[key] if r is not None else cap for r in results)
+
+
+def _table(label: str, rows: dict, budget: int, goal: float) -> None:
+    n = len(next(iter(rows.values())))
+    mine = rows.get("ours")
+    for search, results in rows.items():
+        hits = sum(r is not None for r in results)
+        evaluations = _median(results, "evaluations", budget + 1)
+        cpu = _median(results, "cpu", math.inf)
+        name = "this project" if search == "ours" else f"psy-taliro {search}"
+        _row(f"{label}: {name}: falsified", f"{hits}/{n}", f"{n}/{n}" if search == "ours"
+             else "", hits == n if search == "ours" else None)
+        _row("  median evaluations to the first (in order; none found: budget + 1)",
+             f"{evaluations:g}", "", None)
+        _row("  median CPU s to the first (none found: inf)", f"{cpu:.3f}",
+             f"<= {goal:g}" if search == "ours" else "", cpu <= goal if search == "ours"
+             else None)
+        if search == "ours":
+            sims = _median(results, "simulations", budget + 1)
+            made = _median(results, "made", budget + 1)
+            _row("    of which closed-loop simulations (median)", f"{sims:g}", "", None)
+            _row("    of which candidates ranked (median)",
+                 f"{_median(results, 'rankings', 0):g}", "", None)
+            _row("    all evaluations made by then, whole batches (median)", f"{made:g}", "",
+                 None)
+        elif mine is not None:
+            m_hits = sum(r is not None for r in mine)
+            for what, ours_v, theirs in (
+                    ("successes", m_hits, hits),
+                    ("evaluations", _median(mine, "evaluations", budget + 1), evaluations),
+                    ("CPU s", _median(mine, "cpu", math.inf), cpu)):
+                better = ours_v > theirs if what == "successes" else ours_v < theirs
+                ratio = (theirs / ours_v if what != "successes" else ours_v / max(theirs, 1)) \
+                    if ours_v else math.inf
+                _row(f"    ratio, {'ours / theirs' if what == 'successes' else 'theirs / ours'}"
+                     f" ({what}; > 1: this project ahead)", f"{ratio:.2f}x", "> 1", better)
+
+
+def confirm_time(config, found: dict) -> None:
+    """Wall seconds to confirm a counterexample in the Drake diagram, building the
+    diagram included (the run stops a quarter second after the violation shows),
+    beside the full run's."""
+    scenario = make_scenario(SPACE, config, to_point(SPACE, np.asarray(found["point"])))
+    rho = evaluate_many([scenario])
+    name = "contact" if rho.robustness[0] < 0.0 else "separation"
     start = time.perf_counter()
-    danger_scores(SPACE, SEED, sweep_points("sobol", pool, d, seed=0))
-    _row(f"  before them: {pool} candidates ranked by a reduced model (not counted)",
-         f"{time.perf_counter() - start:.1f} s", "", None)
-    _row(f"  median, uniform random (budget {budget})",
-         f"{m_same:g}" + (" (none)" if m_same > budget else ""), "", None)
-    _row(f"  median, uniform random (budget {max(budget, uniform_budget)})",
-         f"{m_long:g}" + (" (none)" if m_long > max(budget, uniform_budget) else ""), "", None)
-    sign = ">" if m_long > max(budget, uniform_budget) else ""
-    _row("  uniform / falsifier (longer uniform budget)", f"{sign}{m_long / m_f:.1f}x",
-         ">= 10x", m_long / m_f >= 10)
+    evaluate_drake(scenario, stop_on=name)
+    confirm = time.perf_counter() - start
+    start = time.perf_counter()
+    evaluate_drake(scenario)
+    whole = time.perf_counter() - start
+    _row(f"  Drake confirmation of the first one ({name}, {scenario.duration:.1f} s "
+         "scenario), wall s", f"{confirm:.2f}", "<= 1", confirm <= 1.0)
+    _row("    the whole scenario in Drake, wall s", f"{whole:.2f}", "", None)
+
+
+def fraction(n: int) -> None:
+    """How much of the default space the subtle configuration leaves unsafe: a scrambled
+    Sobol set of n points (seed 11) simulated, violations counted per property, with a
+    Clopper-Pearson 95% upper bound (the Sobol points read as a random sample)."""
+    from scipy.stats import beta
+
+    points = sweep_points("sobol", n, len(free_parameters(SPACE)), seed=11)
+    r = evaluate_many([make_scenario(SPACE, SUBTLE, to_point(SPACE, u)) for u in points])
+    for name, rho in (("contact", r.robustness), ("separation", r.separation)):
+        k = int(np.sum(rho < 0.0))
+        upper = beta.ppf(0.975, k + 1, n - k)
+        _row(f"subtle config: {name} violated in {k} of {n} Sobol points; 95% upper bound",
+             f"{100.0 * k / n:.3f}%", "< 0.1%", upper < 0.001 if name == "separation" else None)
+        _row("  (Clopper-Pearson upper bound)", f"{100.0 * upper:.3f}%", "", None)
 
 
 def proof_time() -> None:
@@ -180,21 +318,34 @@ def proof_time() -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10)
-    parser.add_argument("--budget", type=int, default=100)
-    parser.add_argument("--uniform-budget", type=int, default=1000,
-                        help="a longer uniform run, to measure its median")
+    parser.add_argument("--budget", type=int, default=4096,
+                        help="closed-loop simulations per search (psy-taliro: evaluations)")
     parser.add_argument("--batch", type=int, default=512)
-    parser.add_argument("--parts", default="throughput,proof,search",
-                        help="which measures, comma-separated (default: all three)")
+    parser.add_argument("--parts", default="throughput,proof,search,fraction",
+                        help="which measures, comma-separated (default: all four)")
+    parser.add_argument("--configs", default="seed,subtle", help="for search: seed,subtle")
+    parser.add_argument("--searches", default="ours,UniformRandom,DualAnnealing",
+                        help="for search: ours and psy-taliro's UniformRandom,DualAnnealing")
+    parser.add_argument("--fraction-points", type=int, default=16384)
     args = parser.parse_args()
     parts = set(args.parts.split(","))
+    searches = args.searches.split(",")
+    if any(x != "ours" for x in searches):
+        try:
+            import staliro  # noqa: F401
+        except ImportError:
+            print("psy-taliro is not installed (pip install -e '.[bench]'): its searches "
+                  "are left out")
+            searches = [x for x in searches if x == "ours"]
     print(f"{'measure':72s} {'figure':>14s} {'goal':>12s} {'met':>6s}")
     if "throughput" in parts:
         throughput(args.batch)
     if "proof" in parts:
         proof_time()
     if "search" in parts:
-        first_violations(args.seeds, args.budget, args.uniform_budget)
+        first_counterexamples(args.seeds, args.budget, args.configs.split(","), searches)
+    if "fraction" in parts:
+        fraction(args.fraction_points)
 
 
 if __name__ == "__main__":

@@ -5,9 +5,11 @@ then creates (or refuses) its output folder, and only then does its work; every
 result file is written atomically (``safety_systems.output_files``) and carries its
 provenance (``safety_systems.provenance``).
 
-Exit codes: 0 done, 1 (``plan``: the IAPF did not reach the goal), 2 bad input (one
+Exit codes: 0 done, 1 (``plan``: the IAPF did not reach the goal; ``tune``: no
+candidate met its constraint; ``check``: parameters not certified), 2 bad input (one
 line on stderr naming the file, the field, the value and what is allowed), 130
-interrupted; ``verify`` has its own table (``verification.verdicts``).
+interrupted; ``verify`` has its own table (``verification.verdicts``), ``check`` exits 4
+on a verdict weaker than ``--require``.
 """
 
 import argparse
@@ -22,10 +24,43 @@ EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 MAX_BUDGET = 10_000_000  # simulations of one verify run
 MAX_WORKERS = 1024
+MAX_CANDIDATES = 10_000  # configurations one tune run simulates
+MAX_SCREEN = 1_000  # screened points per simulated candidate
 
 
 def _warn(message: str) -> None:
     print(f"safety-systems: warning: {message}", file=sys.stderr)
+
+
+class Refused(Exception):
+    """A command refuses its input: exit ``code`` with one ``line`` on stderr."""
+
+    def __init__(self, code: int, line: str):
+        super().__init__(line)
+        self.code, self.line = code, line
+
+
+def _configuration(path: str, unverified: bool):
+    """(controller configuration, certified robot or None) of a configuration file or a
+    params.yaml; a params.yaml must pass its certificate check, unless ``unverified``
+    (then a warning says it is unverified)."""
+    from safety_systems.params_file import looks_like_params
+    from safety_systems.scenario import load_controller_config
+
+    if not looks_like_params(path):
+        return load_controller_config(path), None
+    from verification.certificate import EXIT_UNREADABLE, check
+
+    result = check(path)
+    if result.params is None:  # params.yaml itself cannot be read
+        raise Refused(EXIT_UNREADABLE, result.line)
+    if not result.certified:
+        if not unverified:
+            raise Refused(result.code, result.line + " (--unverified runs it anyway)")
+        _warn(f"UNVERIFIED parameters (--unverified): {result.line}")
+    elif result.verdict == "passed":
+        _warn(result.line)
+    return result.params.controller, result.params.robot
 
 
 def _origin(argv: list[str], seeds: dict[str, int]) -> dict:
@@ -47,6 +82,14 @@ def _simulate(args: argparse.Namespace) -> int:
     from safety_systems.workcell import placeholder_braking
 
     scenario = load_scenario(args.scenario)
+    if args.config is not None:
+        from safety_systems.configuration import with_controller
+        from safety_systems.params_file import robot_config
+
+        config, robot = _configuration(args.config, args.unverified)
+        scenario = with_controller(scenario, config)
+        if robot is not None:
+            scenario = dataclasses.replace(scenario, robot=robot_config(robot, scenario.robot))
     if args.mode is not None:
         scenario = dataclasses.replace(
             scenario, robot=dataclasses.replace(scenario.robot, mode=args.mode))
@@ -78,15 +121,18 @@ def _verify(args: argparse.Namespace) -> int:
     from safety_systems.braking import PLACEHOLDER_WARNING
     from safety_systems.documents import read_text
     from safety_systems.output_files import prepare_out
-    from safety_systems.scenario import load_controller_config
     from verification.report import disagreement_lines, vacuous_warnings, write_report
     from verification.runner import check_scheduler
     from verification.space import load_space
     from verification.verdicts import EXIT_REQUIREMENT, exit_code
     from verification.verify import verify
 
-    config = load_controller_config(args.config)
+    config, robot = _configuration(args.config, args.unverified)
     space = load_space(args.space)
+    if robot is not None:
+        from safety_systems.params_file import robot_config
+
+        space = dataclasses.replace(space, robot=robot_config(robot, space.robot))
     _whole("--budget", args.budget, 1, MAX_BUDGET)
     _whole("--workers", args.workers, 1, MAX_WORKERS)
     _whole("--seed", args.seed, 0, SEED_MAX)
@@ -96,7 +142,7 @@ def _verify(args: argparse.Namespace) -> int:
     outcome = verify(config, space, out, budget=args.budget, method=args.method,
                      workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      progress=not args.quiet, config_text=read_text(args.config),
-                     properties=args.property)
+                     properties=args.property, stop_at_first=args.stop_at_first)
     report = write_report(outcome, out, config_path=args.config, space_path=args.space,
                           origin=_origin(args.argv, {"search": args.seed}))
     if report["braking_data"] == "placeholder":
@@ -115,11 +161,64 @@ def _verify(args: argparse.Namespace) -> int:
                   + (f", {100.0 * vacuous:.0f}% vacuous" if vacuous is not None else "")
                   + (f"; needs {p['proof']['needed_allowance']:.3f} m more Z_d + Z_r"
                      if p["proof"].get("needed_allowance") else ""))
-        print(f"{report['verdict']} over {report['simulations']} simulations -> {out}")
+        e = report["evaluations"]
+        print(f"{report['verdict']} over {report['simulations']} simulations "
+              f"({e['total']} model evaluations: {e['simulations']} simulations, "
+              f"{e['rankings']} rankings, {e['drake']} Drake runs; "
+              f"{report['cpu_seconds']:.1f} s CPU) -> {out}")
     if code == EXIT_REQUIREMENT:
         print(f"safety-systems: --require {args.require}: the verdict is {outcome.verdict}",
               file=sys.stderr)
     return code
+
+
+def _tune(args: argparse.Namespace) -> int:
+    """Search the tunable parameters for the shortest task time under the verdict
+    constraint; exit 1 when no candidate meets it."""
+    from safety_systems.output_files import prepare_out
+    from safety_systems.scenario import load_scenario
+    from verification.runner import check_scheduler
+    from verification.space import load_space
+    from verification.tune import TASKS, Tuner
+    from verification.tune_report import write_tune
+    from verification.tune_space import check_block, load_tunable
+
+    config, block = load_tunable(args.config, args.tune)
+    space = load_space(args.space)
+    tasks = [load_scenario(path) for path in (args.tasks or TASKS)]
+    try:
+        check_block(block, config, control_period=1.0 / space.robot.control_rate_hz)
+    except InputError as e:
+        raise e.in_file(args.tune or args.config) from None
+    _whole("--budget", args.budget, 1, MAX_BUDGET)
+    _whole("--candidates", args.candidates, 1, MAX_CANDIDATES)
+    _whole("--screen", args.screen, 1, MAX_SCREEN)
+    _whole("--workers", args.workers, 1, MAX_WORKERS)
+    _whole("--seed", args.seed, 0, SEED_MAX)
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    out = prepare_out(args.out)
+    say = (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
+    result = Tuner(config, block, space, tasks, out, space_path=args.space, allow=args.allow,
+                   budget=args.budget, candidates=args.candidates, screen=args.screen,
+                   workers=args.workers, scheduler=args.scheduler, seed=args.seed,
+                   origin=_origin(args.argv, {"search": args.seed}), say=say).run()
+    write_tune(result, out)
+    if not args.quiet:
+        def seconds(x):
+            return "unfinished" if x is None else f"{x:.2f} s"
+
+        for row in result["table"]:
+            print(f"{row['configuration']}: {row['verdict']}, total task time "
+                  f"{seconds(row['total_task_time'])}, lost {seconds(row['total_lost_time'])}")
+        reduction = result["lost_time_reduction_vs_iso"]
+        if reduction is not None:
+            print(f"time lost: {100.0 * reduction:.1f}% less than iso.yaml")
+        print(f"-> {out / 'tune.md'}")
+    if result["chosen"] is None:
+        print(f"safety-systems: tune: no candidate was {args.allow}", file=sys.stderr)
+        return 1
+    return 0
 
 
 def _compare(args: argparse.Namespace) -> int:
@@ -180,6 +279,34 @@ def _run(args: argparse.Namespace) -> int:
     return run(args, _origin(args.argv, {}))
 
 
+def _export(args: argparse.Namespace) -> int:
+    """params.yaml, certificate.json and report.html of a verified configuration."""
+    from pathlib import Path
+
+    from safety_systems.output_files import prepare_out
+    from safety_systems.scenario import load_controller_config
+    from verification.export import build, read_report, read_tune, write_export
+
+    config = load_controller_config(args.config)
+    report = read_report(args.report)
+    tune = read_tune(args.tune) if args.tune is not None else None
+    params, certificate, space = build(config, args.config, report, Path(args.report), tune,
+                                       args.tune)
+    out = prepare_out(args.out)
+    written = write_export(params, certificate, space, report, Path(args.report).parent,
+                           args.config, out)
+    if written["braking_data"]["origin"] == "placeholder":
+        from safety_systems.braking import PLACEHOLDER_WARNING
+
+        _warn(PLACEHOLDER_WARNING)
+    if written["verdict"] not in ("proved", "passed"):
+        _warn(f"the verdict is {written['verdict']}: check refuses these parameters")
+    if not args.quiet:
+        print(f"{written['verdict']}, safety checksum {written['checksum_short']} -> "
+              f"{out / 'params.yaml'}, {out / 'certificate.json'}, {out / 'report.html'}")
+    return 0
+
+
 def _loaders() -> dict:
     from safety_systems.scenario import (
         TaskPoints,
@@ -200,12 +327,40 @@ KINDS = ("scenario", "config", "space", "scene", "task-path", "mapping")
 
 
 def _check(args: argparse.Namespace) -> int:
-    load = _loaders()[args.kind]
-    for path in args.files:
-        load(path)
-        if not args.quiet:
-            print(f"{path}: ok")
-    return 0
+    """``check KIND FILE...`` reads files under the reading rules; ``check PARAMS...``
+    (or ``check params PARAMS...``) checks params files against their certificates."""
+    kind, files = None, list(args.files)
+    if files[0] in KINDS + ("params",):
+        kind, files = files[0], files[1:]
+        if not files:
+            raise InputError("check", kind, f"{kind} followed by one or more files")
+    if kind not in (None, "params"):
+        load = _loaders()[kind]
+        for path in files:
+            load(path)
+            if not args.quiet:
+                print(f"{path}: ok")
+        return 0
+    from safety_systems.params_file import looks_like_params
+    from verification.certificate import check
+
+    if args.certificate is not None and len(files) != 1:
+        raise InputError("--certificate", args.certificate, "one params file to check with it")
+    for path in files:
+        if kind is None and not looks_like_params(path):
+            raise InputError("check", path, "a params.yaml of safety-systems export (to read "
+                             "another file, name its kind first: check "
+                             f"{'|'.join(KINDS)} FILE...)")
+    code = 0
+    for path in files:
+        result = check(path, args.certificate, require=args.require)
+        if result.code == 0:
+            if not args.quiet:
+                print(result.line)
+        else:
+            print(f"safety-systems: {result.line}", file=sys.stderr)
+            code = code or result.code
+    return code
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -214,13 +369,17 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="safety-systems",
         description="Simulate, verify and tune ISO/TS 15066 speed and separation monitoring "
-                    "of a collaborative UR5e cell. Exit codes: 0 done, 1 verify falsified "
-                    "or plan short of its goal, 2 bad input (one line naming the file, the "
-                    "field, the value and what is allowed), 130 interrupted.")
+                    "of a collaborative UR5e cell, and export verified parameters. Exit "
+                    "codes: 0 done, 1 verify falsified, plan short of its goal, tune without "
+                    "a configuration meeting its constraint or check of parameters not "
+                    "certified, 2 bad input (one line naming the file, the field, the value "
+                    "and what is allowed), 130 interrupted.")
     parser.add_argument("--version", action="version", version=version_line(),
                         help="print the versions of safety-systems and Drake and exit")
     commands = parser.add_subparsers(dest="command", required=True)
     quiet = "no progress bar or summary on stdout (default: off)"
+    unverified = ("run a params.yaml that fails its certificate check, saying that it is "
+                  "unverified (default: off, refuse it)")
     sim = commands.add_parser("simulate", help="run one scenario and write its outputs")
     sim.add_argument("scenario", help="scenario YAML file")
     sim.add_argument("--out", required=True,
@@ -231,6 +390,12 @@ def build_parser() -> argparse.ArgumentParser:
                      help="override the scenario's robot.mode (default: the scenario's)")
     sim.add_argument("--duration", type=float,
                      help="override the scenario's duration, s (default: the scenario's)")
+    sim.add_argument("--config",
+                     help="a controller configuration or params.yaml run instead of the "
+                          "scenario's (the scenario's cell stays: its real sensor, exits and "
+                          "walls; a params.yaml brings its robot's path, rate and tool) "
+                          "(default: the scenario's)")
+    sim.add_argument("--unverified", action="store_true", help=unverified)
     sim.add_argument("--quiet", action="store_true", help=quiet)
     sim.set_defaults(run=_simulate)
     from verification.verdicts import EXIT_TABLE, REQUIREMENTS  # (light: no Drake)
@@ -241,7 +406,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "scenario space (exit 0 proved/passed, 1 falsified, 2 bad input, "
                        "3 inconclusive, 4 weaker than --require)",
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EXIT_TABLE)
-    ver.add_argument("config", help="controller configuration YAML file")
+    ver.add_argument("config", help="controller configuration YAML file, or a params.yaml "
+                                    "(checked against its certificate; it brings its "
+                                    "robot's path, rate and tool into the space)")
     ver.add_argument("--space", required=True,
                      help="scenario space YAML file (required; no default)")
     ver.add_argument("--out", required=True,
@@ -268,8 +435,46 @@ def build_parser() -> argparse.ArgumentParser:
                      help="exit 4 when the verdict is weaker than this (passed under "
                           "'proved'); falsified (1) and inconclusive (3) fail under any "
                           "(default: %(default)s)")
+    ver.add_argument("--unverified", action="store_true", help=unverified)
+    ver.add_argument("--stop-at-first", action="store_true",
+                     help="return as soon as one counterexample is confirmed in the Drake "
+                          "diagram (exit 1; other properties are left unchecked; default: "
+                          "off, every property searched with the whole budget)")
     ver.add_argument("--quiet", action="store_true", help=quiet)
     ver.set_defaults(run=_verify)
+    tune = commands.add_parser(
+        "tune", help="search the tunable parameters for the shortest task time whose "
+                     "verdict is proved (or passed with --allow passed); exit 1 when none is")
+    tune.add_argument("config", help="controller configuration YAML file; its tune: block "
+                                     "lists the tunable parameters unless --tune is given")
+    tune.add_argument("--space", required=True,
+                      help="scenario space YAML file (required; no default)")
+    tune.add_argument("--tasks", nargs="+",
+                      help="task scenario YAML files (default: models/scenarios/"
+                           "inspection.yaml and co_kitting.yaml)")
+    tune.add_argument("--out", required=True,
+                      help="output folder, created if missing (required; no default)")
+    tune.add_argument("--tune", help="YAML file with a tune: block (default: the "
+                                     "configuration's own)")
+    tune.add_argument("--allow", default="proved", choices=("proved", "passed"),
+                      help="weakest verdict accepted (default: %(default)s)")
+    tune.add_argument("--budget", type=int, default=200,
+                      help="simulations of each verification (default: %(default)s)")
+    tune.add_argument("--candidates", type=int, default=24,
+                      help="candidates simulated besides the base configuration "
+                           "(default: %(default)s)")
+    tune.add_argument("--screen", type=int, default=16,
+                      help="configurations screened by the proofs per candidate simulated "
+                           "(default: %(default)s)")
+    tune_where = tune.add_mutually_exclusive_group()
+    tune_where.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    tune_where.add_argument("--scheduler", help="Dask scheduler address (default: none, run "
+                                                "on local processes)")
+    tune.add_argument("--seed", type=int, default=0,
+                      help="seed of the search and of the verifications (default: "
+                           "%(default)s)")
+    tune.add_argument("--quiet", action="store_true", help=quiet)
+    tune.set_defaults(run=_tune)
     cmp_ = commands.add_parser("compare", help="run several controllers on the same scenarios "
                                                 "and tabulate danger index, goal and jerk")
     cmp_.add_argument("scenarios", nargs="+", help="scenario YAML files")
@@ -292,11 +497,34 @@ def build_parser() -> argparse.ArgumentParser:
                                       "(default: none)")
     plan.add_argument("--quiet", action="store_true", help=quiet)
     plan.set_defaults(run=_plan)
+    exp = commands.add_parser(
+        "export", help="write a verified configuration as params.yaml (a ROS 2 parameter "
+                       "file), certificate.json and report.html for the safety assessor")
+    exp.add_argument("config", help="controller configuration YAML file")
+    exp.add_argument("--report", required=True,
+                     help="report.json of its verification by verify or tune (required; "
+                          "no default)")
+    exp.add_argument("--tune", help="tune.json of the tune run that chose it: its "
+                                    "counterexamples go into the certificate (default: none)")
+    exp.add_argument("--out", required=True,
+                     help="output folder, created if missing (required; no default)")
+    exp.add_argument("--quiet", action="store_true", help=quiet)
+    exp.set_defaults(run=_export)
     check = commands.add_parser(
-        "check", help="read and check input files without running anything (exit 0 all "
-                      "good, 2 at the first bad one)")
-    check.add_argument("kind", choices=KINDS, help="what the files are")
-    check.add_argument("files", nargs="+", help="YAML files")
+        "check", help="check params.yaml against its certificate (check PARAMS...: exit 0 "
+                      "certified proved or passed, 1 not certified, 2 unreadable, 4 weaker "
+                      "than --require), or read input files of a kind without running "
+                      "anything (check KIND FILE...: exit 0 all good, 2 at the first bad "
+                      "one)")
+    check.add_argument("files", nargs="+", metavar="[KIND] FILE",
+                       help=f"params files; or a kind ({', '.join(KINDS)}) and YAML files of "
+                            "it")
+    check.add_argument("--certificate",
+                       help="the certificate of one params file (default: certificate.json "
+                            "beside it)")
+    check.add_argument("--require", default="passed", choices=("proved", "passed"),
+                       help="weakest certified verdict accepted; passed under proved exits 4 "
+                            "(default: %(default)s)")
     check.add_argument("--quiet", action="store_true",
                        help="print nothing for good files (default: off)")
     check.set_defaults(run=_check)
@@ -317,6 +545,9 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as e:
         print(f"safety-systems: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except Refused as e:
+        print(f"safety-systems: {e.line}", file=sys.stderr)
+        return e.code
     except KeyboardInterrupt:
         print("safety-systems: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

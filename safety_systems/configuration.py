@@ -1,6 +1,8 @@
 """What a configuration and a scenario mean for the loop's rules: plain functions shared by
 the Drake diagram, the batched verifier and the proof (never a copy in each)."""
 
+import dataclasses
+
 import numpy as np
 
 from safety_systems.robot_geometry import Capsules, robot_capsules, tool_point
@@ -84,3 +86,17 @@ def contact_body_radii(scenario: Scenario) -> np.ndarray:
     if scenario.contact_geometry == "tool_point":
         return np.zeros(sum(len(o.bodies) for o in scenario.operators))
     return body_radii(scenario)
+
+
+def with_controller(scenario: Scenario, config: ControllerConfig) -> Scenario:
+    """``scenario`` run under another controller configuration: ``config``'s settings
+    in the scenario's cell. What belongs to the cell stays the scenario's: its real sensor
+    (``actual_sensor``: the configuration states what the controller is configured for,
+    not what the cell's sensor does) and, when ``config`` declares none, its exits and
+    walls (``tracker.exits``, ``tracker.cell``: where operators come and go)."""
+    tracker = config.tracker
+    if not tracker.exits and tracker.cell is None:
+        cell = scenario.controller.tracker
+        tracker = dataclasses.replace(tracker, exits=list(cell.exits), cell=cell.cell)
+    return dataclasses.replace(scenario, sensor=actual_sensor(scenario),
+                               controller=dataclasses.replace(config, tracker=tracker))

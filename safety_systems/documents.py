@@ -86,7 +86,11 @@ def read_input(path: str | Path, *, max_bytes: int | None = None) -> bytes:
 
 def read_text(path: str | Path, *, max_bytes: int | None = None) -> str:
     """An input file as text: UTF-8 (a byte-order mark is dropped), no NUL byte."""
-    data = read_input(path, max_bytes=max_bytes)
+    return decode_text(read_input(path, max_bytes=max_bytes), path)
+
+
+def decode_text(data: bytes, path: str | Path) -> str:
+    """The bytes of the input file ``path`` as text, under :func:`read_text`'s rules."""
     where = data.find(b"\0")
     try:
         text = data.decode("utf-8-sig")

@@ -573,41 +573,7 @@ def validate_scenario(s: Scenario) -> None:
     _check(not s.jerk_window or (len(s.jerk_window) == 2
                                  and s.jerk_window[0] < s.jerk_window[1]),
            "jerk_window", s.jerk_window, "empty, or [first, last] samples with 2 <= first < last")
-    r = s.robot
-    _check(r.mode in ("kinematic", "dynamic"), "robot.mode", r.mode, "kinematic | dynamic")
-    p = r.path
-    if p.line is not None:
-        _check(not p.waypoints_deg and not p.segment_durations, "robot.path.line", "line",
-               "either a line or waypoints, not both")
-        _check(r.cycles == 1, "robot.cycles", r.cycles, "1 for a one-way line path")
-        for name in ("start", "goal", "rpy_deg"):
-            _points(f"robot.path.line.{name}", getattr(p.line, name), 3, "3 numbers")
-        _points("robot.path.line.seed_deg", p.line.seed_deg, 6, "6 joint angles in deg")
-        _check(p.line.start != p.line.goal, "robot.path.line.goal", p.line.goal,
-               "a point other than start")
-    if p.task_path is not None:
-        t = p.task_path
-        _check(p.line is None and not p.waypoints_deg, "robot.path.task_path", "task_path",
-               "one kind of path: task_path, line or waypoints")
-        _check(bool(t.points) or bool(t.file), "robot.path.task_path.points", t.points,
-               "2 or more [x, y, z] points in m, or a file")
-        _check(not t.points or (len(t.points) >= 2 and all(len(q) == 3 for q in t.points)),
-               "robot.path.task_path.points", t.points, "2 or more [x, y, z] points in m")
-        _points("robot.path.task_path.rpy_deg", t.rpy_deg, 3, "3 angles in deg")
-        _points("robot.path.task_path.seed_deg", t.seed_deg, 6, "6 joint angles in deg")
-    if p.waypoints_deg or p.segment_durations:
-        _check(len(p.waypoints_deg) >= 2, "robot.path.waypoints_deg", p.waypoints_deg,
-               "at least 2 waypoints of 6 joint angles")
-        for i, w in enumerate(p.waypoints_deg):
-            _points(f"robot.path.waypoints_deg[{i}]", w, 6, "6 joint angles in deg")
-        _check(len(p.segment_durations) == len(p.waypoints_deg),
-               "robot.path.segment_durations", p.segment_durations,
-               f"{len(p.waypoints_deg)} durations (one per segment, the last closes the cycle)")
-        try:
-            make_joint_path(np.radians(p.waypoints_deg), p.segment_durations, cycles=r.cycles)
-        except ValueError as e:
-            raise ScenarioError("robot.path.segment_durations", p.segment_durations,
-                                str(e)) from None
+    validate_robot(s.robot)
     _controller_rules(s.controller, "controller")
     if s.sensor is not None:
         validate_sensor(s.sensor, "sensor")
@@ -667,6 +633,45 @@ def validate_scenario(s: Scenario) -> None:
         if fault.kind == FAULT_KINDS[SWAP]:
             _check(fault.other in bodies and fault.other != fault.body,
                    f"{where}.faults[{i}].other", fault.other, f"another of {bodies}")
+
+
+def validate_robot(r: RobotConfig, prefix: str = "robot") -> None:
+    """Checks between a robot's fields (its mode, its path); raises
+    :class:`ScenarioError` naming ``prefix``'s fields."""
+    _check(r.mode in ("kinematic", "dynamic"), f"{prefix}.mode", r.mode, "kinematic | dynamic")
+    p = r.path
+    if p.line is not None:
+        _check(not p.waypoints_deg and not p.segment_durations, f"{prefix}.path.line", "line",
+               "either a line or waypoints, not both")
+        _check(r.cycles == 1, f"{prefix}.cycles", r.cycles, "1 for a one-way line path")
+        for name in ("start", "goal", "rpy_deg"):
+            _points(f"{prefix}.path.line.{name}", getattr(p.line, name), 3, "3 numbers")
+        _points(f"{prefix}.path.line.seed_deg", p.line.seed_deg, 6, "6 joint angles in deg")
+        _check(p.line.start != p.line.goal, f"{prefix}.path.line.goal", p.line.goal,
+               "a point other than start")
+    if p.task_path is not None:
+        t = p.task_path
+        _check(p.line is None and not p.waypoints_deg, f"{prefix}.path.task_path", "task_path",
+               "one kind of path: task_path, line or waypoints")
+        _check(bool(t.points) or bool(t.file), f"{prefix}.path.task_path.points", t.points,
+               "2 or more [x, y, z] points in m, or a file")
+        _check(not t.points or (len(t.points) >= 2 and all(len(q) == 3 for q in t.points)),
+               f"{prefix}.path.task_path.points", t.points, "2 or more [x, y, z] points in m")
+        _points(f"{prefix}.path.task_path.rpy_deg", t.rpy_deg, 3, "3 angles in deg")
+        _points(f"{prefix}.path.task_path.seed_deg", t.seed_deg, 6, "6 joint angles in deg")
+    if p.waypoints_deg or p.segment_durations:
+        _check(len(p.waypoints_deg) >= 2, f"{prefix}.path.waypoints_deg", p.waypoints_deg,
+               "at least 2 waypoints of 6 joint angles")
+        for i, w in enumerate(p.waypoints_deg):
+            _points(f"{prefix}.path.waypoints_deg[{i}]", w, 6, "6 joint angles in deg")
+        _check(len(p.segment_durations) == len(p.waypoints_deg),
+               f"{prefix}.path.segment_durations", p.segment_durations,
+               f"{len(p.waypoints_deg)} durations (one per segment, the last closes the cycle)")
+        try:
+            make_joint_path(np.radians(p.waypoints_deg), p.segment_durations, cycles=r.cycles)
+        except ValueError as e:
+            raise ScenarioError(f"{prefix}.path.segment_durations", p.segment_durations,
+                                str(e)) from None
 
 
 def actual_sensor(s: Scenario) -> SensorConfig:

@@ -12,6 +12,7 @@ from safety_systems.workcell import MakeWorkcell, Workcell
 
 # Progress bars appear only on runs that take longer than this (wall-clock seconds).
 PROGRESS_DELAY_SEC = 2.0
+OVERLAP = 10  # ticks of logs before the last check that ``until`` sees again
 
 
 @dataclasses.dataclass
@@ -36,9 +37,17 @@ class Run:
 
 
 def simulate_workcell(workcell: Workcell, *, duration: float | None = None,
-                      progress: bool = False) -> Run:
+                      progress: bool = False, until=None, check_every: float = 0.25,
+                      margin: float = 0.25) -> Run:
     """Simulates ``workcell`` from rest at the path's start for ``duration`` seconds
-    (default: the scenario's) and returns its logs."""
+    (default: the scenario's) and returns its logs.
+
+    ``until``: a function of logs (a Run) checked every ``check_every`` simulated
+    seconds on the logs since the last check (and ``OVERLAP`` ticks before it); once it
+    returns True the run goes on for ``margin`` seconds and stops there if ``until``
+    also holds for the whole run so far (else it runs on to the end): a run cut short
+    on purpose, e.g. a confirmation that needs only the run up to a contact. None runs
+    the whole duration."""
     scenario = workcell.scenario
     duration = scenario.duration if duration is None else duration
     simulator = Simulator(workcell.diagram)
@@ -47,22 +56,35 @@ def simulate_workcell(workcell: Workcell, *, duration: float | None = None,
         q0 = joint_path_state(workcell.path, 0.0)[0]
         workcell.plant.SetPositions(workcell.plant.GetMyMutableContextFromRoot(context), q0)
     simulator.Initialize()
-    step = max(1.0, duration / 100.0)
+    step = max(1.0, duration / 100.0) if until is None else check_every
+    end, checked, seen = duration, until is None, 0
     with tqdm(total=round(duration, 3), unit="s sim", delay=PROGRESS_DELAY_SEC,
               disable=not progress, leave=False) as bar:
         t = 0.0
-        while t < duration:
-            t = min(t + step, duration)
+        while t < end:
+            t = min(t + step, end)
             simulator.AdvanceTo(t)
             bar.update(round(t, 3) - bar.n)
+            if not checked:
+                run = _logs(workcell, context, max(0, seen - OVERLAP))
+                seen += run.time.size - min(seen, OVERLAP)
+                if until(run):
+                    checked, end = True, min(duration, t + margin)
+        if until is not None and end < duration and not until(_logs(workcell, context)):
+            simulator.AdvanceTo(duration)  # (the whole run does not show it: run it all)
+    return _logs(workcell, context)
+
+
+def _logs(workcell: Workcell, context, first: int = 0) -> Run:
+    """The workcell's logs so far from sample ``first`` on, as a Run."""
     if workcell.logger is None:
         time, data = np.zeros(0), np.zeros((0, 0))
     else:
         log = workcell.logger.FindLog(context)
-        time, data = log.sample_times().copy(), log.data().T
+        time, data = log.sample_times()[first:].copy(), log.data()[:, first:].T
     signals = {key: data[:, cols].copy() if data.size else np.zeros((time.size, 0))
                for key, cols in workcell.columns.items()}
-    return Run(scenario, workcell.body_names, time, signals)
+    return Run(workcell.scenario, workcell.body_names, time, signals)
 
 
 def simulate(scenario: Scenario, *, duration: float | None = None,

@@ -21,8 +21,10 @@ from safety_systems.scenario import (
     load_controller_config,
     load_scenario,
 )
+from safety_systems.params_file import Params
 from safety_systems.task_space import TaskScene, load_scene
 from verification.space import ScenarioSpace, load_space
+from verification.tune_space import TunableConfig, TuneFile
 
 MODELS = Path(__file__).parents[1] / "models"
 INSPECTION = MODELS / "scenarios" / "inspection.yaml"
@@ -124,7 +126,8 @@ def test_validation_errors_name_the_file(tmp_path):
 
 
 @pytest.mark.parametrize("schema", [Scenario, ControllerConfig, ScenarioSpace, TaskScene,
-                                    TaskPoints, RecordingMapping])
+                                    TaskPoints, RecordingMapping, Params, TunableConfig,
+                                    TuneFile])
 def test_every_number_of_every_schema_declares_its_range(schema):
     assert unranged_fields(schema) == []
 

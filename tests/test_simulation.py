@@ -111,3 +111,32 @@ def test_dynamic_and_kinematic_modes_agree_on_the_tool_path():
     assert np.linalg.norm(p_kin - p_dyn, axis=1).max() < 0.005
     # The run exercised the override (it slowed down), so the agreement is closed loop.
     assert _k(runs["dynamic"]).min() < 0.9
+
+
+def test_a_run_stops_on_purpose_only_when_the_whole_run_shows_it():
+    # ``until`` sees the logs since its last look; once it holds the run goes on for the
+    # margin, and stops there only if it holds for the whole run so far.
+    from safety_systems.simulation import simulate_workcell
+    from safety_systems.workcell import MakeWorkcell
+
+    scenario = dataclasses.replace(load_scenario("models/scenarios/inspection.yaml"),
+                                   duration=3.0)
+    whole = simulate(scenario)
+    looks = []
+
+    def late(run):  # a slice that starts after 1 s: true; the whole run (from 0): false
+        looks.append(run.time.size)
+        return run.time.size > 0 and run.time[0] > 1.0
+
+    run = simulate_workcell(MakeWorkcell(scenario), until=late, check_every=0.5,
+                            margin=0.25)
+    assert run.time[-1] == whole.time[-1] and len(looks) >= 3
+    # Slices of about 0.5 s (and the overlap) each, then the whole run at the cut.
+    assert max(looks[:-1]) < 0.6 / 0.002 and looks[-1] > 1.0 / 0.002
+    for key in whole.signals:  # the same run
+        np.testing.assert_array_equal(run[key], whole[key])
+    cut = simulate_workcell(MakeWorkcell(scenario), until=lambda r: r.time.size > 0,
+                            check_every=0.5, margin=0.25)
+    assert cut.time[-1] == pytest.approx(0.75, abs=0.003)
+    for key in whole.signals:
+        np.testing.assert_array_equal(cut[key], whole[key][:cut.time.size])

@@ -14,7 +14,12 @@ from safety_systems.metrics import (
 from safety_systems.scenario import Scenario
 from safety_systems.simulation import Run, simulate_workcell
 from safety_systems.workcell import MakeWorkcell
-from verification.properties import Robustness, separation_invariant, stopped_before_contact
+from verification.properties import (
+    PROPERTIES,
+    Robustness,
+    separation_invariant,
+    stopped_before_contact,
+)
 
 LOGGED = ("q", "v", "operators.positions_true", "operators.velocities_true",
           "operators.present", "follower.path_state", "tracker.rejected_frames")
@@ -33,12 +38,33 @@ def robustness_of_run(run: Run) -> Robustness:
     return Robustness(rho, rho + scenario.contact_distance, separation, time)
 
 
-def evaluate_drake(scenario: Scenario) -> tuple[Robustness, Run]:
+def evaluate_drake(scenario: Scenario, *, stop_on: str | None = None,
+                   margin: float = 0.25) -> tuple[Robustness, Run]:
     """Simulates ``scenario`` in the diagram (only the signals the properties need are
-    logged) and returns its robustness and the run."""
+    logged) and returns its robustness and the run.
+
+    ``stop_on``: a property's name (``properties.PROPERTIES``): the run stops ``margin``
+    seconds after the logs first show it violated (checked every quarter second), as a
+    confirmation needs no more; the figures are then those of the run so far (the
+    violated property's can only fall further; another property's, not yet violated,
+    says nothing of the whole run: ``cut_short`` tells)."""
     logged = LOGGED + (command_signal(scenario.controller.type),)
-    run = simulate_workcell(MakeWorkcell(scenario, logged=logged))
+    until = None
+    if stop_on is not None:
+        field = PROPERTIES[stop_on]
+
+        def until(run: Run) -> bool:
+            return getattr(robustness_of_run(run), field) < 0.0
+
+    run = simulate_workcell(MakeWorkcell(scenario, logged=logged), until=until,
+                            margin=margin)
     return robustness_of_run(run), run
+
+
+def cut_short(run: Run) -> bool:
+    """Whether a run stopped before its scenario's end (``evaluate_drake``'s stop_on)."""
+    dt = 1.0 / run.scenario.robot.control_rate_hz
+    return bool(run.time.size == 0 or run.time[-1] < run.scenario.duration - 1.5 * dt)
 
 
 def robustness_values(results: list[Robustness]) -> np.ndarray:

@@ -445,6 +445,82 @@ def _unsat_below_zero(fixed: float, k_noise: float, k_speed: float, space: Scena
     return solver.check() == z3.unsat
 
 
+@dataclasses.dataclass(frozen=True)
+class Margin:
+    """A theorem's margin as a function of the hand speed bound v_max and the noise:
+    M(v_max, noise) = fixed - k_noise noise - k_speed v_max - v_true(v_max) t_true, with
+    v_true(v_max) the human speed of S_true (separation only: max(v_max, floor) under
+    ``estimated_with_floor``, the constant ``v_true`` otherwise; 0 for contact).
+    ``prove`` and ``prove_separation`` check it over the box; the falsifier's cheapest
+    ranking evaluates it pointwise (``verification.ranking.bound_scores``)."""
+
+    fixed: float
+    k_noise: float
+    k_speed: float
+    t_true: float = 0.0
+    v_true: float = 0.0
+    floor: bool = False  # v_true(v_max) = max(v_max, v_true)
+
+    def human_speed(self, v_max):
+        return np.maximum(v_max, self.v_true) if self.floor else self.v_true
+
+    def at(self, v_max, noise):
+        """M at (v_max, noise) (numbers or arrays of one shape)."""
+        return (self.fixed - self.k_noise * np.asarray(noise) - self.k_speed
+                * np.asarray(v_max) - self.human_speed(np.asarray(v_max)) * self.t_true)
+
+
+def margin(config: ControllerConfig, space: ScenarioSpace, prop: str = "contact") -> Margin:
+    """The margin of the ``prop`` theorem (``contact`` or ``separation``, see the
+    module docstring) for ``config`` on ``space``'s robot and sensor bounds, whether or
+    not its premises hold (without them it bounds nothing; it still orders scenarios by
+    how close their hand speed and noise come to breaking it)."""
+    f = config.safety
+    h = 1.0 / space.robot.control_rate_hz
+    scale = space.parameters.braking_time_scale.max
+    alpha, beta, _ = estimate_error_coefficients(config)
+    rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
+    t_s, b = assumed_stopping(config)
+    tau = frame_timeout(config)
+    k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
+    if prop == "contact":
+        v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
+             "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
+        fixed = (v * (t_s + f.reaction_time) + robot_speed_low(config, rb) * f.reaction_time
+                 + b + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty
+                 - rb.tool_speed * h - rb.stop_travel - space.contact_distance)
+        return Margin(fixed, k_noise, math.sqrt(3.0) * beta + tau + rb.stop_time + h)
+    if prop != "separation":
+        raise ValueError(f"prop: got {prop!r}; allowed: contact | separation")
+    floor = f.human_speed == "estimated_with_floor"
+    v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
+    fixed = (v_lo * (t_s + f.reaction_time) + robot_speed_gap(config, space, rb) * f.reaction_time
+             + b - rb.stop_travel + f.human_uncertainty + f.robot_uncertainty)
+    v_true = f.iso_human_speed if floor else max(f.iso_human_speed, f.iso_reduced_human_speed)
+    return Margin(fixed, k_noise, math.sqrt(3.0) * beta + tau, rb.stop_time + f.reaction_time,
+                  v_true, floor)
+
+
+def robot_speed_low(config: ControllerConfig, rb: RobotBounds) -> float:
+    """The least the monitor's robot speed term can be, m/s: -V_R for Eq. 7's directed
+    speed (a robot moving away lowers S), 0 for ``fastest_point`` (a speed)."""
+    return 0.0 if config.safety.robot_speed == "fastest_point" else -rb.tool_speed
+
+
+def robot_speed_gap(config: ControllerConfig, space: ScenarioSpace, rb: RobotBounds) -> float:
+    """How far (m/s, negative) the monitor's robot speed term can fall short of S_true's:
+    directed, 2 V_R (the monitor's capsule point may move away from the estimate while
+    S_true's moves towards the body); fastest_point, a h (the monitor's speed is the
+    capsule's fastest end by Eq. 5, its ends differenced over the last tick, at most a h
+    short of the instant's, a: :func:`robot_acceleration_bound`; no axis point moves
+    faster)."""
+    if config.safety.robot_speed == "fastest_point":
+        h = 1.0 / space.robot.control_rate_hz
+        return -robot_acceleration_bound(joint_path(space.robot), config, space,
+                                         rb.tool_speed) * h
+    return -2.0 * rb.tool_speed
+
+
 def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     """Tries to prove "stopped before contact" for ``config`` over ``space``."""
     f, p = config.safety, space.parameters
@@ -460,14 +536,8 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
     t_s, b = assumed_stopping(config)
     tau = frame_timeout(config)
-    # The monitor's robot speed term is at least -V_R T_r (directed: a robot moving away
-    # lowers S), or 0 (fastest_point: a speed).
-    robot_low = 0.0 if f.robot_speed == "fastest_point" else -rb.tool_speed
-    fixed = (v * (t_s + f.reaction_time) + robot_low * f.reaction_time + b
-             + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty
-             - rb.tool_speed * h - rb.stop_travel - space.contact_distance)
-    k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
-    k_speed = math.sqrt(3.0) * beta + tau + rb.stop_time + h
+    m = margin(config, space, "contact")
+    fixed, k_noise, k_speed = m.fixed, m.k_noise, m.k_speed
     holds = _unsat_below_zero(fixed, k_noise, k_speed, space)
     worst = fixed - k_noise * p.noise_std.max - k_speed * p.peak_speed.max
     terms = {"v": v, "T_s": t_s, "T_r": f.reaction_time, "B": b, "tau": tau, "h": h,
@@ -500,27 +570,11 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     rb = robot_bounds(path, config, period=h, braking_time_scale=scale)
     t_s, b = assumed_stopping(config)
     tau = frame_timeout(config)
-    t_true = rb.stop_time + f.reaction_time  # T_stop + T_r of S_true
-    # The robot's speed towards the true body in S_true against the monitor's term:
-    # directed, up to 2 V_R apart (the monitor's robot may move away from the estimate
-    # while S_true's moves towards the body); fastest_point, the monitor's speed is the
-    # capsule's fastest end by Eq. 5 (its ends differenced over the last tick), at
-    # most a h short of the instant's (a: robot_acceleration_bound), and no axis point
-    # moves faster.
-    if f.robot_speed == "fastest_point":
-        robot_gap = -robot_acceleration_bound(path, config, space, rb.tool_speed) * h
-    else:
-        robot_gap = -2.0 * rb.tool_speed
+    m = margin(config, space, "separation")
+    t_true = m.t_true  # T_stop + T_r of S_true
     allowance = f.human_uncertainty + f.robot_uncertainty
-    fixed = (v_lo * (t_s + f.reaction_time) + robot_gap * f.reaction_time
-             + b - rb.stop_travel + allowance)
-    k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
-    k_speed = math.sqrt(3.0) * beta + tau
-
-    def v_hi(v_max):  # S_true's human speed, at most
-        if floor:
-            return max(v_max, f.iso_human_speed)
-        return max(f.iso_human_speed, f.iso_reduced_human_speed)
+    fixed, k_noise, k_speed = m.fixed, m.k_noise, m.k_speed
+    v_hi = m.human_speed  # S_true's human speed, at most
 
     def z3_human(vm):
         if floor:
@@ -540,7 +594,8 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
              "E_per_axis": {"alpha": alpha, "beta": beta}, "Z_d+Z_r": allowance,
              "human_speed_term": v_lo * (t_s + f.reaction_time) - v_hi(p.peak_speed.max)
              * t_true,
-             "robot_speed": f.robot_speed, "robot_speed_term": robot_gap * f.reaction_time,
+             "robot_speed": f.robot_speed,
+             "robot_speed_term": robot_speed_gap(config, space, rb) * f.reaction_time,
              "stopping_distance_term": b - rb.stop_travel,
              "sensing_term": -(k_noise * p.noise_std.max + k_speed * p.peak_speed.max)}
     premises = premises + [Premise("z3: M_S >= 0 for every (v_max, noise) in the box", holds,

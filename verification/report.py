@@ -99,6 +99,9 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str,
             "min_robustness": _finite(float(rho.min())) if rho.size else None,
             "simulations_violating": int(np.sum(rho < 0.0)),
             "simulations_to_first_counterexample": o.log.first_violation(p.column),
+            # the evaluations of each kind and the CPU and wall seconds when the search
+            # found the first violation and when Drake first confirmed one
+            "first_counterexample": p.first_counterexample,
             "counterexamples": p.counterexamples,
             "unconfirmed_counterexamples": p.unconfirmed,
             "disagreements": p.disagreements,
@@ -123,6 +126,15 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str,
         "box": o.proof.box,
         "free_parameters": o.free_parameters,
         "simulations": len(o.log.points),
+        # every evaluation of a model of the loop in this run, by kind and in total
+        # (simulations: closed-loop, evaluated here, not read from a resumed run's cache;
+        # rankings: candidates scored by the falsifier's cheap models; drake: Drake
+        # replays), and the run's CPU and wall seconds (verification/counts.py)
+        "evaluations": o.evaluations.get("evaluations"),
+        "cpu_seconds": o.evaluations.get("cpu_seconds"),
+        "wall_seconds": o.evaluations.get("wall_seconds"),
+        "stopped_at_first": o.stopped_at_first,
+        "unchecked_properties": o.unchecked,
         "seed": o.seed,
         "budget": o.budget,
         "braking_data": "placeholder" if o.proof.placeholder_braking else "configured",
@@ -184,6 +196,7 @@ def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
              f"- smallest robustness found: {p['min_robustness']}; simulations violating it: "
              f"{p['simulations_violating']}; first counterexample after "
              f"{p['simulations_to_first_counterexample'] or '-'} simulations",
+             *first_counterexample_lines(p.get("first_counterexample")),
              f"- vacuous share ({v['definition']}; robustness +inf): "
              f"{_share(v['evaluated'])} of the evaluated scenarios, "
              f"{_share(v['drake_replays'])} of the Drake replays", ""]
@@ -223,7 +236,10 @@ def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
         lines += [f"{i + 1}. robustness {_m(c['drake_robustness'])} m (search "
                   f"{_m(c['robustness'])}), simulation {c['simulation']}; in Drake: "
                   f"stopped before contact {_m(drake['stopped_before_contact'])} m, "
-                  f"separation {_m(drake['separation'])} m; replay: "
+                  f"separation {_m(drake['separation'])} m"
+                  + (f" (the run so far: stopped at {c['drake_stopped_at']:.2f} s, a quarter "
+                     "second after the violation showed)" if c.get("drake_stopped_at")
+                     else "") + "; replay: "
                   f"`safety-systems simulate {c['scenario']} --out DIR --html`",
                   "   " + ", ".join(f"{k}={v:g}" for k, v in c["parameters"].items())]
     lines += ["", "### Drake replays (the search's figure beside the Drake diagram's)", "",
@@ -241,6 +257,44 @@ def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
     return lines + [""]
 
 
+def _when(x: dict) -> str:
+    e = x["evaluations"]
+    return (f"{e['total']} evaluations ({e['simulations']} simulations, {e['rankings']} "
+            f"rankings, {e['drake']} Drake runs), {x['cpu_seconds']:.2f} s CPU, "
+            f"{x['wall_seconds']:.2f} s wall")
+
+
+def first_counterexample_lines(first: dict | None) -> list[str]:
+    """When the first counterexample was found and confirmed, in words."""
+    if not first:
+        return []
+    out = []
+    if first.get("found"):
+        out.append(f"- first counterexample found (simulation {first['simulation']}) after "
+                   f"{_when(first['found'])}")
+    if first.get("confirmed"):
+        out.append(f"- first counterexample confirmed in the Drake diagram after "
+                   f"{_when(first['confirmed'])}")
+    return out
+
+
+def evaluation_lines(report: dict) -> list[str]:
+    """Every evaluation of a model of the loop, by kind and in total, in words."""
+    e = report.get("evaluations")
+    if not e:
+        return []
+    lines = [f"- evaluations of models of the loop: {e['total']} in all: {e['simulations']} "
+             f"closed-loop simulations, {e['rankings']} candidate rankings (cheap models), "
+             f"{e['drake']} Drake diagram runs; {report['cpu_seconds']:.2f} s CPU, "
+             f"{report['wall_seconds']:.2f} s wall"]
+    if report.get("stopped_at_first"):
+        lines.append(f"- stopped at the first confirmed counterexample "
+                     f"({report['stopped_at_first']}): no cross-check replays"
+                     + (f"; not checked: {', '.join(report['unchecked_properties'])}"
+                        if report["unchecked_properties"] else ""))
+    return lines
+
+
 def markdown(report: dict) -> str:
     lines = [f"# Verification: {report['verdict'].upper()}", "",
              f"- config: `{report['config']}` (sha256 {report['config_sha256'][:12]}...)",
@@ -251,7 +305,7 @@ def markdown(report: dict) -> str:
              "- properties: " + ", ".join(f"{name} {p['verdict']}"
                                           for name, p in report["properties"].items()),
              f"- simulations: {report['simulations']} (budget {report['budget']}, seed "
-             f"{report['seed']})", ""]
+             f"{report['seed']})", *evaluation_lines(report), ""]
     if report["braking_data"] == "placeholder":
         lines += [f"**{PLACEHOLDER_WARNING}**", ""]
     lines += [f"**{w}**\n" for w in vacuous_warnings(report)]

@@ -10,7 +10,9 @@ cut short, which the next run drops (and evaluates again).
 import dataclasses
 import hashlib
 import json
+import multiprocessing
 import os
+import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -18,7 +20,8 @@ import numpy as np
 from tqdm import tqdm
 
 from safety_systems.input_error import InputError
-from safety_systems.scenario import Scenario, dump_scenario
+from safety_systems.scenario import Scenario
+from verification.counts import Tally
 from verification.evaluate_batch import evaluate_many
 
 FIELDS = ("robustness", "min_separation_while_moving", "separation",
@@ -41,10 +44,19 @@ def _apply(job: tuple) -> object:
     return fn(*args)
 
 
+def _timed(job: tuple) -> tuple:
+    """(fn(item), the CPU seconds it took) of a job (fn, item), in a worker process."""
+    fn, item = job
+    start = time.process_time()
+    result = fn(item)
+    return result, time.process_time() - start
+
+
 def scenario_key(scenario: Scenario) -> str:
-    """A stable key of a scenario's content (its YAML text, without its name) and of the
-    figures kept for it (``FIGURES_VERSION``)."""
-    text = FIGURES_VERSION + "\n" + dump_scenario(dataclasses.replace(scenario, name=""))
+    """A stable key of a scenario's content (its dataclasses' ``repr``, without its name:
+    every float written in full, as ``repr`` does; a YAML dump would say the same at some
+    hundred times the cost) and of the figures kept for it (``FIGURES_VERSION``)."""
+    text = FIGURES_VERSION + "\n" + repr(dataclasses.replace(scenario, name=""))
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
@@ -91,11 +103,14 @@ class Runner:
         cache_path: JSON-lines file of finished evaluations (None: memory only).
         chunk: scenarios per task.
         progress: show one progress bar over all evaluations (``total`` expected).
+        tally: counts the simulations evaluated (not those read from the cache) and
+            the CPU time of the workers (``verification.counts``); a new one if None.
     """
 
     def __init__(self, *, workers: int | None = None, scheduler: str | None = None,
                  cache_path: Path | None = None, chunk: int = 64, progress: bool = False,
-                 total: int | None = None):
+                 total: int | None = None, tally: Tally | None = None):
+        self.tally = Tally() if tally is None else tally
         self.workers = workers if workers is not None else (os.cpu_count() or 1)
         self.scheduler = scheduler
         self.cache = EvaluationCache(cache_path)
@@ -130,6 +145,7 @@ class Runner:
         # Split the work evenly over the workers, in chunks of at most ``chunk``.
         size = max(1, min(self.chunk, -(-len(todo) // max(1, self.workers))))
         chunks = [todo[i:i + size] for i in range(0, len(todo), size)]
+        self.tally.add("simulations", len(todo))
         for rows, figures in zip(chunks, self._map([[scenarios[i] for i in c] for c in chunks])):
             for i, column in zip(rows, figures.T):
                 if keys[i] not in self.cache.values:
@@ -146,20 +162,39 @@ class Runner:
         return self._run(_evaluate_chunk, chunks)
 
     def _run(self, fn, items):
+        """fn of every item, in order; elsewhere than in this process, timed there (the
+        CPU seconds go to the tally)."""
         if not items:
             return iter(())
+        if self.scheduler is None and (self.workers <= 1 or len(items) == 1):
+            return (fn(c) for c in items)  # (this process's CPU time counts them)
         if self.scheduler is not None:
             if self._client is None:
                 from dask.distributed import Client
 
                 self._client = Client(self.scheduler, timeout=2 * SCHEDULER_TIMEOUT)
-            futures = self._client.map(fn, items, pure=False)
-            return (f.result() for f in futures)
-        if self.workers <= 1 or len(items) == 1:
-            return (fn(c) for c in items)
-        if self._pool is None:
-            self._pool = ProcessPoolExecutor(max_workers=self.workers)
-        return self._pool.map(fn, items)
+            futures = self._client.map(_timed, [(fn, c) for c in items], pure=False)
+            timed = (f.result() for f in futures)
+        else:
+            if self._pool is None:
+                self._pool = ProcessPoolExecutor(max_workers=self.workers,
+                                                 mp_context=_worker_context())
+            timed = self._pool.map(_timed, [(fn, c) for c in items])
+        return self._collect(timed)
+
+    def _collect(self, timed):
+        for result, cpu in timed:
+            self.tally.worker_cpu += cpu
+            yield result
+
+
+def _worker_context():
+    """Local workers start from a fork server that imported this module once: forking
+    this process instead (Linux's default) copies a process whose threads (Drake's,
+    numba's, a test runner's) may hold locks, and a child can then abort or hang."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload([__name__])
+    return context
 
 
 def check_scheduler(address: str, timeout: float | None = None) -> None:

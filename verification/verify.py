@@ -35,7 +35,8 @@ import numpy as np
 
 from safety_systems.output_files import write_text
 from safety_systems.scenario import ControllerConfig, dump_scenario
-from verification.evaluate_drake import evaluate_drake
+from verification.counts import Tally
+from verification.evaluate_drake import cut_short, evaluate_drake
 from verification.proof import Proof, prove, prove_separation
 from verification.properties import PROPERTIES
 from verification.runner import FIELDS, Runner
@@ -80,6 +81,9 @@ class PropertyOutcome:
     unconfirmed: list  # search violations that Drake did not reproduce (should be empty)
     replays: list = dataclasses.field(default_factory=list)  # every Drake replay (dicts)
     disagreements: list = dataclasses.field(default_factory=list)  # see ``disagreements``
+    # when the first violation was found by the search and confirmed in Drake (see
+    # ``first_counterexample``)
+    first_counterexample: dict | None = None
 
     @property
     def column(self) -> int:
@@ -101,6 +105,11 @@ class Outcome:
     config_sha256: str
     contact_geometry: str = "capsules"
     robot_mode: str = "kinematic"
+    # every evaluation of a model of the loop, by kind and in total, and the CPU and
+    # wall seconds of the whole run (``verification.counts``)
+    evaluations: dict = dataclasses.field(default_factory=dict)
+    stopped_at_first: str | None = None  # the property confirmed first (--stop-at-first)
+    unchecked: list = dataclasses.field(default_factory=list)  # properties left unchecked
 
     def _all(self, field: str) -> list:
         return [x for p in self.properties.values() for x in getattr(p, field)]
@@ -132,27 +141,51 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     """Runs proofs and search for ``config`` over ``space``, for the ``properties``
     chosen (``contact``, ``separation`` or ``both``); writes scenario files of confirmed
     counterexamples under ``out / "counterexamples"`` and of disagreements under
-    ``out / "disagreements"``. ``stop_at_first`` ends a falsifying search of each
-    property at its first violation instead of spending the whole budget;
-    ``candidates``: how many the falsifier ranks before simulating."""
+    ``out / "disagreements"``. ``stop_at_first``: the falsifier replays each violation
+    it finds in the Drake diagram at once and returns at the first one Drake confirms
+    (the other properties are then left unchecked, and no cross-check replays are
+    made); ``candidates``: how many the falsifier's reduced model ranks. Every
+    evaluation of a model of the loop is counted (``Outcome.evaluations``)."""
     if method not in METHODS:
         raise ValueError(f"method: got {method!r}; allowed: {' | '.join(METHODS)}")
     names = selected_properties(properties)
+    tally = Tally()  # the clocks start here: proofs, search and replays all count
     out.mkdir(parents=True, exist_ok=True)
     proofs = {name: PROVERS[name](config, space) for name in names}
+    drake_runs: dict = {}  # Drake's figures by simulation index, shared by the properties
+    confirmations: dict = {}  # name -> the replay entries made during the search
+    first_confirmed: dict = {}  # name -> tally snapshot when first confirmed in Drake
+
+    def confirm(log: SearchLog, j: int, i: int) -> bool:
+        """Replays simulation i, a violation of the property in column j, in Drake."""
+        name = next(n for n in names if column(n) == j)
+        entry = _replay(space, config, log, out, i, "violation", name, drake_runs, tally,
+                        confirmations.setdefault(name, []))
+        if entry["drake_robustness"] < 0.0:
+            first_confirmed.setdefault(name, tally.snapshot())
+            return True
+        return False
+
     with Runner(workers=workers, scheduler=scheduler, cache_path=out / "evaluations.jsonl",
-                progress=progress, total=budget) as runner:
+                progress=progress, total=budget, tally=tally) as runner:
         if method == "falsify":
             log = falsify(space, config, runner, budget=budget, seed=seed,
                           stop_at_first=stop_at_first, candidates=candidates,
-                          objectives=[column(name) for name in names])
+                          objectives=[column(name) for name in names],
+                          confirm=confirm if stop_at_first else None)
         else:
             log = sweep(space, config, runner, method=method, budget=budget, seed=seed)
-    drake_runs: dict = {}  # Drake's figures by simulation index, shared by the properties
+    stopped = next((n for n in names if n in first_confirmed), None)
     results = {}
     for name in names:
-        replays = replay_in_drake(space, config, log, out, seed=seed, name=name,
-                                  drake_runs=drake_runs)
+        if stopped is not None:  # --stop-at-first: only what the search replayed
+            if name not in confirmations:
+                continue
+            replays = confirmations[name]
+        else:
+            replays = replay_in_drake(space, config, log, out, seed=seed, name=name,
+                                      drake_runs=drake_runs, tally=tally,
+                                      first_confirmed=first_confirmed)
         confirmed = [r for r in replays if r["drake_robustness"] < 0.0]
         unconfirmed = [r for r in replays if r["robustness"] < 0.0 <= r["drake_robustness"]]
         conflicts = disagreements(proofs[name], replays)
@@ -165,7 +198,9 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
         else:
             verdict = "passed"
         results[name] = PropertyOutcome(name, verdict, proofs[name], confirmed, unconfirmed,
-                                        replays, conflicts)
+                                        replays, conflicts,
+                                        first_counterexample(log, column(name),
+                                                             first_confirmed.get(name)))
     verdict = min((r.verdict for r in results.values()), key=VERDICT_ORDER.index)
     proved = [r.proof.method for r in results.values() if r.verdict == "proved"]
     how = (proved[0] if verdict == "proved" else f"search ({method}, seed {seed})"
@@ -173,7 +208,23 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     return Outcome(verdict, how, results, log, assumptions(space, config),
                    free_parameters(space), seed, budget,
                    hashlib.sha256(config_text.encode()).hexdigest(), space.contact_geometry,
-                   space.robot.mode)
+                   space.robot.mode, tally.snapshot(), stopped,
+                   [n for n in names if n not in results])
+
+
+def first_counterexample(log: SearchLog, j: int, confirmed: dict | None) -> dict | None:
+    """The first violation of the property in column j: its simulation's number, and
+    the evaluations of each kind made and the CPU and wall seconds spent when the search
+    found it (by then the whole batch that held it was simulated) and when the Drake
+    diagram first confirmed a violation of it (None if never); None if none found."""
+    found = log.first.get(j)
+    if found is None and log.first_violation(j) is not None:  # (a column not watched)
+        found = {"simulation": log.first_violation(j)}
+    if found is None:
+        return None
+    return {"simulation": found["simulation"],
+            "found": {k: v for k, v in found.items() if k != "simulation"} or None,
+            "confirmed": confirmed}
 
 
 def replay_choice(log: SearchLog, seed: int, j: int = 0) -> list[tuple[int, str]]:
@@ -201,41 +252,65 @@ def replay_choice(log: SearchLog, seed: int, j: int = 0) -> list[tuple[int, str]
 
 
 def replay_in_drake(space, config, log, out: Path, *, seed: int = 0, name: str = "contact",
-                    drake_runs: dict | None = None) -> list[dict]:
+                    drake_runs: dict | None = None, tally: Tally | None = None,
+                    first_confirmed: dict | None = None) -> list[dict]:
     """Replays :func:`replay_choice` for property ``name`` in the Drake diagram (the
     space's robot mode): per replay the search's figure beside Drake's (and Drake's
     figures of every property, ``drake``). Scenario files are written for Drake
     violations (``counterexamples/``) and for search violations Drake does not
     reproduce (``disagreements/``). ``drake_runs`` keeps Drake's figures by simulation
-    for the next property."""
+    for the next property; ``tally`` counts the Drake runs, and ``first_confirmed``
+    gets its snapshot when the property's first violation is confirmed."""
     drake_runs = {} if drake_runs is None else drake_runs
-    j, field = column(name), PROPERTIES[name]
-    rho = log.column(j)
-    replays, n_confirmed, n_other = [], 0, 0
-    for i, why in replay_choice(log, seed, j):
-        values = to_point(space, np.array(log.points[i]))
-        scenario = make_scenario(space, config, values)
-        if i not in drake_runs:
-            drake_runs[i] = evaluate_drake(scenario)[0]
-        drake = drake_runs[i]
-        entry = {"property": name, "parameters": describe(values), "why": why,
-                 "robustness": float(rho[i]), "drake_robustness": getattr(drake, field),
-                 "drake": dataclasses.asdict(drake), "simulation": i + 1}
-        if getattr(drake, field) < 0.0:
-            folder, label = "counterexamples", f"{name}_counterexample_{n_confirmed}"
-            n_confirmed += 1
-        elif rho[i] < 0.0:
-            folder, label = "disagreements", f"{name}_disagreement_{n_other}"
-            n_other += 1
-        else:
-            folder = None
-        if folder is not None:
-            path = out / folder / f"{label}.yaml"
-            path.parent.mkdir(exist_ok=True)
-            write_text(path, dump_scenario(dataclasses.replace(scenario, name=label)))
-            entry["scenario"] = str(path)
-        replays.append(entry)
+    replays: list = []
+    for i, why in replay_choice(log, seed, column(name)):
+        entry = _replay(space, config, log, out, i, why, name, drake_runs, tally, replays)
+        if (entry["drake_robustness"] < 0.0 and first_confirmed is not None
+                and tally is not None):
+            first_confirmed.setdefault(name, tally.snapshot())
     return replays
+
+
+def _replay(space, config, log, out: Path, i: int, why: str, name: str, drake_runs: dict,
+            tally: Tally | None, replays: list) -> dict:
+    """Simulation i of the log replayed in the Drake diagram for property ``name``, as
+    an entry appended to ``replays`` (see :func:`replay_in_drake`). A violation's replay
+    stops a quarter second after Drake shows it (``evaluate_drake``'s ``stop_on``); a
+    run cut short serves another property only where it shows that one violated too,
+    else the scenario is run again in full."""
+    field = PROPERTIES[name]
+    rho = log.column(column(name))[i]
+    values = to_point(space, np.array(log.points[i]))
+    scenario = make_scenario(space, config, values)
+    known = drake_runs.get(i)
+    if known is None or (known[1] is not None and getattr(known[0], field) >= 0.0):
+        drake, run = (evaluate_drake(scenario, stop_on=name) if why == "violation"
+                      else evaluate_drake(scenario))
+        known = drake_runs[i] = (drake, float(run.time[-1]) if cut_short(run) else None)
+        if tally is not None:
+            tally.add("drake")
+    drake, short = known
+    entry = {"property": name, "parameters": describe(values), "why": why,
+             "robustness": float(rho), "drake_robustness": getattr(drake, field),
+             # the Drake run stopped here (s), a quarter second after the violation
+             # showed (its figures are the run's so far), or None: it ran to the end
+             "drake": dataclasses.asdict(drake), "drake_stopped_at": short,
+             "simulation": i + 1}
+    n_confirmed = sum(1 for r in replays if r["drake_robustness"] < 0.0)
+    n_other = sum(1 for r in replays if r["robustness"] < 0.0 <= r["drake_robustness"])
+    if getattr(drake, field) < 0.0:
+        folder, label = "counterexamples", f"{name}_counterexample_{n_confirmed}"
+    elif rho < 0.0:
+        folder, label = "disagreements", f"{name}_disagreement_{n_other}"
+    else:
+        folder = None
+    if folder is not None:
+        path = out / folder / f"{label}.yaml"
+        path.parent.mkdir(exist_ok=True)
+        write_text(path, dump_scenario(dataclasses.replace(scenario, name=label)))
+        entry["scenario"] = str(path)
+    replays.append(entry)
+    return entry
 
 
 def disagreements(proof: Proof, replays: list[dict]) -> list[dict]:

@@ -51,8 +51,15 @@ def _kill_when(out: Path, ready) -> bool:
 
 
 def _comparable(out: Path) -> dict:
+    """The report but what depends on how the run went rather than what it found: its
+    provenance, and the evaluations and seconds it spent (a resumed run reads finished
+    simulations from its cache)."""
     report = json.loads((out / "report.json").read_text())
     provenance = report.pop("provenance")
+    for key in ("evaluations", "cpu_seconds", "wall_seconds"):
+        report.pop(key)
+    for p in report["properties"].values():
+        p.pop("first_counterexample")
     text = json.dumps(report).replace(str(out), "OUT")
     return {"report": json.loads(text), "inputs": provenance["inputs"]}
 

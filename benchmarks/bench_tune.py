@@ -1,0 +1,125 @@
+"""How much time ``safety-systems tune`` wins back from iso.yaml, still proved, in one run.
+
+    python benchmarks/bench_tune.py [--budget 100] [--candidates 24] [--workers N]
+
+Tunes ``models/configs/iso.yaml`` over ``models/tune/ssm.yaml``'s parameters on the
+default space and the seed's two task scenarios (inspection, co-kitting), and prints,
+beside the goal (at least 30% less time lost to stops and slow-downs than iso.yaml, the
+verdict still proved):
+
+1. each configuration's verdict, task times, the runs with no operator, the time lost
+   and the reduction against iso.yaml;
+2. why the figure is what it is: the full-speed distance (ΔS·S for an operator and a
+   robot at rest, at least d_min: nearer than this a still operator stops the robot) of
+   iso.yaml, of the chosen configuration and the smallest of every configuration the
+   proofs passed in the screen, and the *exposure* of each task: the seconds some body
+   of an operator is within that distance of the robot's capsules in a run whose robot
+   never stops (S = 0, d_min = 0). A configuration cannot lose much less time than its
+   exposure: the robot is held whenever an operator stands that near;
+3. the wall time of the tune run.
+"""
+
+import argparse
+import dataclasses
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from safety_systems.configuration import with_controller
+from safety_systems.metrics import true_separations
+from safety_systems.scenario import load_controller_config, load_scenario
+from safety_systems.simulation import simulate
+from verification.space import load_space
+from verification.tune import TASKS, Tuner, full_speed_distance
+from verification.tune_space import load_tunable, with_values
+
+ROOT = Path(__file__).parents[1]
+GOAL = 0.30  # less time lost than iso.yaml
+REFERENCE_DISTANCES = (1.5, 1.0, 0.5)  # m: full-speed distances below the proved ones
+
+
+def exposure(task, distances: list[float]) -> list[float]:
+    """Seconds some operator body is within each distance of the robot's capsules when
+    the robot never stops (the task's own operators and path; S = 0 and d_min = 0)."""
+    config = load_controller_config(ROOT / "models" / "configs" / "iso.yaml")
+    free = dataclasses.replace(
+        config.safety, human_speed="estimated", reaction_time=0.0, stopping_time=0.0,
+        stopping_distance=0.0, intrusion_distance=0.0, robot_uncertainty=0.0,
+        occlusion_speed=0.0, d_min=0.0)
+    scenario = dataclasses.replace(with_controller(task, dataclasses.replace(
+        config, safety=free)), contact_geometry="capsules")
+    run = simulate(scenario)
+    sep = true_separations(run)
+    nearest = np.min(np.where(np.isnan(sep), np.inf, sep), axis=1)
+    dt = 1.0 / scenario.robot.control_rate_hz
+    return [float(np.count_nonzero(nearest < d) * dt) for d in distances]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--budget", type=int, default=100)
+    parser.add_argument("--candidates", type=int, default=24)
+    parser.add_argument("--workers", type=int, default=None)
+    args = parser.parse_args()
+    config, block = load_tunable(ROOT / "models" / "configs" / "iso.yaml",
+                                 ROOT / "models" / "tune" / "ssm.yaml")
+    space_path = ROOT / "models" / "spaces" / "default.yaml"
+    space = load_space(space_path)
+    tasks = [load_scenario(p) for p in TASKS]
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        tuner = Tuner(config, block, space, tasks, Path(folder), space_path=str(space_path),
+                      budget=args.budget, candidates=args.candidates, workers=args.workers,
+                      say=lambda line: print("  " + line, flush=True))
+        result = tuner.run()
+        wall = time.perf_counter() - start
+    print(f"\n1. lost time against iso.yaml (default space, budget {args.budget}, "
+          f"{args.candidates} candidates)")
+    for row in result["table"]:
+        tasks_text = ", ".join(f"{name} {t['task_time']:.2f} s (no operator "
+                               f"{t['no_operator']:.2f}, lost {t['lost_time']:.2f})"
+                               for name, t in row["tasks"].items()
+                               if t["lost_time"] is not None)
+        lost = row["total_lost_time"]
+        print(f"   {row['configuration']}: {row['verdict']}; {tasks_text}; total lost "
+              + ("unfinished" if lost is None else f"{lost:.2f} s"))
+    reduction = result["lost_time_reduction_vs_iso"]
+    chosen = result["chosen"]
+    verdict = chosen["verdict"] if chosen else "none"
+    met = reduction is not None and reduction >= GOAL and verdict == "proved"
+    if chosen:
+        print("   chosen: " + ", ".join(f"{k} = {v}" for k, v in chosen["changed"].items()))
+    print(f"   figure: {100.0 * (reduction or 0.0):.1f}% less lost time than iso.yaml, "
+          f"verdict {verdict}  (goal: >= {100.0 * GOAL:.0f}%, proved)  -> "
+          f"{'MET' if met else 'NOT MET'}")
+    iso = load_controller_config(ROOT / "models" / "configs" / "iso.yaml")
+    proved = [c for c in result["candidates"] if c["proved"] and all(c["proved"].values())]
+    values = [c["full_speed_distance"] for c in proved if c["full_speed_distance"]]
+    smallest = min(values) if values else None
+    distances = [("iso.yaml", full_speed_distance(iso))]
+    if chosen:
+        distances.append(("chosen", full_speed_distance(with_values(config, chosen["values"]))))
+    if smallest is not None:
+        distances.append(("smallest proved among the simulated", smallest))
+    # Smaller ones, for reference (below what the proofs here allow: see the note below).
+    distances += [("for reference", d) for d in REFERENCE_DISTANCES]
+    print("\n2. why: full-speed distance and each task's exposure to it")
+    for task in tasks:
+        seconds = exposure(task, [d for _, d in distances])
+        print(f"   {task.name}: " + "; ".join(
+            f"{name} {d:.2f} m: a body within it for {s:.1f} s"
+            for (name, d), s in zip(distances, seconds)))
+    print("   (an operator standing still within the full-speed distance holds the robot; "
+          "a proof over hands of up to 2.0 m/s needs at least 2.0 m/s x (T_r + T_s) + B "
+          "and the sensing allowance: for both properties here about 1.92 m with the "
+          "directed robot speed (T_r 0.1 s, C 0, Z_r 0.38 m) and 1.74 m with "
+          "fastest_point (Z_r 0.2 m), whose S counts the robot's speed even moving away)")
+    print(f"\n3. tune wall time: {wall:.0f} s ({result['counts']})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

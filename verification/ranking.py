@@ -1,0 +1,404 @@
+"""The falsifier's rankings: cheap models of the loop that score candidate scenarios all
+at once, so that the search simulates the most dangerous first (robustness >= 0 safe;
+a lower score is more dangerous). Each candidate scored by either is one evaluation of a
+model of the loop: it is counted (``verification.counts``, kind ``rankings``).
+
+:func:`bound_scores`, the falsifier's ranking: the proofs' margins
+(``verification.proof.margin``, one per property) evaluated pointwise, at each
+candidate's own fastest hand speed and noise, from its parameters alone (no
+scenario is built): microseconds per candidate, some thousand times cheaper than a
+closed-loop simulation. It knows nothing of the geometry of an approach; it tells which
+candidates' sensing and speeds come closest to breaking the theorem.
+
+:func:`danger_scores`, the reduced model of the loop, steps the configured monitor and
+the robot's braked path rate on the scenario as the sensor shows it (see
+:func:`_danger_scores` for what it keeps and what it leaves out) and returns two scores
+per candidate: the closest a body comes to the real robot while it moves ("stopped
+before contact") and the smallest d_true - S_true while motion is permitted (the
+separation invariant, on the true speeds and the simulated robot's own stopping data).
+It sees the geometry of an approach, occlusions and faults, and costs about as much as
+a batched closed-loop simulation of the same candidate (it builds the scenario and
+steps it): the falsifier turns to it only after the cheap ranking (``search.falsify``),
+and ``sweep`` orders corners with it.
+"""
+
+import dataclasses
+import functools
+import math
+
+import numba
+import numpy as np
+
+from safety_systems import braking, robot_geometry, separation, ssm
+from safety_systems.braking import path_step_one
+from safety_systems.compiled_cache import drop_stale_builds
+from safety_systems.configuration import (
+    contact_body_radii,
+    contact_capsules,
+    monitor_capsules,
+    monitored_body_radii,
+)
+from safety_systems.joint_path import joint_path_state
+from safety_systems.metrics import robot_stopping
+from safety_systems.operator_paths import stack_paths, stacked_position_velocity
+from safety_systems.robot_geometry import (
+    NUM_POINTS,
+    capsule_ends_one,
+    robot_points_one,
+    segment_pair,
+)
+from safety_systems.scenario import ControllerConfig, actual_sensor
+from safety_systems.separation import body_separation, capsule_axis
+from safety_systems.ssm import _eq12, protective_one
+from safety_systems.workcell import (
+    braking_table,
+    frame_timeout,
+    joint_path,
+    monitor_terms,
+    scripted_operators,
+)
+from verification.counts import Tally
+from verification.evaluate_batch import delivered_frames, dropout_table
+from verification.properties import MOVING_SPEED
+from verification.space import (
+    NAMES,
+    WHOLE,
+    ScenarioSpace,
+    free_parameters,
+    lower_upper,
+    make_scenario,
+    to_point,
+)
+
+ESTIMATE_LAG = 0.05  # s by which the score lets an estimated hand speed lag the truth
+
+# Its compiled functions inline the product's (see compiled_cache).
+drop_stale_builds(__file__, (braking, robot_geometry, separation, ssm))
+
+
+SCORES = ("contact", "separation")  # the columns of both rankings, by property
+
+
+def unit_values(space: ScenarioSpace, points: np.ndarray, name: str) -> np.ndarray:
+    """Parameter ``name``'s value at each of the (n, d) unit points, as
+    ``space.to_point`` maps them (rounded where it rounds), without building dicts."""
+    lo, hi = lower_upper(space)
+    i = NAMES.index(name)
+    free = free_parameters(space)
+    if name not in free:
+        values = np.full(len(points), lo[i])
+    else:
+        u = np.clip(np.asarray(points, dtype=float)[:, free.index(name)], 0.0, 1.0)
+        values = lo[i] + u * (hi[i] - lo[i])
+    return np.round(values) if name in WHOLE else values
+
+
+def hand_speeds(space: ScenarioSpace, points: np.ndarray) -> np.ndarray:
+    """The fastest each candidate's approaching hand moves: its last leg (the retreat,
+    the start distance and the overshoot) run rest to rest at its peak speed and
+    acceleration (``operator_paths.segment_profile``'s peak)."""
+    leg = sum(unit_values(space, points, x) for x in ("retreat_distance", "start_distance",
+                                                       "overshoot"))
+    return np.minimum(unit_values(space, points, "peak_speed"),
+                      np.sqrt(leg * unit_values(space, points, "acceleration")))
+
+
+def bound_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray, *,
+                 tally: Tally | None = None) -> np.ndarray:
+    """(n, 2) the proofs' margins (columns ``SCORES``; ``proof.margin``) at each
+    candidate's own v_max (:func:`hand_speeds`) and noise: our reading of "the proof's
+    margin evaluated pointwise". It orders candidates; it proves nothing (where a
+    premise fails it bounds nothing). Counted in ``tally``."""
+    from verification.proof import margin  # (z3 and the proofs' bounds, on first use)
+
+    points = np.asarray(points, dtype=float).reshape(len(points), -1)
+    if tally is not None:
+        tally.add("rankings", len(points))
+    v, noise = hand_speeds(space, points), unit_values(space, points, "noise_std")
+    return np.stack([margin(config, space, prop).at(v, noise) for prop in SCORES], axis=1)
+
+
+def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
+                  *, step: float = 0.02, runner=None, tally: Tally | None = None
+                  ) -> np.ndarray:
+    """(n, 2) ``_danger_scores`` of the n points (columns ``SCORES``), split over the
+    runner's workers if given (the same scores: every part runs to the horizon of the
+    whole set, and no candidate's score depends on another's). Every candidate scored
+    is counted in ``tally`` (default: the runner's, if any)."""
+    tally = runner.tally if tally is None and runner is not None else tally
+    robot_path = joint_path(space.robot)
+    scenarios = [make_scenario(space, config, to_point(space, u), path=robot_path,
+                               validate=False) for u in points]
+    if not scenarios:
+        return np.zeros((0, len(SCORES)))
+    if tally is not None:
+        tally.add("rankings", len(scenarios))
+    horizon = (max(s.duration for s in scenarios), max(s.robot.cycles for s in scenarios))
+    parts = 1 if runner is None else max(1, min(runner.workers, len(points) // 256))
+    if parts == 1:
+        return _danger_scores(space, config, scenarios, step, horizon)
+    cuts = np.array_split(np.arange(len(scenarios)), parts)
+    return np.concatenate(runner.map(_danger_scores, [
+        (space, config, scenarios[c[0]:c[-1] + 1], step, horizon) for c in cuts]))
+
+
+@numba.njit(cache=True)
+def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, truth_v,
+                present, r_real, monitor, truth_t, truth_b, z_d, delta_s, d_min, free,
+                k_out, gap_out, margin_out, moving_out):
+    """The reduced model's monitor and measure at one time for every candidate c,
+    compiled, through the product's compiled functions: the robot's capsules
+    (``robot_geometry``; ``mine`` the monitor's, ``real`` the contact geometry's, each
+    (a, b, t0, t1, radius, tool length)) at q, v_joint (n, 6); k (Eq. 12 by ``ssm._eq12``
+    over the ``tracked`` bodies p_m, v_m (n, N, 3), radii r_mine, Z_d ``z_d``, hidden
+    balls ``ball``, d and S of each by ``separation.body_separation``; 1 with no tracked
+    body, 0 on a NaN); the smallest clearance of the ``present`` true bodies ``truth`` to
+    the real capsules; the smallest d_true - S_true over them (S_true: Eqs. 9-11 by
+    ``ssm.protective_one`` on the true directed speeds (``truth_v`` the bodies'
+    velocities), no Z_d or Z_r, the robot's own stopping time ``truth_t`` and distance
+    ``truth_b`` (n,) with T_r and C folded in, as ``evaluate_batch`` measures it);
+    whether the robot moves (its fastest capsule end). The two figures are computed
+    only where they count: the clearance while the robot moves, the margin where
+    ``free`` (no fault, no lost track, within the candidate's time; the row's k, if it
+    is its command (``free`` of 2), > 0); inf elsewhere."""
+    mode, iso, iso_reduced, t_r = monitor[0], monitor[4], monitor[5], monitor[2]
+    ma, mb, mt0, mt1, m_radius, m_tool = mine
+    ca, cb, ct0, ct1, c_radius, c_tool = real
+    points, point_v = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    m_ends, m_vel = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
+    c_ends, c_vel = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
+    for c in range(q.shape[0]):
+        robot_points_one(q[c], v_joint[c], m_tool, points, point_v)
+        capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_vel)
+        d, top, any_tracked, faulty = np.inf, -np.inf, False, False
+        for i in range(p_m.shape[1]):
+            if tracked[c, i]:
+                any_tracked = True
+                d_i, s_i, _, _, _ = body_separation(p_m[c, i], v_m[c, i], r_mine[c, i], z_d,
+                                                    ball[c, i], m_ends, m_vel, m_radius,
+                                                    monitor)
+                if math.isnan(d_i) or math.isnan(s_i):
+                    faulty = True
+                else:
+                    d, top = min(d, d_i), max(top, s_i)
+        k = 1.0
+        if faulty:
+            k = 0.0
+        elif any_tracked:
+            k = _eq12(d, top, delta_s, d_min)
+        if c_tool != m_tool:
+            robot_points_one(q[c], v_joint[c], c_tool, points, point_v)
+        capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_vel)
+        speed, gap, margin = 0.0, np.inf, np.inf
+        for j in range(ca.size):
+            for e in range(2):
+                w0, w1, w2 = c_vel[j, e, 0], c_vel[j, e, 1], c_vel[j, e, 2]
+                speed = max(speed, math.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+        moving = speed > MOVING_SPEED
+        allowed = free[c] == 1 or (free[c] == 2 and k > 0.0)
+        for i in range(truth.shape[1]):
+            if present[c, i] and (moving or allowed):
+                p = (truth[c, i, 0], truth[c, i, 1], truth[c, i, 2])
+                v = (truth_v[c, i, 0], truth_v[c, i, 1], truth_v[c, i, 2])
+                for j in range(ca.size):
+                    end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_vel, j)
+                    axis, vh, vr = segment_pair(p, v, end_a, end_b, vel_a, vel_b)
+                    clearance = axis - c_radius[j] - r_real[c, i]
+                    if moving:
+                        gap = min(gap, clearance)
+                    if allowed:
+                        margin = min(margin, clearance - protective_one(
+                            vh, vr, 0.0, mode, truth_t[c], t_r, truth_b[c], iso,
+                            iso_reduced))
+        k_out[c], gap_out[c], margin_out[c], moving_out[c] = k, gap, margin, moving
+
+
+@numba.njit(cache=True)
+def _follow(s, rate, command, stale, end, scale, dt, fractions, deceleration, acceleration):
+    """The PathFollower's ticks (``braking.path_step_one``) of every candidate c over
+    one step of the reduced model, in place: command[c], or 0 at the ticks where
+    ``stale`` (ticks, n) holds."""
+    for c in range(s.size):
+        for k in range(stale.shape[0]):
+            s[c], rate[c] = path_step_one(s[c], rate[c], 0.0 if stale[k, c] else command[c],
+                                          end, scale[c], dt, fractions, deceleration,
+                                          acceleration, 1.0)
+
+
+def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: list,
+                   step: float, horizon: tuple[float, int]) -> np.ndarray:
+    """(n, 2) danger scores of the candidate scenarios, m (lower is more dangerous; the
+    columns ``SCORES``).
+
+    A reduced model of the loop, every ``step`` seconds: the configured monitor (its
+    capsules, or the tool point) is fed every body as the sensor would show it (one
+    period plus the latency late; while occluded, the ball around where it was last
+    seen, or, under the ``expire`` rule, nothing once it has been unseen for the coast
+    time beyond the exit radius (a lost track nearer stops the robot); in outlier
+    frames, displaced, unless the gate rejects them, which stops the robot; for
+    ``estimated`` speeds, its directed speed ``ESTIMATE_LAG`` late) and commands k by
+    Eqs. 9-12 over every capsule; k is 0 while the tracker's newest frame is older than
+    the frame timeout (frames late beyond the configured latency, or dropped). The robot
+    starts at rest and its path rate follows k through ``path_step_one`` (acceleration
+    limit and braking data). Controllers other than ``ssm_override`` are not modelled
+    (k = 1 but for faults). The Kalman filter and noise are left out. ``horizon``:
+    (duration, cycles) to run to.
+    The robot follows its braked reference exactly, as in the kinematic mode, whatever
+    the space's ``robot.mode`` (a dynamic robot tracks it within millimetres,
+    ``tests/test_simulation.py``; its simulations run in the diagram, in its mode).
+    The contact score is the closest a body comes to the real robot (the contact
+    geometry) while the robot still moves; the separation score the smallest d_true -
+    S_true (see :func:`_score_rows`) while k > 0 and no fault holds; each within the
+    candidate's own duration. They only order candidates; verdicts rest on the full
+    closed-loop simulations.
+    """
+    n = len(scenarios)
+    duration, cycles = horizon
+    path = joint_path(dataclasses.replace(space.robot, cycles=cycles))
+    end = path.cycle_time * cycles
+    dt = 1.0 / space.robot.control_rate_hz
+    ticks = max(1, round(step / dt))
+    table = braking_table(config)
+    t = np.arange(0.0, duration + step, ticks * dt)
+    f, tr = config.safety, config.tracker
+    # Every candidate's operators (padded to the most by repeating its first, absent) and
+    # bodies (padded likewise).
+    ops = [scripted_operators(sc) for sc in scenarios]
+    K = max(len(o) for o in ops)
+    stack = stack_paths([o[min(j, len(o) - 1)].path for o in ops for j in range(K)])
+    names = [[f"{op.name}/{b.name}" for op in sc.operators for b in op.bodies]
+             for sc in scenarios]
+    N = max(len(x) for x in names)
+    body_op = np.zeros((n, N), dtype=int)
+    offsets = np.zeros((n, N, 3))
+    present = np.zeros((n, N), dtype=bool)
+    occ = np.full((n, N, 2), np.inf)
+    outlier = np.full((n, N, 5), np.inf)
+    outlier[:, :, 2:] = 0.0
+    for c, (sc, cand) in enumerate(zip(scenarios, names)):
+        rows = [(j, b) for j, op in enumerate(sc.operators) for b in op.bodies]
+        for i, (j, body) in enumerate(rows):
+            body_op[c, i], offsets[c, i], present[c, i] = j, body.offset, True
+        for o in sc.sensor.occlusions:
+            occ[c, cand.index(o.body)] = (o.start, o.end)
+        for o in sc.sensor.faults:
+            if o.kind == "outlier":
+                outlier[c, cand.index(o.body)] = (o.start, o.end, *o.offset)
+    sensors = [actual_sensor(sc) for sc in scenarios]
+    latency = np.array([s.latency for s in sensors])
+    delay = (1.0 / config.sensor.rate_hz + latency)[:, None]
+    lag = 0.0 if f.human_speed == "iso" else ESTIMATE_LAG
+    drops = dropout_table(sensors)
+    mine, real = monitor_capsules(config), contact_capsules(space.robot, space.contact_geometry)
+    r_mine = np.array([np.pad(monitored_body_radii(sc), (0, N - len(x)))
+                       for sc, x in zip(scenarios, names)])
+    r_real = np.array([np.pad(contact_body_radii(sc), (0, N - len(x)))
+                       for sc, x in zip(scenarios, names)])
+    # The tracker's frames: it looks at offset + j P; the newest frame delivered by then
+    # (captured at i P, delivered latency later, unless dropped) is processed.
+    period = 1.0 / config.sensor.rate_hz
+    offset = config.sensor.latency + tr.processing_time
+    timeout = frame_timeout(config)
+    scale = np.array([sc.robot.braking_time_scale for sc in scenarios])
+    expire = tr.hidden_bodies == "expire"
+
+    rows = np.arange(n)[:, None] * K + body_op  # each body's operator in the stack
+
+    def operators_at(when: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities (n, K, 3) of every operator at times when (n,)."""
+        p, v = stacked_position_velocity(stack, np.repeat(when, K))
+        return p.reshape(n, K, 3), v.reshape(n, K, 3)
+
+    def bodies(points: np.ndarray) -> np.ndarray:
+        """(n, N, 3) each body's row of (n, K, 3) operator figures."""
+        return points.reshape(n * K, 3)[rows]
+
+    # Hidden bodies are frozen where their occlusion began: once, up front.
+    frozen = np.where(np.isfinite(occ[:, :, 0]), occ[:, :, 0], 0.0)
+    p_frozen = stacked_position_velocity(stack, frozen.ravel(), rows.ravel())[0].reshape(
+        n, N, 3) + offsets
+    v_frozen = stacked_position_velocity(stack, np.maximum(frozen - lag, 0.0).ravel(),
+                                         rows.ravel())[1].reshape(n, N, 3)
+
+    @functools.lru_cache(maxsize=4)  # ticks between two tracker looks share the frame
+    def frame_seen(j: int) -> tuple[np.ndarray, np.ndarray]:
+        """Index of the frame the tracker's look j processes, per candidate, and whether
+        the gate rejects it (an outlier frame of any body)."""
+        i = delivered_frames(np.full(n, offset + j * period), latency, period, drops)
+        capture = (i * period)[:, None]
+        rejected = tr.gate & present & (outlier[:, :, 0] <= capture) & (capture < outlier[:, :, 1])
+        return i, np.any(rejected, axis=1)
+
+    def faults(now: float) -> np.ndarray:
+        """(ticks, n): whether each candidate's tracker is in fault at the ticks of the
+        step from ``now`` (the look in force: its frame too old, none yet, or rejected)."""
+        when = now + dt * np.arange(ticks)
+        looks = np.floor((when - offset) / period + 1e-9).astype(int)
+        out = np.empty((ticks, n), dtype=np.bool_)
+        for j in np.unique(looks):
+            rows = looks == j
+            i, rejected = frame_seen(int(j))
+            out[rows] = ((j < 0) | (i < 0)[None, :]
+                         | (when[rows, None] - (i * period)[None, :] > timeout)
+                         | rejected[None, :])
+        return out
+
+    monitor = monitor_terms(config)
+    mine_arrays = (mine.a, mine.b, mine.t0, mine.t1, mine.radius, mine.tool_length)
+    real_arrays = (real.a, real.b, real.t0, real.t1, real.radius, real.tool_length)
+    # S_true's stopping data: the simulated robot's own, per braking time scale.
+    by_scale: dict = {}
+    for sc in scenarios:
+        if sc.robot.braking_time_scale not in by_scale:
+            by_scale[sc.robot.braking_time_scale] = robot_stopping(sc)
+    stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
+    truth_t = np.array([x.time for x in stops_true]) + f.reaction_time
+    truth_b = np.array([x.distance for x in stops_true]) + f.intrusion_distance
+    ends = np.array([sc.duration for sc in scenarios])
+    k_ssm, gap, margin = np.empty(n), np.empty(n), np.empty(n)
+    moving = np.empty(n, dtype=np.bool_)
+    s_path, rate = np.zeros(n), np.zeros(n)
+    closest, smallest = np.full(n, np.inf), np.full(n, np.inf)
+    ssm_only = config.type == "ssm_override"
+    for now in t:  # the monitor's view at each time, for every candidate
+        q, dq, _ = joint_path_state(path, s_path)
+        v_joint = dq * rate[:, None]
+        seen = np.maximum(now - delay[:, 0], 0.0)  # (n,): when the shown frame was captured
+        seen_at = np.broadcast_to(seen[:, None], (n, N))
+        hidden = (seen_at >= occ[:, :, 0]) & (seen_at < occ[:, :, 1])
+        p_seen, v_seen = operators_at(seen)
+        p_m = np.where(hidden[:, :, None], p_frozen, bodies(p_seen) + offsets)
+        if lag:
+            v_seen = operators_at(np.maximum(seen - lag, 0.0))[1]
+        v_m = np.where(hidden[:, :, None], v_frozen, bodies(v_seen))
+        if not tr.gate:  # outlier frames taken as truth
+            ghost = (outlier[:, :, 0] <= seen_at) & (seen_at < outlier[:, :, 1]) & ~hidden
+            p_m = p_m + np.where(ghost[:, :, None], outlier[:, :, 2:], 0.0)
+        unseen = np.where(hidden, seen_at - occ[:, :, 0], 0.0)
+        ball = f.occlusion_speed * unseen
+        tracked, lost = present.copy(), np.zeros(n, dtype=bool)
+        if expire:  # the previous rule: ended beyond the exit radius, else lost
+            gone = hidden & (unseen > tr.max_coast_time)
+            outside = np.hypot(p_m[:, :, 0], p_m[:, :, 1]) > tr.exit_radius
+            tracked &= ~(gone & outside)
+            lost = np.any(gone & ~outside & present, axis=1)
+        p_now, v_now = operators_at(np.full(n, now))
+        truth = bodies(p_now) + offsets
+        stale = faults(now)
+        inside = now <= ends + 1e-9  # (each candidate only over its own duration)
+        # Motion is permitted at this tick (free 1), or if its k > 0 (free 2): the
+        # separation score counts only then. Other controllers (seed 004's, zones) are
+        # not modelled: they keep full speed; a lost track stops the robot.
+        free = np.where(inside & ~stale[0] & ~lost, 2 if ssm_only else 1, 0).astype(np.int64)
+        _score_rows(q, v_joint, mine_arrays, real_arrays, p_m, v_m, tracked, ball, r_mine,
+                    truth, bodies(v_now), present, r_real, monitor, truth_t, truth_b,
+                    float(f.human_uncertainty), f.delta_s, f.d_min, free, k_ssm, gap, margin,
+                    moving)
+        command_now = np.where(lost, 0.0, k_ssm if ssm_only else 1.0)
+        closest = np.where(moving & inside, np.minimum(closest, gap), closest)
+        smallest = np.minimum(smallest, margin)
+        _follow(s_path, rate, command_now, stale, end, scale, dt, table.speed_fraction,
+                table.deceleration, space.robot.acceleration_limit)
+    return np.stack([closest, smallest], axis=1)
+
+

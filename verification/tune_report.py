@@ -1,0 +1,119 @@
+"""tune.json and tune.md: the chosen configuration beside iso.yaml and the seed's, on the
+same task scenarios, and what the search did."""
+
+from pathlib import Path
+
+from safety_systems.output_files import write_json, write_text
+
+VACUOUS_WORDS = {"contact": "the robot never moved while a body was present",
+                 "separation": "the robot was never let move while a body was present"}
+
+
+def _s(x: float | None) -> str:
+    return "unfinished" if x is None else f"{x:.2f}"
+
+
+def _share(v: dict) -> str:
+    return "-" if v["share"] is None else f"{100.0 * v['share']:.0f}% ({v['vacuous']} of {v['of']})"
+
+
+def _comparison(result: dict) -> list[str]:
+    lines = ["## The configurations on the task scenarios", "",
+             "Each task scenario run in the Drake diagram until the robot finishes its "
+             "cycles; *lost* is the task time minus that of the same run with no operator "
+             "(time lost to stops and slow-downs); *stopped* is the time the controller "
+             "held the robot at rest.", "",
+             "| configuration | verdict | task | task time [s] | no operator [s] | lost [s] "
+             "| stopped [s] |", "|---|---|---|---|---|---|---|"]
+    for row in result["table"]:
+        for name, t in row["tasks"].items():
+            lines.append(f"| {row['configuration']} | {row['verdict']} | {name} | "
+                         f"{_s(t['task_time'])} | {_s(t['no_operator'])} | "
+                         f"{_s(t['lost_time'])} | {t['stopped_time']:.2f} |")
+        lines.append(f"| {row['configuration']} | {row['verdict']} | **total** | "
+                     f"**{_s(row['total_task_time'])}** | | **{_s(row['total_lost_time'])}**"
+                     " | |")
+    lines.append("")
+    reduction = result["lost_time_reduction_vs_iso"]
+    if reduction is not None:
+        lines += [f"Time lost to the operators: {100.0 * reduction:.1f}% less than "
+                  "`iso.yaml` (negative: more).", ""]
+    return lines
+
+
+def _vacuous(result: dict) -> list[str]:
+    lines = ["## Vacuous share of the verification", "",
+             "The share of the evaluated scenarios of the space in which the robot never "
+             "moved (contact) or was never let move (separation) while a body was present: "
+             "those scenarios test nothing. A configuration that is safe because it never "
+             "moves is not productive, and a proof over a mostly vacuous box says little.",
+             "", "| configuration | contact | separation |", "|---|---|---|"]
+    warnings = []
+    for row in result["table"]:
+        v = row["vacuous"]
+        lines.append(f"| {row['configuration']} | " + " | ".join(
+            _share(v[name]) if name in v else "-" for name in ("contact", "separation"))
+            + " |")
+        for name, share in v.items():
+            if share["share"] is not None and share["share"] > 0.5:
+                warnings.append(f"**{row['configuration']}, {name}: "
+                                f"{100.0 * share['share']:.0f}% of the evaluated scenarios "
+                                f"are vacuous ({VACUOUS_WORDS[name]}): the {row['verdict']} "
+                                "verdict over this box says less than it appears to.**")
+    return lines + [""] + [w + "\n" for w in warnings]
+
+
+def _search(result: dict) -> list[str]:
+    screen = result["screen"]
+    lines = ["## The search", "",
+             f"Screened {screen['points']} configurations (the base and Sobol points of the "
+             "parameters' box): " + ", ".join(f"{k} {v}" for k, v in
+                                              sorted(screen["outcomes"].items())) + ".", "",
+             "Simulated (in order of the full-speed distance, a proxy that only orders "
+             "them):", "",
+             "| candidate | status | total task time [s] | verdict | why | values |",
+             "|---|---|---|---|---|---|"]
+    for c in result["candidates"]:
+        values = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
+                           for k, v in c["values"].items())
+        lines.append(f"| {c['index']} | {c['status']} | {_s(c['total_task_time'])} | "
+                     f"{c['verdict'] or '-'} | {c['reason']} | {values} |")
+    lines += ["", "Counterexamples kept (every later candidate is replayed against them "
+              "first):", ""]
+    lines += [f"- `{k['file']}`: {k['property']}, {k['robustness']:.4f} m in the Drake "
+              f"diagram, found for {k['found_for']}" for k in result["counterexamples"]]
+    if not result["counterexamples"]:
+        lines.append("- none")
+    lines += ["", "Work done: " + ", ".join(f"{k.replace('_', ' ')} {v}"
+                                            for k, v in result["counts"].items()) + ".", ""]
+    return lines
+
+
+def markdown(result: dict) -> str:
+    chosen = result["chosen"]
+    head = (f"# Tuning: {chosen['verdict'].upper()} configuration chosen" if chosen
+            else f"# Tuning: no configuration was {result['allow']}")
+    lines = [head, "", f"- space: `{result['space']}`; task scenarios: "
+             + ", ".join(result["tasks"]),
+             f"- constraint: verdict {result['allow']}"
+             + (" or proved" if result["allow"] == "passed" else "")
+             + f" for both properties (verify budget {result['budget']}, seed "
+             f"{result['seed']})", "- tunable parameters: " + "; ".join(
+                 f"{p['name']} in " + (str(p['choices']) if p['choices']
+                                       else f"[{p['min']:g}, {p['max']:g}]")
+                 for p in result["parameters"]), ""]
+    if chosen:
+        lines += [f"Chosen: `{chosen['config']}` (candidate {chosen['index']}), "
+                  f"{chosen['verdict']}; its verification: `{chosen['report']}`.", "",
+                  "Changed from the base configuration: " + (", ".join(
+                      f"{k} = {v}" for k, v in chosen["changed"].items()) or "nothing") + ".",
+                  "", "Export it for deployment:", "",
+                  f"    safety-systems export {chosen['config']} --report {chosen['report']} "
+                  f"--tune {Path(chosen['config']).parent / 'tune.json'}"
+                  " --out OUTDIR", ""]
+    return "\n".join(lines + _comparison(result) + _vacuous(result) + _search(result))
+
+
+def write_tune(result: dict, out: Path) -> None:
+    write_json(out / "tune.json", result)
+    write_text(out / "tune.md", markdown(result))
