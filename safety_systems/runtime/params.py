@@ -1,14 +1,12 @@
 """Loading the parameters the runtime runs: certified ones only (one function)."""
 
 import dataclasses
-import importlib.util
 import sys
 from pathlib import Path
 
 from safety_systems.input_error import InputError
 from safety_systems.scenario import ControllerConfig, RobotConfig
 
-CERTIFICATE = "certificate.json"
 EXIT_NOT_CERTIFIED = 1
 
 
@@ -32,62 +30,45 @@ class CertifiedParams:
     line: str
 
 
-def _certificate_check():
-    """Issue 14's check of params.yaml against its certificate.json
-    (``verification.certificate.check``), or None in a build that has none yet."""
-    if importlib.util.find_spec("verification.certificate") is None:
-        return None
+def load_certified_params(path: str | Path, *, unverified: bool = False) -> CertifiedParams:
+    """The parameters at ``path`` if ``check`` certifies them (issue 14's
+    ``verification.certificate.check``: params.yaml against the certificate.json export
+    wrote beside it; its safety checksum, both files' digests, a proved or passed
+    verdict); the runtime refuses exactly what ``check`` refuses, by calling it.
+
+    Refused: raises NotCertified with check's line and exit code, unless ``unverified``:
+    then a params.yaml that fails its check, or a plain controller configuration (which
+    has no certificate at all), is returned with ``certified`` False and the reason (the
+    caller says that it is unverified). A file that is neither raises NotCertified
+    (``unverified`` or not) with check's line.
+    """
+    from safety_systems.params_file import robot_config
     from verification.certificate import check
 
-    return check
-
-
-def load_certified_params(path: str | Path, *, unverified: bool = False) -> CertifiedParams:
-    """The parameters at ``path`` if they pass the certificate check; raises NotCertified
-    (or InputError for a file that cannot be read) otherwise, unless ``unverified``: then
-    they are returned with ``certified`` False and the check's line (the caller says that
-    they are unverified).
-
-    The check is issue 14's ``verification.certificate.check`` (params.yaml against the
-    certificate.json export wrote beside it: the safety checksum, both files' digests, a
-    proved or passed verdict). In a build without it, an interim rule stands in: the
-    file is a controller configuration (``load_controller_config``) and it is refused
-    unless a file named certificate.json lies beside it; that presence is all the
-    interim rule checks, and its line says so.
-    """
     path = Path(path)
-    check = _certificate_check()
-    if check is not None:
-        result = check(path)
-        if result.params is None:  # not a params.yaml: a plain configuration is uncertified
-            from safety_systems.scenario import load_controller_config
-
-            try:
-                controller = load_controller_config(path)
-            except InputError:
-                raise NotCertified(result.line, result.code) from None
-            line = f"{path}: not certified: a controller configuration, not an exported " \
-                   "params.yaml with its certificate.json"
-            if not unverified:
-                raise NotCertified(line + " (--unverified runs it anyway)")
-            return CertifiedParams(controller, RobotConfig(), False, line)
-        if not result.certified and not unverified:
-            raise NotCertified(result.line + " (--unverified runs it anyway)", result.code)
-        return CertifiedParams(result.params.controller, result.params.robot,
-                               result.certified, result.line)
+    result = check(path)
+    if result.code == 0:
+        return CertifiedParams(result.params.controller,
+                               robot_config(result.params.robot, RobotConfig()), True,
+                               result.line)
+    if not unverified:
+        raise NotCertified(result.line + " (--unverified runs it anyway)", result.code)
+    if result.params is not None:
+        return CertifiedParams(result.params.controller,
+                               robot_config(result.params.robot, RobotConfig()), False,
+                               result.line)
+    from safety_systems.params_file import looks_like_params
     from safety_systems.scenario import load_controller_config
 
-    controller = load_controller_config(path)
-    certificate = path.parent / CERTIFICATE
-    if not certificate.is_file():
-        line = (f"{path}: not certified: no {CERTIFICATE} beside it (the interim check of "
-                "this build: issue 14's certificate check is not in it)")
-        if not unverified:
-            raise NotCertified(line + " (--unverified runs it anyway)")
-        return CertifiedParams(controller, RobotConfig(), False, line)
-    return CertifiedParams(controller, RobotConfig(), True,
-                           f"{path}: {CERTIFICATE} present (interim check of this build: "
-                           "its presence only, not its contents)")
+    if looks_like_params(path):  # a params.yaml check could not read
+        raise NotCertified(result.line, result.code)
+    try:
+        controller = load_controller_config(path)
+    except InputError:
+        raise NotCertified(result.line, result.code) from None
+    return CertifiedParams(controller, RobotConfig(), False,
+                           f"{path}: a controller configuration, not an exported params.yaml "
+                           "with its certificate.json")
 
 
 def warn_unverified(params: CertifiedParams) -> None:

@@ -114,22 +114,31 @@ def _same_band(t_sim, k_sim, t_run, k_run, width):
     return out
 
 
-@pytest.mark.parametrize("config", ["iso.yaml", "seed_estimated.yaml"])
-def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, certified, config):
-    params = certified(config)
-    controller = load_controller_config(params)
+@pytest.mark.parametrize("config", ["iso export", "seed_estimated.yaml"])
+def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, config):
+    """iso.yaml as exported (certified), and the seed's configuration as a plain file
+    run with --unverified (its verification falsifies it: check refuses it)."""
+    from safety_systems.runtime.params import load_certified_params
+
+    if config == "iso export":
+        params, extra = exported_params, ()
+    else:
+        params, extra = MODELS / "configs" / config, ("--unverified",)
+    loaded = load_certified_params(params, unverified=True)
+    controller = loaded.controller
     start, length = 2.0, 6.0
     scenario = load_scenario(SCENARIO)
     scenario.operators[0].start = start
     scenario = dataclasses.replace(
         scenario, duration=length, controller=controller,
+        robot=dataclasses.replace(loaded.robot, mode="kinematic", cycles=scenario.robot.cycles),
         sensor=SensorConfig(rate_hz=controller.sensor.rate_hz, noise_std=0.0,
                             latency=controller.sensor.latency))
     sim = simulate(scenario)
     k_sim = sim["override.speed_scale_commanded"][:, 0]
     code, trace, summary = _run(tmp_path, params,
                                 f"replay://{CSV}?start={start}&duration={length}",
-                                "--max-overrun", str(SLACK))
+                                "--max-overrun", str(SLACK), *extra)
     assert code == 0 and summary["end"] == "duration"
     assert summary["frames"] == round(length * controller.sensor.rate_hz) + 1
     # The run's clock is put on the scenario's by the first frame's capture time (the
@@ -154,8 +163,8 @@ def _iso_timeout() -> float:
     return frame_timeout(load_controller_config(MODELS / "configs" / "iso.yaml"))
 
 
-def test_the_stream_stopping_gives_k_0_within_a_control_period(tmp_path, certified):
-    code, trace, _ = _run(tmp_path, certified(), f"replay://{CSV}?stop=1.0&duration=2.0",
+def test_the_stream_stopping_gives_k_0_within_a_control_period(tmp_path, exported_params):
+    code, trace, _ = _run(tmp_path, exported_params, f"replay://{CSV}?stop=1.0&duration=2.0",
                           "--max-overrun", str(SLACK))
     assert code == 0
     age = trace["time"] - trace["frame_time"]
@@ -173,8 +182,8 @@ def test_the_stream_stopping_gives_k_0_within_a_control_period(tmp_path, certifi
     assert trace["time"][first - 1] - last_good <= _iso_timeout()
 
 
-def test_a_garbage_packet_gives_k_0_at_once_until_a_good_frame(tmp_path, certified):
-    code, trace, summary = _run(tmp_path, certified(), f"replay://{CSV}?garbage=1.0"
+def test_a_garbage_packet_gives_k_0_at_once_until_a_good_frame(tmp_path, exported_params):
+    code, trace, summary = _run(tmp_path, exported_params, f"replay://{CSV}?garbage=1.0"
                                 "&duration=2.0", "--max-overrun", str(SLACK))
     assert code == 0 and summary["bad_packets"] >= 1
     first = np.flatnonzero(np.diff(trace["bad_packets"]) > 0)[0] + 1
@@ -186,8 +195,8 @@ def test_a_garbage_packet_gives_k_0_at_once_until_a_good_frame(tmp_path, certifi
     assert (trace["k"][first:later] == 0.0).all()
 
 
-def test_a_late_frame_is_stale_and_does_not_restart_the_robot(tmp_path, certified):
-    code, trace, _ = _run(tmp_path, certified(), f"replay://{CSV}?late=1.0:0.32"
+def test_a_late_frame_is_stale_and_does_not_restart_the_robot(tmp_path, exported_params):
+    code, trace, _ = _run(tmp_path, exported_params, f"replay://{CSV}?late=1.0:0.32"
                           "&duration=2.0", "--max-overrun", str(SLACK))
     assert code == 0
     timeout = _iso_timeout()
@@ -260,14 +269,37 @@ def test_an_overrun_and_an_error_give_k_0(tmp_path):
     assert len(result.rows) < 420  # it stopped there
 
 
-def test_parameters_without_a_certificate_are_refused(tmp_path, capsys):
-    params = tmp_path / "params.yaml"
-    params.write_text((MODELS / "configs" / "iso.yaml").read_text())
+def _altered(tmp_path, exported_params, how: str) -> Path:
+    import shutil
+
+    folder = tmp_path / how
+    shutil.copytree(exported_params.parent, folder)
+    params = folder / "params.yaml"
+    if how == "changed":  # d_min 0.3 -> 0.2: a different controller than the certified one
+        text = params.read_text()
+        assert "controller.safety.d_min: 0.3\n" in text
+        params.write_text(text.replace("controller.safety.d_min: 0.3\n",
+                                       "controller.safety.d_min: 0.2\n"))
+    elif how == "no certificate":
+        (folder / "certificate.json").unlink()
+    elif how == "plain configuration":
+        params.write_text((MODELS / "configs" / "iso.yaml").read_text())
+    return params
+
+
+@pytest.mark.parametrize("how", ["changed", "no certificate", "plain configuration"])
+def test_run_refuses_what_check_refuses(tmp_path, exported_params, capsys, how):
+    params = _altered(tmp_path, exported_params, how)
+    code_check = main(["check", str(params)])
+    line_check = capsys.readouterr().err.strip()
+    assert code_check != 0
     argv = ["run", str(params), "--mocap", f"replay://{CSV}?duration=0.3", "--robot", "none",
             "--mapping", str(MAPPING), "--log", str(tmp_path / "log"), "--quiet"]
-    assert main(argv) == 1
+    code = main(argv)
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "not certified" in err
+    assert len(err.splitlines()) == 1 and code in (1, 2)
+    if how != "plain configuration":  # check names the file's kind first for a plain one
+        assert code == code_check and err.startswith(line_check)
     assert not (tmp_path / "log").exists()
     assert main(argv + ["--unverified"]) == 0
     assert "UNVERIFIED" in capsys.readouterr().err
@@ -275,16 +307,22 @@ def test_parameters_without_a_certificate_are_refused(tmp_path, capsys):
     assert summary["certified"] is False
 
 
+def test_run_accepts_what_check_accepts(tmp_path, exported_params, capsys):
+    code, _, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=0.3")
+    assert code == 0 and summary["certified"] is True
+    assert "UNVERIFIED" not in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("argv, field", [
     (["--mocap", "udp://x"], "--mocap"), (["--robot", "ur-rtde://"], "--robot"),
     (["--mocap", f"replay://{CSV}?late=1"], "late"), (["--duration", "-1"], "--duration"),
 ])
-def test_bad_options_are_one_line(tmp_path, certified, capsys, argv, field):
+def test_bad_options_are_one_line(tmp_path, exported_params, capsys, argv, field):
     base = {"--mocap": f"replay://{CSV}", "--robot": "none"}
     base.update(dict(zip(argv[::2], argv[1::2])))
     rest = [x for kv in base.items() for x in kv]
     extra = argv if argv[0] == "--duration" else []
-    code = main(["run", str(certified()), *rest, "--mapping", str(MAPPING), "--log",
+    code = main(["run", str(exported_params), *rest, "--mapping", str(MAPPING), "--log",
                  str(tmp_path / "log"), "--quiet", *extra])
     assert code == 2
     err = capsys.readouterr().err.strip()
@@ -317,11 +355,11 @@ def _host() -> str:
     return f"127.0.{np.random.default_rng().integers(1, 250)}.{np.random.default_rng().integers(2, 250)}"
 
 
-def test_ur_rtde_commands_the_slider_and_leaves_it_at_0(tmp_path, certified):
+def test_ur_rtde_commands_the_slider_and_leaves_it_at_0(tmp_path, exported_params):
     host = _host()
     server = _rtde_server(host)
     try:
-        code, trace, summary = _run(tmp_path, certified(), f"replay://{CSV}?duration=2.5",
+        code, trace, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=2.5",
                                     "--max-overrun", str(SLACK), robot=f"ur-rtde://{host}")
     finally:
         messages = _messages(server)
@@ -335,11 +373,11 @@ def test_ur_rtde_commands_the_slider_and_leaves_it_at_0(tmp_path, certified):
     assert np.nanmax(trace["robot_speed"]) > 0.01
 
 
-def test_the_robot_disconnecting_gives_k_0_within_a_control_period(tmp_path, certified):
+def test_the_robot_disconnecting_gives_k_0_within_a_control_period(tmp_path, exported_params):
     host = _host()
     server = _rtde_server(host, "--drop-at", "1.2")
     try:
-        code, trace, summary = _run(tmp_path, certified(), f"replay://{CSV}?duration=2.0",
+        code, trace, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=2.0",
                                     "--max-overrun", str(SLACK),
                                     robot=f"ur-rtde://{host}?timeout=0.02")
     finally:
