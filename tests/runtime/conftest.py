@@ -18,11 +18,14 @@ def _cli(argv: list) -> tuple[int, str]:
 
 
 @pytest.fixture(scope="session")
-def exported_params(tmp_path_factory) -> Path:
+def exported_params(tmp_path_factory, worker_id) -> Path:
     """iso.yaml verified on the default space (a small budget) and exported: a
     params.yaml with its certificate.json, which ``check`` accepts (built once per test
     run; the xdist workers share it under a lock)."""
-    root = tmp_path_factory.getbasetemp().parent
+    # under xdist the workers' temporary roots share this run's folder; without it, the
+    # run's own root (its parent is shared by every run)
+    base = tmp_path_factory.getbasetemp()
+    root = base if worker_id == "master" else base.parent
     folder = root / "runtime_export"
     with open(root / "runtime_export.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
