@@ -28,6 +28,7 @@ class CertifiedParams:
     robot: RobotConfig
     certified: bool
     line: str
+    verdict: str | None = None  # the certificate's, when check could read one
 
 
 def load_certified_params(path: str | Path, *, unverified: bool = False) -> CertifiedParams:
@@ -50,7 +51,7 @@ def load_certified_params(path: str | Path, *, unverified: bool = False) -> Cert
     if result.code == 0:
         return CertifiedParams(result.params.controller,
                                robot_config(result.params.robot, RobotConfig()), True,
-                               result.line)
+                               result.line, result.verdict)
     if not unverified:
         raise NotCertified(result.line + " (--unverified runs it anyway)", result.code)
     if result.params is not None:
@@ -72,9 +73,13 @@ def load_certified_params(path: str | Path, *, unverified: bool = False) -> Cert
 
 
 def warn_unverified(params: CertifiedParams) -> None:
+    """Says on stderr that parameters are unverified, or certified only as passed (as
+    simulate and verify say it)."""
     if not params.certified:
         print(f"safety-systems: warning: UNVERIFIED parameters (--unverified): {params.line}",
               file=sys.stderr)
+    elif params.verdict == "passed":
+        print(f"safety-systems: warning: {params.line}", file=sys.stderr)
 
 
 __all__ = ["CertifiedParams", "InputError", "NotCertified", "load_certified_params",

@@ -391,3 +391,18 @@ def test_the_robot_disconnecting_gives_k_0_within_a_control_period(tmp_path, exp
     # Seen at the first tick after the connection closed, or at the latest once the
     # robot's samples are a timeout old (ur-rtde notices a closed socket on its next read).
     assert trace["time"][first] - dropped <= 0.02 + PERIOD + 1e-3
+
+
+def test_parameters_certified_as_passed_are_run_with_checks_warning(exported_params, capsys,
+                                                                    monkeypatch):
+    """check accepts a passed verdict and says it is weaker; run says so too."""
+    import verification.certificate as certificate
+    from safety_systems.runtime.params import load_certified_params, warn_unverified
+
+    real = certificate.check(exported_params)
+    passed = dataclasses.replace(real, verdict="passed", line=real.line + "; passed is weaker")
+    monkeypatch.setattr(certificate, "check", lambda path: passed)
+    params = load_certified_params(exported_params)
+    assert params.certified and params.verdict == "passed"
+    warn_unverified(params)
+    assert capsys.readouterr().err.strip() == f"safety-systems: warning: {passed.line}"
