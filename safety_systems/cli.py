@@ -273,6 +273,12 @@ def _plan(args: argparse.Namespace) -> int:
     return 0 if rows["IAPF"]["reached_goal"] else 1
 
 
+def _run(args: argparse.Namespace) -> int:
+    from safety_systems.runtime.command import run
+
+    return run(args, _origin(args.argv, {}))
+
+
 def _export(args: argparse.Namespace) -> int:
     """params.yaml, certificate.json and report.html of a verified configuration."""
     from pathlib import Path
@@ -308,14 +314,16 @@ def _loaders() -> dict:
         load_scenario,
         load_typed,
     )
+    from safety_systems.sensing.recording_mapping import load_mapping
     from safety_systems.planning.task_space import load_scene
     from verification.space import load_space
 
     return {"scenario": load_scenario, "config": load_controller_config, "space": load_space,
-            "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path)}
+            "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path),
+            "mapping": load_mapping}
 
 
-KINDS = ("scenario", "config", "space", "scene", "task-path")
+KINDS = ("scenario", "config", "space", "scene", "task-path", "mapping")
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -520,6 +528,10 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--quiet", action="store_true",
                        help="print nothing for good files (default: off)")
     check.set_defaults(run=_check)
+    from safety_systems.runtime.command import add_parser
+
+    add_parser(commands)
+    commands.choices["run"].set_defaults(run=_run)
     return parser
 
 

@@ -11,6 +11,7 @@ from safety_systems.files import documents
 from safety_systems.files.documents import load_document
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import Limits, field_limits, number, unranged_fields
+from safety_systems.sensing.recording_mapping import RecordingMapping
 from safety_systems.config.scenario import (
     MAX_DURATION,
     ControllerConfig,
@@ -125,7 +126,8 @@ def test_validation_errors_name_the_file(tmp_path):
 
 
 @pytest.mark.parametrize("schema", [Scenario, ControllerConfig, ScenarioSpace, TaskScene,
-                                    TaskPoints, Params, TunableConfig, TuneFile])
+                                    TaskPoints, RecordingMapping, Params, TunableConfig,
+                                    TuneFile])
 def test_every_number_of_every_schema_declares_its_range(schema):
     assert unranged_fields(schema) == []
 

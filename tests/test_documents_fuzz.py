@@ -23,6 +23,7 @@ SOURCES = {
     "space": sorted((MODELS / "spaces").glob("*.yaml")),
     "scene": [MODELS / "scenes" / "paper.yaml"],
     "task-path": [MODELS / "scenes" / "paper_task_path.yaml"],
+    "mapping": [MODELS / "recordings" / "approach_mapping.yaml"],
 }
 EXAMPLES = 120  # per kind of file
 

@@ -17,7 +17,9 @@ u is seen by the first control tick after u; outputs at a tick are computed from
 state before that tick's updates, as Drake's loggers record them.
 ``tests/verification`` checks the two agree. It refuses dynamic-mode scenarios (the
 plant and its inverse-dynamics controller, whose tracking error it does not model);
-:func:`evaluate_many` runs those in the diagram instead.
+:func:`evaluate_many` runs those in the diagram instead, and so it does scenarios whose
+operators are played from recordings (their truth is the recording's samples, which
+these compiled loops do not carry; ``RecordedMotion``).
 """
 
 import dataclasses
@@ -65,11 +67,18 @@ from safety_systems.sensing.tracks import (
     TRACK_SLOT,
     estimate_rows,
     frame_step,
+    tracker_fault,
     tracker_stop,
     usable,
 )
 from safety_systems.cell.ur5e import tool0_reusing_trig
-from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms
+from safety_systems.config.configuration import (
+    braking_table,
+    frame_timeout,
+    is_recorded,
+    joint_path,
+    monitor_terms,
+)
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
 
@@ -462,9 +471,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     c_sphere = _bounding_sphere(c_ends, c_radius)
                 s_before, rate_before = s[b], rate[b]
             # SeparationMonitor and SpeedOverride on the tracker's estimates.
-            fault = frames[b, _F_FAULT]
-            if fault == 0.0 and not t - frames[b, _F_GOOD] <= timeout:
-                fault = stops.STOP_STALE_FRAME
+            fault = tracker_fault(frames[b, _F_FAULT], t, frames[b, _F_GOOD], timeout)
             resting = s[b] == s_last[b]  # the ends as at the last tick: Eq. 5 gives 0
             if resting and memo[b, 1] == s[b] and memo[b, 2] == fault:
                 k_override = memo[b, 0]  # the same inputs as when it was computed
@@ -612,6 +619,9 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     if any(s.robot.mode != "kinematic" for s in scenarios):
         raise ValueError("evaluate_batch models the kinematic robot only; use evaluate_many "
                          "(it runs dynamic-mode scenarios in the Drake diagram)")
+    if any(is_recorded(s) for s in scenarios):
+        raise ValueError("evaluate_batch models scripted operators only; use evaluate_many "
+                         "(it runs recorded operators in the Drake diagram)")
     c = _Cells(scenarios)
     B, N, dt = c.B, c.N, c.dt
     cfg = c.config
@@ -705,15 +715,17 @@ def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> Batch
     """``evaluate_batch`` over scenarios of any shapes: grouped by ``batch_key`` and cut
     into batches of at most ``batch_size``; results in the input order. Scenarios the
     batched evaluator does not model (the seed-004 speed alteration controllers, and
-    every scenario whose robot is in ``dynamic`` mode) run one by one in the Drake
-    diagram, so each is evaluated in the robot mode it asks for."""
+    every scenario whose robot is in ``dynamic`` mode, and every scenario whose operators
+    are played from recordings) run one by one in the Drake diagram, so each is
+    evaluated in the robot mode it asks for and with the motion it gives."""
     from verification.evaluate_drake import evaluate_drake
 
     out = np.zeros((4, len(scenarios)))
     groups: dict[tuple, list[int]] = {}
     memo: dict = {}
     for i, s in enumerate(scenarios):
-        if s.controller.type != "ssm_override" or s.robot.mode != "kinematic":
+        if s.controller.type != "ssm_override" or s.robot.mode != "kinematic" \
+                or is_recorded(s):
             r, _ = evaluate_drake(s)
             out[:, i] = dataclasses.astuple(r)
             continue

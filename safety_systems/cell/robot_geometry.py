@@ -419,3 +419,13 @@ def min_clearance(q: np.ndarray, capsules: Capsules, p_bodies: np.ndarray,
     """The smallest clearance (metres) of each body over the capsules, (..., N); NaN if
     any of the body's pairs is NaN."""
     return nearest_capsules(q, np.zeros(6), capsules, p_bodies, np.zeros(3), body_radii)[0]
+
+
+@numba.njit(cache=True)
+def capsule_ends_at(q, tool_length, a, b, t0, t1, out):
+    """The capsule ends (K, 2, 3) at joint positions q into out (velocities unused), of
+    :class:`Capsules` (a, b, t0, t1, tool_length); compiled, shared by the RobotCapsules
+    system and the live runtime."""
+    p, pv = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    robot_points_one(q, np.zeros(6), tool_length, p, pv)
+    capsule_ends_one(p, pv, a, b, t0, t1, out, np.empty_like(out))

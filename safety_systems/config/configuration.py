@@ -10,6 +10,7 @@ from safety_systems.cell.braking import stopping_time as table_stopping_time
 from safety_systems.cell.cartesian_path import line_path, polyline_path
 from safety_systems.cell.joint_path import JointPath, SplinePath, default_joint_path, make_joint_path
 from safety_systems.cell.operator_paths import ScriptedOperator, make_operator_path
+from safety_systems.cell.recorded_operator import RecordedOperator
 from safety_systems.cell.robot_geometry import Capsules, robot_capsules, tool_point
 from safety_systems.config.scenario import (
     ControllerConfig,
@@ -69,9 +70,14 @@ def monitor_capsules(config: ControllerConfig) -> Capsules:
 def monitored_body_radii(scenario: Scenario) -> np.ndarray:
     """(N,) body radii the monitor uses: the scenario's, or 0 on the tool point (Eq. 8
     measures points)."""
-    if scenario.controller.safety.robot_geometry == "tool_point":
-        return np.zeros(sum(len(o.bodies) for o in scenario.operators))
-    return body_radii(scenario)
+    return monitored_radii(scenario.controller, body_radii(scenario))
+
+
+def monitored_radii(config: ControllerConfig, radii: np.ndarray) -> np.ndarray:
+    """The radii (N,) the monitor uses for bodies of these ``radii``: as given, or 0 on
+    the tool point (Eq. 8 measures points)."""
+    radii = np.asarray(radii, dtype=float)
+    return np.zeros_like(radii) if config.safety.robot_geometry == "tool_point" else radii
 
 
 def contact_capsules(robot: RobotConfig, contact_geometry: str) -> Capsules:
@@ -175,3 +181,19 @@ def with_controller(scenario: Scenario, config: ControllerConfig) -> Scenario:
         tracker = dataclasses.replace(tracker, exits=list(cell.exits), cell=cell.cell)
     return dataclasses.replace(scenario, sensor=actual_sensor(scenario),
                                controller=dataclasses.replace(config, tracker=tracker))
+
+
+def is_recorded(scenario: Scenario) -> bool:
+    """Whether the scenario's operators are played from recordings (they are all
+    recorded or all scripted)."""
+    return any(o.recording for o in scenario.operators)
+
+
+def recorded_operators(scenario: Scenario) -> list[RecordedOperator]:
+    """The scenario's recorded operators (``safety_systems.sensing.recording_mapping``)."""
+    from safety_systems.sensing.recording_mapping import load_recorded_operator
+
+    return [RecordedOperator(bodies=load_recorded_operator(o.recording, o.mapping, o.name),
+                             start=o.start, time_scale=o.time_scale, shift=tuple(o.shift),
+                             enter_time=o.enter_time, leave_time=o.leave_time)
+            for o in scenario.operators]

@@ -12,7 +12,6 @@ This module must not use ``from __future__ import annotations`` (it breaks the l
 
 import dataclasses as dc
 import math
-import re
 import typing
 from pathlib import Path
 
@@ -24,6 +23,7 @@ from safety_systems.files.documents import parse_typed as _parse_typed
 from safety_systems.files.input_error import InputError
 from safety_systems.cell.joint_path import make_joint_path
 from safety_systems.cell.operator_paths import make_operator_path
+from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
 from safety_systems.files.ranges import SEED_MAX, check_limits, number
 from safety_systems.sensing.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
 from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS
@@ -393,7 +393,17 @@ class Waypoint:
 
 @dc.dataclass
 class OperatorConfig:
-    """A scripted operator: bodies, timed waypoints, limits and presence window."""
+    """A scripted operator: bodies, timed waypoints, limits and presence window.
+
+    Or a recorded one (``recording`` given): the mapping file ``mapping``'s operator
+    ``name`` (empty: the mapping's only one, whose name it takes) played from the
+    recording (a Motive CSV export or a C3D file; both files relative to the scenario
+    file, ``safety_systems.sensing.recording_mapping``): recording time ``start`` plays at
+    t = 0, ``time_scale`` recording seconds per second (1.3: 30 % faster than recorded),
+    every body moved by ``shift`` (m, cell frame). Its ``bodies`` come from the mapping
+    (leave them empty, or give the mapping's in its order to set other radii; no
+    ``waypoints``); ``max_speed`` and ``max_acceleration`` are unused. A scenario's operators are all scripted or all recorded.
+    """
 
     name: str = ""
     max_speed: float = number(1.8, gt=0.0, le=ISO_MAX_HUMAN_SPEED, unit="m/s")
@@ -402,6 +412,11 @@ class OperatorConfig:
     leave_time: float = number(math.inf, gt=0.0, le=MAX_DURATION, unit="s", infinite=True)
     bodies: list[Body] = dc.field(default_factory=list)
     waypoints: list[Waypoint] = dc.field(default_factory=list)
+    recording: str = ""
+    mapping: str = ""
+    start: float = number(0.0, ge=0.0, le=100_000.0, unit="s")
+    time_scale: float = number(1.0, ge=0.1, le=10.0)
+    shift: list[float] = _position([0.0, 0.0, 0.0])
 
 
 @dc.dataclass
@@ -440,12 +455,6 @@ class Scenario:
     jerk_window: list[int] = number([], ge=2, le=10_000_000)
     gestures: list[Gesture] = dc.field(default_factory=list)
     operators: list[OperatorConfig] = dc.field(default_factory=list)
-
-
-MAX_OPERATORS = 5
-MAX_BODIES_PER_OPERATOR = 3
-NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")  # operator and body names (they name files,
-#                                             Meshcat paths and trace columns)
 
 
 def _check(ok: bool, field: str, value: typing.Any, allowed: str) -> None:
@@ -565,6 +574,9 @@ def validate_scenario(s: Scenario) -> None:
         validate_sensor(s.sensor, "sensor")
     _check(1 <= len(s.operators) <= MAX_OPERATORS, "operators", len(s.operators),
            f"1 to {MAX_OPERATORS} operators")
+    recorded = [bool(o.recording) for o in s.operators]
+    _check(all(recorded) or not any(recorded), "operators", "scripted and recorded",
+           "operators all scripted or all recorded")
     names = set()
     for i, o in enumerate(s.operators):
         f = f"operators[{i}]"
@@ -579,6 +591,14 @@ def validate_scenario(s: Scenario) -> None:
             _check(NAME.fullmatch(b.name) is not None, f"{f}.bodies[{j}].name", b.name,
                    "a name of 1 to 64 letters, digits, '_', '-' or '.'")
             _points(f"{f}.bodies[{j}].offset", b.offset, 3, "3 numbers in m")
+        _points(f"{f}.shift", o.shift, 3, "3 numbers in m")
+        if o.recording:
+            _check(not o.waypoints, f"{f}.waypoints", o.waypoints,
+                   "none for a recorded operator (it moves as recorded)")
+            _check(bool(o.mapping), f"{f}.mapping", o.mapping,
+                   "the recording's mapping file (a recorded operator needs one)")
+            continue
+        _check(not o.mapping, f"{f}.mapping", o.mapping, "empty without a recording")
         _check(len(o.waypoints) >= 1, f"{f}.waypoints", o.waypoints, "at least one waypoint")
         last = -math.inf
         for j, w in enumerate(o.waypoints):
@@ -667,12 +687,47 @@ def load_typed(schema: type, path: str | Path) -> typing.Any:
 
 def load_scenario(path: str | Path) -> Scenario:
     """Load and validate a scenario file; raises :class:`ScenarioError`. A task path's
-    ``file`` is read here, relative to the scenario file."""
+    ``file`` and recorded operators' files are read here, relative to the scenario
+    file."""
     def validate(scenario: Scenario) -> None:
         read_task_path(scenario.robot, Path(path).parent)
+        read_recordings(scenario, Path(path).parent)
         validate_scenario(scenario)
 
     return load_document(path, Scenario, validate)
+
+
+def read_recordings(scenario: Scenario, folder: Path) -> None:
+    """Reads every recorded operator's recording and mapping (relative to ``folder``;
+    the paths are replaced by the files' full paths) and fills in its bodies (names and
+    radii from the mapping) and, if empty, its name (the mapping's operator's); an
+    error in either file is reported at the field that names it, with the file's own
+    error."""
+    from safety_systems.sensing.recording_mapping import load_recorded_operator
+
+    for i, o in enumerate(scenario.operators):
+        if not o.recording:
+            continue
+        where = f"operators[{i}]"
+        _check(bool(o.mapping), f"{where}.mapping", o.mapping,
+               "the recording's mapping file (a recorded operator needs one)")
+        o.recording, o.mapping = (str((folder / x).resolve()) for x in (o.recording, o.mapping))
+        try:
+            recorded = load_recorded_operator(o.recording, o.mapping, o.name)
+        except ScenarioError as e:
+            raise ScenarioError(f"{where}.recording", o.recording,
+                                f"a recording its mapping fits ({e})") from None
+        if not o.name:
+            from safety_systems.sensing.recording_mapping import load_mapping
+
+            o.name = load_mapping(o.mapping).operators[0].name
+        if not o.bodies:
+            o.bodies = [Body(name, [0.0, 0.0, 0.0], radius)
+                        for name, radius in zip(recorded.names, recorded.radii)]
+        _check([b.name for b in o.bodies] == list(recorded.names)
+               and all(b.offset == [0.0, 0.0, 0.0] for b in o.bodies), f"{where}.bodies",
+               [b.name for b in o.bodies], f"none (they come from the mapping), or the "
+               f"mapping's {list(recorded.names)} in its order, without offsets")
 
 
 def read_task_path(robot: RobotConfig, folder: Path, prefix: str = "robot") -> None:

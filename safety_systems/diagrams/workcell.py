@@ -25,9 +25,11 @@ from safety_systems.config.configuration import (
     assumed_stopping,
     braking_table,
     frame_timeout,
+    is_recorded,
     joint_path,
     monitor_capsules,
     monitored_body_radii,
+    recorded_operators,
     scripted_operators,
     sensor_faults,
     tracker_regions,
@@ -49,6 +51,7 @@ from safety_systems.systems.kalman_tracker import KalmanTracker
 from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
 from safety_systems.systems.path_follower import PathFollower
+from safety_systems.systems.recorded_motion import RecordedMotion
 from safety_systems.systems.preprogrammed_speed_controller import PreprogrammedSpeedController
 from safety_systems.systems.robot_capsules import RobotCapsules
 from safety_systems.systems.separation_monitor import SeparationMonitor
@@ -60,6 +63,22 @@ from safety_systems.cell.ur5e import AddUr5e
 # damped, natural frequency 30 rad/s (own choice).
 DYNAMIC_KP = 900.0
 DYNAMIC_KD = 60.0
+
+
+def AddOperators(builder: DiagramBuilder, scenario: Scenario):
+    """Adds the operators' ground truth, named ``operators``: ``OperatorMotion`` of the
+    scripted operators, or ``RecordedMotion`` of the recorded ones (the same ports);
+    returns (the system, the occlusions the recordings imply: (body slot, start, end)
+    over each recording's gaps)."""
+    if not is_recorded(scenario):
+        return builder.AddNamedSystem(
+            "operators", OperatorMotion(operators=scripted_operators(scenario))), []
+    operators = recorded_operators(scenario)
+    hidden, first = [], 0
+    for op in operators:
+        hidden += [(first + i, a, b) for i, a, b in op.hidden_intervals()]
+        first += op.num_bodies
+    return builder.AddNamedSystem("operators", RecordedMotion(operators=operators)), hidden
 
 
 @dataclasses.dataclass
@@ -221,9 +240,9 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     names = body_names(scenario)
     n = len(names)
     builder = DiagramBuilder()
-    motion = builder.AddNamedSystem(
-        "operators", OperatorMotion(operators=scripted_operators(scenario)))
+    motion, recorded_gaps = AddOperators(builder, scenario)
     occlusions, dropouts = _sensor_intervals(scenario)
+    occlusions += recorded_gaps
     real = actual_sensor(scenario)
     sensor = builder.AddNamedSystem("mocap", MocapSensor(
         num_bodies=n, period_sec=1.0 / real.rate_hz, noise_std=real.noise_std,

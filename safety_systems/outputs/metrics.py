@@ -39,7 +39,7 @@ from safety_systems.ssm.separation import pair_figures
 from safety_systems.diagrams.simulation import Run
 from safety_systems.ssm.formulas import monitor_protective_distances
 from safety_systems.cell.stopping import StoppingData, true_stopping
-from safety_systems.sensing.stops import REJECT_CAUSES, STOP_REASONS
+from safety_systems.sensing.stops import REJECT_CAUSES, SIMULATED, STOP_REASONS
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.cell.ur5e import tool0_position_and_velocity
 from safety_systems.ssm.true_measures import moving, permitted
@@ -186,10 +186,16 @@ def stop_reasons(run: Run) -> np.ndarray:
 
 def protective_stops(run: Run) -> dict:
     """Protective stops by cause: how many times one began and the seconds it lasted."""
-    reasons = stop_reasons(run)
-    dt = np.diff(run.time, append=run.time[-1])
+    return stops_by_cause(stop_reasons(run), run.time, STOP_REASONS[1:SIMULATED])
+
+
+def stops_by_cause(reasons: np.ndarray, time: np.ndarray, causes=STOP_REASONS[1:]) -> dict:
+    """:func:`protective_stops` of stop reasons (T,) at times (T,), for the ``causes``
+    named (by default every one, the live runtime's too)."""
+    dt = np.diff(time, append=time[-1]) if time.size else time
     out = {}
-    for code, name in enumerate(STOP_REASONS[1:], start=1):
+    for name in causes:
+        code = STOP_REASONS.index(name)
         on = reasons == code
         starts = int(np.count_nonzero(on[1:] & ~on[:-1]) + (on[0] if on.size else 0))
         out[name] = {"count": starts, "time": float(np.sum(dt[on]))}

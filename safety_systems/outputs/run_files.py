@@ -91,13 +91,21 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
 def write_trace(run: Run, path: Path) -> None:
     """trace.csv: :func:`trace_table`, numbers to 6 significant digits (empty where not
     finite), stop reasons and zones by name (``WORDS``)."""
-    header, rows = trace_table(run)
+    write_table(*trace_table(run), path)
+
+
+def write_table(header: list[str], rows: np.ndarray, path: Path, *,
+                digits: dict[str, int] | None = None) -> None:
+    """A trace table as CSV (atomically): numbers to 6 significant digits (the columns
+    of ``digits`` to as many as it says; empty where not finite), the columns of
+    ``WORDS`` by name. Shared by ``simulate`` and ``run``."""
     words = {header.index(name): names for name, names in WORDS.items() if name in header}
+    formats = [f"{{:.{(digits or {}).get(name, 6)}g}}" for name in header]
 
     def cell(j: int, x: float) -> str:
         if not math.isfinite(x):
             return ""
-        return words[j][int(x)] if j in words else f"{x:.6g}"
+        return words[j][int(x)] if j in words else formats[j].format(x)
 
     with atomic_path(path) as temporary, open(temporary, "w", newline="") as f:
         writer = csv.writer(f)

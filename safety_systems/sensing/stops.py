@@ -14,9 +14,15 @@ STOP_BAD_TIME = 4  # a new frame whose capture time repeats or goes back
 STOP_NON_FINITE = 5  # a body flagged seen without a finite position
 STOP_UNKNOWN_ID = 6  # an entry whose body id is not registered (or claimed twice)
 STOP_GATE = 7  # a position farther from the track than a body can move
+# The live runtime's watchdog (``safety_systems.runtime``; never raised in simulation):
+STOP_BAD_PACKET = 8  # a motion-capture packet that could not be read
+STOP_ROBOT_LOST = 9  # the robot's connection lost, or its joint positions stale
+STOP_OVERRUN = 10  # the control loop ran late beyond its stated bound
+STOP_EXCEPTION = 11  # an error in the runtime itself (the run ends at speed 0)
 
 STOP_REASONS = ("none", "separation", "stale_frame", "lost_track", "bad_time", "non_finite",
-                "unknown_id", "gate")
+                "unknown_id", "gate", "bad_packet", "robot_lost", "overrun", "exception")
+SIMULATED = STOP_BAD_PACKET  # the causes a simulation can raise: codes below this
 
 # Rejected measurements by cause (the tracker's ``rejected_frames`` counts, in this order).
 REJECT_NON_FINITE, REJECT_TIME, REJECT_UNKNOWN_ID, REJECT_GATE = 0, 1, 2, 3

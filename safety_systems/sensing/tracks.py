@@ -160,8 +160,9 @@ def frame_step(tracks, base, n, t, z, valid, ids, t_good, counts, rules, regions
     """Processes one new frame for the body slots ``base`` .. ``base + n - 1`` of
     ``tracks`` (in place); returns its fault (a ``stops`` code, 0 when clean).
 
-    ``t``: the frame's capture time; ``z`` (n, 3), ``valid`` (n,) and ``ids`` (n,): its
-    entries; ``t_good`` (1,): the newest good frame's capture time (updated);
+    ``t``: the frame's capture time; ``z`` (E, 3), ``valid`` (E,) and ``ids`` (E,): its
+    entries (E = n from the simulated sensor; a live stream's frame carries the bodies
+    it sees, any number); ``t_good`` (1,): the newest good frame's capture time (updated);
     ``counts`` (4,): rejected measurements by ``stops.REJECT_CAUSES`` (added to);
     ``rules`` from :func:`make_rules`; ``regions`` from :func:`make_regions`. See the
     module docstring for the rules; Eqs. 2 and 4 (predict) and 3 (update) are
@@ -176,7 +177,7 @@ def frame_step(tracks, base, n, t, z, valid, ids, t_good, counts, rules, regions
         entry = np.full(n, -1)  # the entry each slot takes, -1 none
         claims = np.zeros(n)
         bad_id, non_finite, gated = False, False, False
-        for e in range(n):
+        for e in range(valid.shape[0]):  # the frame's entries (n in simulation)
             if valid[e] == 0.0:
                 continue
             slot = _slot_of(ids[e], n)
@@ -239,6 +240,18 @@ def frame_step(tracks, base, n, t, z, valid, ids, t_good, counts, rules, regions
             fault = stops.STOP_UNKNOWN_ID
         elif gated:
             fault = stops.STOP_GATE
+    return fault
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def tracker_fault(frame_fault, now, t_good, timeout):
+    """The tracker's fault at time ``now``: the newest processed frame's own fault (a
+    ``stops`` code), else ``stops.STOP_STALE_FRAME`` when the newest good frame (captured
+    at ``t_good``) is older than ``timeout`` s or there is none (t_good -inf), else 0.
+    The one rule of the KalmanTracker, the batched verifier and the live runtime."""
+    fault = frame_fault
+    if fault == 0.0 and not (now - t_good <= timeout):
+        fault = float(stops.STOP_STALE_FRAME)
     return fault
 
 

@@ -1,5 +1,6 @@
 """KalmanTracker: one constant-velocity Kalman filter per tracked body (seed Eqs. 2-4)."""
 
+import numba
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import (
@@ -10,8 +11,18 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from safety_systems.sensing.stops import STOP_STALE_FRAME
-from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, make_regions
+from safety_systems.sensing.tracks import (
+    TRACK_SLOT,
+    estimate_rows,
+    frame_step,
+    make_regions,
+    tracker_fault,
+)
+
+
+@numba.njit(cache=True)
+def _fault(frame_fault, now, t_good, timeout):
+    return tracker_fault(frame_fault, now, t_good, timeout)
 
 
 class KalmanTracker(LeafSystem):
@@ -141,7 +152,5 @@ class KalmanTracker(LeafSystem):
     def _calc_fault(self, context: Context, output: BasicVector) -> None:
         state = context.get_discrete_state(self._state).get_value()
         tail = self._n * TRACK_SLOT
-        t_good, fault = state[tail + 1], state[tail + 2]
-        if fault == 0.0 and not (context.get_time() - t_good <= self._timeout):
-            fault = STOP_STALE_FRAME
-        output.SetAtIndex(0, fault)
+        output.SetAtIndex(0, _fault(state[tail + 2], context.get_time(), state[tail + 1],
+                                    self._timeout))

@@ -1,6 +1,5 @@
 """RobotCapsules: where the robot's capsules are and how fast they move (seed Eq. 5)."""
 
-import numba
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import (
@@ -11,20 +10,7 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from safety_systems.cell.robot_geometry import (
-    NUM_POINTS,
-    Capsules,
-    capsule_ends_one,
-    robot_points_one,
-)
-
-
-@numba.njit(cache=True)
-def _ends(q, tool_length, a, b, t0, t1, out):
-    """The capsule ends (K, 2, 3) at joint positions q into out (velocities unused)."""
-    p, pv = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
-    robot_points_one(q, np.zeros(6), tool_length, p, pv)
-    capsule_ends_one(p, pv, a, b, t0, t1, out, np.empty_like(out))
+from safety_systems.cell.robot_geometry import Capsules, capsule_ends_at
 
 
 class RobotCapsules(LeafSystem):
@@ -79,7 +65,8 @@ class RobotCapsules(LeafSystem):
     def _calc_ends(self, context: Context, value: AbstractValue) -> None:
         c = self._capsules
         out = value.get_mutable_value().reshape(-1, 2, 3)
-        _ends(np.asarray(self._q.Eval(context), dtype=float), c.tool_length, c.a, c.b, c.t0,
+        capsule_ends_at(np.asarray(self._q.Eval(context), dtype=float), c.tool_length, c.a, c.b,
+                        c.t0,
               c.t1, out)
 
     def _store(self, context: Context, discrete_state: DiscreteValues) -> None:

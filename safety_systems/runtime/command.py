@@ -1,0 +1,165 @@
+"""``safety-systems run``: check everything, connect, run the loop, write the log.
+
+Exit codes: 0 the run ended (its duration, or the replay's end), 1 parameters not
+certified, 2 bad input, 3 the run was ended by a fault it cannot ride out (an error in
+the runtime, a lost robot, no NatNet server), 130 interrupted.
+"""
+
+import argparse
+import math
+import select
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from safety_systems.files.input_error import InputError
+
+EXIT_FAULT = 3
+EXIT_INTERRUPTED = 130
+REPLAY_TAIL = 0.5  # s the runtime runs on after a replay's last frame
+PORT_WAIT = 30.0  # s to wait for the replay server to listen
+
+
+def start_replay(file: str, options: dict, rate: float) -> tuple[subprocess.Popen, int]:
+    """Starts ``replay_server`` on 127.0.0.1 in its own process; (process, its port)."""
+    argv = [sys.executable, "-m", "safety_systems.runtime.replay_server", file,
+            "--rate", repr(rate)]
+    for key, value in options.items():
+        argv += [f"--{key}", *value.split(":")]
+    process = subprocess.Popen(argv, stdout=subprocess.PIPE, text=True)
+    ready, _, _ = select.select([process.stdout], [], [], PORT_WAIT)
+    line = process.stdout.readline() if ready else ""
+    if not line.startswith("port "):
+        process.kill()
+        raise ConnectionError(f"the replay server did not start ({line.strip() or 'silent'})")
+    return process, int(line.split()[1])
+
+
+def run(args: argparse.Namespace, origin: dict) -> int:
+    from safety_systems.files.output_files import prepare_out, write_json
+    from safety_systems.outputs.run_files import write_table
+    from safety_systems.sensing.recording import read_recording
+    from safety_systems.sensing.recording_mapping import find_operator, load_mapping, recorded_bodies
+    from safety_systems.runtime.live_run import LiveOptions, run_live
+    from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource, parse_mocap
+    from safety_systems.runtime.params import NotCertified, load_certified_params, \
+        warn_unverified
+    from safety_systems.runtime.robot_link import connect_robot, parse_robot
+    from safety_systems.runtime.safety_loop import SafetyLoop
+
+    try:
+        params = load_certified_params(args.params, unverified=args.unverified)
+    except NotCertified as e:
+        print(f"safety-systems: {e.line}", file=sys.stderr)
+        return e.code
+    warn_unverified(params)
+    mapping = load_mapping(args.mapping)
+    mocap_address, robot_address = parse_mocap(args.mocap), parse_robot(args.robot)
+    try:
+        bodies = BodyMap(mapping)
+    except InputError as e:
+        raise e.in_file(args.mapping) from None
+    if params.controller.type != "ssm_override":
+        raise InputError("controller.type", params.controller.type,
+                         "ssm_override (the runtime runs the SSM speed override)",
+                         file=args.params)
+    names = [f"{o.name}/{b.name}" for o in mapping.operators for b in o.bodies]
+    radii = [b.radius for o in mapping.operators for b in o.bodies]
+    rate = params.controller.sensor.rate_hz
+    duration = args.duration
+    if duration is not None and not 0.0 < duration <= 1e7:
+        raise InputError("--duration", duration, "0 < duration <= 1e7 s")
+    if not 0.0 < args.max_overrun <= 1.0:
+        raise InputError("--max-overrun", args.max_overrun, "0 < max-overrun <= 1 s")
+    if mocap_address.kind == "replay":
+        recording = read_recording(mocap_address.file)
+        try:
+            for o in mapping.operators:
+                recorded_bodies(recording, mapping, find_operator(mapping, o.name, "name"))
+        except InputError as e:
+            raise e.in_file(args.mapping) from None
+        options = dict(mocap_address.options)
+        rate = float(options.pop("rate", rate))
+        if not 1.0 <= rate <= 1000.0:
+            raise InputError("--mocap rate", rate, "1 <= rate <= 1000 Hz")
+        if duration is None:
+            start = float(options.get("start", 0.0))
+            length = float(options.get("duration", recording.times[-1] - start))
+            duration = max(length, 0.0) + REPLAY_TAIL + 0.1
+    out = prepare_out(args.log)
+    loop = SafetyLoop(params.controller, radii)
+    server = None
+    robot = None
+    try:
+        if mocap_address.kind == "replay":
+            server, port = start_replay(mocap_address.file, options, rate)
+            mocap_address = MocapAddress("natnet", "127.0.0.1", port, "127.0.0.1")
+        mocap = NatNetSource(mocap_address, time.monotonic)
+        robot = connect_robot(robot_address, params.robot, params.controller)
+        mocap.connect()  # last: frames flow from here on, and the loop starts at once
+    except ConnectionError as e:
+        print(f"safety-systems: {e}", file=sys.stderr)
+        if server is not None:
+            server.kill()
+        return EXIT_FAULT
+    try:
+        result = run_live(loop, bodies, names, mocap, robot,
+                          latency=params.controller.sensor.latency,
+                          period=1.0 / params.robot.control_rate_hz,
+                          options=LiveOptions(duration=duration, max_overrun=args.max_overrun,
+                                              status=not args.quiet))
+    finally:
+        if server is not None:
+            server.terminate()
+            server.wait(timeout=10.0)
+    write_table(result.header, result.rows, out / "trace.csv",
+                digits={"time": 10, "frame_time": 10, "tick_late": 4})
+    summary = dict(params=str(args.params), certified=params.certified,
+                   certificate_check=params.line, mocap=args.mocap, robot=robot.name,
+                   mapping=str(args.mapping), **result.summary, provenance=origin)
+    write_json(out / "summary.json", summary)
+    if not args.quiet:
+        timing = summary["timing"]
+        p99 = timing["frame_to_k_p99"]
+        print(f"run: {summary['end']}, {summary['ticks']} ticks, {summary['frames']} frames, "
+              f"tick late p99 {1e3 * (timing['tick_late_p99'] or math.nan):.3f} ms, "
+              f"frame to k p99 {1e3 * (p99 if p99 is not None else math.nan):.3f} ms "
+              f"-> {args.log}")
+    if result.end == "interrupted":
+        return EXIT_INTERRUPTED
+    return 0 if result.end == "duration" else EXIT_FAULT
+
+
+def add_parser(commands) -> None:
+    """The ``run`` subcommand's arguments."""
+    p = commands.add_parser(
+        "run", help="run the certified controller live: NatNet frames in (natnet://HOST or "
+                    "replay://RECORDING), the UR's speed slider out over RTDE (ur-rtde://HOST) "
+                    "or none (exit 0 ended, 1 not certified, 2 bad input, 3 a fault ended it)")
+    p.add_argument("params", help="the parameters to run: an exported params.yaml with its "
+                                  "certificate.json beside it")
+    p.add_argument("--mocap", required=True,
+                   help="natnet://HOST[:PORT][?local=IP] (unicast), or replay://FILE[?start=S"
+                        "&rate=HZ&duration=S&stop=T&garbage=T&late=T:D] to stream a recording "
+                        "as NatNet packets over loopback (required; no default)")
+    p.add_argument("--robot", required=True,
+                   help="ur-rtde://HOST[?timeout=S&stop_register=N], or none: a model "
+                        "following the verified path, logging what would be commanded "
+                        "(required; no default)")
+    p.add_argument("--mapping", required=True,
+                   help="mapping YAML: which streamed rigid body (streaming_id) is which "
+                        "operator's glove or head, and the capture-to-cell transform "
+                        "(required; no default)")
+    p.add_argument("--log", required=True,
+                   help="output folder for trace.csv and summary.json, created if missing "
+                        "(required; no default)")
+    p.add_argument("--duration", type=float,
+                   help="seconds to run (default: until interrupted; a replay: its length)")
+    p.add_argument("--max-overrun", type=float, default=0.005,
+                   help="seconds a control tick may start late before the watchdog holds "
+                        "k at 0 for 0.2 s (default: %(default)s)")
+    p.add_argument("--unverified", action="store_true",
+                   help="run parameters that fail their certificate check, saying so "
+                        "(default: off, refuse them)")
+    p.add_argument("--quiet", action="store_true", help="no status line (default: off)")

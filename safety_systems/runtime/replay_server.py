@@ -1,0 +1,173 @@
+"""``replay://``: a recording streamed as live NatNet packets over the loopback interface.
+
+A small NatNet server (unicast, as Motive serves a unicast client): it waits on its
+command port for a client's NAT_CONNECT, answers with NAT_SERVERINFO, then sends that
+client a NAT_FRAMEOFDATA every 1/rate seconds (``natnet_packets``) with every rigid
+body of the recording in the capture frame: frame i is the recording at time
+start + i / rate (:func:`stream_frames`: linear between samples, as the simulator plays
+a recording; a body is flagged untracked before its first tracked sample, after its
+last and inside its recording's gaps), with that recording time as its timestamp.
+Bodies without a streaming id in the file (C3D points, markers) get ids 1, 2, ... in
+file order. Keep-alives and other requests are read and ignored.
+
+For tests and demonstrations it can misbehave on purpose (times are recording times):
+``stop`` (no frame from then on: the stream stops), ``garbage`` (a packet of random
+bytes with a frame's message id, half a period after the frame at that time), ``late``
+= T:D (the frame due at T is sent D seconds late, with its own timestamp, and the
+frames due meanwhile are lost: a frame that comes late).
+
+Run as ``python -m safety_systems.runtime.replay_server FILE [options]``; it prints
+``port N`` on stdout once it listens, and exits after the last frame (plus ``linger``
+seconds) or when its client sends NAT_DISCONNECT.
+"""
+
+import argparse
+import dataclasses
+import math
+import select
+import socket
+import sys
+import time
+
+import numpy as np
+
+from safety_systems.sensing.recording import Recording, fill_gaps, gaps, read_recording, span
+from safety_systems.sensing.recording import recorded_state_one
+from safety_systems.runtime.natnet_packets import (
+    NAT_CONNECT,
+    NAT_DISCONNECT,
+    frame_of_data,
+    message_id,
+    server_info,
+)
+
+
+START_DELAY = 0.3  # s from the server info to the first frame (the client's connect polls
+#                   at 10 Hz; frames before it returns would queue up)
+
+
+@dataclasses.dataclass(frozen=True)
+class Misbehaviour:
+    """Faults to stream on purpose (recording times, s; None: none)."""
+
+    stop: float | None = None
+    garbage: float | None = None
+    late: tuple[float, float] | None = None
+
+
+def stream_ids(rec: Recording) -> list[int]:
+    """The rigid-body ids streamed: the file's, or 1, 2, ... where it gives none."""
+    return list(rec.ids) if all(rec.ids) else list(range(1, len(rec.names) + 1))
+
+
+def stream_frames(rec: Recording, rate: float, start: float, count: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(timestamps (F,), positions (F, B, 3), rotations (F, B, 4), tracked (F, B)) of
+    ``count`` frames from recording time ``start`` at ``rate`` Hz, capture frame (see
+    the module docstring)."""
+    filled = fill_gaps(rec.times, rec.positions)
+    ok = np.all(np.isfinite(rec.positions), axis=2)
+    spans = np.array([span(rec.times, ok[:, b]) for b in range(ok.shape[1])])
+    holes = [gaps(rec.times, ok[:, b]) for b in range(ok.shape[1])]
+    B = len(rec.names)
+    taus = start + np.arange(count) / rate
+    p, r, tracked = np.empty((count, B, 3)), np.empty((count, B, 4)), np.zeros((count, B))
+    v, present = np.empty((B, 3)), np.empty(B)
+    for f, tau in enumerate(taus):
+        recorded_state_one(rec.times, filled, spans, tau, p[f], v, present)
+        near = min(int(np.searchsorted(rec.times, tau)), rec.times.size - 1)
+        r[f] = rec.rotations[near]
+        for b in range(B):
+            hidden = any(a < tau < z for a, z in holes[b])
+            tracked[f, b] = present[b] > 0.5 and not hidden
+    return taus, p, r, tracked
+
+
+def serve(rec: Recording, *, rate: float, start: float = 0.0, duration: float | None = None,
+          host: str = "127.0.0.1", port: int = 0, misbehave: Misbehaviour = Misbehaviour(),
+          linger: float = 1.0, wait: float = 30.0, announce=print) -> int:
+    """Serves one client (see the module docstring); returns the frames sent."""
+    end = rec.times[-1] if duration is None else min(rec.times[-1], start + duration)
+    count = int(math.floor((end - start) * rate + 1e-9)) + 1
+    taus, p, r, tracked = stream_frames(rec, rate, start, count)
+    ids = stream_ids(rec)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.bind((host, port))
+    announce(f"port {sock.getsockname()[1]}")
+    client = _wait_for_client(sock, wait)
+    if client is None:
+        return 0
+    sock.sendto(server_info(), client)
+    t0 = time.monotonic() + START_DELAY
+    sent, rng = 0, np.random.default_rng(0)
+    late_frame, late_until = None, -math.inf
+    if misbehave.late is not None:
+        late_frame = int(np.argmax(taus >= misbehave.late[0]))
+        late_until = taus[late_frame] + misbehave.late[1]
+    for f in range(count):
+        tau = taus[f]
+        if misbehave.stop is not None and tau >= misbehave.stop:
+            break
+        if late_frame is not None and late_frame < f and tau < late_until:
+            continue  # lost while the late frame was held
+        delay = misbehave.late[1] if f == late_frame else 0.0
+        if not _sleep_until(sock, t0 + (tau - start) + delay):
+            return sent  # the client left
+        sock.sendto(frame_of_data(f + 1, float(tau), ids, p[f], r[f], tracked[f]), client)
+        sent += 1
+        if misbehave.garbage is not None and tau <= misbehave.garbage < tau + 1.0 / rate:
+            _sleep_until(sock, t0 + (tau - start) + 0.5 / rate)
+            junk = rng.integers(0, 256, 60, dtype=np.uint8).tobytes()
+            sock.sendto((7).to_bytes(2, "little") + (60).to_bytes(2, "little") + junk,
+                        client)
+    _sleep_until(sock, time.monotonic() + linger)
+    sock.close()
+    return sent
+
+
+def _wait_for_client(sock: socket.socket, wait: float):
+    deadline = time.monotonic() + wait
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([sock], [], [], max(0.0, deadline - time.monotonic()))
+        if ready:
+            data, address = sock.recvfrom(65536)
+            if message_id(data) == NAT_CONNECT:
+                return address
+    return None
+
+
+def _sleep_until(sock: socket.socket, when: float) -> bool:
+    """Waits until ``when`` reading (and ignoring) requests; False if the client left."""
+    while True:
+        left = when - time.monotonic()
+        if left <= 0.0:
+            return True
+        ready, _, _ = select.select([sock], [], [], left)
+        if ready:
+            data, _ = sock.recvfrom(65536)
+            if message_id(data) == NAT_DISCONNECT:
+                return False
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="replay_server", description=__doc__.split("\n")[0])
+    parser.add_argument("recording")
+    parser.add_argument("--rate", type=float, default=20.0)
+    parser.add_argument("--start", type=float, default=0.0)
+    parser.add_argument("--duration", type=float)
+    parser.add_argument("--port", type=int, default=0)
+    parser.add_argument("--stop", type=float)
+    parser.add_argument("--garbage", type=float)
+    parser.add_argument("--late", type=float, nargs=2)
+    parser.add_argument("--linger", type=float, default=1.0)
+    args = parser.parse_args(argv)
+    rec = read_recording(args.recording)
+    misbehave = Misbehaviour(args.stop, args.garbage, tuple(args.late) if args.late else None)
+    serve(rec, rate=args.rate, start=args.start, duration=args.duration, port=args.port,
+          misbehave=misbehave, linger=args.linger,
+          announce=lambda line: print(line, flush=True))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

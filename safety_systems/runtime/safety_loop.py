@@ -1,0 +1,120 @@
+"""The safety controller on live data: the simulator's own compiled functions, called in
+the order the Drake diagram calls them (no copy of any rule lives here).
+
+- a frame: ``tracks.frame_step`` (the KalmanTracker's rules: ids, finite positions, the
+  gate, Eqs. 2-4, hidden bodies, exits) and ``tracks.estimate_rows``;
+- the robot: ``robot_capsules.capsule_ends_at`` (RobotCapsules' forward kinematics) and
+  Eq. 5, (ends - previous ends) / dt over the robot's own sample times;
+- a decision at time t: ``tracks.tracker_fault`` (the frame's fault, else stale after
+  the frame timeout), ``separation.separation_rows`` (SeparationMonitor, Eqs. 6-11)
+  and ``ssm.speed_override_command`` (SpeedOverride, Eq. 12 and its fail-safe stops).
+
+Times are the runtime's monotonic clock (capture times from ``mocap.FrameClock``).
+"""
+
+import math
+
+import numba
+import numpy as np
+
+from safety_systems.config.configuration import (
+    monitor_capsules,
+    monitored_radii,
+    tracker_regions,
+    tracker_rules,
+)
+from safety_systems.config.scenario import ControllerConfig
+from safety_systems.ssm.separation import separation_rows
+from safety_systems.ssm.formulas import speed_override_command
+from safety_systems.cell.robot_geometry import capsule_ends_at
+from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
+from safety_systems.config.configuration import frame_timeout, monitor_terms
+
+
+@numba.njit(cache=True)
+def _fault(frame_fault, now, t_good, timeout):
+    return tracker_fault(frame_fault, now, t_good, timeout)
+
+
+class SafetyLoop:
+    """Tracker, robot capsules, monitor and override state of one live cell: N body
+    slots (ids 1..N) of ``radii`` m, under ``config`` (``type: ssm_override``)."""
+
+    def __init__(self, config: ControllerConfig, radii: np.ndarray):
+        if config.type != "ssm_override":
+            raise ValueError(f"controller.type: got {config.type!r}; the runtime runs "
+                             "ssm_override only")
+        f = config.safety
+        n = self.n = len(radii)
+        self.rules, self.regions = tracker_rules(config), tracker_regions(config)
+        self.timeout = frame_timeout(config)
+        self.capsules = monitor_capsules(config)
+        self.monitor = monitor_terms(config)
+        self.z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas),
+                          float(f.occlusion_speed))
+        self.delta_s, self.d_min = f.delta_s, f.d_min
+        self.radii = monitored_radii(config, radii)
+        self.tracks = np.zeros((n, TRACK_SLOT))
+        self.t_good = np.array([-np.inf])
+        self.rejected = np.zeros(4)
+        self.frame_fault = 0.0
+        self.p, self.v = np.full((n, 3), np.nan), np.full((n, 3), np.nan)
+        self.status, self.std, self.unseen = np.zeros(n), np.zeros(n), np.zeros(n)
+        K = self.capsules.radius.size
+        self.ends = np.full((K, 2, 3), np.nan)
+        self.end_velocities = np.full((K, 2, 3), np.nan)  # NaN until two samples: stop
+        self._robot_time = math.nan
+        self.out = np.full((4, n), np.nan)  # d, S, v_human, v_robot
+        self.nearest = np.full(n, -1, dtype=np.int64)
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Calls every compiled function once on scratch copies (loading them from the
+        cache takes long enough to make the first tick late), leaving the state as new."""
+        saved = (self.tracks.copy(), self.t_good.copy(), self.rejected.copy(),
+                 self.frame_fault, self.ends.copy(), self.end_velocities.copy(),
+                 self._robot_time)
+        self.frame(0.0, np.zeros((0, 3)), np.zeros(0), np.zeros(0))
+        self.robot(np.zeros(6), 0.0)
+        self.decide(0.0)
+        (self.tracks, self.t_good, self.rejected, self.frame_fault, self.ends,
+         self.end_velocities, self._robot_time) = saved
+        self.out[:] = np.nan
+        estimate_rows(self.tracks, 0, self.n, self.t_good[0], self.p, self.v, self.status,
+                      self.std, self.unseen)
+
+    def frame(self, t_capture: float, z: np.ndarray, valid: np.ndarray,
+              ids: np.ndarray) -> float:
+        """A new frame captured at ``t_capture`` with entries z (E, 3), valid (E,), ids
+        (E,); returns its fault (``stops`` code, 0 clean)."""
+        self.frame_fault = float(frame_step(
+            self.tracks, 0, self.n, float(t_capture), np.ascontiguousarray(z, dtype=float),
+            np.ascontiguousarray(valid, dtype=float), np.ascontiguousarray(ids, dtype=float),
+            self.t_good, self.rejected, self.rules, self.regions))
+        estimate_rows(self.tracks, 0, self.n, self.t_good[0], self.p, self.v, self.status,
+                      self.std, self.unseen)
+        return self.frame_fault
+
+    def robot(self, q: np.ndarray, t: float) -> None:
+        """The robot's joint positions q (6,) at its time t (a repeated t changes
+        nothing)."""
+        if t == self._robot_time:
+            return
+        c = self.capsules
+        ends = np.empty_like(self.ends)
+        capsule_ends_at(np.asarray(q, dtype=float), c.tool_length, c.a, c.b, c.t0, c.t1, ends)
+        self.end_velocities = (ends - self.ends) / (t - self._robot_time)
+        self.ends, self._robot_time = ends, t
+
+    def fault(self, now: float) -> float:
+        """The tracker's fault at ``now`` (``tracks.tracker_fault``)."""
+        return float(_fault(self.frame_fault, now, self.t_good[0], self.timeout))
+
+    def decide(self, now: float) -> tuple[float, float, int]:
+        """(k, S_max, stop reason) at ``now``: the monitor and the override."""
+        if self.n:
+            separation_rows(self.ends, self.end_velocities, self.capsules.radius, self.p,
+                            self.v, self.radii, self.status, self.std, self.unseen,
+                            self.z_d_terms, self.monitor, self.out, self.nearest)
+        return speed_override_command(self.out[0], self.out[1], self.status, self.fault(now),
+                                      delta_s=self.delta_s, d_min=self.d_min)

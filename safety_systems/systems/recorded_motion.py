@@ -1,0 +1,73 @@
+"""RecordedMotion: true positions and velocities of operators played from recordings."""
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
+
+from safety_systems.cell.recorded_operator import RecordedOperator
+from safety_systems.cell.operators import MAX_OPERATORS
+
+
+
+class RecordedMotion(LeafSystem):
+    """Ground-truth motion of up to five recorded operators (a function of time only),
+    with the ports of ``OperatorMotion``.
+
+    Body slots are numbered operator by operator; body i's xyz is at [3i:3i+3]. Each
+    body follows ``safety_systems.sensing.recording.recorded_state_one`` (linear between the
+    recording's samples, the segment's slope as velocity, scaled by the operator's
+    time scale); a body is present while its recording tracks it (from its first to its
+    last tracked sample) and the operator is in the cell.
+
+    .. pydrake_system::
+
+        name: RecordedMotion
+        output_ports:
+        - positions_true
+        - velocities_true
+        - present
+
+    Args:
+        operators: the recorded operators (1 to 5); positions in metres, velocities in
+            metres per second, cell (robot base) frame.
+    """
+
+    def __init__(self, *, operators: Sequence[RecordedOperator]) -> None:
+        super().__init__()
+        operators = tuple(operators)
+        if not 1 <= len(operators) <= MAX_OPERATORS:
+            raise ValueError(f"operators has {len(operators)} entries: allowed 1 to "
+                             f"{MAX_OPERATORS}")
+        for k, op in enumerate(operators):
+            if not isinstance(op, RecordedOperator):
+                raise ValueError(f"operators[{k}]={op!r}: must be a RecordedOperator")
+            if not (math.isfinite(op.time_scale) and op.time_scale > 0.0):
+                raise ValueError(f"operators[{k}].time_scale={op.time_scale}: must be > 0")
+        self._operators = operators
+        n = self._n = sum(op.num_bodies for op in operators)
+        self._cache = self.DeclareCacheEntry(
+            description="bodies_state",
+            value_producer=ValueProducer(
+                allocate=AbstractValue.Make((np.zeros(3 * n), np.zeros(3 * n),
+                                             np.zeros(n))).Clone,
+                calc=self._calc_state),
+            prerequisites_of_calc={self.time_ticket()})
+        ticket = {self._cache.ticket()}
+        for which, (name, size) in enumerate((("positions_true", 3 * n),
+                                              ("velocities_true", 3 * n), ("present", n))):
+            self.DeclareVectorOutputPort(
+                name, BasicVector(size),
+                lambda c, o, w=which: o.SetFromVector(self._cache.Eval(c)[w]), ticket)
+
+    @property
+    def num_bodies(self) -> int:
+        return self._n
+
+    def _calc_state(self, context: Context, value: AbstractValue) -> None:
+        states = [op.state(context.get_time()) for op in self._operators]
+        value.set_value((np.concatenate([s[0] for s in states]).ravel(),
+                         np.concatenate([s[1] for s in states]).ravel(),
+                         np.concatenate([s[2] for s in states])))

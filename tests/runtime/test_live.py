@@ -1,0 +1,408 @@
+"""The live runtime on one machine: real NatNet packets over 127.0.0.1, the same k as
+simulate for a recorded approach, and speed 0 within a control period on every fault."""
+
+import csv
+import dataclasses
+import json
+import math
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from safety_systems.cli import main
+from safety_systems.sensing.recording import read_recording
+from safety_systems.sensing.recording_mapping import find_operator, load_mapping, recorded_bodies
+from safety_systems.runtime.live_run import LiveOptions, run_live
+from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource
+from safety_systems.runtime.replay_server import serve, stream_frames
+from safety_systems.runtime.robot_link import ModelRobot
+from safety_systems.runtime.safety_loop import SafetyLoop
+from safety_systems.config.scenario import SensorConfig, load_controller_config, load_scenario
+from safety_systems.diagrams.simulation import simulate
+from safety_systems.sensing.stops import STOP_REASONS
+from safety_systems.config.configuration import frame_timeout
+
+MODELS = Path(__file__).parents[2] / "models"
+CSV = MODELS / "recordings" / "approach.csv"
+MAPPING = MODELS / "recordings" / "approach_mapping.yaml"
+SCENARIO = MODELS / "recordings" / "approach.yaml"
+PERIOD = 0.002  # s: the UR5e's control period
+SLACK = 0.5  # s a tick may be late before the overrun watchdog acts, where it is not tested
+
+
+def _trace(folder: Path) -> dict[str, np.ndarray]:
+    rows = list(csv.DictReader(open(folder / "trace.csv")))
+    out = {}
+    for key in rows[0]:
+        if key == "stop_reason":
+            out[key] = np.array([r[key] for r in rows])
+        else:
+            out[key] = np.array([float(r[key]) if r[key] else math.nan for r in rows])
+    return out
+
+
+def _run(tmp_path, params, mocap, *extra, robot="none", name="log"):
+    code = main(["run", str(params), "--mocap", mocap, "--robot", robot, "--mapping",
+                 str(MAPPING), "--log", str(tmp_path / name), "--quiet", *extra])
+    summary = json.loads((tmp_path / name / "summary.json").read_text())
+    return code, _trace(tmp_path / name), summary
+
+
+def _serve_in_thread(**kw) -> tuple[threading.Thread, list]:
+    announced: list = []
+    thread = threading.Thread(target=serve, kwargs=dict(announce=announced.append, **kw),
+                              daemon=True)
+    thread.start()
+    while not announced:
+        time.sleep(0.01)
+    return thread, announced
+
+
+def test_natnet_packets_over_loopback_carry_the_recording(tmp_path):
+    """Real NatNet-format UDP datagrams on 127.0.0.1, read by the natnet library: every
+    body at the recording's position (float32), its gap flagged untracked; through the
+    mapping, the recording's cell-frame truth."""
+    rec = read_recording(CSV)
+    thread, announced = _serve_in_thread(rec=rec, rate=20.0, start=5.8, duration=0.8,
+                                         linger=0.2)
+    port = int(announced[0].split()[1])
+    source = NatNetSource(MocapAddress("natnet", "127.0.0.1", port, "127.0.0.1"),
+                          time.monotonic)
+    source.connect()
+    frames, deadline = [], time.monotonic() + 5.0
+    while len(frames) < 17 and time.monotonic() < deadline:
+        time.sleep(0.01)
+        frames += source.poll()
+    source.close()
+    thread.join(timeout=5.0)
+    assert len(frames) == 17 and source.bad_packets == 0
+    taus, p, _, tracked = stream_frames(rec, 20.0, 5.8, 17)
+    mapping = load_mapping(MAPPING)
+    bodies = BodyMap(mapping)
+    truth = recorded_bodies(rec, mapping, find_operator(mapping, "", "name"))
+    for f, (_, frame) in enumerate(frames):
+        assert frame.suffix.timestamp == pytest.approx(taus[f], abs=1e-12)
+        assert [b.id_num for b in frame.rigid_bodies] == [1, 2, 3]
+        got = np.array([b.pos for b in frame.rigid_bodies])
+        flags = np.array([b.tracking_valid for b in frame.rigid_bodies])
+        np.testing.assert_array_equal(flags, tracked[f] > 0.5)
+        np.testing.assert_allclose(got[flags], p[f][flags].astype(np.float32), rtol=0, atol=0)
+        z, valid, ids = bodies.entries(frame.rigid_bodies)
+        np.testing.assert_array_equal(ids, [1.0, 2.0, 3.0])
+        sample = round(taus[f] * 100.0)  # 20 Hz frames fall on the 100 Hz samples
+        np.testing.assert_allclose(z[flags], truth.raw[sample][flags], rtol=0, atol=2e-6)
+    assert not tracked[:, 1].all() and tracked[:, 0].all()  # the left glove's gap
+
+
+K_TOLERANCE = 2e-3  # NatNet carries positions as float32 and the robot's path follows
+#                    the jittered k (seen: up to 1e-4); trace.csv keeps 6 digits
+
+
+def _same_band(t_sim, k_sim, t_run, k_run, width):
+    """Ticks of the run whose k lies outside simulate's k within +-width s."""
+    out = []
+    for t, k in zip(t_run, k_run):
+        window = (t_sim >= t - width) & (t_sim <= t + width)
+        if window.any() and not (k_sim[window].min() - K_TOLERANCE <= k
+                                 <= k_sim[window].max() + K_TOLERANCE):
+            out.append((t, k))
+    return out
+
+
+@pytest.mark.parametrize("config", ["iso export", "seed_estimated.yaml"])
+def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, config):
+    """iso.yaml as exported (certified), and the seed's configuration as a plain file
+    run with --unverified (its verification falsifies it: check refuses it)."""
+    from safety_systems.runtime.params import load_certified_params
+
+    if config == "iso export":
+        params, extra = exported_params, ()
+    else:
+        params, extra = MODELS / "configs" / config, ("--unverified",)
+    loaded = load_certified_params(params, unverified=True)
+    controller = loaded.controller
+    start, length = 2.0, 6.0
+    scenario = load_scenario(SCENARIO)
+    scenario.operators[0].start = start
+    scenario = dataclasses.replace(
+        scenario, duration=length, controller=controller,
+        robot=dataclasses.replace(loaded.robot, mode="kinematic", cycles=scenario.robot.cycles),
+        sensor=SensorConfig(rate_hz=controller.sensor.rate_hz, noise_std=0.0,
+                            latency=controller.sensor.latency))
+    sim = simulate(scenario)
+    k_sim = sim["override.path_speed_commanded"][:, 0]
+    code, trace, summary = _run(tmp_path, params,
+                                f"replay://{CSV}?start={start}&duration={length}",
+                                "--max-overrun", str(SLACK), *extra)
+    assert code == 0 and summary["end"] == "duration"
+    assert summary["frames"] == round(length * controller.sensor.rate_hz) + 1
+    # The run's clock is put on the scenario's by the first frame's capture time (the
+    # recording time ``start``, which the scenario plays at t = 0).
+    first = np.flatnonzero(np.isfinite(trace["frame_time"]))[0]
+    assert trace["frames"][first] == 1  # no burst of queued frames at the start
+    t0 = trace["frame_time"][first]
+    t_run = trace["time"] - t0
+    inside = (t_run >= 0.0) & (t_run <= length)
+    assert inside.sum() > 0.9 * length / PERIOD
+    assert 0.0 < k_sim.mean() < 1.0 and len(set(np.round(k_sim, 3))) >= 2  # k changes
+    # Up to timing jitter of one frame (1 / rate).
+    width = 1.0 / controller.sensor.rate_hz
+    assert _same_band(sim.time, k_sim, t_run[inside], trace["k"][inside], width) == []
+    # Not a band so wide that it holds anything: the run's k spends as long at 0.
+    stopped_sim = np.mean(k_sim == 0.0)
+    stopped_run = np.mean(trace["k"][inside] == 0.0)
+    assert abs(stopped_sim - stopped_run) < 0.05
+
+
+def _iso_timeout() -> float:
+    return frame_timeout(load_controller_config(MODELS / "configs" / "iso.yaml"))
+
+
+def test_the_stream_stopping_gives_k_0_within_a_control_period(tmp_path, exported_params):
+    code, trace, _ = _run(tmp_path, exported_params, f"replay://{CSV}?stop=1.0&duration=2.0",
+                          "--max-overrun", str(SLACK))
+    assert code == 0
+    age = trace["time"] - trace["frame_time"]
+    stale = ~(age <= _iso_timeout())
+    moving_before = (trace["k"] > 0) & ~stale
+    assert moving_before.any()
+    after = trace["time"] > trace["time"][moving_before].max()
+    assert stale[after].all()  # it never came back
+    assert (trace["k"][stale] == 0.0).all()
+    assert set(trace["stop_reason"][stale & after]) == {"stale_frame"}
+    # The first stale tick is the first tick past the frame's timeout: within a period.
+    first = np.flatnonzero(stale & after)[0]
+    last_good = trace["frame_time"][first]
+    assert trace["time"][first] - (last_good + _iso_timeout()) <= PERIOD + 1e-3
+    assert trace["time"][first - 1] - last_good <= _iso_timeout()
+
+
+def test_a_garbage_packet_gives_k_0_at_once_until_a_good_frame(tmp_path, exported_params):
+    code, trace, summary = _run(tmp_path, exported_params, f"replay://{CSV}?garbage=1.0"
+                                "&duration=2.0", "--max-overrun", str(SLACK))
+    assert code == 0 and summary["bad_packets"] >= 1
+    first = np.flatnonzero(np.diff(trace["bad_packets"]) > 0)[0] + 1
+    assert trace["k"][first - 1] > 0.0  # moving before it
+    assert trace["k"][first] == 0.0 and trace["stop_reason"][first] == "bad_packet"
+    # Back once the next good frame came (frames count up after the garbage).
+    later = np.flatnonzero(trace["frames"] > trace["frames"][first])[0]
+    assert trace["stop_reason"][later] != "bad_packet"
+    assert (trace["k"][first:later] == 0.0).all()
+
+
+def test_a_late_frame_is_stale_and_does_not_restart_the_robot(tmp_path, exported_params):
+    code, trace, _ = _run(tmp_path, exported_params, f"replay://{CSV}?late=1.0:0.32"
+                          "&duration=2.0", "--max-overrun", str(SLACK))
+    assert code == 0
+    timeout = _iso_timeout()
+    age = trace["time"] - trace["frame_time"]
+    stale = ~(age <= timeout)
+    assert (trace["k"][stale] == 0.0).all() and stale.any()
+    # The late frame was processed (frames counted) while it was already stale: k
+    # stayed 0 from its arrival to the next frame.
+    arrivals = np.flatnonzero(np.diff(trace["frames"]) > 0) + 1
+    gaps = np.diff(trace["time"][arrivals])
+    late = arrivals[np.argmax(gaps) + 1]  # the frame after the longest silence
+    assert age[late] > timeout and trace["k"][late] == 0.0
+    nxt = arrivals[arrivals > late][0]
+    assert (trace["k"][late:nxt] == 0.0).all()
+    assert trace["k"][nxt:].max() > 0.0  # a fresh frame lets it go again
+
+
+class _Faulty(ModelRobot):
+    """A model robot whose ``read`` sleeps once (an overrun) or raises (an error)."""
+
+    def __init__(self, *args, sleep_at=None, raise_at=None):
+        super().__init__(*args)
+        self.reads, self.sleep_at, self.raise_at, self.commands = 0, sleep_at, raise_at, []
+
+    def read(self):
+        self.reads += 1
+        if self.reads == self.sleep_at:
+            time.sleep(0.03)
+        if self.reads == self.raise_at:
+            raise ZeroDivisionError("injected")
+        return super().read()
+
+    def command(self, k):
+        self.commands.append(k)
+        super().command(k)
+
+
+def _live(robot_kw, duration=1.5):
+    config = load_controller_config(MODELS / "configs" / "iso.yaml")
+    mapping = load_mapping(MAPPING)
+    thread, announced = _serve_in_thread(rec=read_recording(CSV), rate=20.0,
+                                         duration=duration + 0.5, linger=0.2)
+    source = NatNetSource(MocapAddress("natnet", "127.0.0.1", int(announced[0].split()[1]),
+                                       "127.0.0.1"), time.monotonic)
+    source.connect()
+    from safety_systems.config.scenario import RobotConfig
+
+    robot = _Faulty(RobotConfig(), config, **robot_kw)
+    names = [f"{o.name}/{b.name}" for o in mapping.operators for b in o.bodies]
+    loop = SafetyLoop(config, np.array([b.radius for o in mapping.operators for b in o.bodies]))
+    result = run_live(loop, BodyMap(mapping), names, source, robot, latency=0.02, period=PERIOD,
+                      options=LiveOptions(duration=duration, status=False, max_overrun=0.01))
+    thread.join(timeout=5.0)
+    return result, robot
+
+
+def test_an_overrun_and_an_error_give_k_0(tmp_path):
+    result, robot = _live(dict(sleep_at=300))
+    h = result.header
+    late = result.rows[:, h.index("tick_late")] > 0.01
+    assert late.any()
+    i = np.flatnonzero(late)[0]
+    assert result.rows[i, h.index("k")] == 0.0
+    assert STOP_REASONS[int(result.rows[i, h.index("stop_reason")])] == "overrun"
+    assert robot.commands[-1] == 0.0
+    result, robot = _live(dict(raise_at=400))
+    assert result.end.startswith("exception: ZeroDivisionError")
+    assert STOP_REASONS[int(result.rows[-1, result.header.index("stop_reason")])] == "exception"
+    assert robot.commands[-1] == 0.0 and robot.sent == 0.0
+    assert len(result.rows) < 420  # it stopped there
+
+
+def _altered(tmp_path, exported_params, how: str) -> Path:
+    import shutil
+
+    folder = tmp_path / how
+    shutil.copytree(exported_params.parent, folder)
+    params = folder / "params.yaml"
+    if how == "changed":  # d_min 0.3 -> 0.2: a different controller than the certified one
+        text = params.read_text()
+        assert "controller.safety.d_min: 0.3\n" in text
+        params.write_text(text.replace("controller.safety.d_min: 0.3\n",
+                                       "controller.safety.d_min: 0.2\n"))
+    elif how == "no certificate":
+        (folder / "certificate.json").unlink()
+    elif how == "plain configuration":
+        params.write_text((MODELS / "configs" / "iso.yaml").read_text())
+    return params
+
+
+@pytest.mark.parametrize("how", ["changed", "no certificate", "plain configuration"])
+def test_run_refuses_what_check_refuses(tmp_path, exported_params, capsys, how):
+    params = _altered(tmp_path, exported_params, how)
+    code_check = main(["check", str(params)])
+    line_check = capsys.readouterr().err.strip()
+    assert code_check != 0
+    argv = ["run", str(params), "--mocap", f"replay://{CSV}?duration=0.3", "--robot", "none",
+            "--mapping", str(MAPPING), "--log", str(tmp_path / "log"), "--quiet"]
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and code in (1, 2)
+    if how != "plain configuration":  # check names the file's kind first for a plain one
+        assert code == code_check and err.startswith(line_check)
+    assert not (tmp_path / "log").exists()
+    assert main(argv + ["--unverified"]) == 0
+    assert "UNVERIFIED" in capsys.readouterr().err
+    summary = json.loads((tmp_path / "log" / "summary.json").read_text())
+    assert summary["certified"] is False
+
+
+def test_run_accepts_what_check_accepts(tmp_path, exported_params, capsys):
+    code, _, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=0.3")
+    assert code == 0 and summary["certified"] is True
+    assert "UNVERIFIED" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, field", [
+    (["--mocap", "udp://x"], "--mocap"), (["--robot", "ur-rtde://"], "--robot"),
+    (["--mocap", f"replay://{CSV}?late=1"], "late"), (["--duration", "-1"], "--duration"),
+])
+def test_bad_options_are_one_line(tmp_path, exported_params, capsys, argv, field):
+    base = {"--mocap": f"replay://{CSV}", "--robot": "none"}
+    base.update(dict(zip(argv[::2], argv[1::2])))
+    rest = [x for kv in base.items() for x in kv]
+    extra = argv if argv[0] == "--duration" else []
+    code = main(["run", str(exported_params), *rest, "--mapping", str(MAPPING), "--log",
+                 str(tmp_path / "log"), "--quiet", *extra])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and field in err
+
+
+# ------------------------------------------------------------------ the robot over RTDE
+
+def _rtde_server(host: str, *extra) -> tuple:
+    """The loopback server, its stdout read as it comes (a full pipe would block it)."""
+    server = subprocess.Popen([sys.executable, str(Path(__file__).parent / "rtde_loopback.py"),
+                               host, *extra], stdout=subprocess.PIPE, text=True)
+    assert json.loads(server.stdout.readline()) == {"listening": True}
+    lines: list = []
+    reader = threading.Thread(target=lambda: lines.extend(server.stdout), daemon=True)
+    reader.start()
+    return server, lines, reader
+
+
+def _messages(server) -> list[dict]:
+    process, lines, reader = server
+    process.terminate()
+    process.wait(timeout=10)
+    reader.join(timeout=10)
+    return [json.loads(line) for line in lines if line.strip()]
+
+
+def _host() -> str:
+    """A loopback address of its own (ur-rtde always uses port 30004)."""
+    return f"127.0.{np.random.default_rng().integers(1, 250)}.{np.random.default_rng().integers(2, 250)}"
+
+
+def test_ur_rtde_commands_the_slider_and_leaves_it_at_0(tmp_path, exported_params):
+    host = _host()
+    server = _rtde_server(host)
+    try:
+        code, trace, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=2.5",
+                                    "--max-overrun", str(SLACK), robot=f"ur-rtde://{host}")
+    finally:
+        messages = _messages(server)
+    assert code == 0 and summary["robot"] == f"ur-rtde://{host}"
+    sliders = [m["values"]["speed_slider_fraction"] for m in messages
+               if m.get("values", {}).get("speed_slider_mask") == 1]
+    assert len(sliders) >= len(trace["k"])  # every tick, and at once on frames
+    assert sliders[-1] == 0.0  # never left where it was
+    assert max(sliders) > 0.0 and set(np.round(sliders, 9)) == set(np.round(trace["k"], 9))
+    # The monitor saw the robot move: its joint positions came over RTDE.
+    assert np.nanmax(trace["robot_speed"]) > 0.01
+
+
+def test_the_robot_disconnecting_gives_k_0_within_a_control_period(tmp_path, exported_params):
+    host = _host()
+    server = _rtde_server(host, "--drop-at", "1.2")
+    try:
+        code, trace, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=2.0",
+                                    "--max-overrun", str(SLACK),
+                                    robot=f"ur-rtde://{host}?timeout=0.02")
+    finally:
+        messages = _messages(server)
+    dropped = next(m["dropped"] for m in messages if "dropped" in m) - summary["clock_start"]
+    assert code == 3 and summary["end"].startswith("robot_lost")
+    lost = trace["stop_reason"] == "robot_lost"
+    first = np.flatnonzero(lost)[0]
+    assert lost[first:].all() and (trace["k"][first:] == 0.0).all()
+    assert (trace["k"][:first] > 0.0).any()
+    # Seen at the first tick after the connection closed, or at the latest once the
+    # robot's samples are a timeout old (ur-rtde notices a closed socket on its next read).
+    assert trace["time"][first] - dropped <= 0.02 + PERIOD + 1e-3
+
+
+def test_parameters_certified_as_passed_are_run_with_checks_warning(exported_params, capsys,
+                                                                    monkeypatch):
+    """check accepts a passed verdict and says it is weaker; run says so too."""
+    import verification.certificate as certificate
+    from safety_systems.runtime.params import load_certified_params, warn_unverified
+
+    real = certificate.check(exported_params)
+    passed = dataclasses.replace(real, verdict="passed", line=real.line + "; passed is weaker")
+    monkeypatch.setattr(certificate, "check", lambda path: passed)
+    params = load_certified_params(exported_params)
+    assert params.certified and params.verdict == "passed"
+    warn_unverified(params)
+    assert capsys.readouterr().err.strip() == f"safety-systems: warning: {passed.line}"
