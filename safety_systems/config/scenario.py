@@ -555,16 +555,11 @@ def _points(field: str, points: list, n: int, allowed: str) -> None:
 
 def validate_scenario(s: Scenario) -> None:
     """Ranges (``check_limits``) and checks between a scenario's fields; raises
-    :class:`ScenarioError`."""
+    :class:`ScenarioError` (the first problem, in the order below)."""
     check_limits(s)
     _check(s.contact_geometry in ROBOT_GEOMETRIES, "contact_geometry", s.contact_geometry,
            " | ".join(ROBOT_GEOMETRIES))
-    last = -math.inf
-    for i, g in enumerate(s.gestures):
-        _check(g.command in GESTURES, f"gestures[{i}].command", g.command, " | ".join(GESTURES))
-        _check(g.time > last, f"gestures[{i}].time", g.time,
-               "0 <= time <= 600 s and after the previous gesture")
-        last = g.time
+    _validate_gestures(s.gestures)
     _check(not s.jerk_window or (len(s.jerk_window) == 2
                                  and s.jerk_window[0] < s.jerk_window[1]),
            "jerk_window", s.jerk_window, "empty, or [first, last] samples with 2 <= first < last")
@@ -572,46 +567,78 @@ def validate_scenario(s: Scenario) -> None:
     _controller_rules(s.controller, "controller")
     if s.sensor is not None:
         validate_sensor(s.sensor, "sensor")
-    _check(1 <= len(s.operators) <= MAX_OPERATORS, "operators", len(s.operators),
+    _validate_operators(s.operators)
+    _validate_sensor_bodies(s)
+
+
+def _validate_gestures(gestures: list) -> None:
+    last = -math.inf
+    for i, g in enumerate(gestures):
+        _check(g.command in GESTURES, f"gestures[{i}].command", g.command, " | ".join(GESTURES))
+        _check(g.time > last, f"gestures[{i}].time", g.time,
+               "0 <= time <= 600 s and after the previous gesture")
+        last = g.time
+
+
+def _validate_operators(operators: list) -> None:
+    """The operators: their count, one kind (scripted or recorded), unique names, then
+    each operator's own fields (:func:`_validate_operator`)."""
+    _check(1 <= len(operators) <= MAX_OPERATORS, "operators", len(operators),
            f"1 to {MAX_OPERATORS} operators")
-    recorded = [bool(o.recording) for o in s.operators]
+    recorded = [bool(o.recording) for o in operators]
     _check(all(recorded) or not any(recorded), "operators", "scripted and recorded",
            "operators all scripted or all recorded")
     names = set()
-    for i, o in enumerate(s.operators):
+    for i, o in enumerate(operators):
         f = f"operators[{i}]"
         _check(NAME.fullmatch(o.name) is not None and o.name not in names, f"{f}.name", o.name,
                "a unique name of 1 to 64 letters, digits, '_', '-' or '.'")
         names.add(o.name)
-        _check(o.leave_time > o.enter_time, f"{f}.leave_time", o.leave_time,
-               f"later than enter_time ({o.enter_time})")
-        _check(2 <= len(o.bodies) <= MAX_BODIES_PER_OPERATOR, f"{f}.bodies", len(o.bodies),
-               f"2 to {MAX_BODIES_PER_OPERATOR} bodies (both gloves, optionally the head)")
-        for j, b in enumerate(o.bodies):
-            _check(NAME.fullmatch(b.name) is not None, f"{f}.bodies[{j}].name", b.name,
-                   "a name of 1 to 64 letters, digits, '_', '-' or '.'")
-            _points(f"{f}.bodies[{j}].offset", b.offset, 3, "3 numbers in m")
-        _points(f"{f}.shift", o.shift, 3, "3 numbers in m")
-        if o.recording:
-            _check(not o.waypoints, f"{f}.waypoints", o.waypoints,
-                   "none for a recorded operator (it moves as recorded)")
-            _check(bool(o.mapping), f"{f}.mapping", o.mapping,
-                   "the recording's mapping file (a recorded operator needs one)")
-            continue
-        _check(not o.mapping, f"{f}.mapping", o.mapping, "empty without a recording")
-        _check(len(o.waypoints) >= 1, f"{f}.waypoints", o.waypoints, "at least one waypoint")
-        last = -math.inf
-        for j, w in enumerate(o.waypoints):
-            _points(f"{f}.waypoints[{j}].position", w.position, 3, "3 numbers in m")
-            _check(w.time > last, f"{f}.waypoints[{j}].time", w.time,
-                   f"later than the previous waypoint's ({last})")
-            last = w.time
-        try:
-            make_operator_path([w.time for w in o.waypoints], [w.position for w in o.waypoints],
-                               o.max_speed, o.max_acceleration)
-        except ValueError as e:
-            raise ScenarioError(f"{f}.waypoints", [w.time for w in o.waypoints],
-                                f"times the operator's limits can keep ({e})") from None
+        _validate_operator(o, f)
+
+
+def _validate_operator(o: OperatorConfig, f: str) -> None:
+    """One operator (field path ``f``): its window, bodies and shift, then a recorded
+    operator's mapping or a scripted one's waypoints (:func:`_validate_waypoints`)."""
+    _check(o.leave_time > o.enter_time, f"{f}.leave_time", o.leave_time,
+           f"later than enter_time ({o.enter_time})")
+    _check(2 <= len(o.bodies) <= MAX_BODIES_PER_OPERATOR, f"{f}.bodies", len(o.bodies),
+           f"2 to {MAX_BODIES_PER_OPERATOR} bodies (both gloves, optionally the head)")
+    for j, b in enumerate(o.bodies):
+        _check(NAME.fullmatch(b.name) is not None, f"{f}.bodies[{j}].name", b.name,
+               "a name of 1 to 64 letters, digits, '_', '-' or '.'")
+        _points(f"{f}.bodies[{j}].offset", b.offset, 3, "3 numbers in m")
+    _points(f"{f}.shift", o.shift, 3, "3 numbers in m")
+    if o.recording:
+        _check(not o.waypoints, f"{f}.waypoints", o.waypoints,
+               "none for a recorded operator (it moves as recorded)")
+        _check(bool(o.mapping), f"{f}.mapping", o.mapping,
+               "the recording's mapping file (a recorded operator needs one)")
+        return
+    _check(not o.mapping, f"{f}.mapping", o.mapping, "empty without a recording")
+    _validate_waypoints(o, f)
+
+
+def _validate_waypoints(o: OperatorConfig, f: str) -> None:
+    """A scripted operator's waypoints: at least one, times increasing, a path its speed
+    and acceleration limits can keep."""
+    _check(len(o.waypoints) >= 1, f"{f}.waypoints", o.waypoints, "at least one waypoint")
+    last = -math.inf
+    for j, w in enumerate(o.waypoints):
+        _points(f"{f}.waypoints[{j}].position", w.position, 3, "3 numbers in m")
+        _check(w.time > last, f"{f}.waypoints[{j}].time", w.time,
+               f"later than the previous waypoint's ({last})")
+        last = w.time
+    try:
+        make_operator_path([w.time for w in o.waypoints], [w.position for w in o.waypoints],
+                           o.max_speed, o.max_acceleration)
+    except ValueError as e:
+        raise ScenarioError(f"{f}.waypoints", [w.time for w in o.waypoints],
+                            f"times the operator's limits can keep ({e})") from None
+
+
+def _validate_sensor_bodies(s: Scenario) -> None:
+    """Body names unique, and every body the sensor's occlusions and faults name exists."""
     bodies = [f"{o.name}/{b.name}" for o in s.operators for b in o.bodies]
     _check(len(set(bodies)) == len(bodies), "operators[].bodies[].name", bodies,
            "unique body names within each operator")

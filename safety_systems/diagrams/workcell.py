@@ -238,33 +238,18 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     dt = 1.0 / robot.control_rate_hz
     path = joint_path(robot)
     names = body_names(scenario)
-    n = len(names)
     builder = DiagramBuilder()
     motion, recorded_gaps = AddOperators(builder, scenario)
-    occlusions, dropouts = _sensor_intervals(scenario)
-    occlusions += recorded_gaps
-    real = actual_sensor(scenario)
-    sensor = builder.AddNamedSystem("mocap", MocapSensor(
-        num_bodies=n, period_sec=1.0 / real.rate_hz, noise_std=real.noise_std,
-        latency_sec=real.latency, occlusions=occlusions, dropped_frames=dropouts,
-        faults=sensor_faults(scenario), seed=real.seed))
-    builder.Connect(motion.GetOutputPort("positions_true"),
-                    sensor.GetInputPort("positions_true"))
-    builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))
+    sensor = _add_sensor(builder, scenario, motion, recorded_gaps)
     operator_of, is_hand = body_roles(scenario)
-    safety = AddSafetyController(builder, config=config, num_bodies=n, control_period=dt,
-                                 path=path, operator_of=operator_of, is_hand=is_hand,
-                                 body_radii=monitored_body_radii(scenario))
+    safety = AddSafetyController(builder, config=config, num_bodies=len(names),
+                                 control_period=dt, path=path, operator_of=operator_of,
+                                 is_hand=is_hand, body_radii=monitored_body_radii(scenario))
     for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")
     zones = safety.systems.get("zones")
-    follower = builder.AddNamedSystem("follower", PathFollower(
-        path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
-        braking_time_scale=robot.braking_time_scale, period_sec=dt,
-        max_rate=1.0 if speed is None else config.alteration.speed_limit
-        / speed.preprogrammed_speed))
-    builder.Connect(safety.command, follower.GetInputPort("path_speed_commanded"))
+    follower = _add_follower(builder, scenario, path, safety, speed)
     q_port, v_port, plant = _add_robot(builder, robot, follower, dt)
     systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker, **safety.systems,
                    follower=follower)
@@ -279,7 +264,46 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
             events=[(g.time, g.command) for g in scenario.gestures]))
         builder.Connect(gestures.get_output_port(), zones.GetInputPort("gesture"))
         systems["gestures"] = gestures
+    logger, columns = _log_signals(builder, systems, q_port, v_port, logged, dt)
+    diagram = builder.Build()
+    diagram.set_name("workcell")
+    return Workcell(diagram, scenario, path, names, systems, logger, columns, plant)
 
+
+def _add_sensor(builder: DiagramBuilder, scenario: Scenario, motion, recorded_gaps: list):
+    """The cell's real motion-capture sensor (``actual_sensor``), named ``mocap``, fed by
+    the operators' truth; the recordings' gaps are occlusions."""
+    occlusions, dropouts = _sensor_intervals(scenario)
+    occlusions += recorded_gaps
+    real = actual_sensor(scenario)
+    sensor = builder.AddNamedSystem("mocap", MocapSensor(
+        num_bodies=len(body_names(scenario)), period_sec=1.0 / real.rate_hz,
+        noise_std=real.noise_std, latency_sec=real.latency, occlusions=occlusions,
+        dropped_frames=dropouts, faults=sensor_faults(scenario), seed=real.seed))
+    builder.Connect(motion.GetOutputPort("positions_true"),
+                    sensor.GetInputPort("positions_true"))
+    builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))
+    return sensor
+
+
+def _add_follower(builder: DiagramBuilder, scenario: Scenario, path, safety: SafetyController,
+                  speed) -> PathFollower:
+    """The PathFollower, named ``follower``, driven by the safety controller's command."""
+    robot, config = scenario.robot, scenario.controller
+    follower = builder.AddNamedSystem("follower", PathFollower(
+        path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
+        braking_time_scale=robot.braking_time_scale, period_sec=1.0 / robot.control_rate_hz,
+        max_rate=1.0 if speed is None else config.alteration.speed_limit
+        / speed.preprogrammed_speed))
+    builder.Connect(safety.command, follower.GetInputPort("path_speed_commanded"))
+    return follower
+
+
+def _log_signals(builder: DiagramBuilder, systems: dict, q_port: OutputPort,
+                 v_port: OutputPort, logged: Iterable[str] | None, dt: float):
+    """(the logger, each signal's columns in it): every output port of ``systems`` (and
+    q, v), or those ``logged`` names, through one multiplexer into one sink (one publish
+    event per tick instead of one per signal), split by column when read."""
     ports = {"q": q_port, "v": v_port}
     for system_name, system in systems.items():
         for i in range(system.num_output_ports()):
@@ -290,8 +314,6 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
         unknown = logged - set(ports)
         if unknown:
             raise ValueError(f"logged: unknown signals {sorted(unknown)}; allowed: {sorted(ports)}")
-    # One logger for every signal: a multiplexer of the logged ports into one sink (one
-    # publish event per tick instead of one per signal), split by column when read.
     keys = [key for key in ports if (logged is None or key in logged) and ports[key].size()]
     sizes = [ports[key].size() for key in keys]
     columns, start = {}, 0
@@ -308,9 +330,7 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     for key in ports:  # empty signals (no bodies) log no columns
         if (logged is None or key in logged) and key not in columns:
             columns[key] = slice(start, start)
-    diagram = builder.Build()
-    diagram.set_name("workcell")
-    return Workcell(diagram, scenario, path, names, systems, logger, columns, plant)
+    return logger, columns
 
 
 def control_ticks(duration: float, period: float) -> int:
