@@ -12,10 +12,10 @@ import time
 
 import numpy as np
 
-from safety_systems.erga import ErgaParameters
-from safety_systems.joint_path import default_joint_path
-from safety_systems.scenario import EllipsoidConfig
-from safety_systems.speed_alteration import (
+from safety_systems.speed_alteration.erga import ErgaParameters
+from safety_systems.cell.joint_path import default_joint_path
+from safety_systems.config.scenario import EllipsoidConfig
+from safety_systems.speed_alteration.methods import (
     GRID,
     danger_grid,
     erga_speed,

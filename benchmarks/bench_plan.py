@@ -18,11 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.path_metrics import bending_energy, path_length, resample
-from safety_systems.path_optimisation import plan_optimised
-from safety_systems.planners import plan_iapf
-from safety_systems.rrt_star import plan_rrt_star
-from safety_systems.task_space import load_scene
+from safety_systems.planning.path_metrics import bending_energy, path_length, resample
+from safety_systems.planning.path_optimisation import plan_optimised
+from safety_systems.planning.planners import plan_iapf
+from safety_systems.planning.rrt_star import plan_rrt_star
+from safety_systems.planning.task_space import load_scene
 
 PAPER = Path(__file__).parents[1] / "models" / "scenes" / "paper.yaml"
 GOAL_SECONDS = 1.0

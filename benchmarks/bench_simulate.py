@@ -33,14 +33,14 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
-from safety_systems import separation
-from safety_systems.configuration import monitor_capsules
-from safety_systems.joint_path import default_joint_path, joint_path_state
-from safety_systems.robot_geometry import Capsules, capsule_ends, tool_point
-from safety_systems.scenario import load_controller_config, load_scenario
-from safety_systems.ssm import HUMAN_SPEED_MODES, speed_override_command
-from safety_systems.tracks import TRACK_TRACKING
-from safety_systems.workcell import AddUr5eWithInverseDynamics, MakeWorkcell
+from safety_systems.ssm import separation
+from safety_systems.config.configuration import monitor_capsules
+from safety_systems.cell.joint_path import default_joint_path, joint_path_state
+from safety_systems.cell.robot_geometry import Capsules, capsule_ends, tool_point
+from safety_systems.config.scenario import load_controller_config, load_scenario
+from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, speed_override_command
+from safety_systems.sensing.tracks import TRACK_TRACKING
+from safety_systems.diagrams.workcell import AddUr5eWithInverseDynamics, MakeWorkcell
 
 ROOT = Path(__file__).parents[1]
 SCENARIO = ROOT / "models" / "scenarios" / "inspection.yaml"

@@ -28,10 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.configuration import with_controller
-from safety_systems.metrics import true_separations
-from safety_systems.scenario import load_controller_config, load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.config.configuration import with_controller
+from safety_systems.outputs.metrics import true_separations
+from safety_systems.config.scenario import load_controller_config, load_scenario
+from safety_systems.diagrams.simulation import simulate
 from verification.space import load_space
 from verification.tune import TASKS, Tuner, full_speed_distance
 from verification.tune_space import load_tunable, with_values

@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.scenario import load_controller_config
+from safety_systems.config.scenario import load_controller_config
 from verification.evaluate_batch import evaluate_many
 from verification.evaluate_drake import evaluate_drake
 from verification.proof import prove

@@ -1,9 +1,9 @@
 """The ``safety-systems`` command line: thin subcommands that parse, call and report.
 
-Every subcommand reads and checks all its inputs first (``safety_systems.documents``),
+Every subcommand reads and checks all its inputs first (``safety_systems.files.documents``),
 then creates (or refuses) its output folder, and only then does its work; every
-result file is written atomically (``safety_systems.output_files``) and carries its
-provenance (``safety_systems.provenance``).
+result file is written atomically (``safety_systems.files.output_files``) and carries its
+provenance (``safety_systems.outputs.provenance``).
 
 Exit codes: 0 done, 1 (``plan``: the IAPF did not reach the goal; ``tune``: no
 candidate met its constraint; ``check``: parameters not certified), 2 bad input (one
@@ -16,9 +16,9 @@ import argparse
 import dataclasses
 import sys
 
-from safety_systems.documents import forget_inputs
-from safety_systems.input_error import InputError
-from safety_systems.ranges import SEED_MAX
+from safety_systems.files.documents import forget_inputs
+from safety_systems.files.input_error import InputError
+from safety_systems.files.ranges import SEED_MAX
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -44,8 +44,8 @@ def _configuration(path: str, unverified: bool):
     """(controller configuration, certified robot or None) of a configuration file or a
     params.yaml; a params.yaml must pass its certificate check, unless ``unverified``
     (then a warning says it is unverified)."""
-    from safety_systems.params_file import looks_like_params
-    from safety_systems.scenario import load_controller_config
+    from safety_systems.config.params_file import looks_like_params
+    from safety_systems.config.scenario import load_controller_config
 
     if not looks_like_params(path):
         return load_controller_config(path), None
@@ -64,7 +64,7 @@ def _configuration(path: str, unverified: bool):
 
 
 def _origin(argv: list[str], seeds: dict[str, int]) -> dict:
-    from safety_systems.provenance import provenance
+    from safety_systems.outputs.provenance import provenance
 
     return provenance(seeds, ["safety-systems", *argv])
 
@@ -75,16 +75,16 @@ def _whole(name: str, value: int | None, low: int, high: int) -> None:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from safety_systems.braking import PLACEHOLDER_WARNING
-    from safety_systems.output_files import prepare_out
-    from safety_systems.provenance import scenario_seeds
-    from safety_systems.scenario import MAX_DURATION, load_scenario
-    from safety_systems.workcell import placeholder_braking
+    from safety_systems.cell.braking import PLACEHOLDER_WARNING
+    from safety_systems.files.output_files import prepare_out
+    from safety_systems.outputs.provenance import scenario_seeds
+    from safety_systems.config.scenario import MAX_DURATION, load_scenario
+    from safety_systems.config.configuration import placeholder_braking
 
     scenario = load_scenario(args.scenario)
     if args.config is not None:
-        from safety_systems.configuration import with_controller
-        from safety_systems.params_file import robot_config
+        from safety_systems.config.configuration import with_controller
+        from safety_systems.config.params_file import robot_config
 
         config, robot = _configuration(args.config, args.unverified)
         scenario = with_controller(scenario, config)
@@ -101,8 +101,8 @@ def _simulate(args: argparse.Namespace) -> int:
     out = prepare_out(args.out)
     if placeholder_braking(scenario.controller):
         _warn(PLACEHOLDER_WARNING)
-    from safety_systems.outputs import write_outputs
-    from safety_systems.simulation import simulate
+    from safety_systems.outputs.run_files import write_outputs
+    from safety_systems.diagrams.simulation import simulate
 
     run = simulate(scenario, progress=not args.quiet)
     summary = write_outputs(run, out, html=args.html,
@@ -118,9 +118,9 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _verify(args: argparse.Namespace) -> int:
-    from safety_systems.braking import PLACEHOLDER_WARNING
-    from safety_systems.documents import read_text
-    from safety_systems.output_files import prepare_out
+    from safety_systems.cell.braking import PLACEHOLDER_WARNING
+    from safety_systems.files.documents import read_text
+    from safety_systems.files.output_files import prepare_out
     from verification.report import disagreement_lines, vacuous_warnings, write_report
     from verification.runner import check_scheduler
     from verification.space import load_space
@@ -130,7 +130,7 @@ def _verify(args: argparse.Namespace) -> int:
     config, robot = _configuration(args.config, args.unverified)
     space = load_space(args.space)
     if robot is not None:
-        from safety_systems.params_file import robot_config
+        from safety_systems.config.params_file import robot_config
 
         space = dataclasses.replace(space, robot=robot_config(robot, space.robot))
     _whole("--budget", args.budget, 1, MAX_BUDGET)
@@ -175,8 +175,8 @@ def _verify(args: argparse.Namespace) -> int:
 def _tune(args: argparse.Namespace) -> int:
     """Search the tunable parameters for the shortest task time under the verdict
     constraint; exit 1 when no candidate meets it."""
-    from safety_systems.output_files import prepare_out
-    from safety_systems.scenario import load_scenario
+    from safety_systems.files.output_files import prepare_out
+    from safety_systems.config.scenario import load_scenario
     from verification.runner import check_scheduler
     from verification.space import load_space
     from verification.tune import TASKS, Tuner
@@ -222,9 +222,9 @@ def _tune(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from safety_systems.output_files import prepare_out
-    from safety_systems.provenance import scenario_seeds
-    from safety_systems.scenario import CONTROLLER_TYPES, load_scenario
+    from safety_systems.files.output_files import prepare_out
+    from safety_systems.outputs.provenance import scenario_seeds
+    from safety_systems.config.scenario import CONTROLLER_TYPES, load_scenario
 
     controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
     allowed = "a comma-separated list of " + " | ".join(CONTROLLER_TYPES)
@@ -235,7 +235,7 @@ def _compare(args: argparse.Namespace) -> int:
             raise InputError("--controllers", c, allowed)
     scenarios = [load_scenario(path) for path in args.scenarios]
     out = prepare_out(args.out)
-    from safety_systems.compare import compare, markdown_table, write_comparison
+    from safety_systems.outputs.compare import compare, markdown_table, write_comparison
 
     rows = compare(scenarios, controllers)
     seeds = {}
@@ -250,9 +250,9 @@ def _compare(args: argparse.Namespace) -> int:
 def _plan(args: argparse.Namespace) -> int:
     """Plan with IAPF (+ Eq. 5 optimisation), GDA and RRT*; exit 1 when the IAPF does
     not reach the goal (no ``task_path.yaml`` is written then)."""
-    from safety_systems.output_files import prepare_out
-    from safety_systems.plan_sweeps import SWEEPS, sweep_scenes
-    from safety_systems.task_space import load_scene
+    from safety_systems.files.output_files import prepare_out
+    from safety_systems.planning.plan_sweeps import SWEEPS, sweep_scenes
+    from safety_systems.planning.task_space import load_scene
 
     if args.sweep is not None and args.sweep not in SWEEPS:
         raise InputError("--sweep", args.sweep, " | ".join(SWEEPS))
@@ -260,13 +260,13 @@ def _plan(args: argparse.Namespace) -> int:
     if args.sweep is not None:
         sweep_scenes(scene, args.sweep)  # raises InputError before any work
     out = prepare_out(args.out)
-    from safety_systems.plan_report import write_plan
+    from safety_systems.outputs.plan_report import write_plan
 
     report = write_plan(scene, out, sweep=args.sweep,
                         origin=_origin(args.argv, {"planner": scene.planner.seed}))
     rows = {r["planner"]: r for r in report["rows"]}
     if not args.quiet:
-        from safety_systems.plan_report import markdown_table
+        from safety_systems.outputs.plan_report import markdown_table
 
         print(markdown_table(report["rows"]), end="")
         print(f"-> {args.out}")
@@ -283,8 +283,8 @@ def _export(args: argparse.Namespace) -> int:
     """params.yaml, certificate.json and report.html of a verified configuration."""
     from pathlib import Path
 
-    from safety_systems.output_files import prepare_out
-    from safety_systems.scenario import load_controller_config
+    from safety_systems.files.output_files import prepare_out
+    from safety_systems.config.scenario import load_controller_config
     from verification.export import build, read_report, read_tune, write_export
 
     config = load_controller_config(args.config)
@@ -296,7 +296,7 @@ def _export(args: argparse.Namespace) -> int:
     written = write_export(params, certificate, space, report, Path(args.report).parent,
                            args.config, out)
     if written["braking_data"]["origin"] == "placeholder":
-        from safety_systems.braking import PLACEHOLDER_WARNING
+        from safety_systems.cell.braking import PLACEHOLDER_WARNING
 
         _warn(PLACEHOLDER_WARNING)
     if written["verdict"] not in ("proved", "passed"):
@@ -308,14 +308,14 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def _loaders() -> dict:
-    from safety_systems.scenario import (
+    from safety_systems.config.scenario import (
         TaskPoints,
         load_controller_config,
         load_scenario,
         load_typed,
     )
-    from safety_systems.recording_mapping import load_mapping
-    from safety_systems.task_space import load_scene
+    from safety_systems.sensing.recording_mapping import load_mapping
+    from safety_systems.planning.task_space import load_scene
     from verification.space import load_space
 
     return {"scenario": load_scenario, "config": load_controller_config, "space": load_space,
@@ -341,7 +341,7 @@ def _check(args: argparse.Namespace) -> int:
             if not args.quiet:
                 print(f"{path}: ok")
         return 0
-    from safety_systems.params_file import looks_like_params
+    from safety_systems.config.params_file import looks_like_params
     from verification.certificate import check
 
     if args.certificate is not None and len(files) != 1:
@@ -364,7 +364,7 @@ def _check(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from safety_systems.provenance import version_line
+    from safety_systems.outputs.provenance import version_line
 
     parser = argparse.ArgumentParser(
         prog="safety-systems",

@@ -1,16 +1,31 @@
-"""Keeping numba's disk cache honest across files.
+"""Keeping numba's disk cache honest across files, and the conventions of compiled code.
 
 numba keys the disk cache of a compiled function (``cache=True``) on the function's own
 file: when a compiled function inlines compiled functions from other files, a change to
-those files would leave a stale build in the cache. A module whose compiled functions
-inline code from other modules calls :func:`drop_stale_builds` at import, before its
-functions are first called.
+those files would leave a stale build in the cache. :func:`drop_all_stale_builds` runs
+when ``safety_systems`` or ``verification`` is first imported, before any compiled
+function is called: for every module with compiled code, the builds are dropped when a
+module with compiled code that it imports, directly or through others, changed. Domain
+modules hold no housekeeping of their own.
+
+Conventions of the compiled code (numba), stated here once:
+
+- a function marked ``inline="always"`` is inlined into its callers, so a compiled loop
+  pays no call and no array reference counting per element;
+- such a function has one exit (one ``return`` at its end): a return per branch made
+  the callers' loops several times slower (numba then keeps the arrays' reference
+  counting in them);
+- the public Python function beside a compiled kernel converts its arguments to
+  contiguous float arrays and its results to Python numbers.
 """
 
+import ast
 import contextlib
 from collections.abc import Iterable
 from pathlib import Path
 from types import ModuleType
+
+_COMPILED = "numba.njit("
 
 
 def drop_stale_builds(module_file: str | Path, depends: Iterable[ModuleType | Path],
@@ -32,3 +47,47 @@ def drop_stale_builds(module_file: str | Path, depends: Iterable[ModuleType | Pa
             build.unlink(missing_ok=True)
         cache.mkdir(exist_ok=True)
         mark.write_text(stamp)
+
+
+def _project_imports(path: Path, root: Path) -> set[Path]:
+    """The project files ``path`` imports (``root`` holds the packages)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        names = []
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        for name in names:
+            base = root.joinpath(*name.split("."))
+            for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+                if candidate.is_file():
+                    found.add(candidate)
+    return found
+
+
+def compiled_dependencies(root: Path, packages: Iterable[str]) -> dict[Path, list[Path]]:
+    """For every module of ``packages`` (folders under ``root``) with compiled code, the
+    project modules it imports, directly or through other modules: compiled functions
+    inline theirs, and numba freezes their module-level constants into the build."""
+    files = [f for pkg in packages for f in sorted((root / pkg).rglob("*.py"))]
+    imports: dict[Path, set[Path]] = {}
+
+    def closure(f: Path, seen: set[Path]) -> set[Path]:
+        if f not in imports:
+            imports[f] = _project_imports(f, root)
+        for g in imports[f] - seen:
+            seen.add(g)
+            closure(g, seen)
+        return seen
+
+    return {f: deps for f in files if _COMPILED in f.read_text()
+            for deps in [sorted(closure(f, set()) - {f})] if deps}
+
+
+def drop_all_stale_builds(root: Path, packages: Iterable[str]) -> None:
+    """:func:`drop_stale_builds` for every module of ``packages`` with compiled code,
+    against the compiled modules it imports (see :func:`compiled_dependencies`)."""
+    with contextlib.suppress(OSError):  # an installed copy without its sources: nothing to do
+        for module, deps in compiled_dependencies(Path(root), packages).items():
+            drop_stale_builds(module, deps)

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.braking import (
+from safety_systems.cell.braking import (
     BrakingTable,
     _interp_one,
     braking_deceleration,
@@ -15,8 +15,8 @@ from safety_systems.braking import (
     stopping_time,
     tool_stopping_distance,
 )
-from safety_systems.joint_path import _blend, default_joint_path, make_joint_path
-from safety_systems.ur5e import DH_A, DH_D
+from safety_systems.cell.joint_path import _blend, default_joint_path, make_joint_path
+from safety_systems.cell.ur5e import DH_A, DH_D
 
 FIXED = settings(derandomize=True, deadline=None, max_examples=300)
 DT = 0.002

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from safety_systems.cli import build_parser, main
-from safety_systems.stops import STOP_REASONS
+from safety_systems.sensing.stops import STOP_REASONS
 
 INSPECTION = Path(__file__).parents[1] / "models" / "scenarios" / "inspection.yaml"
 
@@ -121,11 +121,11 @@ MODELS = INSPECTION.parents[1]
 
 
 @pytest.mark.parametrize("argv, work", [
-    (["simulate", str(INSPECTION)], "safety_systems.simulation.simulate"),
+    (["simulate", str(INSPECTION)], "safety_systems.diagrams.simulation.simulate"),
     (["verify", str(MODELS / "configs" / "iso.yaml"), "--space",
       str(MODELS / "spaces" / "default.yaml")], "verification.verify.verify"),
-    (["compare", str(INSPECTION), "--controllers", "none"], "safety_systems.compare.compare"),
-    (["plan", str(MODELS / "scenes" / "paper.yaml")], "safety_systems.plan_report.write_plan"),
+    (["compare", str(INSPECTION), "--controllers", "none"], "safety_systems.outputs.compare.compare"),
+    (["plan", str(MODELS / "scenes" / "paper.yaml")], "safety_systems.outputs.plan_report.write_plan"),
 ])
 def test_an_unwritable_out_is_refused_before_any_work(tmp_path, capsys, monkeypatch, argv,
                                                       work):

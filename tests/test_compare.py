@@ -3,8 +3,8 @@
 import dataclasses
 from pathlib import Path
 
-from safety_systems.compare import compare
-from safety_systems.scenario import load_scenario
+from safety_systems.outputs.compare import compare
+from safety_systems.config.scenario import load_scenario
 
 SCENARIOS = Path(__file__).parents[1] / "models" / "scenarios"
 

@@ -1,4 +1,4 @@
-"""The rules every input file is read under (``safety_systems.documents``)."""
+"""The rules every input file is read under (``safety_systems.files.documents``)."""
 
 import dataclasses as dc
 import hashlib
@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from safety_systems import documents
-from safety_systems.documents import load_document
-from safety_systems.input_error import InputError
-from safety_systems.ranges import Limits, field_limits, number, unranged_fields
-from safety_systems.recording_mapping import RecordingMapping
-from safety_systems.scenario import (
+from safety_systems.files import documents
+from safety_systems.files.documents import load_document
+from safety_systems.files.input_error import InputError
+from safety_systems.files.ranges import Limits, field_limits, number, unranged_fields
+from safety_systems.sensing.recording_mapping import RecordingMapping
+from safety_systems.config.scenario import (
     MAX_DURATION,
     ControllerConfig,
     OperatorConfig,
@@ -21,8 +21,8 @@ from safety_systems.scenario import (
     load_controller_config,
     load_scenario,
 )
-from safety_systems.params_file import Params
-from safety_systems.task_space import TaskScene, load_scene
+from safety_systems.config.params_file import Params
+from safety_systems.planning.task_space import TaskScene, load_scene
 from verification.space import ScenarioSpace, load_space
 from verification.tune_space import TunableConfig, TuneFile
 
@@ -115,11 +115,11 @@ def test_a_missing_file_names_it(tmp_path):
 
 
 def test_validation_errors_name_the_file(tmp_path):
-    error = _load(tmp_path, "controller: {zones: {green_distance: 0.4, red_distance: 0.5}}\n",
+    error = _load(tmp_path, "controller: {zones: {green_distance: 0.4, yellow_distance: 0.5}}\n",
                   ControllerConfig, None)
     assert error.field == "controller"  # ControllerConfig has no field 'controller'
     path = tmp_path / "config.yaml"
-    path.write_text("zones: {green_distance: 0.4, red_distance: 0.5}\n")
+    path.write_text("zones: {green_distance: 0.4, yellow_distance: 0.5}\n")
     with pytest.raises(InputError) as e:
         load_controller_config(path)
     assert str(e.value).startswith(f"{path}: config.zones.green_distance: got [0.4, 0.5]")

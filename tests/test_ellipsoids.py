@@ -4,7 +4,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from safety_systems.ellipsoids import (
+from safety_systems.speed_alteration.ellipsoids import (
     SHOULDER_WIDTH,
     Ellipsoids,
     danger_index,
@@ -14,8 +14,8 @@ from safety_systems.ellipsoids import (
     spheres,
     support,
 )
-from safety_systems.scenario import EllipsoidConfig
-from safety_systems.ur5e import dh_frames
+from safety_systems.config.scenario import EllipsoidConfig
+from safety_systems.cell.ur5e import dh_frames
 
 SETTINGS = settings(derandomize=True, max_examples=60, deadline=None)
 coord = st.floats(-1.0, 1.0)

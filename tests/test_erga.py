@@ -3,14 +3,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.erga import (
+from safety_systems.speed_alteration.erga import (
     ErgaParameters,
     erga,
     erga_piecewise_quadratic,
     piecewise_quadratic,
     speed_objective,
 )
-from safety_systems.scenario import ScenarioError, scenario_from_text
+from safety_systems.config.scenario import ScenarioError, scenario_from_text
 
 SETTINGS = settings(derandomize=True, max_examples=30, deadline=None)
 # The penalised optimum lies on a step the GA approaches from below: over seeds 0-9 the

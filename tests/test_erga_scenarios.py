@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from safety_systems.cli import main
-from safety_systems.compare import compare, controller_metrics, markdown_table
-from safety_systems.scenario import Body, OperatorConfig, Waypoint, load_scenario
-from safety_systems.simulation import simulate
-from safety_systems.table_1 import SEED_JERK_SD
+from safety_systems.outputs.compare import compare, controller_metrics, markdown_table
+from safety_systems.config.scenario import Body, OperatorConfig, Waypoint, load_scenario
+from safety_systems.diagrams.simulation import simulate
+from safety_systems.outputs.table_1 import SEED_JERK_SD
 
 SCENARIOS = Path(__file__).parents[1] / "models" / "scenarios"
 

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from safety_systems.evaluation import (
+from safety_systems.planning.evaluation import (
     A,
     B,
     EFFICIENCY_WEIGHTS,

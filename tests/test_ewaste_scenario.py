@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.compare import compare
-from safety_systems.metrics import task_time, tool_state
-from safety_systems.scenario import load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.outputs.compare import compare
+from safety_systems.outputs.metrics import task_time, tool_state
+from safety_systems.config.scenario import load_scenario
+from safety_systems.diagrams.simulation import simulate
 
 SCENARIO = Path(__file__).parents[1] / "models" / "scenarios" / "ewaste_sorting.yaml"
 
@@ -35,7 +35,7 @@ def test_the_robot_runs_the_planned_path(run):
 
 def test_zone_speeds_and_gestures(run):
     cfg = run.scenario.controller.zones
-    k = run["zones.speed_scale_commanded"][:, 0]
+    k = run["zones.path_speed_commanded"][:, 0]
     zone = run["zones.zone"][:, 0]
     assert {0.0, 1.0, 2.0} <= set(np.unique(zone))  # the operator visits every zone
     assert np.all(k[zone == 2] <= cfg.red_speed + 1e-12)

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from safety_systems import stops
-from safety_systems.outputs import write_outputs
-from safety_systems.scenario import scenario_from_text
-from safety_systems.simulation import simulate
+from safety_systems.sensing import stops
+from safety_systems.outputs.run_files import write_outputs
+from safety_systems.config.scenario import scenario_from_text
+from safety_systems.diagrams.simulation import simulate
 
 # An operator standing 3.5 m from the robot: far enough that separation never stops it.
 SCENARIO = """
@@ -71,7 +71,7 @@ def _episodes(reason, code):
 def test_each_fault_stops_within_one_control_period_and_clears(run_and_outputs, code):
     run, _, _ = run_and_outputs
     t, reason = run.time, run["override.stop_reason"][:, 0]
-    k, rate = run["override.speed_scale_commanded"][:, 0], run["follower.path_state"][:, 1]
+    k, rate = run["override.path_speed_commanded"][:, 0], run["follower.path_state"][:, 1]
     windows = FAULTS[code]
     windows = windows if isinstance(windows[0], tuple) else (windows,)
     episodes = [(a, b) for a, b in _episodes(reason, code) if t[a] > 0.0]  # not the start
@@ -91,7 +91,7 @@ def test_robot_runs_at_full_speed_between_faults(run_and_outputs):
     run, _, _ = run_and_outputs
     reason = run["override.stop_reason"][:, 0]
     assert set(np.unique(reason)) == {0.0} | set(FAULTS)  # never a separation stop
-    assert run["override.speed_scale_commanded"][reason == 0, 0].min() == 1.0
+    assert run["override.path_speed_commanded"][reason == 0, 0].min() == 1.0
 
 
 def test_summary_and_trace_count_stops_rejections_and_hidden_time(run_and_outputs):

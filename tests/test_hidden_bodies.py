@@ -5,11 +5,11 @@ the coast time when their last estimate lies beyond the exit radius from the bas
 import numpy as np
 import pytest
 
-from safety_systems.metrics import summarize
-from safety_systems.scenario import scenario_from_text
-from safety_systems.simulation import simulate
-from safety_systems.stops import STOP_SEPARATION
-from safety_systems.tracks import TRACK_HIDDEN, TRACK_NONE
+from safety_systems.outputs.metrics import summarize
+from safety_systems.config.scenario import scenario_from_text
+from safety_systems.diagrams.simulation import simulate
+from safety_systems.sensing.stops import STOP_SEPARATION
+from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_NONE
 from verification.evaluate_drake import robustness_of_run
 
 # An operator 2.6 m out from the base (about 2 m from the arm, just outside S), beyond
@@ -71,7 +71,7 @@ def test_hidden_bodies_stay_hazards_and_the_robot_stays_stopped(runs):
     assert np.all(status == TRACK_HIDDEN)  # never ended, however long hidden
     # The balls grow at 2 m/s from where the bodies were last seen: within 0.3 s they
     # come inside S and the robot stops, for as long as they stay hidden and after.
-    k = run["override.speed_scale_commanded"][:, 0]
+    k = run["override.path_speed_commanded"][:, 0]
     reason = run["override.stop_reason"][:, 0]
     assert np.all(k[(run.time > 0.2) & (run.time < 3.0)] > 0.0)
     stopped = (run.time > 3.3) & (run.time < 8.0)
@@ -86,6 +86,6 @@ def test_the_previous_rule_ends_the_tracks_and_the_robot_hits_the_operator(runs)
     status = run["tracker.track_status"]
     ended = (run.time > 3.6) & (run.time < 6.0)
     assert np.all(status[ended] == TRACK_NONE)  # ended by time: beyond 2.5 m of the base
-    k = run["override.speed_scale_commanded"][:, 0]
+    k = run["override.path_speed_commanded"][:, 0]
     assert np.all(k[ended] == 1.0)  # full speed towards someone it cannot see
     assert rho.stopped_before_contact < 0.0  # contact while moving

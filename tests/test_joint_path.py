@@ -5,14 +5,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.joint_path import (
+from safety_systems.cell.joint_path import (
     DEFAULT_DURATIONS,
     DEFAULT_WAYPOINTS_DEG,
     default_joint_path,
     joint_path_state,
     make_joint_path,
 )
-from safety_systems.ur5e import JOINT_VELOCITY_LIMIT
+from safety_systems.cell.ur5e import JOINT_VELOCITY_LIMIT
 
 FIXED = settings(derandomize=True, deadline=None, max_examples=100)
 PATH = default_joint_path(cycles=3)

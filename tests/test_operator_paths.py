@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.operator_paths import (
+from safety_systems.cell.operator_paths import (
     ScriptedOperator,
     body_layout,
     make_operator_path,

@@ -5,8 +5,8 @@ import os
 
 import pytest
 
-from safety_systems.input_error import InputError
-from safety_systems.output_files import atomic_path, prepare_out, write_json, write_text
+from safety_systems.files.input_error import InputError
+from safety_systems.files.output_files import atomic_path, prepare_out, write_json, write_text
 
 
 def test_prepare_out_creates_the_folder_and_its_parents(tmp_path):

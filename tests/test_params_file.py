@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from safety_systems.input_error import InputError
-from safety_systems.params_file import (
+from safety_systems.files.input_error import InputError
+from safety_systems.config.params_file import (
     NODE,
     Params,
     deployed_robot,
@@ -17,7 +17,7 @@ from safety_systems.params_file import (
     params_text,
     robot_config,
 )
-from safety_systems.scenario import (
+from safety_systems.config.scenario import (
     Box,
     RobotConfig,
     TaskPathConfig,
@@ -78,7 +78,7 @@ def test_the_default_path_is_written_out_and_runs_the_same(tmp_path):
     robot = RobotConfig()
     deployed = deployed_robot(robot)
     assert len(deployed.path.waypoints_deg) == 6  # not left to this version's default
-    from safety_systems.workcell import joint_path
+    from safety_systems.config.configuration import joint_path
 
     a, b = joint_path(robot), joint_path(robot_config(deployed, robot))
     assert (a.waypoints == b.waypoints).all() and (a.durations == b.durations).all()

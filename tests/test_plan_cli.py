@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from safety_systems.cli import main
-from safety_systems.path_metrics import min_clearance
-from safety_systems.scenario import TaskPoints, load_typed
-from safety_systems.task_space import load_scene, obstacle_set
+from safety_systems.planning.path_metrics import min_clearance
+from safety_systems.config.scenario import TaskPoints, load_typed
+from safety_systems.planning.task_space import load_scene, obstacle_set
 
 PAPER = Path(__file__).parents[1] / "models" / "scenes" / "paper.yaml"
 FAST = "\n  rrt_time: 5.0\n  rrt_max_iterations: 300\n"  # appended to the planner: mapping

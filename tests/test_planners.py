@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.path_metrics import (
+from safety_systems.planning.path_metrics import (
     bending_energy,
     bending_energy_and_gradient,
     dense_points,
@@ -17,10 +17,10 @@ from safety_systems.path_metrics import (
     resample,
     time_to_goal,
 )
-from safety_systems.path_optimisation import plan_optimised
-from safety_systems.planners import plan_gda, plan_iapf
-from safety_systems.rrt_star import plan_rrt_star
-from safety_systems.task_space import (
+from safety_systems.planning.path_optimisation import plan_optimised
+from safety_systems.planning.planners import plan_gda, plan_iapf
+from safety_systems.planning.rrt_star import plan_rrt_star
+from safety_systems.planning.task_space import (
     Cylinder,
     Obstacles,
     PlannerSettings,

@@ -5,10 +5,10 @@ from pathlib import Path
 import matplotlib
 import pytest
 
-from safety_systems.compare import comparison_figure, controller_metrics
-from safety_systems.outputs import S_NOTE, run_figure
-from safety_systems.scenario import load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.outputs.compare import comparison_figure, controller_metrics
+from safety_systems.outputs.run_files import S_NOTE, run_figure
+from safety_systems.config.scenario import load_scenario
+from safety_systems.diagrams.simulation import simulate
 
 matplotlib.use("Agg")
 SCENARIOS = Path(__file__).parents[1] / "models" / "scenarios"

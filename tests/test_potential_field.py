@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.potential_field import (
+from safety_systems.planning.potential_field import (
     attractive_gradient,
     attractive_potential,
     d_factor,
@@ -18,7 +18,7 @@ from safety_systems.potential_field import (
     total_force,
     total_potential,
 )
-from safety_systems.task_space import load_scene, signed_distances
+from safety_systems.planning.task_space import load_scene, signed_distances
 
 PAPER = Path(__file__).parents[1] / "models" / "scenes" / "paper.yaml"
 GOAL = np.array([70.0, 30.0, 5.0])  # cm, the seed's units

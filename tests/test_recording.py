@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from safety_systems.cli import main
-from safety_systems.input_error import InputError
-from safety_systems.motive_csv import motive_csv_text, read_motive_csv
-from safety_systems.c3d_file import read_c3d
-from safety_systems.recording_mapping import load_mapping, rotation_matrix, to_cell
-from safety_systems.scenario import load_scenario
-from safety_systems.simulation import simulate
-from safety_systems.workcell import MakeWorkcell
+from safety_systems.files.input_error import InputError
+from safety_systems.sensing.motive_csv import motive_csv_text, read_motive_csv
+from safety_systems.sensing.c3d_file import read_c3d
+from safety_systems.sensing.recording_mapping import load_mapping, rotation_matrix, to_cell
+from safety_systems.config.scenario import load_scenario
+from safety_systems.diagrams.simulation import simulate
+from safety_systems.diagrams.workcell import MakeWorkcell
 from verification.evaluate_batch import evaluate_batch, evaluate_many
 from verification.evaluate_drake import evaluate_drake
 

@@ -20,8 +20,10 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 from scipy.spatial.transform import Rotation
 
-from safety_systems import ellipsoids, ssm, ur5e
-from safety_systems.robot_geometry import (
+from safety_systems.cell import ur5e
+from safety_systems.speed_alteration import ellipsoids
+from safety_systems.ssm import formulas as ssm
+from safety_systems.cell.robot_geometry import (
     CAPSULE_NAMES,
     LINK_NAMES,
     LINK_SEGMENTS,

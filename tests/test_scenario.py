@@ -2,7 +2,7 @@ from pathlib import Path
 
 import pytest
 
-from safety_systems.scenario import (
+from safety_systems.config.scenario import (
     ScenarioError,
     dump_scenario,
     load_scenario,

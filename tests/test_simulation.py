@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.metrics import tool_state
-from safety_systems.outputs import write_outputs
-from safety_systems.scenario import load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.outputs.metrics import tool_state
+from safety_systems.outputs.run_files import write_outputs
+from safety_systems.config.scenario import load_scenario
+from safety_systems.diagrams.simulation import simulate
 
 SCENARIOS = Path(__file__).parents[1] / "models" / "scenarios"
 
@@ -26,7 +26,7 @@ def inspection(tmp_path_factory):
 
 
 def _k(run):
-    return run["override.speed_scale_commanded"][:, 0]
+    return run["override.path_speed_commanded"][:, 0]
 
 
 def test_full_speed_while_the_operator_is_far(inspection):
@@ -116,8 +116,8 @@ def test_dynamic_and_kinematic_modes_agree_on_the_tool_path():
 def test_a_run_stops_on_purpose_only_when_the_whole_run_shows_it():
     # ``until`` sees the logs since its last look; once it holds the run goes on for the
     # margin, and stops there only if it holds for the whole run so far.
-    from safety_systems.simulation import simulate_workcell
-    from safety_systems.workcell import MakeWorkcell
+    from safety_systems.diagrams.simulation import simulate_workcell
+    from safety_systems.diagrams.workcell import MakeWorkcell
 
     scenario = dataclasses.replace(load_scenario("models/scenarios/inspection.yaml"),
                                    duration=3.0)

@@ -5,10 +5,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from safety_systems.cartesian_path import line_path
-from safety_systems.ellipsoids import Ellipsoids, concatenate, spheres
-from safety_systems.scenario import EllipsoidConfig
-from safety_systems.speed_alteration import (
+from safety_systems.cell.cartesian_path import line_path
+from safety_systems.speed_alteration.ellipsoids import Ellipsoids, concatenate, spheres
+from safety_systems.config.scenario import EllipsoidConfig
+from safety_systems.speed_alteration.methods import (
     bimodal_speed,
     clearance,
     grid_upper,

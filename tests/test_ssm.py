@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.ssm import (
+from safety_systems.ssm.formulas import (
     directed_speeds,
     human_speed_term,
     human_uncertainty,

@@ -1,17 +1,17 @@
-"""The simulated robot's true stopping data (safety_systems.stopping)."""
+"""The simulated robot's true stopping data (safety_systems.cell.stopping)."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from safety_systems.braking import default_braking_table, path_rate_step, tool_stopping_distance
-from safety_systems.configuration import contact_capsules
-from safety_systems.joint_path import joint_path_state
-from safety_systems.robot_geometry import capsule_ends
-from safety_systems.scenario import load_scenario
-from safety_systems.stopping import true_stopping
-from safety_systems.workcell import joint_path
+from safety_systems.cell.braking import default_braking_table, path_rate_step, tool_stopping_distance
+from safety_systems.config.configuration import contact_capsules
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.cell.robot_geometry import capsule_ends
+from safety_systems.config.scenario import load_scenario
+from safety_systems.cell.stopping import true_stopping
+from safety_systems.config.configuration import joint_path
 
 SCENARIO = load_scenario("models/scenarios/inspection.yaml")
 PATH = joint_path(SCENARIO.robot)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
-from safety_systems.scenario import ScenarioError
-from safety_systems.task_space import (
+from safety_systems.config.scenario import ScenarioError
+from safety_systems.planning.task_space import (
     Box,
     Cylinder,
     Obstacles,

@@ -1,4 +1,4 @@
-"""The tracker's rules (safety_systems.tracks): the Kalman step, hidden bodies, exits,
+"""The tracker's rules (safety_systems.sensing.tracks): the Kalman step, hidden bodies, exits,
 the gate and rejected frames."""
 
 import math
@@ -8,11 +8,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems import stops
-from safety_systems.kalman import initial_covariance, predict, process_noise, transition_matrix
-from safety_systems.kalman import update as kf_update
-from safety_systems.tracks import (
-    _P,
+from safety_systems.sensing import stops
+from kalman_reference import predict
+from kalman_reference import update as kf_update
+from safety_systems.sensing.kalman import initial_covariance, process_noise, transition_matrix
+from safety_systems.sensing.tracks import (
+    _POS_VAR,
     _STATUS,
     _T_SEEN,
     TRACK_HIDDEN,
@@ -94,7 +95,7 @@ def test_agrees_with_the_reference_filter_while_seen(seed):
             x, P = kf_update(x, P, zk, np.eye(3) * 1e-4)
             last = t
         np.testing.assert_allclose(tr.tracks[0, :6], x, rtol=1e-9, atol=1e-9)
-        np.testing.assert_allclose(tr.tracks[0, _P], P[0, 0], rtol=1e-9)
+        np.testing.assert_allclose(tr.tracks[0, _POS_VAR], P[0, 0], rtol=1e-9)
         np.testing.assert_allclose(P[:3, :3], P[0, 0] * np.eye(3), rtol=1e-9, atol=1e-15)
         assert tr.status == [TRACK_TRACKING]
 
@@ -126,7 +127,7 @@ def test_seen_again_the_filter_restarts_at_the_measurement():
     tr.frame(0.60, [[0.6, 0, 1]], [1])
     assert tr.status == [TRACK_TRACKING]
     np.testing.assert_array_equal(tr.tracks[0, :6], [0.6, 0, 1, 0, 0, 0])
-    assert tr.tracks[0, _P] == 1e-4 and tr.estimates()[4][0] == 0.0
+    assert tr.tracks[0, _POS_VAR] == 1e-4 and tr.estimates()[4][0] == 0.0
     # A dropped frame (no frame at all) is a gap too.
     tr2 = Tracker(1)
     _moving_track(tr2)
@@ -138,7 +139,7 @@ def test_previous_rule_coasts_through_gaps_and_expires():
     # hidden_bodies: expire continues the filter across a gap (one prediction step).
     tr = Tracker(1, hidden_bodies="expire")
     _moving_track(tr)
-    x, cov = tr.tracks[0, :6].copy(), tr.tracks[0, _P:_P + 3].copy()
+    x, cov = tr.tracks[0, :6].copy(), tr.tracks[0, _POS_VAR:_POS_VAR + 3].copy()
     tr.frame(0.55, [NAN3], [0])
     tr.frame(0.60, [[0.6, 0, 1]], [1])
     P = np.zeros((6, 6))

@@ -6,7 +6,7 @@ from hypothesis.extra.numpy import arrays
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from safety_systems.ur5e import (
+from safety_systems.cell.ur5e import (
     JOINT_EFFORT_LIMITS,
     JOINT_NAMES,
     JOINT_POSITION_UPPER,

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from safety_systems.braking import default_braking_table
-from safety_systems.joint_path import DEFAULT_DURATIONS, DEFAULT_WAYPOINTS_DEG
-from safety_systems.scenario import (
+from safety_systems.cell.braking import default_braking_table
+from safety_systems.cell.joint_path import DEFAULT_DURATIONS, DEFAULT_WAYPOINTS_DEG
+from safety_systems.config.scenario import (
     BrakingConfig,
     ControllerConfig,
     PathConfig,
@@ -12,7 +12,7 @@ from safety_systems.scenario import (
     SensorConfig,
     TrackerConfig,
 )
-from safety_systems.workcell import assumed_stopping, braking_table, frame_timeout, joint_path
+from safety_systems.config.configuration import assumed_stopping, braking_table, frame_timeout, joint_path
 
 MEASURED = BrakingConfig(speed_fraction=[0.25, 0.5, 1.0], stopping_time=[0.1, 0.25, 0.4],
                          stopping_distance=[0.02, 0.08, 0.3])

@@ -7,14 +7,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.scenario import (
+from safety_systems.config.scenario import (
     ControllerConfig,
     ScenarioError,
     ZonesConfig,
     scenario_from_text,
     validate_controller,
 )
-from safety_systems.zones import (
+from safety_systems.planning.zones import (
     GREEN,
     RED,
     YELLOW,
@@ -31,16 +31,16 @@ G, R = 1.0, 0.5  # green and red thresholds, m
 @pytest.mark.parametrize("d, zone", [
     (math.inf, GREEN), (5.0, GREEN), (G, GREEN),            # green at >= green_distance
     (np.nextafter(G, 0.0), YELLOW), (0.75, YELLOW), (np.nextafter(R, 1.0), YELLOW),
-    (R, RED), (np.nextafter(R, 0.0), RED), (0.0, RED),      # red at <= red_distance
+    (R, RED), (np.nextafter(R, 0.0), RED), (0.0, RED),      # red at <= yellow_distance
     (math.nan, RED),                                        # no distance: fail safe
 ])
 def test_zone_of_at_and_around_thresholds(d, zone):
-    assert int(zone_of(d, green_distance=G, red_distance=R)) == zone
+    assert int(zone_of(d, green_distance=G, yellow_distance=R)) == zone
 
 
 def test_zone_of_is_vectorised():
     d = np.array([[2.0, 1.0, 0.9], [0.51, 0.5, 0.1]])
-    assert zone_of(d, green_distance=G, red_distance=R).tolist() == [[0, 0, 1], [1, 2, 2]]
+    assert zone_of(d, green_distance=G, yellow_distance=R).tolist() == [[0, 0, 1], [1, 2, 2]]
 
 
 @st.composite
@@ -49,7 +49,7 @@ def zones_configs(draw):
     red_s, yellow_s, green_s = sorted(draw(st.lists(unit, min_size=3, max_size=3)))
     red_d = draw(st.floats(0.01, 3.0))
     green_d = red_d + draw(st.floats(0.01, 3.0))
-    z = ZonesConfig(green_distance=green_d, red_distance=red_d, green_speed=green_s,
+    z = ZonesConfig(green_distance=green_d, yellow_distance=red_d, green_speed=green_s,
                     yellow_speed=yellow_s, red_speed=red_s)
     validate_controller(ControllerConfig(zones=z))  # a valid configuration
     return z
@@ -61,11 +61,11 @@ def test_zone_speed_never_higher_when_closer(z, distances):
     speeds = (z.green_speed, z.yellow_speed, z.red_speed)
     v_red, v_yellow, v_green = zone_speed(np.array([RED, YELLOW, GREEN]), speeds)
     assert v_red <= v_yellow <= v_green
-    d = np.sort(np.array(distances + [z.red_distance, z.green_distance]))
-    v = zone_speed(zone_of(d, green_distance=z.green_distance, red_distance=z.red_distance),
+    d = np.sort(np.array(distances + [z.yellow_distance, z.green_distance]))
+    v = zone_speed(zone_of(d, green_distance=z.green_distance, yellow_distance=z.yellow_distance),
                    speeds)
     assert np.all(np.diff(v) >= 0.0)  # non-decreasing in the distance
-    assert v[d <= z.red_distance].tolist() == [z.red_speed] * int(np.sum(d <= z.red_distance))
+    assert v[d <= z.yellow_distance].tolist() == [z.red_speed] * int(np.sum(d <= z.yellow_distance))
     assert np.all(v[d >= z.green_distance] == z.green_speed)
 
 
@@ -156,9 +156,9 @@ operators:
     ("{red_speed: 0.6, yellow_speed: 0.5}", "controller.zones.red_speed"),
     ("{yellow_speed: 0.9, green_speed: 0.8}", "controller.zones.red_speed"),
     ("{green_speed: 1.2}", "controller.zones.green_speed"),
-    ("{green_distance: 0.5, red_distance: 0.5}", "controller.zones.green_distance"),
-    ("{green_distance: 0.4, red_distance: 0.5}", "controller.zones.green_distance"),
-    ("{red_distance: 0.0}", "controller.zones.red_distance"),
+    ("{green_distance: 0.5, yellow_distance: 0.5}", "controller.zones.green_distance"),
+    ("{green_distance: 0.4, yellow_distance: 0.5}", "controller.zones.green_distance"),
+    ("{yellow_distance: 0.0}", "controller.zones.yellow_distance"),
     ("{max_jerk: 0.0}", "controller.zones.max_jerk"),
 ])
 def test_bad_zones_config_names_the_field(zones, field):
@@ -169,7 +169,7 @@ def test_bad_zones_config_names_the_field(zones, field):
 
 
 def test_good_zones_config_loads():
-    text = OK + ("controller: {type: zones, zones: {green_distance: 1.2, red_distance: 0.4, "
+    text = OK + ("controller: {type: zones, zones: {green_distance: 1.2, yellow_distance: 0.4, "
                  "red_speed: 0.5, yellow_speed: 0.5, green_speed: 0.5}}\n")
     z = scenario_from_text(text).controller.zones
-    assert (z.green_distance, z.red_distance, z.red_speed, z.green_speed) == (1.2, 0.4, 0.5, 0.5)
+    assert (z.green_distance, z.yellow_distance, z.red_speed, z.green_speed) == (1.2, 0.4, 0.5, 0.5)

@@ -15,10 +15,10 @@ import io
 import math
 from pathlib import Path
 
-from safety_systems.output_files import write_text
-from safety_systems.params_file import Params
-from safety_systems.ranges import field_limits, type_hints
-from safety_systems.scenario import ControllerConfig
+from safety_systems.files.output_files import write_text
+from safety_systems.config.params_file import Params
+from safety_systems.files.ranges import field_limits, type_hints
+from safety_systems.config.scenario import ControllerConfig
 from verification.space import NAMES as SPACE_PARAMETERS
 from verification.space import ScenarioSpace, free_parameters
 from verification.standard_terms import term
@@ -208,11 +208,11 @@ def counterexample_plots(certificate: dict) -> list[bytes | None]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from safety_systems.input_error import InputError
-    from safety_systems.metrics import summarize
-    from safety_systems.outputs import run_figure
-    from safety_systems.scenario import load_scenario
-    from safety_systems.simulation import simulate
+    from safety_systems.files.input_error import InputError
+    from safety_systems.outputs.metrics import summarize
+    from safety_systems.outputs.run_files import run_figure
+    from safety_systems.config.scenario import load_scenario
+    from safety_systems.diagrams.simulation import simulate
 
     out = []
     for c in certificate["counterexamples"][:MAX_PLOTS]:

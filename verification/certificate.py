@@ -30,11 +30,11 @@ import re
 import typing
 from pathlib import Path
 
-from safety_systems.documents import decode_text, read_input
-from safety_systems.input_error import InputError
-from safety_systems.params_file import Params, flat_parameters, params_from_text
-from safety_systems.ranges import type_hints
-from safety_systems.workcell import braking_table, placeholder_braking
+from safety_systems.files.documents import decode_text, read_input
+from safety_systems.files.input_error import InputError
+from safety_systems.config.params_file import Params, flat_parameters, params_from_text
+from safety_systems.files.ranges import type_hints
+from safety_systems.config.configuration import braking_table, placeholder_braking
 from verification.verdicts import EXIT_REQUIREMENT, VERDICTS
 
 SCHEMA = "safety-systems certificate"
@@ -85,7 +85,7 @@ def canonical(data: typing.Any) -> bytes:
 def braking_data(params: Params) -> dict:
     """The braking table the robot uses and its origin: ``measured`` (the configuration's
     rows, entered as measured on the cell) or ``placeholder`` (the built-in UR5/CB3
-    figures, ``safety_systems.braking``)."""
+    figures, ``safety_systems.cell.braking``)."""
     table = braking_table(params.controller)
     return {"origin": "placeholder" if placeholder_braking(params.controller) else "measured",
             "stop_category": int(params.controller.braking.stop_category),

@@ -6,13 +6,13 @@ their operators (number of operators, bodies and waypoints), as the scenarios of
 space do. It runs the compiled functions the LeafSystems wrap, in compiled loops: at
 each tracker update, in one call (:func:`_update`), the frame each sensor delivers, the
 MocapSensor's capture (:func:`_capture`; the unit noise of each capture index drawn once
-by the sensor's rule, ``mocap_sensor.unit_noise``, and kept for a sweep's next batches)
+by the sensor's rule, ``delivery.unit_noise``, and kept for a sweep's next batches)
 and the KalmanTracker's rows (``kalman_tracker._track_rows``, Eqs. 2-4), and
 between two updates every control tick of every scenario in :func:`_advance`: the
-joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_one_memo``), Eq. 5,
+joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_reusing_trig``), Eq. 5,
 the monitor and the override (``ssm``: Eqs. 6-12), the properties on the operators'
 truth (``operator_paths.path_point_one``) and the follower's braked step
-(``braking.path_step_one``). Event order follows the diagram: a tracker update at time
+(``braking.path_follower_step``). Event order follows the diagram: a tracker update at time
 u is seen by the first control tick after u; outputs at a tick are computed from the
 state before that tick's updates, as Drake's loggers record them.
 ``tests/verification`` checks the two agree. It refuses dynamic-mode scenarios (the
@@ -29,22 +29,9 @@ import threading
 import numba
 import numpy as np
 
-import safety_systems.joint_path
-from safety_systems import (
-    braking,
-    kalman,
-    operator_paths,
-    robot_geometry,
-    sensor_faults,
-    separation,
-    ssm,
-    stops,
-    tracks,
-    ur5e,
-)
-from safety_systems.braking import path_step_one
-from safety_systems.compiled_cache import drop_stale_builds
-from safety_systems.configuration import (
+from safety_systems.sensing import stops
+from safety_systems.cell.braking import path_follower_step
+from safety_systems.config.configuration import (
     contact_body_radii,
     contact_capsules,
     monitor_capsules,
@@ -52,47 +39,46 @@ from safety_systems.configuration import (
     tracker_regions,
     tracker_rules,
 )
-from safety_systems.configuration import sensor_faults as scenario_faults
-from safety_systems.joint_path import path_arrays, path_state_one
-from safety_systems.metrics import robot_stopping
-from safety_systems.operator_paths import (
+from safety_systems.config.configuration import sensor_faults as scenario_faults
+from safety_systems.cell.joint_path import path_arrays, path_state_one
+from safety_systems.outputs.metrics import robot_stopping
+from safety_systems.cell.operator_paths import (
     check_bodies,
     path_point_one,
     stack_operator_paths,
 )
-from safety_systems.robot_geometry import (
+from safety_systems.cell.robot_geometry import (
     NUM_POINTS,
     capsule_ends_one,
     robot_points_one_memo,
     segment_pair,
 )
-from safety_systems.scenario import Scenario, actual_sensor
-from safety_systems.sensor_faults import FAULT_COLUMNS, apply_faults
-from safety_systems.separation import body_separation, capsule_axis, pair_separation
-from safety_systems.ssm import (
+from safety_systems.config.scenario import Scenario, actual_sensor
+from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_faults
+from safety_systems.ssm.separation import body_separation, capsule_axis, pair_separation
+from safety_systems.ssm.formulas import (
     ISO_REDUCED_SPEED_THRESHOLD,
     hidden_ball_radius,
     override_command,
-    protective_one,
 )
-from safety_systems.systems.mocap_sensor import _TIME_TOL, unit_noise
-from safety_systems.tracks import (
-    TRACK_LOST,
+from safety_systems.ssm.true_measures import is_moving, is_permitted, true_margin
+from safety_systems.sensing.delivery import TIME_TOL, delivered_frame, unit_noise
+from safety_systems.sensing.tracks import (
     TRACK_SLOT,
     estimate_rows,
     frame_step,
     tracker_fault,
+    tracker_stop,
     usable,
 )
-from safety_systems.ur5e import tool0_one_memo
-from safety_systems.workcell import (
+from safety_systems.cell.ur5e import tool0_reusing_trig
+from safety_systems.config.configuration import (
     braking_table,
     frame_timeout,
     is_recorded,
     joint_path,
     monitor_terms,
 )
-from verification.properties import MOVING_SPEED
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
 
@@ -127,25 +113,9 @@ def dropout_table(sensors: list) -> np.ndarray:
 
 @numba.njit(cache=True)
 def _delivered_rows(u, latency, period, drops, out):
-    """:func:`delivered_frames` of every row, compiled (the same arithmetic)."""
+    """:func:`delivered_frames` of every row, compiled (``delivery.delivered_frame``)."""
     for b in range(latency.size):
-        now = u[b] + _TIME_TOL - latency[b]
-        i = math.floor(now / period)
-        if (i + 1) * period <= now:
-            i += 1
-        if i * period > now:
-            i -= 1
-        for _ in range(drops.shape[1] + 1):  # step back over dropped captures
-            t = i * period
-            first, inside = i, False
-            for j in range(drops.shape[1]):
-                if drops[b, j, 0] <= t < drops[b, j, 1]:
-                    inside = True
-                    first = min(first, math.ceil(drops[b, j, 0] / period - 1e-9) - 1)
-            if not inside:
-                break
-            i = first
-        out[b] = max(i, -1)
+        out[b] = delivered_frame(u[b], latency[b], period, drops[b])
 
 
 def delivered_frames(u: float | np.ndarray, latency: np.ndarray, period: float,
@@ -239,7 +209,7 @@ _UNIT_NOISE_LOCK = threading.Lock()  # (a Dask worker runs batches in threads)
 
 def unit_noise_table(seed: int, n: int, frames: int) -> np.ndarray:
     """(frames, n, 3) unit noise of captures 0 .. frames - 1 of a sensor with ``seed``
-    and n bodies (``mocap_sensor.unit_noise``); kept for the next batches of a sweep
+    and n bodies (``delivery.unit_noise``); kept for the next batches of a sweep
     (never changed in place: a longer table is a new array)."""
     with _UNIT_NOISE_LOCK:
         table = _UNIT_NOISE.pop((seed, n), np.zeros((0, n, 3)))
@@ -321,12 +291,9 @@ def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, 
                     p[r, i, j] = p[r, i, j] + noise[b] * units[k, i, j]
                 if not seen:
                     p[r, i, j] = np.nan
-        carried[r] = apply_faults(faults[b], k, period, _TIME_TOL, p[r], valid[r], ids[r])
+        carried[r] = apply_faults(faults[b], k, period, TIME_TOL, p[r], valid[r], ids[r])
 
 
-# Its compiled functions inline compiled code from these modules (see compiled_cache).
-drop_stale_builds(__file__, (ssm, braking, safety_systems.joint_path, ur5e, operator_paths,
-                             kalman, tracks, stops, sensor_faults, robot_geometry, separation))
 
 
 _MARGIN = 1e-9  # m: the bounds below skip work only when rounding could not matter
@@ -409,11 +376,11 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
       op_first[o] to op_first[o + 1] - 1), while a scenario's ticks last (k <= ``last``):
       the smallest clearance to the real robot's capsules while the robot moves (its
       fastest capsule end); while the override's k is not 0, the smallest clearance
-      less S_true of any pair (``protective_one`` with the monitor's mode and speeds,
+      less S_true of any pair (``body_protective_distance`` with the monitor's mode and speeds,
       T_r, the pair's true directed speeds and, per scenario, ``truth_t`` = T_stop +
       T_r and ``truth_b`` = the robot's stopping distance + C: ``metrics.
       true_protective_args``) and the time some pair is inside S_true;
-    - the PathFollower's update (``braking.path_step_one``; ``brakes`` = speed
+    - the PathFollower's update (``braking.path_follower_step``; ``brakes`` = speed
       fractions, decelerations, acceleration limit).
 
     Work that cannot change a figure is skipped, and each skip is exact (the tests hold
@@ -476,7 +443,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     v_joint[j] = dq[j] * rate[b]
                 if tool_only:
                     (points[6, 0], points[6, 1], points[6, 2], point_v[6, 0], point_v[6, 1],
-                     point_v[6, 2]) = tool0_one_memo(q, v_joint, trig[b])
+                     point_v[6, 2]) = tool0_reusing_trig(q, v_joint, trig[b])
                 else:
                     robot_points_one_memo(q, v_joint, m_tool, trig[b], points, point_v)
                 capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_unused)
@@ -523,12 +490,12 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                             w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
                                 m_velocities[j, e, 2]
                             v_end = max(v_end, np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
-                far = bound_monitor and fault == 0.0 and not math.isnan(v_end)  # k = 1?
+                # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
+                far = bound_monitor and not math.isnan(v_end) \
+                    and tracker_stop(status[b], fault) == stops.STOP_NONE
                 if far:
                     closest_lb, s_ub = np.inf, -np.inf
                     for i in range(N):
-                        if status[b, i] == TRACK_LOST:
-                            far = False
                         if usable(status[b, i]):
                             v0, v1, v2 = est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]
                             h = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
@@ -579,8 +546,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                                                   included)[0]
                 memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
             # The properties, on the true state at this tick.
-            moving = speed > MOVING_SPEED and k <= last[b]
-            allowed = k_override != 0.0 and k <= last[b]
+            moving = is_moving(speed) and k <= last[b]
+            allowed = is_permitted(k_override) and k <= last[b]
             if moving or allowed:  # (they count only then)
                 closest, margin = np.inf, np.inf
                 for o in range(K):  # each operator's point once, then its bodies
@@ -623,8 +590,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                                                                   vel_a, vel_b)
                             sep = axis - c_radius[j] - r_contact[b, i]
                             closest = min(closest, sep)
-                            margin = min(margin, sep - protective_one(
-                                vh_true, vr_true, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
+                            margin = min(margin, true_margin(
+                                sep, vh_true, vr_true, mode, truth_t[b], t_r, truth_b[b], iso,
                                 iso_reduced))
                 if moving:
                     min_sep[b] = min(min_sep[b], closest)
@@ -639,8 +606,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                         for i in range(3):
                             ends_prev[b, j, e, i] = m_ends[j, e, i]
             s_last[b] = s[b]
-            s[b], rate[b] = path_step_one(s[b], rate[b], k_override, end[b], brake_scale[b], dt,
-                                          fractions, deceleration, acceleration, 1.0)
+            s[b], rate[b] = path_follower_step(s[b], rate[b], k_override, end[b], brake_scale[b],
+                                               dt, fractions, deceleration, acceleration, 1.0)
 
 
 def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:

@@ -2,18 +2,18 @@
 
 import numpy as np
 
-from safety_systems.metrics import (
+from safety_systems.outputs.metrics import (
     command_signal,
     commanded,
-    permitted,
     robot_contact_state,
     robot_speed,
     true_pairs,
     true_protective_distances,
 )
-from safety_systems.scenario import Scenario
-from safety_systems.simulation import Run, simulate_workcell
-from safety_systems.workcell import MakeWorkcell
+from safety_systems.config.scenario import Scenario
+from safety_systems.ssm.true_measures import permitted
+from safety_systems.diagrams.simulation import Run, simulate_workcell
+from safety_systems.diagrams.workcell import MakeWorkcell
 from verification.properties import (
     PROPERTIES,
     Robustness,

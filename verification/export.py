@@ -5,7 +5,7 @@ From a configuration and the report.json of its verification (``verify`` or ``tu
 it writes into OUTDIR:
 
 - ``params.yaml``: the configuration and the robot it was verified for
-  (``safety_systems.params_file``: the project's loader reads it; a ROS 2 parameter
+  (``safety_systems.config.params_file``: the project's loader reads it; a ROS 2 parameter
   file);
 - ``certificate.json`` (``verification.certificate``): the verdict and method, each
   property's verdict (contact and separation), every premise marked checked or trusted,
@@ -26,14 +26,14 @@ import json
 import platform
 from pathlib import Path
 
-from safety_systems.configuration import contact_capsules, monitor_capsules
-from safety_systems.documents import inputs_read, read_input, read_text
-from safety_systems.input_error import InputError
-from safety_systems.output_files import write_text
-from safety_systems.params_file import Params, deployed_robot, flat_parameters, params_text
-from safety_systems.provenance import version
-from safety_systems.scenario import ControllerConfig
-from safety_systems.workcell import frame_timeout
+from safety_systems.config.configuration import contact_capsules, monitor_capsules
+from safety_systems.files.documents import inputs_read, read_input, read_text
+from safety_systems.files.input_error import InputError
+from safety_systems.files.output_files import write_text
+from safety_systems.config.params_file import Params, deployed_robot, flat_parameters, params_text
+from safety_systems.outputs.provenance import version
+from safety_systems.config.scenario import ControllerConfig
+from safety_systems.config.configuration import frame_timeout
 from verification.certificate import (
     SCHEMA,
     SCHEMA_VERSION,

@@ -7,7 +7,7 @@ with the SSM speed override, a configuration whose human-speed term is a constan
 v (``iso`` or ``estimated_with_floor``), whose monitor measures capsules containing the
 property's (``configuration.monitor_capsules`` against ``contact_capsules``), whose
 tracker keeps hidden bodies as balls growing at ``occlusion_speed`` >= v_max until they
-are seen leaving (``hidden_bodies: hazard``, ``safety_systems.tracks``), and a space whose
+are seen leaving (``hidden_bodies: hazard``, ``safety_systems.sensing.tracks``), and a space whose
 scenarios satisfy the premises ``prove`` lists (each marked *checked*, against this
 model, or *trusted*, taken from the files). Let
 
@@ -52,7 +52,7 @@ Theorem 2 (what ``prove_separation`` checks): the separation invariant
 (``verification.properties``): at every tick t where the override's k > 0, every body
 i and every capsule j of the real robot have clearance_ij(t) >= S_true_ij(t), seed Eqs.
 9-11 on the true directed speeds with T_r and C, and the simulated robot's stopping
-time T* and distance B* (``safety_systems.stopping``), without Z_d and Z_r. Under the
+time T* and distance B* (``safety_systems.cell.stopping``), without Z_d and Z_r. Under the
 premises of Theorem 1 but the ordering of braking speeds (S_true uses the full-speed
 stop), let
 
@@ -98,18 +98,16 @@ import numba
 import numpy as np
 import z3
 
-from safety_systems import kalman
-from safety_systems.braking import braking_deceleration
-from safety_systems.compiled_cache import drop_stale_builds
-from safety_systems.configuration import contact_capsules, monitor_capsules
-from safety_systems.joint_path import JointPath, SplinePath, joint_path_state
-from safety_systems.kalman import axis_predict, axis_update
-from safety_systems.robot_geometry import Capsules, capsule_ends
-from safety_systems.scenario import ControllerConfig
-from safety_systems.stopping import stop_from_full_speed
-from safety_systems.tracks import MIN_MEASUREMENT_STD
-from safety_systems.ur5e import DH_A, DH_D
-from safety_systems.workcell import (
+from safety_systems.cell.braking import braking_deceleration
+from safety_systems.config.configuration import contact_capsules, monitor_capsules
+from safety_systems.cell.joint_path import JointPath, SplinePath, joint_path_state
+from safety_systems.sensing.kalman import axis_predict, axis_update
+from safety_systems.cell.robot_geometry import Capsules, capsule_ends
+from safety_systems.config.scenario import ControllerConfig
+from safety_systems.cell.stopping import stop_from_full_speed
+from safety_systems.sensing.tracks import MIN_MEASUREMENT_STD
+from safety_systems.cell.ur5e import DH_A, DH_D
+from safety_systems.config.configuration import (
     assumed_stopping,
     braking_table,
     frame_timeout,
@@ -118,8 +116,6 @@ from safety_systems.workcell import (
 )
 from verification.space import HEAD_BACK, HEAD_UP, OTHER_HAND_OFFSET, ScenarioSpace
 
-# Its compiled functions inline kalman's (see compiled_cache).
-drop_stale_builds(__file__, (kalman,))
 
 # Longest distance from any joint axis to the tool flange, bounded by the link lengths.
 REACH_BOUND = sum(abs(a) for a in DH_A) + sum(DH_D[1:])
@@ -290,7 +286,7 @@ def estimate_error_coefficients(config: ControllerConfig, horizon: int = ERROR_H
     beta v_max at every accepted measurement, for noise bound n and speed bound v_max.
 
     Under ``hidden_bodies: hazard`` a track's filter restarts after every gap (an
-    occlusion, a rejected entry, a dropped or bad frame: ``safety_systems.tracks``), so
+    occlusion, a rejected entry, a dropped or bad frame: ``safety_systems.sensing.tracks``), so
     every accepted measurement is the j-th of a run of consecutive frames since a new
     track, and the bound is the largest over j of :func:`_error_run`. It is taken over
     ``horizon`` frames; ``converged`` says the coefficients' last tenth changed by less

@@ -4,7 +4,7 @@ Robustness convention: a value >= 0 means the property holds (safe), a value < 0
 it is violated; its size says by how much. Falsifiers minimise robustness.
 
 Contact is as the scenario's ``contact_geometry`` defines it
-(``safety_systems.metrics``): a body's sphere against any of the real robot's capsules
+(``safety_systems.outputs.metrics``): a body's sphere against any of the real robot's capsules
 (clearance: axis distance - capsule radius - body radius), or, on the seed's
 ``tool_point``, a body's centre against the tool flange.
 
@@ -16,7 +16,7 @@ Contact is as the scenario's ``contact_geometry`` defines it
   at every control tick where the controller permits motion, the true separation
   d_true of every body from the robot is at least S_true, seed 000's Eqs. 9-11 on the
   true speeds with the simulated robot's own stopping data
-  (``safety_systems.metrics``: the separation margin, and why Z_d and Z_r are not in
+  (``safety_systems.outputs.metrics``: the separation margin, and why Z_d and Z_r are not in
   S_true). Robustness = the smallest d_true - S_true over those ticks and every pair
   of a body present and a capsule of the real robot (+inf when motion is never
   permitted while a body is present); the time motion was permitted with some pair
@@ -27,11 +27,8 @@ import dataclasses
 
 import numpy as np
 
-from safety_systems.metrics import (
-    MOVING_SPEED,
-    min_separation_while_moving,
-    separation_margins,
-)
+from safety_systems.outputs.metrics import min_separation_while_moving, separation_margins
+from safety_systems.ssm.true_measures import MOVING_SPEED
 
 __all__ = ["MOVING_SPEED", "PROPERTIES", "Robustness", "stopped_before_contact",
            "separation_invariant"]

@@ -29,37 +29,29 @@ import math
 import numba
 import numpy as np
 
-from safety_systems import braking, robot_geometry, separation, ssm
-from safety_systems.braking import path_step_one
-from safety_systems.compiled_cache import drop_stale_builds
-from safety_systems.configuration import (
+from safety_systems.cell.braking import path_follower_step
+from safety_systems.config.configuration import (
     contact_body_radii,
     contact_capsules,
     monitor_capsules,
     monitored_body_radii,
 )
-from safety_systems.joint_path import joint_path_state
-from safety_systems.metrics import robot_stopping
-from safety_systems.operator_paths import stack_paths, stacked_position_velocity
-from safety_systems.robot_geometry import (
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.outputs.metrics import robot_stopping
+from safety_systems.cell.operator_paths import stack_paths, stacked_position_velocity
+from safety_systems.cell.robot_geometry import (
     NUM_POINTS,
     capsule_ends_one,
     robot_points_one,
     segment_pair,
 )
-from safety_systems.scenario import ControllerConfig, actual_sensor
-from safety_systems.separation import body_separation, capsule_axis
-from safety_systems.ssm import _eq12, protective_one
-from safety_systems.workcell import (
-    braking_table,
-    frame_timeout,
-    joint_path,
-    monitor_terms,
-    scripted_operators,
-)
+from safety_systems.config.scenario import ControllerConfig, actual_sensor
+from safety_systems.ssm.separation import body_separation, capsule_axis
+from safety_systems.ssm.formulas import _speed_scale_eq12
+from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms, scripted_operators
 from verification.counts import Tally
 from verification.evaluate_batch import delivered_frames, dropout_table
-from verification.properties import MOVING_SPEED
+from safety_systems.ssm.true_measures import is_moving, true_margin
 from verification.space import (
     NAMES,
     WHOLE,
@@ -72,8 +64,6 @@ from verification.space import (
 
 ESTIMATE_LAG = 0.05  # s by which the score lets an estimated hand speed lag the truth
 
-# Its compiled functions inline the product's (see compiled_cache).
-drop_stale_builds(__file__, (braking, robot_geometry, separation, ssm))
 
 
 SCORES = ("contact", "separation")  # the columns of both rankings, by property
@@ -149,12 +139,12 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
     """The reduced model's monitor and measure at one time for every candidate c,
     compiled, through the product's compiled functions: the robot's capsules
     (``robot_geometry``; ``mine`` the monitor's, ``real`` the contact geometry's, each
-    (a, b, t0, t1, radius, tool length)) at q, v_joint (n, 6); k (Eq. 12 by ``ssm._eq12``
-    over the ``tracked`` bodies p_m, v_m (n, N, 3), radii r_mine, Z_d ``z_d``, hidden
-    balls ``ball``, d and S of each by ``separation.body_separation``; 1 with no tracked
-    body, 0 on a NaN); the smallest clearance of the ``present`` true bodies ``truth`` to
+    (a, b, t0, t1, radius, tool length)) at q, v_joint (n, 6); k (Eq. 12 by
+    ``ssm._speed_scale_eq12`` over the ``tracked`` bodies p_m, v_m (n, N, 3), radii r_mine,
+    Z_d ``z_d``, hidden balls ``ball``, d and S of each by ``separation.body_separation``;
+    1 with no tracked body, 0 on a NaN); the smallest clearance of the ``present`` true bodies ``truth`` to
     the real capsules; the smallest d_true - S_true over them (S_true: Eqs. 9-11 by
-    ``ssm.protective_one`` on the true directed speeds (``truth_v`` the bodies'
+    ``true_measures.true_margin`` on the true directed speeds (``truth_v`` the bodies'
     velocities), no Z_d or Z_r, the robot's own stopping time ``truth_t`` and distance
     ``truth_b`` (n,) with T_r and C folded in, as ``evaluate_batch`` measures it);
     whether the robot moves (its fastest capsule end). The two figures are computed
@@ -185,7 +175,7 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
         if faulty:
             k = 0.0
         elif any_tracked:
-            k = _eq12(d, top, delta_s, d_min)
+            k = _speed_scale_eq12(d, top, delta_s, d_min)
         if c_tool != m_tool:
             robot_points_one(q[c], v_joint[c], c_tool, points, point_v)
         capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_vel)
@@ -194,7 +184,7 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
             for e in range(2):
                 w0, w1, w2 = c_vel[j, e, 0], c_vel[j, e, 1], c_vel[j, e, 2]
                 speed = max(speed, math.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
-        moving = speed > MOVING_SPEED
+        moving = is_moving(speed)
         allowed = free[c] == 1 or (free[c] == 2 and k > 0.0)
         for i in range(truth.shape[1]):
             if present[c, i] and (moving or allowed):
@@ -207,20 +197,20 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
                     if moving:
                         gap = min(gap, clearance)
                     if allowed:
-                        margin = min(margin, clearance - protective_one(
-                            vh, vr, 0.0, mode, truth_t[c], t_r, truth_b[c], iso,
+                        margin = min(margin, true_margin(
+                            clearance, vh, vr, mode, truth_t[c], t_r, truth_b[c], iso,
                             iso_reduced))
         k_out[c], gap_out[c], margin_out[c], moving_out[c] = k, gap, margin, moving
 
 
 @numba.njit(cache=True)
 def _follow(s, rate, command, stale, end, scale, dt, fractions, deceleration, acceleration):
-    """The PathFollower's ticks (``braking.path_step_one``) of every candidate c over
+    """The PathFollower's ticks (``braking.path_follower_step``) of every candidate c over
     one step of the reduced model, in place: command[c], or 0 at the ticks where
     ``stale`` (ticks, n) holds."""
     for c in range(s.size):
         for k in range(stale.shape[0]):
-            s[c], rate[c] = path_step_one(s[c], rate[c], 0.0 if stale[k, c] else command[c],
+            s[c], rate[c] = path_follower_step(s[c], rate[c], 0.0 if stale[k, c] else command[c],
                                           end, scale[c], dt, fractions, deceleration,
                                           acceleration, 1.0)
 
@@ -239,7 +229,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     ``estimated`` speeds, its directed speed ``ESTIMATE_LAG`` late) and commands k by
     Eqs. 9-12 over every capsule; k is 0 while the tracker's newest frame is older than
     the frame timeout (frames late beyond the configured latency, or dropped). The robot
-    starts at rest and its path rate follows k through ``path_step_one`` (acceleration
+    starts at rest and its path rate follows k through ``path_follower_step`` (acceleration
     limit and braking data). Controllers other than ``ssm_override`` are not modelled
     (k = 1 but for faults). The Kalman filter and noise are left out. ``horizon``:
     (duration, cycles) to run to.

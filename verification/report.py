@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.braking import PLACEHOLDER_WARNING  # noqa: F401 - named here too
-from safety_systems.output_files import save_figure, write_json, write_text
+from safety_systems.cell.braking import PLACEHOLDER_WARNING  # noqa: F401 - named here too
+from safety_systems.files.output_files import save_figure, write_json, write_text
 from verification.verify import Outcome
 
 PROPERTY_TEXT = {
@@ -327,9 +327,9 @@ def write_report(o: Outcome, out: Path, *, config_path: str, space_path: str,
     write_text(out / "report.md", markdown(report))
     plot_robustness(o, out / "robustness.png")
     if replay and o.counterexamples:  # the first property's worst, else the next's
-        from safety_systems.replay import write_replay
-        from safety_systems.scenario import load_scenario
-        from safety_systems.simulation import simulate
+        from safety_systems.outputs.replay import write_replay
+        from safety_systems.config.scenario import load_scenario
+        from safety_systems.diagrams.simulation import simulate
 
         run = simulate(load_scenario(o.counterexamples[0]["scenario"]))
         write_replay(run, out / "replay.html")

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from safety_systems.input_error import InputError
-from safety_systems.scenario import Scenario
+from safety_systems.files.input_error import InputError
+from safety_systems.config.scenario import Scenario
 from verification.counts import Tally
 from verification.evaluate_batch import evaluate_many
 

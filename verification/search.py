@@ -25,7 +25,7 @@ import cma
 import numpy as np
 from scipy.stats import qmc
 
-from safety_systems.scenario import ControllerConfig
+from safety_systems.config.scenario import ControllerConfig
 from verification.ranking import bound_scores, danger_scores
 from verification.runner import Runner
 from verification.space import (

@@ -2,7 +2,7 @@
 
 A space file (typed YAML, loaded strictly) gives a [min, max] range for each parameter
 of an approach; a range with min == max fixes it. A point of the space (one value per
-parameter) becomes a full :class:`safety_systems.scenario.Scenario`:
+parameter) becomes a full :class:`safety_systems.config.scenario.Scenario`:
 
 - The robot runs its path from t = 0. Every operator stands still at its start point
   until the onset, ``settle_time + onset_phase * cycle_time`` (the robot is then at that
@@ -43,12 +43,12 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.documents import load_document
-from safety_systems.joint_path import joint_path_state
-from safety_systems.operator_paths import segment_profile
-from safety_systems.ranges import check_limits, number
-from safety_systems.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
-from safety_systems.scenario import (
+from safety_systems.files.documents import load_document
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.cell.operator_paths import segment_profile
+from safety_systems.files.ranges import check_limits, number
+from safety_systems.cell.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
+from safety_systems.config.scenario import (
     ROBOT_GEOMETRIES,
     Body,
     ControllerConfig,
@@ -63,7 +63,7 @@ from safety_systems.scenario import (
     read_task_path,
     validate_scenario,
 )
-from safety_systems.workcell import joint_path
+from safety_systems.config.configuration import joint_path
 
 OTHER_HAND_OFFSET = 0.35  # m, sideways from the approaching hand
 HEAD_BACK = 0.30  # m behind the approaching hand, horizontally

@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from safety_systems.configuration import with_controller
-from safety_systems.scenario import MAX_DURATION, ControllerConfig, Scenario
+from safety_systems.config.configuration import with_controller
+from safety_systems.config.scenario import MAX_DURATION, ControllerConfig, Scenario
 
 HORIZON = 3.0  # the longest run, in multiples of the scenario's duration
 STEP = 1.0  # s of simulated time between checks whether the task has finished
@@ -48,7 +48,7 @@ def run_task(scenario: Scenario, config: ControllerConfig, *, operators: bool = 
     False) until its cycles are done (see the module docstring)."""
     from pydrake.systems.analysis import Simulator
 
-    from safety_systems.workcell import MakeWorkcell
+    from safety_systems.diagrams.workcell import MakeWorkcell
 
     run = with_controller(scenario, config)
     if not operators:

@@ -38,18 +38,18 @@ from pathlib import Path
 import numpy as np
 from pydrake.common.yaml import yaml_dump_typed
 
-from safety_systems.documents import read_text
-from safety_systems.input_error import InputError
-from safety_systems.output_files import write_text
-from safety_systems.scenario import (
+from safety_systems.files.documents import read_text
+from safety_systems.files.input_error import InputError
+from safety_systems.files.output_files import write_text
+from safety_systems.config.scenario import (
     ControllerConfig,
     Scenario,
     load_controller_config,
     load_scenario,
     validate_controller,
 )
-from safety_systems.ssm import monitor_protective_distances
-from safety_systems.workcell import assumed_stopping, frame_timeout
+from safety_systems.ssm.formulas import monitor_protective_distances
+from safety_systems.config.configuration import assumed_stopping, frame_timeout
 from verification.proof import prove, prove_separation
 from verification.runner import FIELDS, Runner
 from verification.search import sweep_points

@@ -3,7 +3,7 @@ same task scenarios, and what the search did."""
 
 from pathlib import Path
 
-from safety_systems.output_files import write_json, write_text
+from safety_systems.files.output_files import write_json, write_text
 
 VACUOUS_WORDS = {"contact": "the robot never moved while a body was present",
                  "separation": "the robot was never let move while a body was present"}

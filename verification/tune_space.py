@@ -8,7 +8,7 @@ in a file of their own (``--tune FILE``, whose one key is ``tune:``)::
     - {name: safety.human_speed, choices: [iso, estimated_with_floor]}
     - {name: tracker.gate, choices: ["true", "false"]}
 
-``name`` is a field of the controller configuration (``safety_systems.scenario
+``name`` is a field of the controller configuration (``safety_systems.config.scenario
 .ControllerConfig``) by its dotted path; numbers get ``min`` and ``max`` (inside the
 field's declared range; whole numbers for integer fields), strings and flags get
 ``choices``. Measured properties are refused (:data:`MEASURED`): the stopping data,
@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.documents import load_document
-from safety_systems.input_error import InputError
-from safety_systems.ranges import field_limits, type_hints
-from safety_systems.scenario import ControllerConfig, validate_controller
-from safety_systems.workcell import frame_timeout
+from safety_systems.files.documents import load_document
+from safety_systems.files.input_error import InputError
+from safety_systems.files.ranges import field_limits, type_hints
+from safety_systems.config.scenario import ControllerConfig, validate_controller
+from safety_systems.config.configuration import frame_timeout
 
 # Names (and what is under them) that tune refuses, with why.
 MEASURED = {

@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.output_files import write_text
-from safety_systems.scenario import ControllerConfig, dump_scenario
+from safety_systems.files.output_files import write_text
+from safety_systems.config.scenario import ControllerConfig, dump_scenario
 from verification.counts import Tally
 from verification.evaluate_drake import cut_short, evaluate_drake
 from verification.proof import Proof, prove, prove_separation

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from safety_systems.motive_csv import motive_csv_text
-from safety_systems.recording_mapping import load_mapping, rotation_matrix
+from safety_systems.sensing.motive_csv import motive_csv_text
+from safety_systems.sensing.recording_mapping import load_mapping, rotation_matrix
 
 HERE = Path(__file__).parent
 RATE = 100.0

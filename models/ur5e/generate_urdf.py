@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems import ur5e
+from safety_systems.cell import ur5e
 
-# Single source of the published data: safety_systems/ur5e.py.
+# Single source of the published data: safety_systems/cell/ur5e.py.
 A, D, ALPHA = ur5e.DH_A, ur5e.DH_D, ur5e.DH_ALPHA
 MASSES, COMS = ur5e.LINK_MASSES, ur5e.LINK_COMS
 JOINTS, POSITION_LIMITS = ur5e.JOINT_NAMES, ur5e.JOINT_POSITION_UPPER

@@ -13,7 +13,7 @@ import sys
 import time
 from pathlib import Path
 
-from safety_systems.input_error import InputError
+from safety_systems.files.input_error import InputError
 
 EXIT_FAULT = 3
 EXIT_INTERRUPTED = 130
@@ -37,10 +37,10 @@ def start_replay(file: str, options: dict, rate: float) -> tuple[subprocess.Pope
 
 
 def run(args: argparse.Namespace, origin: dict) -> int:
-    from safety_systems.output_files import prepare_out, write_json
-    from safety_systems.outputs import write_table
-    from safety_systems.recording import read_recording
-    from safety_systems.recording_mapping import find_operator, load_mapping, recorded_bodies
+    from safety_systems.files.output_files import prepare_out, write_json
+    from safety_systems.outputs.run_files import write_table
+    from safety_systems.sensing.recording import read_recording
+    from safety_systems.sensing.recording_mapping import find_operator, load_mapping, recorded_bodies
     from safety_systems.runtime.live_run import LiveOptions, run_live
     from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource, parse_mocap
     from safety_systems.runtime.params import NotCertified, load_certified_params, \

@@ -36,13 +36,13 @@ import time
 
 import numpy as np
 
-from safety_systems import stops
-from safety_systems.metrics import stops_by_cause
+from safety_systems.sensing import stops
+from safety_systems.outputs.metrics import stops_by_cause
 from safety_systems.runtime.mocap import BodyMap, FrameClock, NatNetSource
 from safety_systems.runtime.robot_link import RobotLost
 from safety_systems.runtime.safety_loop import SafetyLoop
-from safety_systems.stops import REJECT_CAUSES
-from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST
+from safety_systems.sensing.stops import REJECT_CAUSES
+from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
 
 MAX_OVERRUN = 0.005  # s: a tick may start this late before the watchdog stops the robot
 OVERRUN_HOLD = 0.2  # s k stays 0 after an overrun

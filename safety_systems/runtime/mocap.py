@@ -24,9 +24,9 @@ import urllib.parse
 
 import numpy as np
 
-from safety_systems.input_error import InputError
-from safety_systems.recording_mapping import RecordingMapping, to_cell
-from safety_systems.sensor_faults import UNKNOWN_ID_BASE
+from safety_systems.files.input_error import InputError
+from safety_systems.sensing.recording_mapping import RecordingMapping, to_cell
+from safety_systems.sensing.sensor_faults import UNKNOWN_ID_BASE
 
 DRIFT = 1e-4  # s/s: how fast the capture clock's offset may rise (100 ppm)
 NATNET_PORT = 1510  # Motive's command port

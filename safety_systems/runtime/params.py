@@ -4,8 +4,8 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from safety_systems.input_error import InputError
-from safety_systems.scenario import ControllerConfig, RobotConfig
+from safety_systems.files.input_error import InputError
+from safety_systems.config.scenario import ControllerConfig, RobotConfig
 
 EXIT_NOT_CERTIFIED = 1
 
@@ -43,7 +43,7 @@ def load_certified_params(path: str | Path, *, unverified: bool = False) -> Cert
     caller says that it is unverified). A file that is neither raises NotCertified
     (``unverified`` or not) with check's line.
     """
-    from safety_systems.params_file import robot_config
+    from safety_systems.config.params_file import robot_config
     from verification.certificate import check
 
     path = Path(path)
@@ -58,8 +58,8 @@ def load_certified_params(path: str | Path, *, unverified: bool = False) -> Cert
         return CertifiedParams(result.params.controller,
                                robot_config(result.params.robot, RobotConfig()), False,
                                result.line)
-    from safety_systems.params_file import looks_like_params
-    from safety_systems.scenario import load_controller_config
+    from safety_systems.config.params_file import looks_like_params
+    from safety_systems.config.scenario import load_controller_config
 
     if looks_like_params(path):  # a params.yaml check could not read
         raise NotCertified(result.line, result.code)

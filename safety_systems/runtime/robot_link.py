@@ -12,7 +12,7 @@ it the slider at 0 is all the runtime can do. The connection is lost when the in
 says so or when the controller's timestamp has not advanced for ``timeout`` s.
 
 ``none`` (:class:`ModelRobot`): no robot. The verified robot's path is followed at the
-commanded k by the simulator's own PathFollower step (``braking.path_step_one`` and
+commanded k by the simulator's own PathFollower step (``braking.path_follower_step`` and
 ``joint_path.joint_path_state``), so the monitor sees a robot that moves as the
 simulated one would; what would have been commanded is logged.
 """
@@ -25,11 +25,11 @@ import urllib.parse
 
 import numpy as np
 
-from safety_systems.braking import path_step_one
-from safety_systems.input_error import InputError
-from safety_systems.joint_path import joint_path_state
-from safety_systems.scenario import ControllerConfig, RobotConfig
-from safety_systems.workcell import braking_table, joint_path
+from safety_systems.cell.braking import path_follower_step
+from safety_systems.files.input_error import InputError
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.config.scenario import ControllerConfig, RobotConfig
+from safety_systems.config.configuration import braking_table, joint_path
 
 ROBOT_TIMEOUT = 0.02  # s without a new RTDE sample before the robot counts as lost
 
@@ -96,7 +96,7 @@ class ModelRobot:
         robot keeps moving, as a real one would)."""
         fractions, deceleration, acceleration = self._brakes
         while self.time < t - 1e-9:
-            self.s, self.rate = path_step_one(self.s, self.rate, self.sent if math.isfinite(
+            self.s, self.rate = path_follower_step(self.s, self.rate, self.sent if math.isfinite(
                 self.sent) else 0.0, self.path.end, 1.0, self._dt, fractions, deceleration,
                 acceleration, 1.0)
             self.time += self._dt

@@ -17,18 +17,18 @@ import math
 import numba
 import numpy as np
 
-from safety_systems.configuration import (
+from safety_systems.config.configuration import (
     monitor_capsules,
     monitored_radii,
     tracker_regions,
     tracker_rules,
 )
-from safety_systems.scenario import ControllerConfig
-from safety_systems.separation import separation_rows
-from safety_systems.ssm import speed_override_command
-from safety_systems.systems.robot_capsules import capsule_ends_at
-from safety_systems.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
-from safety_systems.workcell import frame_timeout, monitor_terms
+from safety_systems.config.scenario import ControllerConfig
+from safety_systems.ssm.separation import separation_rows
+from safety_systems.ssm.formulas import speed_override_command
+from safety_systems.cell.robot_geometry import capsule_ends_at
+from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
+from safety_systems.config.configuration import frame_timeout, monitor_terms
 
 
 @numba.njit(cache=True)

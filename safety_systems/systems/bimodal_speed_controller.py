@@ -1,6 +1,6 @@
 """BimodalSpeedController: Morato et al.'s stop/go baseline (seed 004, Section IV-B)."""
 
-from safety_systems.speed_alteration import bimodal_speed
+from safety_systems.speed_alteration.methods import bimodal_speed
 from safety_systems.systems.speed_alteration_controller import SpeedAlterationController
 
 

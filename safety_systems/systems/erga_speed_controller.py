@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from safety_systems.erga import ErgaParameters
-from safety_systems.speed_alteration import erga_speed
+from safety_systems.speed_alteration.erga import ErgaParameters
+from safety_systems.speed_alteration.methods import erga_speed
 from safety_systems.systems.speed_alteration_controller import SpeedAlterationController
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
-from safety_systems.zones import GESTURE_CODES, NO_GESTURE
+from safety_systems.planning.zones import GESTURE_CODES, NO_GESTURE
 
 
 class GestureSource(LeafSystem):

@@ -1,6 +1,6 @@
 """HwangSpeedController: the collision-trend baseline of seed 004 (Eq. 13, Hwang et al. 2003)."""
 
-from safety_systems.speed_alteration import hwang_speed
+from safety_systems.speed_alteration.methods import hwang_speed
 from safety_systems.systems.speed_alteration_controller import SpeedAlterationController
 
 

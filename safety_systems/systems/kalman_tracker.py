@@ -11,7 +11,7 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from safety_systems.tracks import (
+from safety_systems.sensing.tracks import (
     TRACK_SLOT,
     estimate_rows,
     frame_step,
@@ -30,11 +30,11 @@ class KalmanTracker(LeafSystem):
 
     At each of its updates (every sensor period, ``processing_time`` after a frame is
     due to be delivered) it takes the newest delivered frame, if its frame number is
-    new, through ``safety_systems.tracks.frame_step``: the rules of which entries to
+    new, through ``safety_systems.sensing.tracks.frame_step``: the rules of which entries to
     use (ids, finite positions, the gate), the Kalman step, hidden bodies and exits are
     written there once. Outputs are the estimates at the frame's capture time.
 
-    ``fault`` is a stop reason (``safety_systems.stops``): the newest processed frame's
+    ``fault`` is a stop reason (``safety_systems.sensing.stops``): the newest processed frame's
     own fault (a repeated or earlier capture time, an unknown body id, a non-finite
     position, a position outside the gate) until a clean frame comes, else
     ``stale_frame`` when the newest good frame is older than ``frame_timeout`` (a
@@ -71,8 +71,8 @@ class KalmanTracker(LeafSystem):
         latency_sec: the sensor's delivery latency, seconds.
         processing_time: seconds from delivery to the tracker's update (> 0).
         frame_timeout: seconds after capture after which a frame is stale.
-        rules: ``safety_systems.tracks.make_rules`` (noise, gate, hidden bodies).
-        regions: ``safety_systems.tracks.make_regions`` (cell walls and exits); None:
+        rules: ``safety_systems.sensing.tracks.make_rules`` (noise, gate, hidden bodies).
+        regions: ``safety_systems.sensing.tracks.make_regions`` (cell walls and exits); None:
             no walls, no exits.
     """
 

@@ -13,11 +13,11 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from safety_systems.sensor_faults import FAULT_COLUMNS, apply_to_frame
+from safety_systems.sensing.delivery import TIME_TOL, captured, delivered_frame, unit_noise
+from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_to_frame
 
 MIN_PERIOD_SEC = 1.0 / 1000.0  # OptiTrack frame rates: 20 Hz up to 1000 Hz (seed Sec. 4.1)
 MAX_PERIOD_SEC = 1.0 / 20.0
-_TIME_TOL = 1e-9  # seconds, absorbs rounding in capture time + latency comparisons
 
 
 def _intervals(name: str, rows: Sequence, width: int) -> np.ndarray:
@@ -25,13 +25,6 @@ def _intervals(name: str, rows: Sequence, width: int) -> np.ndarray:
     if np.any(np.isnan(array)) or np.any(array[:, -1] < array[:, -2]):
         raise ValueError(f"{name}={list(rows)!r}: each needs t_start <= t_end, no NaN")
     return array
-
-
-def unit_noise(seed: int, frame: int, n: int) -> np.ndarray:
-    """The unit noise of capture ``frame`` of n bodies (3 n,): standard normal draws of a
-    generator seeded by (seed, frame), so a capture's noise depends only on the sensor's
-    seed and the capture's index (the batched verifier draws the same)."""
-    return np.random.default_rng([seed, frame]).standard_normal(3 * n)
 
 
 class MocapSensor(LeafSystem):
@@ -48,7 +41,7 @@ class MocapSensor(LeafSystem):
 
     Each frame carries its frame number k (as a motion-capture stream does) and, per
     entry, the id of the body it reports (entry i: id i + 1). ``faults`` (a table of
-    ``safety_systems.sensor_faults``) corrupt the frames captured in their intervals:
+    ``safety_systems.sensing.sensor_faults``) corrupt the frames captured in their intervals:
     outliers, marker swaps, non-finite positions, unknown ids, repeated or earlier
     capture times.
 
@@ -78,7 +71,7 @@ class MocapSensor(LeafSystem):
         latency_sec: delay from capture to delivery, seconds (>= 0).
         occlusions: (body_index, t_start, t_end) rows, seconds: body not seen.
         dropped_frames: (t_start, t_end) rows, seconds: no frame at all is captured.
-        faults: a fault table (``safety_systems.sensor_faults.fault_table``).
+        faults: a fault table (``safety_systems.sensing.sensor_faults.fault_table``).
         seed: noise seed (integer >= 0).
     """
 
@@ -114,8 +107,7 @@ class MocapSensor(LeafSystem):
             )
         self._occ_body = occ[:, 0].astype(int)
         self._occ_start, self._occ_end = occ[:, 1], occ[:, 2]
-        drops = _intervals("dropped_frames", dropped_frames, 2)
-        self._drop_start, self._drop_end = drops[:, 0], drops[:, 1]
+        self._drops = np.ascontiguousarray(_intervals("dropped_frames", dropped_frames, 2))
         faults = np.zeros((0, FAULT_COLUMNS)) if faults is None else np.asarray(faults, float)
         bodies = faults[:, 1:3]
         if faults.ndim != 2 or faults.shape[1] != FAULT_COLUMNS or np.any(
@@ -131,7 +123,7 @@ class MocapSensor(LeafSystem):
         self._latency = float(latency_sec)
         self._seed = seed
         self._slot = 2 + 5 * n
-        self._num_slots = math.ceil(latency_sec / period_sec - _TIME_TOL) + 1
+        self._num_slots = math.ceil(latency_sec / period_sec - TIME_TOL) + 1
         empty = np.r_[-1.0, -np.inf, np.full(3 * n, np.nan), np.zeros(n), np.arange(1.0, n + 1)]
         self._frames_index = self.DeclareDiscreteState(np.tile(empty, self._num_slots))
 
@@ -171,7 +163,7 @@ class MocapSensor(LeafSystem):
 
     def _capture(self, context: Context, discrete_state: DiscreteValues) -> None:
         t = context.get_time()
-        if np.any((self._drop_start <= t) & (t < self._drop_end)):
+        if not captured(t, self._drops):
             return  # network/sensor fault: no frame this period
         k = round(t / self._period)
         valid = self._present.Eval(context) > 0.5
@@ -182,19 +174,20 @@ class MocapSensor(LeafSystem):
             positions += self._noise_std * unit_noise(self._seed, k, self._n)
         positions.reshape(-1, 3)[~valid] = np.nan
         z, seen, ids = positions.reshape(-1, 3), valid.astype(float), np.arange(1.0, self._n + 1)
-        carried = apply_to_frame(self._faults, k, self._period, _TIME_TOL, z, seen, ids)
+        carried = apply_to_frame(self._faults, k, self._period, TIME_TOL, z, seen, ids)
         frames = discrete_state.get_mutable_value(self._frames_index)
         frames[: -self._slot] = frames[self._slot :].copy()  # drop the oldest slot
         frames[-self._slot :] = np.r_[k, carried, positions, seen, ids]
 
     def _delivered(self, context: Context) -> np.ndarray:
-        """The newest slot whose capture time + latency <= now (or the empty oldest one)."""
+        """The slot of the frame shown now (``delivery.delivered_frame``), or the empty
+        oldest slot before the first delivery."""
         frames = context.get_discrete_state(self._frames_index).get_value()
-        now = context.get_time() + _TIME_TOL - self._latency
+        k = delivered_frame(context.get_time(), self._latency, self._period, self._drops)
         for start in range((self._num_slots - 1) * self._slot, -1, -self._slot):
-            if frames[start] >= 0.0 and frames[start] * self._period <= now:
+            if k >= 0 and frames[start] == k:
                 return frames[start : start + self._slot]
-        return frames[: self._slot]  # unreachable: the oldest slot is delivered or empty
+        return frames[: self._slot]
 
     def _calc_frame(self, context: Context, value: AbstractValue) -> None:
         value.get_mutable_value()[:] = self._delivered(context)

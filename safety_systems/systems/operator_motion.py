@@ -6,9 +6,9 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
-from safety_systems.operator_paths import ScriptedOperator, body_layout, operators_bodies_state
+from safety_systems.cell.operator_paths import ScriptedOperator, body_layout, operators_bodies_state
+from safety_systems.cell.operators import MAX_OPERATORS
 
-MAX_OPERATORS = 5
 
 
 class OperatorMotion(LeafSystem):

@@ -3,15 +3,15 @@
 import numpy as np
 from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
-from safety_systems.braking import BrakingTable, path_step_one
-from safety_systems.joint_path import JointPath, joint_path_state
+from safety_systems.cell.braking import BrakingTable, path_follower_step
+from safety_systems.cell.joint_path import JointPath, joint_path_state
 
 
 class PathFollower(LeafSystem):
     """Advances the path parameter s at rate sigma towards the commanded speed scale.
 
     Every control period the rate sigma moves towards the commanded value as the
-    braking model allows (:func:`safety_systems.braking.path_rate_step`), and
+    braking model allows (:func:`safety_systems.cell.braking.path_rate_step`), and
     s advances by the mean of the old and new rates times the period. At the end of the
     task (s = ``path.end``) the robot rests; s never goes below 0. The outputs are the
     braked joint reference: q(s), v = q'(s) sigma and a = q''(s) sigma^2 + q'(s) dsigma/dt,
@@ -23,7 +23,7 @@ class PathFollower(LeafSystem):
 
         name: PathFollower
         input_ports:
-        - speed_scale_commanded
+        - path_speed_commanded
         output_ports:
         - joint_positions_desired
         - joint_velocities_desired
@@ -59,7 +59,7 @@ class PathFollower(LeafSystem):
         self._path_state = self.DeclareDiscreteState(np.array([0.0, 0.0, 0.0]))
         self._reference = [self.DeclareDiscreteState(row)
                            for row in self._reference_at(0.0, 0.0, 0.0)]
-        self._cmd = self.DeclareVectorInputPort("speed_scale_commanded", 1)
+        self._cmd = self.DeclareVectorInputPort("path_speed_commanded", 1)
         self.DeclarePeriodicDiscreteUpdateEvent(period_sec=period_sec, offset_sec=0.0,
                                                 update=self._step)
         for group, name in zip(self._reference, ("joint_positions_desired",
@@ -75,8 +75,8 @@ class PathFollower(LeafSystem):
     def _step(self, context: Context, discrete_state: DiscreteValues) -> None:
         s, rate, _ = context.get_discrete_state(self._path_state).value()
         end = self._path.end
-        # path_step_one holds s and sigma at the end (sigma is 0 from the tick that got there).
-        s_new, new = path_step_one(s, rate, float(self._cmd.Eval(context)[0]), end,
+        # path_follower_step holds s and sigma at the end (sigma is 0 from the tick that got there).
+        s_new, new = path_follower_step(s, rate, float(self._cmd.Eval(context)[0]), end,
                                    self._brake_scale, self._dt, self._fractions,
                                    self._deceleration, self._accel, self._max_rate)
         discrete_state.set_value(self._path_state, [s_new, new, float(s_new >= end)])

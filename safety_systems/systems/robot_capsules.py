@@ -1,6 +1,5 @@
 """RobotCapsules: where the robot's capsules are and how fast they move (seed Eq. 5)."""
 
-import numba
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import (
@@ -11,22 +10,7 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from safety_systems.robot_geometry import (
-    NUM_POINTS,
-    Capsules,
-    capsule_ends_one,
-    robot_points_one,
-)
-
-
-@numba.njit(cache=True)
-def capsule_ends_at(q, tool_length, a, b, t0, t1, out):
-    """The capsule ends (K, 2, 3) at joint positions q into out (velocities unused), of
-    ``robot_geometry.Capsules`` (a, b, t0, t1, tool_length); compiled, shared by this
-    system and the live runtime."""
-    p, pv = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
-    robot_points_one(q, np.zeros(6), tool_length, p, pv)
-    capsule_ends_one(p, pv, a, b, t0, t1, out, np.empty_like(out))
+from safety_systems.cell.robot_geometry import Capsules, capsule_ends_at
 
 
 class RobotCapsules(LeafSystem):
@@ -34,7 +18,7 @@ class RobotCapsules(LeafSystem):
     seed Eq. 5.
 
     ``capsule_ends`` holds, capsule by capsule, the two ends of its axis
-    (``safety_systems.robot_geometry``; the seed's tool point is one capsule whose ends
+    (``safety_systems.cell.robot_geometry``; the seed's tool point is one capsule whose ends
     are both tool0). ``capsule_velocities`` is the change of each end since the previous
     control tick divided by the period (Eq. 5: the seed differences successive
     end-effector transforms). Before the first tick the velocities are NaN, which the

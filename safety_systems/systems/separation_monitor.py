@@ -4,8 +4,8 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
-from safety_systems import separation
-from safety_systems.ssm import (
+from safety_systems.ssm import separation
+from safety_systems.ssm.formulas import (
     HUMAN_SPEED_MODES,
     ISO_HUMAN_SPEED,
     ISO_REDUCED_HUMAN_SPEED,
@@ -35,13 +35,13 @@ class SeparationMonitor(LeafSystem):
         - robot_directed_speeds
         - nearest_capsule
 
-    ``safety_systems.separation`` holds the maths: d_i is a body's smallest clearance to
+    ``safety_systems.ssm.separation`` holds the maths: d_i is a body's smallest clearance to
     the capsules, S_i its largest S over them (Eqs. 9-11 from each pair's directed
     speeds), the directed speeds and ``nearest_capsule`` (an index into the capsules)
     the nearest pair's. Bodies without a usable track (status none or lost) have NaN on
     every output and index -1; the SpeedOverride decides what a lost track means. A
     hidden body is a ball around its last accepted estimate whose radius grows at
-    ``occlusion_speed`` (:func:`safety_systems.ssm.hidden_ball_radius`): its d_i is the
+    ``occlusion_speed`` (:func:`safety_systems.ssm.formulas.hidden_ball_radius`): its d_i is the
     clearance to that ball. Outputs are computed on demand from the inputs (one shared
     cache entry), so they follow the robot at its control rate.
 
@@ -51,7 +51,7 @@ class SeparationMonitor(LeafSystem):
             tool point: one capsule of radius 0).
         body_radii: the radius of each body's sphere, metres (N; zeros on the tool point).
         human_speed: ``estimated`` | ``iso`` | ``estimated_with_floor`` (see
-            :func:`safety_systems.ssm.human_speed_term`).
+            :func:`safety_systems.ssm.formulas.human_speed_term`).
         reaction_time: T_r in seconds.
         stopping_time: T_s in seconds.
         stopping_distance: B (S_S) in metres.

@@ -3,8 +3,8 @@
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
-from safety_systems.ellipsoids import danger_index
-from safety_systems.speed_alteration import (
+from safety_systems.speed_alteration.ellipsoids import danger_index
+from safety_systems.speed_alteration.methods import (
     GRID,
     clearance,
     danger_grid,
@@ -12,11 +12,12 @@ from safety_systems.speed_alteration import (
     preprogrammed_speed,
     robot_at,
 )
-from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_TRACKING
+from safety_systems.sensing.stops import STOP_NONE
+from safety_systems.sensing.tracks import tracker_stop, usable_bodies
 
 # Discrete state: [V_select, max DI at the chosen pose, decision count, positions (3N)].
 _V, _DI, _K = 0, 1, 2
-_P = 3
+_PREVIOUS_POSITIONS = 3
 
 
 class SpeedAlterationController(LeafSystem):
@@ -39,7 +40,7 @@ class SpeedAlterationController(LeafSystem):
         - fault
         - path_state
         output_ports:
-        - speed_scale_commanded
+        - path_speed_commanded
         - speed_selected
         - danger_index
 
@@ -73,7 +74,7 @@ class SpeedAlterationController(LeafSystem):
         self._path_state = self.DeclareVectorInputPort("path_state", 3)
         self.DeclarePeriodicDiscreteUpdateEvent(period_sec=self._dt, offset_sec=offset_sec,
                                                 update=self._update)
-        for name, calc in (("speed_scale_commanded", self._calc_scale),
+        for name, calc in (("path_speed_commanded", self._calc_scale),
                            ("speed_selected", self._calc_speed),
                            ("danger_index", self._calc_danger)):
             self.DeclareVectorOutputPort(name, 1, calc, prerequisites_of_calc={self.xd_ticket()})
@@ -96,21 +97,20 @@ class SpeedAlterationController(LeafSystem):
         state = context.get_discrete_state(self._state).get_value()
         p = np.asarray(self._p.Eval(context)).reshape(self._n, 3)
         status = self._status.Eval(context)
-        valid = ((status == TRACK_TRACKING) | (status == TRACK_HIDDEN)) & np.all(
-            np.isfinite(p), axis=1)
+        valid = usable_bodies(status, p)
         if self._cfg.prediction == "kalman":
             v = np.asarray(self._v.Eval(context)).reshape(self._n, 3)
         else:  # Eq. 9 from the previous sample (at rest when there is none)
-            v = (p - state[_P:].reshape(self._n, 3)) / self._dt
+            v = (p - state[_PREVIOUS_POSITIONS:].reshape(self._n, 3)) / self._dt
         v = np.where(np.isfinite(v), v, 0.0)
         s = self._path_state.Eval(context)[0]
         k = int(state[_K])
         new = state.copy()
-        new[_P:] = p.ravel()
+        new[_PREVIOUS_POSITIONS:] = p.ravel()
         new[_K] = k + 1
         humans = operator_ellipsoids(p + v * self._dt, valid, self._operator_of,
                                      self._is_hand, self._cfg.ellipsoids)  # Eq. 10
-        if self._fault.Eval(context)[0] != 0.0 or np.any(status == TRACK_LOST):
+        if tracker_stop(status, self._fault.Eval(context)[0]) != STOP_NONE:
             new[_V], new[_DI] = 0.0, state[_DI]
         elif humans.centres.shape[0] == 0:
             new[_V], new[_DI] = self._v_pre, 0.0

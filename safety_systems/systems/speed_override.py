@@ -4,7 +4,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
-from safety_systems.ssm import speed_override_command
+from safety_systems.ssm.formulas import speed_override_command
 
 
 class SpeedOverride(LeafSystem):
@@ -19,15 +19,15 @@ class SpeedOverride(LeafSystem):
         - track_status
         - fault
         output_ports:
-        - speed_scale_commanded
+        - path_speed_commanded
         - max_protective_distance
         - stop_reason
 
     k is the smallest Eq. 12 value over the bodies with a usable track (tracking or
-    hidden), and fail safe (:func:`safety_systems.ssm.override_command`): a tracker
+    hidden), and fail safe (:func:`safety_systems.ssm.formulas.override_command`): a tracker
     fault (a stale or bad frame, with its cause), a lost track or a non-finite d_i or
     S_i of a usable body gives k = 0, a protective stop, and ``stop_reason`` says why
-    (``safety_systems.stops``).
+    (``safety_systems.sensing.stops``).
 
     Args:
         num_bodies: registered body slots N.
@@ -53,7 +53,7 @@ class SpeedOverride(LeafSystem):
             ),
             prerequisites_of_calc={self.all_input_ports_ticket()},
         )
-        for i, name in enumerate(("speed_scale_commanded", "max_protective_distance",
+        for i, name in enumerate(("path_speed_commanded", "max_protective_distance",
                                   "stop_reason")):
             self.DeclareVectorOutputPort(
                 name, 1, lambda c, o, i=i: o.SetAtIndex(0, self._cache.Eval(c)[i]),

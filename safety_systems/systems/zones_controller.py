@@ -1,12 +1,13 @@
 """ZonesController: green/yellow/red speed zones with performance recovery (seed 001)."""
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import Context, DiscreteValues, LeafSystem
 
-from safety_systems.joint_path import joint_path_state
-from safety_systems.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_TRACKING
-from safety_systems.ur5e import tool0_position
-from safety_systems.zones import (
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.sensing.stops import STOP_NONE
+from safety_systems.sensing.tracks import tracker_stop, usable_bodies
+from safety_systems.cell.ur5e import tool0_position
+from safety_systems.planning.zones import (
     RED,
     STOP,
     closest_distance,
@@ -36,7 +37,7 @@ class ZonesController(LeafSystem):
         - path_state
         - gesture
         output_ports:
-        - speed_scale_commanded
+        - path_speed_commanded
         - zone
         - closest_distance
 
@@ -59,7 +60,7 @@ class ZonesController(LeafSystem):
         self._gesture = self.DeclareVectorInputPort("gesture", 1)
         self.DeclarePeriodicDiscreteUpdateEvent(period_sec=self._dt, offset_sec=0.0,
                                                 update=self._update)
-        for name, index in (("speed_scale_commanded", _K), ("zone", _ZONE),
+        for name, index in (("path_speed_commanded", _K), ("zone", _ZONE),
                             ("closest_distance", _D)):
             self.DeclareVectorOutputPort(
                 name, 1, lambda c, o, i=index: o.SetAtIndex(
@@ -70,14 +71,14 @@ class ZonesController(LeafSystem):
         k, rate, _, _ = context.get_discrete_state(self._state).get_value()
         status = self._status.Eval(context)
         p = np.asarray(self._p.Eval(context)).reshape(self._n, 3)
-        usable = ((status == TRACK_TRACKING) | (status == TRACK_HIDDEN)) & np.all(
-            np.isfinite(p), axis=1)
+        usable = usable_bodies(status, p)
         tool = tool0_position(joint_path_state(self._path, self._path_state.Eval(context)[0])[0])
         d = closest_distance(tool, p, usable)
         cfg = self._cfg
-        zone = int(zone_of(d, green_distance=cfg.green_distance, red_distance=cfg.red_distance))
+        zone = int(zone_of(d, green_distance=cfg.green_distance,
+                           yellow_distance=cfg.yellow_distance))
         target = float(zone_speed(zone, self._speeds))
-        fault = self._fault.Eval(context)[0] != 0.0 or np.any(status == TRACK_LOST)
+        fault = tracker_stop(status, self._fault.Eval(context)[0]) != STOP_NONE
         if fault:
             zone = RED
         if fault or self._gesture.Eval(context)[0] == STOP:

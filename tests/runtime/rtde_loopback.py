@@ -39,7 +39,7 @@ def input_type(name: str) -> str:
 class Server:
     def __init__(self, host: str, drop_at: float | None):
         from safety_systems.runtime.robot_link import ModelRobot
-        from safety_systems.scenario import ControllerConfig, RobotConfig
+        from safety_systems.config.scenario import ControllerConfig, RobotConfig
 
         self.robot = ModelRobot(RobotConfig(), ControllerConfig())
         self.slider = 0.0

@@ -15,17 +15,17 @@ import numpy as np
 import pytest
 
 from safety_systems.cli import main
-from safety_systems.recording import read_recording
-from safety_systems.recording_mapping import find_operator, load_mapping, recorded_bodies
+from safety_systems.sensing.recording import read_recording
+from safety_systems.sensing.recording_mapping import find_operator, load_mapping, recorded_bodies
 from safety_systems.runtime.live_run import LiveOptions, run_live
 from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource
 from safety_systems.runtime.replay_server import serve, stream_frames
 from safety_systems.runtime.robot_link import ModelRobot
 from safety_systems.runtime.safety_loop import SafetyLoop
-from safety_systems.scenario import SensorConfig, load_controller_config, load_scenario
-from safety_systems.simulation import simulate
-from safety_systems.stops import STOP_REASONS
-from safety_systems.workcell import frame_timeout
+from safety_systems.config.scenario import SensorConfig, load_controller_config, load_scenario
+from safety_systems.diagrams.simulation import simulate
+from safety_systems.sensing.stops import STOP_REASONS
+from safety_systems.config.configuration import frame_timeout
 
 MODELS = Path(__file__).parents[2] / "models"
 CSV = MODELS / "recordings" / "approach.csv"
@@ -135,7 +135,7 @@ def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, 
         sensor=SensorConfig(rate_hz=controller.sensor.rate_hz, noise_std=0.0,
                             latency=controller.sensor.latency))
     sim = simulate(scenario)
-    k_sim = sim["override.speed_scale_commanded"][:, 0]
+    k_sim = sim["override.path_speed_commanded"][:, 0]
     code, trace, summary = _run(tmp_path, params,
                                 f"replay://{CSV}?start={start}&duration={length}",
                                 "--max-overrun", str(SLACK), *extra)
@@ -242,7 +242,7 @@ def _live(robot_kw, duration=1.5):
     source = NatNetSource(MocapAddress("natnet", "127.0.0.1", int(announced[0].split()[1]),
                                        "127.0.0.1"), time.monotonic)
     source.connect()
-    from safety_systems.scenario import RobotConfig
+    from safety_systems.config.scenario import RobotConfig
 
     robot = _Faulty(RobotConfig(), config, **robot_kw)
     names = [f"{o.name}/{b.name}" for o in mapping.operators for b in o.bodies]

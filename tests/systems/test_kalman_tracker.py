@@ -1,4 +1,4 @@
-"""The KalmanTracker system: a thin wrapper over safety_systems.tracks, in the loop."""
+"""The KalmanTracker system: a thin wrapper over safety_systems.sensing.tracks, in the loop."""
 
 import math
 
@@ -7,12 +7,12 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from safety_systems import stops
-from safety_systems.operator_paths import ScriptedOperator, make_operator_path
+from safety_systems.sensing import stops
+from safety_systems.cell.operator_paths import ScriptedOperator, make_operator_path
 from safety_systems.systems.kalman_tracker import KalmanTracker
 from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
-from safety_systems.tracks import (
+from safety_systems.sensing.tracks import (
     TRACK_HIDDEN,
     TRACK_NONE,
     TRACK_SLOT,

@@ -5,8 +5,8 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from safety_systems.operator_paths import ScriptedOperator, make_operator_path
-from safety_systems.sensor_faults import UNKNOWN_ID_BASE, fault_table
+from safety_systems.cell.operator_paths import ScriptedOperator, make_operator_path
+from safety_systems.sensing.sensor_faults import UNKNOWN_ID_BASE, fault_table
 from safety_systems.systems.mocap_sensor import MocapSensor
 from safety_systems.systems.operator_motion import OperatorMotion
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from safety_systems.operator_paths import (
+from safety_systems.cell.operator_paths import (
     ScriptedOperator,
     make_operator_path,
     operators_bodies_state,

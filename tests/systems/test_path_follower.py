@@ -6,8 +6,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from safety_systems.braking import default_braking_table, stopping_time
-from safety_systems.joint_path import default_joint_path, joint_path_state, make_joint_path
+from safety_systems.cell.braking import default_braking_table, stopping_time
+from safety_systems.cell.joint_path import default_joint_path, joint_path_state, make_joint_path
 from safety_systems.systems.path_follower import PathFollower
 
 DT = 0.002
@@ -33,7 +33,7 @@ class _Run:
         self.tick = 0
 
     def command(self, value):
-        self.follower.GetInputPort("speed_scale_commanded").FixValue(self.context, [value])
+        self.follower.GetInputPort("path_speed_commanded").FixValue(self.context, [value])
 
     def step(self, ticks=1):
         """Advances by whole ticks; at time k DT the updates at 0 ... (k-1) DT are done."""
@@ -64,7 +64,7 @@ def test_ramps_up_at_acceleration_limit_then_nominal_speed():
     builder = DiagramBuilder()
     follower = builder.AddSystem(_follower())
     source = builder.AddSystem(ConstantVectorSource([1.0]))
-    builder.Connect(source.get_output_port(), follower.GetInputPort("speed_scale_commanded"))
+    builder.Connect(source.get_output_port(), follower.GetInputPort("path_speed_commanded"))
     simulator = Simulator(builder.Build())
     context = follower.GetMyContextFromRoot(simulator.get_context())
     simulator.Initialize()

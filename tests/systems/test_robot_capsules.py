@@ -9,12 +9,12 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from safety_systems.braking import default_braking_table
-from safety_systems.joint_path import default_joint_path, joint_path_state
-from safety_systems.robot_geometry import capsule_ends, robot_capsules, tool_point
+from safety_systems.cell.braking import default_braking_table
+from safety_systems.cell.joint_path import default_joint_path, joint_path_state
+from safety_systems.cell.robot_geometry import capsule_ends, robot_capsules, tool_point
 from safety_systems.systems.path_follower import PathFollower
 from safety_systems.systems.robot_capsules import RobotCapsules
-from safety_systems.ur5e import dh_forward_kinematics, tool0_position
+from safety_systems.cell.ur5e import dh_forward_kinematics, tool0_position
 
 DT = 0.002
 CAPSULES = robot_capsules(payload_radius=0.05, tool_length=0.15)
@@ -108,7 +108,7 @@ def test_velocity_from_path_follower():
                                               acceleration_limit=2.0, period_sec=DT))
     command = builder.AddSystem(ConstantVectorSource([1.0]))
     ee = builder.AddSystem(RobotCapsules(capsules=CAPSULES, period_sec=DT))
-    builder.Connect(command.get_output_port(), follower.GetInputPort("speed_scale_commanded"))
+    builder.Connect(command.get_output_port(), follower.GetInputPort("path_speed_commanded"))
     builder.Connect(follower.GetOutputPort("joint_positions_desired"),
                     ee.GetInputPort("joint_positions"))
     simulator = Simulator(builder.Build())

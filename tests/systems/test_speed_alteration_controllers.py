@@ -3,10 +3,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from safety_systems.cartesian_path import line_path
-from safety_systems.erga import ErgaParameters
-from safety_systems.scenario import EllipsoidConfig, SpeedAlterationConfig
-from safety_systems.speed_alteration import (
+from safety_systems.cell.cartesian_path import line_path
+from safety_systems.speed_alteration.erga import ErgaParameters
+from safety_systems.config.scenario import EllipsoidConfig, SpeedAlterationConfig
+from safety_systems.speed_alteration.methods import (
     collision_trend,
     danger_grid,
     erga_speed,
@@ -47,7 +47,7 @@ def _decide(cls, path, hand, *, status=1.0, fault=0.0, config=CONFIG):
     system.GetInputPort("path_state").FixValue(context, [S, 1.0, 0.0])
     context.SetDiscreteState(system.EvalUniquePeriodicDiscreteUpdate(context))
     out = {n: system.GetOutputPort(n).Eval(context)[0]
-           for n in ("speed_scale_commanded", "speed_selected", "danger_index")}
+           for n in ("path_speed_commanded", "speed_selected", "danger_index")}
     return out, system
 
 
@@ -62,7 +62,7 @@ def test_no_tracked_operator_keeps_preprogrammed_speed(cls, path):
         out, system = _decide(cls, path, hand, status=status)
         assert system.preprogrammed_speed == pytest.approx(0.05, abs=1e-3)
         assert out["speed_selected"] == system.preprogrammed_speed
-        assert out["speed_scale_commanded"] == 1.0
+        assert out["path_speed_commanded"] == 1.0
         assert out["danger_index"] == 0.0
 
 
@@ -72,14 +72,14 @@ def test_fault_or_lost_track_stops(cls, path, hand):
     for kw in ({"fault": 1.0}, {"fault": float("nan")}, {"status": 3.0}):
         out, _ = _decide(cls, path, hand, **kw)
         assert out["speed_selected"] == 0.0, kw
-        assert out["speed_scale_commanded"] == 0.0, kw
+        assert out["path_speed_commanded"] == 0.0, kw
 
 
 @pytest.mark.parametrize("cls", CONTROLLERS)
 def test_far_operator_keeps_preprogrammed_speed(cls, path):
     out, system = _decide(cls, path, TOOL + [0.0, 0.5, 0.0], status=2.0)  # coasting counts
     assert out["speed_selected"] == pytest.approx(system.preprogrammed_speed, abs=1e-3)
-    assert out["speed_scale_commanded"] == pytest.approx(
+    assert out["path_speed_commanded"] == pytest.approx(
         out["speed_selected"] / system.preprogrammed_speed)
     assert 0.0 < out["danger_index"] < 1.0
 
@@ -90,7 +90,7 @@ def test_erga_slows_for_a_hand_ahead(path):
     assert out["speed_selected"] < v_pre
     assert 0.0 < out["speed_selected"] < 0.02  # as fast as it can while staying clear
     assert out["danger_index"] < 1.0
-    assert out["speed_scale_commanded"] == pytest.approx(out["speed_selected"] / v_pre)
+    assert out["path_speed_commanded"] == pytest.approx(out["speed_selected"] / v_pre)
     # The reported DI is the exact one at the pose the chosen speed reaches.
     reached = danger_grid(path, S, np.array([out["speed_selected"]]), 0.1, v_pre,
                           _humans(AHEAD), CONFIG.ellipsoids)
@@ -139,7 +139,7 @@ def test_erga_same_seed_same_decision(path):
 def test_preprogrammed_ignores_the_hand_but_reports_the_danger(path):
     out, system = _decide(PreprogrammedSpeedController, path, AHEAD)
     assert out["speed_selected"] == system.preprogrammed_speed
-    assert out["speed_scale_commanded"] == 1.0
+    assert out["path_speed_commanded"] == 1.0
     assert out["danger_index"] >= 1.0
 
 
@@ -192,7 +192,7 @@ def test_hwang_slows_for_a_hand_ahead_where_none_keeps_going(path):
     assert plain["speed_selected"] == system.preprogrammed_speed and plain["danger_index"] >= 1
     assert 0.0 < out["speed_selected"] < 0.02 + 1e-12
     assert out["danger_index"] < 1.0
-    assert out["speed_scale_commanded"] == pytest.approx(
+    assert out["path_speed_commanded"] == pytest.approx(
         out["speed_selected"] / system.preprogrammed_speed)
     # The next grid speed up would touch: it is the nearest collision-free one.
     step = 2 * CONFIG.speed_limit / (CONFIG.hwang_candidates - 1)

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from safety_systems import stops
-from safety_systems.ssm import overall_speed_override
-from safety_systems.stops import STOP_LOST_TRACK, STOP_NONE, STOP_SEPARATION, STOP_STALE_FRAME
+from safety_systems.sensing import stops
+from safety_systems.ssm.formulas import overall_speed_override
+from safety_systems.sensing.stops import STOP_LOST_TRACK, STOP_NONE, STOP_SEPARATION, STOP_STALE_FRAME
 from safety_systems.systems.speed_override import SpeedOverride
 
 
@@ -15,7 +15,7 @@ def _eval(d, s, status, fault=0.0, **kw):
     o.GetInputPort("track_status").FixValue(c, np.asarray(status, float))
     o.GetInputPort("fault").FixValue(c, [fault])
     return [o.GetOutputPort(n).Eval(c)[0]
-            for n in ("speed_scale_commanded", "max_protective_distance", "stop_reason")]
+            for n in ("path_speed_commanded", "max_protective_distance", "stop_reason")]
 
 
 def test_matches_plain_function():

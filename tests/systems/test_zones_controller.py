@@ -5,15 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from safety_systems.joint_path import default_joint_path, joint_path_state
-from safety_systems.scenario import ZonesConfig
+from safety_systems.cell.joint_path import default_joint_path, joint_path_state
+from safety_systems.config.scenario import ZonesConfig
 from safety_systems.systems.gesture_source import GestureSource
 from safety_systems.systems.zones_controller import ZonesController
-from safety_systems.ur5e import tool0_position
-from safety_systems.zones import GREEN, RED, YELLOW, recovery_step
+from safety_systems.cell.ur5e import tool0_position
+from safety_systems.planning.zones import GREEN, RED, YELLOW, recovery_step
 
 PATH = default_joint_path()
-CONFIG = ZonesConfig(green_distance=1.0, red_distance=0.5, green_speed=0.8, yellow_speed=0.4,
+CONFIG = ZonesConfig(green_distance=1.0, yellow_distance=0.5, green_speed=0.8, yellow_speed=0.4,
                      red_speed=0.1, max_acceleration=1.0, max_jerk=5.0, rate_hz=100.0)
 DT = 1.0 / CONFIG.rate_hz
 FAR = np.array([3.0, 0.0, 0.0])
@@ -49,7 +49,7 @@ class Zones:
             self.context.SetDiscreteState(
                 self.system.EvalUniquePeriodicDiscreteUpdate(self.context))
             out.append([self.system.GetOutputPort(p).Eval(self.context)[0]
-                        for p in ("speed_scale_commanded", "zone", "closest_distance")])
+                        for p in ("path_speed_commanded", "zone", "closest_distance")])
         return np.array(out)
 
 
@@ -80,7 +80,7 @@ def test_gesture_source_rejects_bad_events(events, match):
 def test_initial_outputs_are_at_rest():
     z = Zones()
     out = [z.system.GetOutputPort(p).Eval(z.context)[0]
-           for p in ("speed_scale_commanded", "zone", "closest_distance")]
+           for p in ("path_speed_commanded", "zone", "closest_distance")]
     assert out[0] == 0.0 and out[1] == RED  # stopped until the first decision
 
 
@@ -121,7 +121,7 @@ def test_yellow_zone_and_immediate_drop():
     z.set(bodies=[_tool(0.0) + [0.0, 0.7, 0.0], _tool(0.0) + FAR])
     k, zone, d = z.step(1)[0]
     assert (k, zone) == (CONFIG.yellow_speed, YELLOW) and d == pytest.approx(0.7)
-    z.set(bodies=[_tool(0.0) + [0.0, 0.0, 0.5], _tool(0.0) + FAR])  # exactly red_distance
+    z.set(bodies=[_tool(0.0) + [0.0, 0.0, 0.5], _tool(0.0) + FAR])  # exactly yellow_distance
     k, zone, d = z.step(1)[0]
     assert (k, zone) == (CONFIG.red_speed, RED)
 

@@ -10,7 +10,7 @@ import verification.runner as runner_module
 import verification.search as search_module
 import verification.verify as verify_module
 from safety_systems.cli import main
-from safety_systems.scenario import load_controller_config
+from safety_systems.config.scenario import load_controller_config
 from verification.counts import Tally
 from verification.report import write_report
 from verification.space import load_space

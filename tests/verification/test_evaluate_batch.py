@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from safety_systems.scenario import SensorFault, load_controller_config
+from safety_systems.config.scenario import SensorFault, load_controller_config
 from verification.evaluate_batch import evaluate_batch, evaluate_many
 from verification.evaluate_drake import evaluate_drake
 from verification.space import Range, free_parameters, load_space, make_scenario, to_point
@@ -137,7 +137,7 @@ def test_batch_rejects_mixed_shapes():
 
 
 def test_unit_noise_table_is_the_sensors_draws_kept_and_grown():
-    from safety_systems.systems.mocap_sensor import unit_noise
+    from safety_systems.sensing.delivery import unit_noise
     from verification.evaluate_batch import unit_noise_table
 
     short = unit_noise_table(12345, 3, 4).copy()

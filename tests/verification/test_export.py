@@ -4,8 +4,8 @@ from, and the export refuses a report of another configuration."""
 import json
 from pathlib import Path
 
-from safety_systems.params_file import load_params
-from safety_systems.scenario import load_controller_config
+from safety_systems.config.params_file import load_params
+from safety_systems.config.scenario import load_controller_config
 
 MODELS = Path(__file__).parents[2] / "models"
 ISO = MODELS / "configs" / "iso.yaml"

@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.braking import BrakingTable, path_rate_step
-from safety_systems.configuration import monitor_capsules, tracker_rules
-from safety_systems.joint_path import joint_path_state
-from safety_systems.kalman import axis_predict, process_noise, transition_matrix
-from safety_systems.robot_geometry import capsule_ends
-from safety_systems.scenario import Box, BrakingConfig, load_controller_config
-from safety_systems.tracks import TRACK_SLOT, frame_update
-from safety_systems.workcell import braking_table, frame_timeout, joint_path
+from safety_systems.cell.braking import BrakingTable, path_rate_step
+from safety_systems.config.configuration import monitor_capsules, tracker_rules
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.sensing.kalman import axis_predict, process_noise, transition_matrix
+from safety_systems.cell.robot_geometry import capsule_ends
+from safety_systems.config.scenario import Box, BrakingConfig, load_controller_config
+from safety_systems.sensing.tracks import TRACK_SLOT, frame_update
+from safety_systems.config.configuration import braking_table, frame_timeout, joint_path
 from verification.proof import (
     ERROR_HORIZON,
     braking_is_monotone,

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.scenario import load_controller_config
-from safety_systems.workcell import scripted_operators
+from safety_systems.config.scenario import load_controller_config
+from safety_systems.config.configuration import scripted_operators
 from verification.counts import Tally
 from verification.evaluate_batch import evaluate_many
 from verification.proof import margin, prove, prove_separation

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from dask.distributed import LocalCluster
 
-from safety_systems.scenario import load_controller_config
+from safety_systems.config.scenario import load_controller_config
 from verification.evaluate_batch import evaluate_many
 from verification.runner import Runner
 from verification.space import free_parameters, load_space, make_scenario, to_point
@@ -43,7 +43,7 @@ def test_check_scheduler_accepts_a_scheduler_and_refuses_anything_else():
     import socket
     import threading
 
-    from safety_systems.input_error import InputError
+    from safety_systems.files.input_error import InputError
     from verification.runner import check_scheduler
 
     with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import verification.runner as runner_module
-from safety_systems.scenario import load_controller_config
+from safety_systems.config.scenario import load_controller_config
 from verification.runner import Runner
 from verification.search import SWEEPS, falsify, sweep, sweep_points
 from verification.space import free_parameters, load_space

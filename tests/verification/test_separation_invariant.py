@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from safety_systems.configuration import contact_body_radii, contact_capsules
-from safety_systems.metrics import command_signal, robot_stopping, summarize
-from safety_systems.robot_geometry import capsule_ends
-from safety_systems.scenario import load_controller_config, load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.config.configuration import contact_body_radii, contact_capsules
+from safety_systems.outputs.metrics import command_signal, robot_stopping, summarize
+from safety_systems.cell.robot_geometry import capsule_ends
+from safety_systems.config.scenario import load_controller_config, load_scenario
+from safety_systems.diagrams.simulation import simulate
 from verification.evaluate_drake import robustness_of_run
 from verification.proof import prove, prove_separation
 from verification.report import write_report
@@ -21,7 +21,7 @@ INSPECTION = load_scenario("models/scenarios/inspection.yaml")
 
 
 def _plain_s(scenario, v_h, v_r, t_stop, b_stop):
-    """Seed Eqs. 9-11 on the truth, written out (no Z_d, Z_r; see safety_systems.metrics)."""
+    """Seed Eqs. 9-11 on the truth, written out (no Z_d, Z_r; see safety_systems.outputs.metrics)."""
     f = scenario.controller.safety
     t = t_stop + f.reaction_time
     rest = v_r * f.reaction_time + b_stop + f.intrusion_distance

@@ -9,17 +9,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safety_systems.joint_path import joint_path_state
-from safety_systems.operator_paths import make_operator_path, operator_position_velocity
-from safety_systems.scenario import (
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.cell.operator_paths import make_operator_path, operator_position_velocity
+from safety_systems.config.scenario import (
     ScenarioError,
     dump_scenario,
     load_controller_config,
     scenario_from_text,
     validate_scenario,
 )
-from safety_systems.ur5e import dh_frames, tool0_position
-from safety_systems.workcell import joint_path
+from safety_systems.cell.ur5e import dh_frames, tool0_position
+from safety_systems.config.configuration import joint_path
 from verification.space import (
     _LIMITS,
     HEAD_BACK,

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from safety_systems.metrics import task_time
-from safety_systems.configuration import with_controller
-from safety_systems.scenario import load_controller_config, load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.outputs.metrics import task_time
+from safety_systems.config.configuration import with_controller
+from safety_systems.config.scenario import load_controller_config, load_scenario
+from safety_systems.diagrams.simulation import simulate
 from verification.space import load_space
 from verification.verify import verify
 

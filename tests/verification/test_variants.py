@@ -17,12 +17,12 @@ import numba
 import numpy as np
 import pytest
 
-import safety_systems.separation as separation_module
+import safety_systems.ssm.separation as separation_module
 import verification.evaluate_batch as batch_module
-from safety_systems.metrics import true_pairs
-from safety_systems.robot_geometry import CAPSULE_NAMES, segment_pair
-from safety_systems.scenario import load_controller_config, load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.outputs.metrics import true_pairs
+from safety_systems.cell.robot_geometry import CAPSULE_NAMES, segment_pair
+from safety_systems.config.scenario import load_controller_config, load_scenario
+from safety_systems.diagrams.simulation import simulate
 from verification.evaluate_drake import robustness_of_run
 from verification.proof import prove
 from verification.space import Range, load_space

@@ -14,8 +14,8 @@ import pytest
 import verification.runner as runner_module
 import verification.verify as verify_module
 from safety_systems.cli import main
-from safety_systems.scenario import load_controller_config, load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.config.scenario import load_controller_config, load_scenario
+from safety_systems.diagrams.simulation import simulate
 from verification.evaluate_batch import evaluate_batch, evaluate_many
 from verification.evaluate_drake import evaluate_drake, robustness_of_run
 from verification.proof import Proof

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from safety_systems.cli import main
-from safety_systems.scenario import load_scenario
-from safety_systems.simulation import simulate
+from safety_systems.config.scenario import load_scenario
+from safety_systems.diagrams.simulation import simulate
 from verification.evaluate_drake import robustness_of_run
 
 MODELS = Path(__file__).parents[2] / "models"

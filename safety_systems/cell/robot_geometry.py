@@ -1,0 +1,431 @@
+"""The UR5e as capsules: one geometry of the robot for the whole project.
+
+Points P0 ... P6 are the origins of the standard-DH frames {0} ... {6} (P0 the fixed
+base origin, P6 tool0 on the flange) and P7 = P6 + tool_length z6 the tool tip (z6,
+tool0's z axis, equals (P6 - P5) / d6 and does not depend on q6). Capsule j is the
+segment from A_j = (1 - t0_j) P[a_j] + t0_j P[b_j] to B_j (the same with t1_j), grown by
+radius r_j (metres); t0 <= 0 <= 1 <= t1 extend a link's segment over its joint housings.
+a_j and b_j lie on one rigid link, so A_j and B_j are rigid points of it and any axis
+point A + t (B - A) moves at vA + t (vB - vA) exactly.
+
+The six link capsules are fitted at import to the collision cylinders of
+``models/ur5e/ur5e.urdf`` (:func:`model_link_capsules`). Those cylinders are a
+simplified model of the arm, not UR's meshes (see ``models/ur5e/README.md``), so the
+capsules are only as good as that model. The base_link's cylinder is fixed to the world
+and gets no capsule: a static base cannot strike anyone.
+
+Seed: Lettera, Costa, Callegari 2025 (``shared/seeds/000_*``) monitors one robot point,
+the end effector: its velocity (Eq. 5, there a finite difference; here J(q) v), the
+directed speeds (Eqs. 6-7) and the distance (Eq. 8, point to point). Our interpretation:
+the robot point becomes the nearest point of the nearest capsule's axis, and Eq. 8's
+distance the clearance to that capsule (axis distance - capsule radius - body radius;
+negative = overlap). :func:`tool_point` keeps the seed's single point, bit for bit.
+"""
+
+import dataclasses
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from safety_systems.cell import ur5e
+from safety_systems.ssm.formulas import separation_pair
+from safety_systems.cell.ur5e import _cos_sin, _tool0_from_trig
+
+CAPSULE_NAMES = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3", "tool")
+LINK_SEGMENTS = tuple((k, k + 1) for k in range(6))  # DH origin indices of each link
+NUM_POINTS = 8  # P0 ... P6 and the tool tip P7
+RADIUS_STEP = 0.0005  # m; fitted radii are rounded up to it
+_RIM_SAMPLES = 1 << 14  # per rim circle; the sampling error is bounded below
+
+
+
+def _rim_bounds(m, u, w, r, e):
+    """(lowest, highest projection onto unit e, largest squared distance from the line
+    through 0 along e) of the circle m + r (cos s u + sin s w). The squared distance is
+    g(s) = C + a1 cos s + b1 sin s + a2 cos 2s + b2 sin 2s, sampled every 2 pi / n; as
+    g' = 0 at its maximum and |g''| <= |(a1, b1)| + 4 |(a2, b2)|, the true maximum exceeds
+    the sampled one by at most that bound times (pi / n)^2 / 2, which is added."""
+    P = np.eye(3) - np.outer(e, e)
+    Pm, Pu, Pw = P @ m, P @ u, P @ w
+    a1, b1 = 2 * r * (Pm @ Pu), 2 * r * (Pm @ Pw)
+    a2, b2 = r * r * (Pu @ Pu - Pw @ Pw) / 2, r * r * (Pu @ Pw)
+    s = np.arange(_RIM_SAMPLES) * (2 * math.pi / _RIM_SAMPLES)
+    g = (Pm @ Pm + r * r * (Pu @ Pu + Pw @ Pw) / 2 + a1 * np.cos(s) + b1 * np.sin(s)
+         + a2 * np.cos(2 * s) + b2 * np.sin(2 * s))
+    g_max = g.max() + (math.hypot(a1, b1) + 4 * math.hypot(a2, b2)) * (
+        math.pi / _RIM_SAMPLES) ** 2 / 2
+    spread = r * math.hypot(u @ e, w @ e)
+    return m @ e - spread, m @ e + spread, g_max
+
+
+def _fit_link_capsules(urdf: Path) -> tuple[tuple[str, ...], tuple]:
+    """The moving links' names, from the base out, and their (a, b, t0, t1, radius): the
+    axis P_k -> P_{k+1} (in link k's URDF frame, DH frame {k} turned by joint k+1: from
+    the origin to the next joint's origin, which must be (a_k, 0, d_k)), extended over its
+    collision cylinders' projections, the radius the largest distance of their rim circles
+    from the axis (containing the rims contains the cylinders, their convex hulls),
+    rounded up to ``RADIUS_STEP`` (within 1 nm of a step counts as on it: round-off)."""
+    root = ET.parse(urdf).getroot()
+    links = {link.get("name"): link for link in root.findall("link")}
+    joint_of = {joint.find("parent").get("link"): joint for joint in root.findall("joint")}
+    names, fitted, name = [], [], "base_link"  # a chain: one child joint per link
+    for k in range(6):
+        name = joint_of[name].find("child").get("link")
+        names.append(name)
+        end = np.array([float(x) for x in joint_of[name].find("origin").get("xyz").split()])
+        if not np.allclose(end, [ur5e.DH_A[k], 0.0, ur5e.DH_D[k]], rtol=0.0, atol=1e-12):
+            raise ValueError(f"{urdf}: the joint after {name} is at {end}, not at (a, 0, d) "
+                             "of ur5e's DH data: regenerate the URDF")
+        length = float(np.linalg.norm(end))
+        e = end / length
+        low, high, g_max = 0.0, length, 0.0
+        for collision in links[name].iter("collision"):
+            cylinder = collision.find("geometry/cylinder")
+            if cylinder is None:
+                raise ValueError(f"{urdf}: a collision shape of {name} is not a cylinder")
+            origin = collision.find("origin")
+            c = np.array([float(x) for x in origin.get("xyz").split()])
+            roll, pitch, yaw = (float(x) for x in origin.get("rpy").split())
+            axis = np.array([math.cos(yaw) * math.sin(pitch) * math.cos(roll)
+                             + math.sin(yaw) * math.sin(roll),
+                             math.sin(yaw) * math.sin(pitch) * math.cos(roll)
+                             - math.cos(yaw) * math.sin(roll),
+                             math.cos(pitch) * math.cos(roll)])  # Rz Ry Rx e_z
+            r, half = float(cylinder.get("radius")), float(cylinder.get("length")) / 2
+            u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+            u /= np.linalg.norm(u)
+            for m in (c - half * axis, c + half * axis):
+                lo, hi, g = _rim_bounds(m, u, np.cross(axis, u), r, e)
+                low, high, g_max = min(low, lo), max(high, hi), max(g_max, g)
+        steps = math.ceil((math.sqrt(g_max) - 1e-9) / RADIUS_STEP)
+        fitted.append((k, k + 1, float(low / length), float(high / length),
+                       steps / round(1 / RADIUS_STEP)))
+    return tuple(names), tuple(fitted)
+
+
+LINK_NAMES, _MODEL_LINK_CAPSULES = _fit_link_capsules(ur5e.UR5E_URDF)  # URDF link names
+
+
+def model_link_capsules() -> tuple[tuple[int, int, float, float, float], ...]:
+    """(a, b, t0, t1, radius) of the six link capsules, fitted to the URDF at import."""
+    return _MODEL_LINK_CAPSULES
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Capsules:
+    """K capsules (see the module docstring): point indices a, b (K,) into P0 ... P7,
+    axis fractions t0, t1 (K,), radii (K,) in metres, and the tool length (metres) that
+    places P7. Arrays are stored read-only."""
+
+    names: tuple[str, ...]
+    a: np.ndarray
+    b: np.ndarray
+    t0: np.ndarray
+    t1: np.ndarray
+    radius: np.ndarray
+    tool_length: float = 0.0
+
+    def __post_init__(self):
+        for field, kind in (("a", np.int64), ("b", np.int64), ("t0", float), ("t1", float),
+                            ("radius", float)):
+            x = np.array(getattr(self, field), dtype=kind).reshape(-1)
+            x.setflags(write=False)
+            object.__setattr__(self, field, x)
+            if x.size != len(self.names):
+                raise ValueError(f"Capsules.{field} has {x.size} values for "
+                                 f"{len(self.names)} names: need one per capsule")
+        if np.any((self.a < 0) | (self.a >= NUM_POINTS) | (self.b < 0) | (self.b >= NUM_POINTS)):
+            raise ValueError(f"Capsules a = {self.a}, b = {self.b}: need indices in 0 ... 7")
+        object.__setattr__(self, "names", tuple(self.names))
+        object.__setattr__(self, "tool_length", float(self.tool_length))
+
+
+def robot_capsules(*, link_radii=None, payload_radius: float,
+                   tool_length: float = 0.0) -> Capsules:
+    """The seven capsules of ``CAPSULE_NAMES``: the six fitted link capsules (with
+    ``link_radii``, 6 radii in metres, instead of the fitted ones if given) and the tool,
+    P6 -> P7 (``tool_length`` metres along tool0's z axis), of ``payload_radius`` metres."""
+    fitted = np.array(_MODEL_LINK_CAPSULES)
+    radii = fitted[:, 4]
+    if link_radii is not None:
+        radii = np.asarray(link_radii, dtype=float).reshape(-1)
+        if radii.size != 6:
+            raise ValueError(f"link_radii = {link_radii!r}: need 6 radii (metres), one per "
+                             f"link {CAPSULE_NAMES[:6]}, or None for the fitted ones")
+        if not np.all(np.isfinite(radii) & (radii > 0.0)):
+            raise ValueError(f"link_radii = {link_radii!r}: every radius must be finite and "
+                             "> 0 metres")
+    if not (math.isfinite(payload_radius) and payload_radius > 0.0):
+        raise ValueError(f"payload_radius = {payload_radius!r}: need a finite radius > 0 "
+                         "metres")
+    if not (math.isfinite(tool_length) and tool_length >= 0.0):
+        raise ValueError(f"tool_length = {tool_length!r}: need a finite length >= 0 metres")
+    return Capsules(CAPSULE_NAMES, np.append(fitted[:, 0], 6), np.append(fitted[:, 1], 7),
+                    np.append(fitted[:, 2], 0.0), np.append(fitted[:, 3], 1.0),
+                    np.append(radii, payload_radius), tool_length)
+
+
+def tool_point() -> Capsules:
+    """One degenerate capsule, tool0 itself (radius 0): the seed's Eq. 8 robot point."""
+    return Capsules(("tool0",), [6], [6], [0.0], [0.0], [0.0], 0.0)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _turned(p, pv, k, c1, s1, v1, u, w, n, du, dw, dn, height):
+    """Row k of p, pv from (u, w, n) (horizontal, vertical, along joint 2's axis) in the
+    frame turned by q1, and their rates, as ur5e._tool0_from_trig maps them."""
+    p[k, 0], p[k, 1], p[k, 2] = c1 * u + s1 * n, s1 * u - c1 * n, height + w
+    pv[k, 0] = -s1 * v1 * u + c1 * du + c1 * v1 * n + s1 * dn
+    pv[k, 1] = c1 * v1 * u + s1 * du + s1 * v1 * n - c1 * dn
+    pv[k, 2] = dw
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _points_from_trig(trig, v, tool_length, p, pv):
+    """:func:`robot_points_one` from trig = (cos, sin) of q1, q2, q2 + q3, q2 + q3 + q4,
+    q5, as ur5e._tool0_from_trig takes them (P6 is its result)."""
+    a2, a3, d1, d4, d5 = ur5e.DH_A[1], ur5e.DH_A[2], ur5e.DH_D[0], ur5e.DH_D[3], ur5e.DH_D[4]
+    c1, s1, c2, s2, c23, s23, c234, s234, c5, s5 = trig
+    v1, v2, v3, v4, v5 = v[0], v[1], v[2], v[3], v[4]
+    v23 = v2 + v3
+    v234 = v23 + v4
+    for i in range(3):  # P0, P1 = (0, 0, d1): on joint 1's axis, at rest
+        p[0, i], p[1, i], pv[0, i], pv[1, i] = 0.0, 0.0, 0.0, 0.0
+    p[1, 2] = d1
+    u, w, du, dw = a2 * c2, a2 * s2, -a2 * s2 * v2, a2 * c2 * v2  # P2
+    _turned(p, pv, 2, c1, s1, v1, u, w, 0.0, du, dw, 0.0, d1)
+    u, w, du, dw = u + a3 * c23, w + a3 * s23, du - a3 * s23 * v23, dw + a3 * c23 * v23
+    _turned(p, pv, 3, c1, s1, v1, u, w, 0.0, du, dw, 0.0, d1)
+    _turned(p, pv, 4, c1, s1, v1, u, w, d4, du, dw, 0.0, d1)
+    u, w = u + d5 * s234, w - d5 * c234  # P5
+    du, dw = du + d5 * c234 * v234, dw + d5 * s234 * v234
+    _turned(p, pv, 5, c1, s1, v1, u, w, d4, du, dw, 0.0, d1)
+    p[6, 0], p[6, 1], p[6, 2], pv[6, 0], pv[6, 1], pv[6, 2] = _tool0_from_trig(trig, v)
+    _turned(p, pv, 7, c1, s1, v1, -s5 * c234, -s5 * s234, c5,  # z6 (= z5) and its rate
+            s5 * s234 * v234 - c5 * c234 * v5, -c5 * s234 * v5 - s5 * c234 * v234,
+            -s5 * v5, 0.0)
+    for i in range(3):
+        p[7, i] = p[6, i] + tool_length * p[7, i]
+        pv[7, i] = pv[6, i] + tool_length * pv[7, i]
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def robot_points_one(q, v, tool_length, p, pv):
+    """P0 ... P7 into p (8, 3) and their velocities J(q) v into pv (8, 3), metres and m/s,
+    of one joint position q and velocity v (6,), compiled and callable from other compiled
+    code. Closed form as ur5e.tool0_one (joints 2-4 parallel): P2 = P1 + a2 (c2, s2),
+    P3 = P2 + a3 (c23, s23), P4 = P3 + d4 along joint 2's axis, P5 = P4 + d5 z4; P6 is
+    tool0_one's, bit for bit; P7 = P6 + tool_length z6."""
+    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
+    _points_from_trig((math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2),
+                       math.cos(q2 + q3), math.sin(q2 + q3), math.cos(q2 + q3 + q4),
+                       math.sin(q2 + q3 + q4), math.cos(q5), math.sin(q5)), v, tool_length,
+                      p, pv)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def robot_points_one_memo(q, v, tool_length, memo, p, pv):
+    """:func:`robot_points_one`, equal bit for bit, reusing the trig kept in ``memo`` (15,)
+    as ur5e.tool0_reusing_trig does (one memo can serve both)."""
+    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
+    c1, s1 = _cos_sin(q1, memo, 0)
+    c2, s2 = _cos_sin(q2, memo, 1)
+    c23, s23 = _cos_sin(q2 + q3, memo, 2)
+    c234, s234 = _cos_sin(q2 + q3 + q4, memo, 3)
+    c5, s5 = _cos_sin(q5, memo, 4)
+    _points_from_trig((c1, s1, c2, s2, c23, s23, c234, s234, c5, s5), v, tool_length, p, pv)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def capsule_ends_one(p, pv, a, b, t0, t1, ends, end_velocities):
+    """Capsule ends A, B into ends (K, 2, 3) and their velocities into end_velocities from
+    the points p and velocities pv (8, 3): (1 - t) P_a + t P_b (exact at t = 0 and 1)."""
+    for j in range(a.size):
+        for i in range(3):
+            pa, pb, va, vb = p[a[j], i], p[b[j], i], pv[a[j], i], pv[b[j], i]
+            ends[j, 0, i] = (1.0 - t0[j]) * pa + t0[j] * pb
+            ends[j, 1, i] = (1.0 - t1[j]) * pa + t1[j] * pb
+            end_velocities[j, 0, i] = (1.0 - t0[j]) * va + t0[j] * vb
+            end_velocities[j, 1, i] = (1.0 - t1[j]) * va + t1[j] * vb
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def segment_pair(p_B, v_B, A, B, vA, vB):
+    """(axis_distance, v_human_directed, v_robot_directed) of a body at p_B moving at v_B
+    and the segment AB moving rigidly (ends' velocities vA, vB): seed Eqs. 6-8 as
+    ssm.separation_pair takes them, with the robot point the nearest point
+    x = (1 - t) A + t B of AB, t = clamp((p_B - A).(B - A) / |B - A|^2, 0, 1), moving at
+    (1 - t) vA + t vB. A point segment (|B - A|^2 = 0) is separation_pair(A, vA, ...) bit
+    for bit. Positive speeds close in; a NaN input gives NaN.
+
+    Why x's velocity: the distance to a rigid segment is a minimum over its points; by the
+    envelope (Danskin's) theorem its rate is that of the minimising pair's offset, so
+    d/dt distance = -(v_human_directed + v_robot_directed) with x moving as a rigid point.
+    """
+    e0, e1, e2 = B[0] - A[0], B[1] - A[1], B[2] - A[2]
+    ee = e0 * e0 + e1 * e1 + e2 * e2
+    x0, x1, x2, w0, w1, w2 = A[0], A[1], A[2], vA[0], vA[1], vA[2]
+    if ee != 0.0:  # else a point: A itself (B and vB unread; a NaN goes on to NaN)
+        t = ((p_B[0] - A[0]) * e0 + (p_B[1] - A[1]) * e1 + (p_B[2] - A[2]) * e2) / ee
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0  # a NaN t stays NaN
+        s = 1.0 - t
+        x0, x1, x2 = s * A[0] + t * B[0], s * A[1] + t * B[1], s * A[2] + t * B[2]
+        w0, w1, w2 = s * vA[0] + t * vB[0], s * vA[1] + t * vB[1], s * vA[2] + t * vB[2]
+    return separation_pair((x0, x1, x2), (w0, w1, w2), p_B, v_B)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def nearest_capsule_one(p_B, v_B, r_B, ends, end_velocities, radius):
+    """(clearance, v_human_directed, v_robot_directed, index) of a body (radius r_B
+    metres) and the capsule nearest to it among K (ends and end_velocities (K, 2, 3),
+    radius (K,)): clearance = axis distance - radius - r_B metres (negative = overlap),
+    the speeds of :func:`segment_pair` for that capsule, the first on ties. A NaN in any
+    pair's figures (a NaN position, velocity or radius) gives (NaN, NaN, NaN, -1)."""
+    best, best_h, best_r, index, faulty = np.inf, np.nan, np.nan, -1, False
+    for j in range(radius.size):
+        d, v_h, v_r = segment_pair(
+            p_B, v_B, (ends[j, 0, 0], ends[j, 0, 1], ends[j, 0, 2]),
+            (ends[j, 1, 0], ends[j, 1, 1], ends[j, 1, 2]),
+            (end_velocities[j, 0, 0], end_velocities[j, 0, 1], end_velocities[j, 0, 2]),
+            (end_velocities[j, 1, 0], end_velocities[j, 1, 1], end_velocities[j, 1, 2]))
+        c = d - radius[j] - r_B
+        if math.isnan(c) or math.isnan(v_h) or math.isnan(v_r):
+            faulty = True
+        elif c < best:
+            best, best_h, best_r, index = c, v_h, v_r, j
+    if faulty:
+        best, best_h, best_r, index = np.nan, np.nan, np.nan, -1
+    return best, best_h, best_r, index
+
+
+@numba.njit(cache=True)
+def _end_rows(q, v, tool_length, a, b, t0, t1, p, pv, ends, end_velocities):
+    """Points (L, 8, 3) and capsule ends (L, K, 2, 3), with velocities, of rows q, v (L, 6)."""
+    for row in range(q.shape[0]):
+        robot_points_one(q[row], v[row], tool_length, p[row], pv[row])
+        capsule_ends_one(p[row], pv[row], a, b, t0, t1, ends[row], end_velocities[row])
+
+
+@numba.njit(cache=True)
+def _pair_rows(q, v, tool_length, a, b, t0, t1, radius, p_B, v_B, r_B, every, out, index):
+    """Per row (q, v (L, 6); bodies p_B, v_B (L, N, 3), radii r_B (L, N)): every pair's
+    clearance into out (L, N, K) if ``every``, else :func:`nearest_capsule_one`'s figures
+    into out[:, :, :3] and index (L, N)."""
+    p, pv = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    ends, end_velocities = np.empty((a.size, 2, 3)), np.empty((a.size, 2, 3))
+    for row in range(q.shape[0]):
+        robot_points_one(q[row], v[row], tool_length, p, pv)
+        capsule_ends_one(p, pv, a, b, t0, t1, ends, end_velocities)
+        for i in range(p_B.shape[1]):
+            if every:
+                for j in range(a.size):
+                    d = segment_pair(p_B[row, i], v_B[row, i], ends[j, 0], ends[j, 1],
+                                     end_velocities[j, 0], end_velocities[j, 1])[0]
+                    out[row, i, j] = d - radius[j] - r_B[row, i]
+            else:
+                (out[row, i, 0], out[row, i, 1], out[row, i, 2],
+                 index[row, i]) = nearest_capsule_one(p_B[row, i], v_B[row, i], r_B[row, i],
+                                                      ends, end_velocities, radius)
+
+
+_NO_CAPSULES = Capsules((), [], [], [], [], [])
+
+
+def _flat(x, lead: tuple, tail: tuple) -> np.ndarray:
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), lead + tail)
+                                ).reshape((-1,) + tail)
+
+
+def _point_and_end_rows(q, v, tool_length: float, capsules: Capsules):
+    """(lead shape, points (2, L, 8, 3), ends (2, L, K, 2, 3)) at q, v (..., 6): positions
+    [0] and velocities [1] (v None: not wanted, q stands in)."""
+    q = np.asarray(q, dtype=float)
+    lead = q.shape[:-1] if v is None else np.broadcast_shapes(q.shape[:-1], np.shape(v)[:-1])
+    q_rows = _flat(q, lead, (6,))
+    v_rows = q_rows if v is None else _flat(v, lead, (6,))
+    L, c = q_rows.shape[0], capsules
+    p, ends = np.empty((2, L, NUM_POINTS, 3)), np.empty((2, L, c.radius.size, 2, 3))
+    _end_rows(q_rows, v_rows, float(tool_length), c.a, c.b, c.t0, c.t1, p[0], p[1], ends[0],
+              ends[1])
+    return lead, p, ends
+
+
+def robot_points(q: np.ndarray, v: np.ndarray | None = None, tool_length: float = 0.0
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+    """P0 ... P7 (..., 8, 3), metres, at joint positions q (..., 6), and their velocities
+    J(q) v (m/s) at joint velocities v (None when v is None)."""
+    lead, p, _ = _point_and_end_rows(q, v, tool_length, _NO_CAPSULES)
+    p = p.reshape((2,) + lead + (NUM_POINTS, 3))
+    return p[0], None if v is None else p[1]
+
+
+def capsule_ends(q: np.ndarray, capsules: Capsules, v: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Capsule ends (..., K, 2, 3), metres, at joint positions q (..., 6), and their
+    velocities (m/s) at joint velocities v (None when v is None)."""
+    lead, _, ends = _point_and_end_rows(q, v, capsules.tool_length, capsules)
+    ends = ends.reshape((2,) + lead + ends.shape[2:])
+    return ends[0], None if v is None else ends[1]
+
+
+def _pairs(q, v, capsules, p_bodies, v_bodies, body_radii, every):
+    p_B, r_B = np.asarray(p_bodies, dtype=float), np.asarray(body_radii, dtype=float)
+    N = p_B.shape[-2]
+    leads = [np.shape(q)[:-1], p_B.shape[:-2], r_B.shape[:-1]]
+    leads += [] if v is None else [np.shape(v)[:-1], np.shape(v_bodies)[:-2]]
+    lead = np.broadcast_shapes(*leads)
+    q_rows = _flat(q, lead, (6,))
+    v_rows = np.zeros_like(q_rows) if v is None else _flat(v, lead, (6,))
+    pb_rows = _flat(p_B, lead, (N, 3))
+    vb_rows = np.zeros_like(pb_rows) if v is None else _flat(v_bodies, lead, (N, 3))
+    K = capsules.radius.size
+    out = np.empty((pb_rows.shape[0], N, K if every else 3))
+    index = np.empty((pb_rows.shape[0], N), dtype=np.int64)
+    _pair_rows(q_rows, v_rows, capsules.tool_length, capsules.a, capsules.b, capsules.t0,
+               capsules.t1, capsules.radius, pb_rows, vb_rows, _flat(r_B, lead, (N,)), every,
+               out, index)
+    return lead, out, index
+
+
+def clearances(q: np.ndarray, capsules: Capsules, p_bodies: np.ndarray,
+               body_radii: np.ndarray | float) -> np.ndarray:
+    """Clearance (metres; axis distance - capsule radius - body radius, negative =
+    overlap) of every body (p_bodies (..., N, 3), radii (..., N) or scalar) to every
+    capsule at joint positions q (..., 6): shape (..., N, K)."""
+    lead, out, _ = _pairs(q, None, capsules, p_bodies, None, body_radii, True)
+    return out.reshape(lead + out.shape[1:])
+
+
+def nearest_capsules(q: np.ndarray, v: np.ndarray, capsules: Capsules, p_bodies: np.ndarray,
+                     v_bodies: np.ndarray, body_radii: np.ndarray | float
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`nearest_capsule_one` of every body: (clearance, v_human_directed,
+    v_robot_directed, index), each (..., N), at joint positions and velocities q, v
+    (..., 6), bodies at p_bodies moving at v_bodies (..., N, 3), radii (..., N)."""
+    lead, out, index = _pairs(q, v, capsules, p_bodies, v_bodies, body_radii, False)
+    shape = lead + out.shape[1:2]
+    return (out[..., 0].reshape(shape), out[..., 1].reshape(shape),
+            out[..., 2].reshape(shape), index.reshape(shape))
+
+
+def min_clearance(q: np.ndarray, capsules: Capsules, p_bodies: np.ndarray,
+                  body_radii: np.ndarray | float) -> np.ndarray:
+    """The smallest clearance (metres) of each body over the capsules, (..., N); NaN if
+    any of the body's pairs is NaN."""
+    return nearest_capsules(q, np.zeros(6), capsules, p_bodies, np.zeros(3), body_radii)[0]
+
+
+@numba.njit(cache=True)
+def capsule_ends_at(q, tool_length, a, b, t0, t1, out):
+    """The capsule ends (K, 2, 3) at joint positions q into out (velocities unused), of
+    :class:`Capsules` (a, b, t0, t1, tool_length); compiled, shared by the RobotCapsules
+    system and the live runtime."""
+    p, pv = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    robot_points_one(q, np.zeros(6), tool_length, p, pv)
+    capsule_ends_one(p, pv, a, b, t0, t1, out, np.empty_like(out))

@@ -1,0 +1,199 @@
+"""What a configuration and a scenario mean for the loop's rules: plain functions shared by
+the Drake diagram, the batched verifier and the proof (never a copy in each)."""
+
+import dataclasses
+
+import numpy as np
+
+from safety_systems.cell.braking import BrakingTable, default_braking_table, stopping_distance
+from safety_systems.cell.braking import stopping_time as table_stopping_time
+from safety_systems.cell.cartesian_path import line_path, polyline_path
+from safety_systems.cell.joint_path import JointPath, SplinePath, default_joint_path, make_joint_path
+from safety_systems.cell.operator_paths import ScriptedOperator, make_operator_path
+from safety_systems.cell.recorded_operator import RecordedOperator
+from safety_systems.cell.robot_geometry import Capsules, robot_capsules, tool_point
+from safety_systems.config.scenario import (
+    ControllerConfig,
+    RobotConfig,
+    Scenario,
+    actual_sensor,
+    body_names,
+)
+from safety_systems.sensing.sensor_faults import fault_table
+from safety_systems.sensing.tracks import make_regions, make_rules
+from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS
+
+
+def tracker_rules(config: ControllerConfig) -> np.ndarray:
+    """The tracker's rules (``safety_systems.sensing.tracks.make_rules``) of a configuration."""
+    s, t = config.sensor, config.tracker
+    return make_rules(
+        measurement_std=s.noise_std if t.measurement_std is None else t.measurement_std,
+        velocity_process_noise=t.velocity_process_noise,
+        initial_velocity_std=t.initial_velocity_std, period=1.0 / s.rate_hz,
+        hidden_bodies=t.hidden_bodies, max_coast_time=t.max_coast_time,
+        exit_radius=t.exit_radius, gate=t.gate, gate_speed=t.gate_speed,
+        gate_width=t.gate_width, human_uncertainty=config.safety.human_uncertainty)
+
+
+def tracker_regions(config: ControllerConfig) -> np.ndarray:
+    """The cell's walls and exits (``safety_systems.sensing.tracks.make_regions``)."""
+    t = config.tracker
+    cell = None if t.cell is None else (t.cell.min, t.cell.max)
+    return make_regions(cell, [(b.min, b.max) for b in t.exits])
+
+
+def sensor_faults(scenario: Scenario) -> np.ndarray:
+    """The fault table (``safety_systems.sensing.sensor_faults``) of the scenario's real sensor."""
+    names = body_names(scenario)
+    return fault_table([
+        (f.kind, names.index(f.body) if f.body else -1,
+         names.index(f.other) if f.other else -1, f.start, f.end, f.offset)
+        for f in actual_sensor(scenario).faults])
+
+
+def body_radii(scenario: Scenario) -> np.ndarray:
+    """(N,) the radius of every body slot's sphere, m."""
+    return np.array([b.radius for o in scenario.operators for b in o.bodies], dtype=float)
+
+
+def monitor_capsules(config: ControllerConfig) -> Capsules:
+    """The robot as the SeparationMonitor measures it: the UR5e's capsules with the
+    configured link radii (if any) and tool, or the seed's tool point."""
+    f = config.safety
+    if f.robot_geometry == "tool_point":
+        return tool_point()
+    return robot_capsules(link_radii=f.link_radii or None, payload_radius=f.payload_radius,
+                          tool_length=f.tool_length)
+
+
+def monitored_body_radii(scenario: Scenario) -> np.ndarray:
+    """(N,) body radii the monitor uses: the scenario's, or 0 on the tool point (Eq. 8
+    measures points)."""
+    return monitored_radii(scenario.controller, body_radii(scenario))
+
+
+def monitored_radii(config: ControllerConfig, radii: np.ndarray) -> np.ndarray:
+    """The radii (N,) the monitor uses for bodies of these ``radii``: as given, or 0 on
+    the tool point (Eq. 8 measures points)."""
+    radii = np.asarray(radii, dtype=float)
+    return np.zeros_like(radii) if config.safety.robot_geometry == "tool_point" else radii
+
+
+def contact_capsules(robot: RobotConfig, contact_geometry: str) -> Capsules:
+    """The real robot for the safety properties: the UR5e model's capsules with the cell's
+    real tool (``robot.payload_radius``, ``robot.tool_length``), or the tool point."""
+    if contact_geometry == "tool_point":
+        return tool_point()
+    return robot_capsules(payload_radius=robot.payload_radius, tool_length=robot.tool_length)
+
+
+def contact_body_radii(scenario: Scenario) -> np.ndarray:
+    """(N,) body radii for the safety properties: the scenario's, or 0 on the tool point."""
+    if scenario.contact_geometry == "tool_point":
+        return np.zeros(sum(len(o.bodies) for o in scenario.operators))
+    return body_radii(scenario)
+
+
+def placeholder_braking(config: ControllerConfig) -> bool:
+    """Whether ``config`` gives no stopping data, so the UR5 placeholder table is used."""
+    return not config.braking.speed_fraction
+
+
+def braking_table(config: ControllerConfig) -> BrakingTable:
+    """The configured stopping data, or the UR5 placeholder table when none is given."""
+    b = config.braking
+    if placeholder_braking(config):
+        return default_braking_table()
+    return BrakingTable(np.array(b.speed_fraction), np.array(b.stopping_time),
+                        np.array(b.stopping_distance))
+
+
+def assumed_stopping(config: ControllerConfig) -> tuple[float, float]:
+    """(T_s, B) the monitor uses: the configured values, else the table's at full speed."""
+    table = braking_table(config)
+    t_s = config.safety.stopping_time
+    b = config.safety.stopping_distance
+    return (float(table_stopping_time(table, 1.0)) if t_s is None else t_s,
+            float(stopping_distance(table, 1.0)) if b is None else b)
+
+
+def monitor_terms(config: ControllerConfig) -> tuple:
+    """The SeparationMonitor's S terms as ``separation.pair_separation`` takes them:
+    (human-speed mode index, T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced, robot
+    speed index), T_s and B by :func:`assumed_stopping`."""
+    f = config.safety
+    t_s, b = assumed_stopping(config)
+    return (HUMAN_SPEED_MODES.index(f.human_speed), float(t_s + f.reaction_time),
+            float(f.reaction_time), float(b + f.intrusion_distance + f.robot_uncertainty),
+            float(f.iso_human_speed), float(f.iso_reduced_human_speed),
+            ROBOT_SPEED_TERMS.index(f.robot_speed))
+
+
+def frame_timeout(config: ControllerConfig) -> float:
+    """Age after which a frame is stale, seconds (see ``TrackerConfig``)."""
+    if config.tracker.frame_timeout is not None:
+        return config.tracker.frame_timeout
+    return 1.5 / config.sensor.rate_hz + config.sensor.latency + config.tracker.processing_time
+
+
+def joint_path(robot: RobotConfig) -> JointPath | SplinePath:
+    """The robot's path from the scenario: its line, its waypoints, or the default pick
+    and place cycle."""
+    p = robot.path
+    if p.task_path is not None:
+        t = p.task_path
+        return polyline_path(np.array(t.points), speed=t.speed, rpy=np.radians(t.rpy_deg),
+                             seed=np.radians(t.seed_deg), cycles=robot.cycles,
+                             there_and_back=True)
+    if p.line is not None:
+        return line_path(np.array(p.line.start), np.array(p.line.goal), speed=p.line.speed,
+                         rpy=np.radians(p.line.rpy_deg), seed=np.radians(p.line.seed_deg))
+    if not p.waypoints_deg:
+        return default_joint_path(cycles=robot.cycles)
+    return make_joint_path(np.radians(p.waypoints_deg), p.segment_durations,
+                           cycles=robot.cycles)
+
+
+def scripted_operators(scenario: Scenario) -> list[ScriptedOperator]:
+    """The scenario's operators as scripted paths with rigid body offsets."""
+    return [
+        ScriptedOperator(
+            path=make_operator_path([w.time for w in o.waypoints],
+                                    [w.position for w in o.waypoints],
+                                    o.max_speed, o.max_acceleration),
+            body_offsets=np.array([b.offset for b in o.bodies]),
+            enter_time=o.enter_time, leave_time=o.leave_time,
+        )
+        for o in scenario.operators
+    ]
+
+
+def with_controller(scenario: Scenario, config: ControllerConfig) -> Scenario:
+    """``scenario`` run under another controller configuration: ``config``'s settings
+    in the scenario's cell. What belongs to the cell stays the scenario's: its real sensor
+    (``actual_sensor``: the configuration states what the controller is configured for,
+    not what the cell's sensor does) and, when ``config`` declares none, its exits and
+    walls (``tracker.exits``, ``tracker.cell``: where operators come and go)."""
+    tracker = config.tracker
+    if not tracker.exits and tracker.cell is None:
+        cell = scenario.controller.tracker
+        tracker = dataclasses.replace(tracker, exits=list(cell.exits), cell=cell.cell)
+    return dataclasses.replace(scenario, sensor=actual_sensor(scenario),
+                               controller=dataclasses.replace(config, tracker=tracker))
+
+
+def is_recorded(scenario: Scenario) -> bool:
+    """Whether the scenario's operators are played from recordings (they are all
+    recorded or all scripted)."""
+    return any(o.recording for o in scenario.operators)
+
+
+def recorded_operators(scenario: Scenario) -> list[RecordedOperator]:
+    """The scenario's recorded operators (``safety_systems.sensing.recording_mapping``)."""
+    from safety_systems.sensing.recording_mapping import load_recorded_operator
+
+    return [RecordedOperator(bodies=load_recorded_operator(o.recording, o.mapping, o.name),
+                             start=o.start, time_scale=o.time_scale, shift=tuple(o.shift),
+                             enter_time=o.enter_time, leave_time=o.leave_time)
+            for o in scenario.operators]

@@ -1,0 +1,793 @@
+"""Typed scenario files: the cell, the controller configuration and the operators.
+
+Read under the rules of ``safety_systems.files.documents`` (strict typed YAML, no duplicate
+keys; every number within the range declared on its field with ``ranges.number``,
+units beside it) and then checked field against field by :func:`validate_scenario`;
+every problem is raised as :class:`ScenarioError` (``InputError``) naming the file,
+the field, the value and what is allowed. Upper bounds are physical: ``MAX_DURATION``
+for any time, ``MAX_CELL`` for any position, 360 deg for any angle, ``SEED_MAX`` for
+seeds, and the ones given on the fields.
+This module must not use ``from __future__ import annotations`` (it breaks the loader).
+"""
+
+import dataclasses as dc
+import math
+import typing
+from pathlib import Path
+
+import numpy as np
+from pydrake.common.yaml import yaml_dump_typed
+
+from safety_systems.files.documents import load_document
+from safety_systems.files.documents import parse_typed as _parse_typed
+from safety_systems.files.input_error import InputError
+from safety_systems.cell.joint_path import make_joint_path
+from safety_systems.cell.operator_paths import make_operator_path
+from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
+from safety_systems.files.ranges import SEED_MAX, check_limits, number
+from safety_systems.sensing.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
+from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS
+from safety_systems.sensing.tracks import HIDDEN_BODY_RULES
+
+ScenarioError = InputError  # the name this module's callers know
+
+MAX_DURATION = 600.0  # s: a scenario's longest run (ten minutes of cell time, 300,000
+#                       logged control ticks at 500 Hz), and so the latest of any time
+MAX_CELL = 20.0  # m: the largest coordinate of anything in a cell (base frame)
+MAX_HUMAN_SPEED = 10.0  # m/s: above any human motion (a sprint; ISO 13855 uses 2.0)
+ISO_MAX_HUMAN_SPEED = 2.0  # m/s: ISO 13855's hand speed, the fastest scripted operator
+MAX_ROBOT_SPEED = 3.0  # m/s: above the UR5e's fastest tool speed (180 deg/s at 0.85 m)
+MAX_STOPPING_TIME = 10.0  # s
+MAX_STOPPING_DISTANCE = 5.0  # m
+
+
+def _time(default: float = 0.0) -> typing.Any:
+    return number(default, ge=0.0, le=MAX_DURATION, unit="s")
+
+
+def _position(default: typing.Any) -> typing.Any:
+    return number(default, ge=-MAX_CELL, le=MAX_CELL, unit="m")
+
+
+def _angles(default: typing.Any) -> typing.Any:
+    return number(default, ge=-360.0, le=360.0, unit="deg")
+
+
+def _seed() -> typing.Any:
+    return number(0, ge=0, le=SEED_MAX)
+
+
+@dc.dataclass
+class Interval:
+    """A time interval [start, end) in seconds."""
+
+    start: float = _time()
+    end: float = _time()
+
+
+@dc.dataclass
+class Occlusion:
+    """The named body is invisible to the sensor over [start, end)."""
+
+    body: str = ""
+    start: float = _time()
+    end: float = _time()
+
+
+@dc.dataclass
+class SensorFault:
+    """Frames captured over [start, end) carry a fault (``safety_systems.sensing.sensor_faults``):
+    ``outlier`` (the body's entry displaced by ``offset``, m), ``swap`` (the body's and
+    ``other``'s entries carry each other's ids), ``non_finite``, ``unknown_id`` (the
+    body's entry), ``time_duplicate`` or ``time_backwards`` (the whole frame; no body)."""
+
+    kind: str = "outlier"
+    body: str = ""
+    other: str = ""
+    start: float = _time()
+    end: float = _time()
+    offset: list[float] = number([0.0, 0.0, 0.0], ge=-10.0, le=10.0, unit="m")
+
+
+@dc.dataclass
+class SensorConfig:
+    """Motion-capture sensor (seed Section 4: OptiTrack streamed at 20 Hz, 0.2 mm).
+
+    ``occlusions``, ``dropouts`` and ``faults`` describe the real sensor of a scenario
+    (what happens to the frames), not the controller's assumptions."""
+
+    rate_hz: float = number(20.0, ge=20.0, le=1000.0, unit="Hz")
+    noise_std: float = number(0.0002, ge=0.0, le=0.05, unit="m")
+    latency: float = number(0.0, ge=0.0, le=1.0, unit="s")
+    occlusions: list[Occlusion] = dc.field(default_factory=list)
+    dropouts: list[Interval] = dc.field(default_factory=list)
+    faults: list[SensorFault] = dc.field(default_factory=list)
+    seed: int = _seed()
+
+
+@dc.dataclass
+class Box:
+    """An axis-aligned box [min, max] in the robot base frame, m."""
+
+    min: list[float] = _position([0.0, 0.0, 0.0])
+    max: list[float] = _position([0.0, 0.0, 0.0])
+
+
+@dc.dataclass
+class TrackerConfig:
+    """Kalman tracker (seed Eqs. 2-4).
+
+    ``measurement_std`` None: the sensor's noise. ``processing_time``: seconds from a
+    frame's delivery to the tracker's update. ``frame_timeout`` None: a frame is stale
+    (protective stop) 1.5 sensor periods + latency + processing time after its capture,
+    so one missing frame stops the robot. ``velocity_process_noise``: Q2 of Eq. 4, which
+    the seed leaves unspecified beyond "the velocity dynamics (assumed constant)"; we
+    read that literally: (0.22 m/s)^2 per step, a nearly constant velocity, which
+    smooths the estimate (and makes it lag a sudden lunge).
+
+    Hidden bodies (``safety_systems.sensing.tracks``): ``hazard`` keeps a body that is no longer
+    seen as a ball growing at ``safety.occlusion_speed`` until it is seen leaving through
+    one of the ``exits`` or beyond the ``cell``'s walls (None: no walls); ``expire`` is
+    the previous rule, kept for comparison: a track unseen for ``max_coast_time`` s ends
+    if its estimate lies beyond ``exit_radius`` m from the base, else is lost (stop).
+    ``gate``: reject (and stop on) a position farther from its track than a body moving
+    at ``gate_speed`` m/s (ISO 13855's 2.0 m/s hand speed) could be, plus ``gate_width``
+    m (0.05 m: noise and estimate error, with room) and Z_d.
+    """
+
+    measurement_std: typing.Optional[float] = number(None, gt=0.0, le=1.0, unit="m")
+    velocity_process_noise: float = number(0.05, gt=0.0, le=100.0, unit="(m/s)^2")
+    initial_velocity_std: float = number(2.0, gt=0.0, le=MAX_HUMAN_SPEED, unit="m/s")
+    hidden_bodies: str = "hazard"
+    max_coast_time: float = number(0.5, gt=0.0, le=60.0, unit="s")
+    exit_radius: float = number(2.5, gt=0.0, le=MAX_CELL, unit="m")
+    exits: list[Box] = dc.field(default_factory=list)
+    cell: typing.Optional[Box] = None
+    gate: bool = True
+    gate_speed: float = number(2.0, gt=0.0, le=MAX_HUMAN_SPEED, unit="m/s")
+    gate_width: float = number(0.05, ge=0.0, le=2.0, unit="m")
+    processing_time: float = number(0.001, gt=0.0, le=1.0, unit="s")
+    frame_timeout: typing.Optional[float] = number(None, gt=0.0, le=10.0, unit="s")
+
+
+@dc.dataclass
+class SafetyConfig:
+    """Separation monitor and speed override (seed Eqs. 9-12).
+
+    ``stopping_time`` and ``stopping_distance`` None: taken from the braking table at
+    full speed. ``human_uncertainty_sigmas`` > 0 adds that many standard deviations of
+    each track's position estimate to Z_d (0 = the seed's constant Z_d).
+    ``occlusion_speed`` (m/s): the radius of a hidden body's ball grows at this speed
+    (0 = the seed's: a hidden body stays where it was last seen).
+
+    ``robot_geometry``: ``capsules`` (the monitor measures every robot link:
+    ``safety_systems.cell.robot_geometry``, the UR5e model's capsules or ``link_radii`` (6 m),
+    and the tool from the flange along its z axis for ``tool_length`` m with
+    ``payload_radius`` m) or ``tool_point`` (the seed's Eq. 8: the tool flange as a
+    point, bodies as points).
+
+    ``robot_speed``: the robot's speed in S (Eq. 11's S_R = v_R T_r): ``directed`` (the
+    seed's and ISO/TS 15066's v_R^d, Eq. 7: the speed of the capsule's point nearest
+    the body towards it, negative when it moves away) or ``fastest_point`` (the speed of
+    the capsule's fastest point, whatever its direction: never credits a robot moving
+    away, so S does not hang on where the body is thought to be, and the separation
+    invariant's proof needs far less Z_d + Z_r; ``verification.proof``).
+    """
+
+    robot_geometry: str = "capsules"
+    robot_speed: str = "directed"
+    payload_radius: float = number(0.05, gt=0.0, le=1.0, unit="m")
+    tool_length: float = number(0.0, ge=0.0, le=1.0, unit="m")
+    link_radii: list[float] = number([], gt=0.0, le=0.5, unit="m")
+    human_speed: str = "estimated"
+    iso_human_speed: float = number(2.0, gt=0.0, le=MAX_HUMAN_SPEED, unit="m/s")
+    iso_reduced_human_speed: float = number(1.6, gt=0.0, le=MAX_HUMAN_SPEED, unit="m/s")
+    reaction_time: float = number(0.1, ge=0.0, le=5.0, unit="s")
+    stopping_time: typing.Optional[float] = number(None, ge=0.0, le=MAX_STOPPING_TIME,
+                                                   unit="s")
+    stopping_distance: typing.Optional[float] = number(None, ge=0.0,
+                                                       le=MAX_STOPPING_DISTANCE, unit="m")
+    intrusion_distance: float = number(0.0, ge=0.0, le=2.0, unit="m")
+    human_uncertainty: float = number(0.0, ge=0.0, le=1.0, unit="m")
+    robot_uncertainty: float = number(0.0, ge=0.0, le=1.0, unit="m")
+    human_uncertainty_sigmas: float = number(0.0, ge=0.0, le=10.0)
+    occlusion_speed: float = number(0.0, ge=0.0, le=MAX_HUMAN_SPEED, unit="m/s")
+    delta_s: float = number(2.0, ge=1.0, le=10.0)
+    d_min: float = number(0.30, ge=0.0, le=5.0, unit="m")
+
+
+@dc.dataclass
+class BrakingConfig:
+    """Stopping data by speed fraction; empty lists: the defaults for the category.
+
+    Integrators must enter the stopping data measured on their own cell.
+    """
+
+    stop_category: int = number(1, ge=0, le=1)
+    speed_fraction: list[float] = number([], gt=0.0, le=1.0)
+    stopping_time: list[float] = number([], gt=0.0, le=MAX_STOPPING_TIME, unit="s")
+    stopping_distance: list[float] = number([], gt=0.0, le=MAX_STOPPING_DISTANCE, unit="m")
+
+
+@dc.dataclass
+class LineConfig:
+    """A straight tool0 line (m, base frame) at a nominal speed (m/s), the tool held at
+    roll-pitch-yaw ``rpy_deg``; inverse kinematics starts from ``seed_deg``."""
+
+    start: list[float] = _position([0.0, 0.0, 0.0])
+    goal: list[float] = _position([0.0, 0.0, 0.0])
+    speed: float = number(0.05, gt=0.0, le=MAX_ROBOT_SPEED, unit="m/s")
+    rpy_deg: list[float] = _angles([180.0, 0.0, 0.0])
+    seed_deg: list[float] = _angles([159.0, -103.0, 74.0, -61.0, -90.0, -111.0])
+
+
+@dc.dataclass
+class TaskPoints:
+    """A task-space path file (``safety-systems plan`` writes one): points in m."""
+
+    points: list[list[float]] = _position([])
+
+
+@dc.dataclass
+class TaskPathConfig:
+    """A tool0 path through task-space points (m, base frame), run there and back
+    ``robot.cycles`` times rest to rest at a mean ``speed`` (m/s), the tool held at
+    roll-pitch-yaw ``rpy_deg``; inverse kinematics starts from ``seed_deg``. The points
+    are ``points``, or, when that is empty, those of ``file`` (a ``TaskPoints`` YAML
+    file, relative to the scenario file)."""
+
+    points: list[list[float]] = _position([])
+    file: str = ""
+    speed: float = number(0.1, gt=0.0, le=MAX_ROBOT_SPEED, unit="m/s")
+    rpy_deg: list[float] = _angles([180.0, 0.0, 0.0])
+    seed_deg: list[float] = _angles([90.0, -90.0, 90.0, -90.0, -90.0, 0.0])
+
+
+@dc.dataclass
+class PathConfig:
+    """The robot's path: a cyclic joint-space path (empty lists: the default
+    pick-and-place cycle), a one-way straight tool ``line``, or a ``task_path``."""
+
+    waypoints_deg: list[list[float]] = _angles([])
+    segment_durations: list[float] = number([], gt=0.0, le=MAX_DURATION, unit="s")
+    line: typing.Optional[LineConfig] = None
+    task_path: typing.Optional[TaskPathConfig] = None
+
+
+@dc.dataclass
+class RobotConfig:
+    """The UR5e station. ``mode``: ``kinematic`` (fast) or ``dynamic`` (plant + PD).
+
+    ``acceleration_limit``: how fast the path speed may rise, in fractions of the
+    nominal path speed per second (2.0: from rest to full speed in 0.5 s).
+    ``braking_time_scale``: the real robot's stopping times as a multiple of the
+    configured stopping data (1: the brakes are as the data says; > 1: weaker brakes,
+    which verification uses to check what happens when the data is wrong).
+    ``payload_radius`` and ``tool_length``: the real tool (m), a capsule from the
+    flange along its z axis; the properties measure contact against it.
+    """
+
+    mode: str = "kinematic"
+    control_rate_hz: float = number(500.0, ge=100.0, le=2000.0, unit="Hz")
+    cycles: int = number(3, ge=1, le=1000)
+    acceleration_limit: float = number(2.0, gt=0.0, le=100.0, unit="1/s")
+    braking_time_scale: float = number(1.0, gt=0.0, le=10.0)
+    payload_radius: float = number(0.05, gt=0.0, le=1.0, unit="m")
+    tool_length: float = number(0.0, ge=0.0, le=1.0, unit="m")
+    path: PathConfig = dc.field(default_factory=PathConfig)
+
+
+@dc.dataclass
+class EllipsoidConfig:
+    """Ellipsoid models (seed 004, Eqs. 1-5), metres.
+
+    Robot: one ellipsoid per link between DH frame origins (``link_radii``, 6 values;
+    empty: the tool only) and a ``tool_radius`` sphere ``tool_offset`` along tool0's z
+    axis from the flange. Operator: ``human``: ``hands`` (a sphere per tracked glove) or
+    ``upper_body`` (hands, forearms, upper arms, head and torso, built from the gloves;
+    ``safety_systems.speed_alteration.ellipsoids.human_ellipsoids``).
+    """
+
+    link_radii: list[float] = number([0.075, 0.065, 0.055, 0.05, 0.05, 0.05], gt=0.0, le=0.5,
+                                     unit="m")
+    tool_radius: float = number(0.05, gt=0.0, le=1.0, unit="m")
+    tool_offset: float = number(0.0, ge=-1.0, le=1.0, unit="m")
+    human: str = "upper_body"
+    hand_radius: float = number(0.05, gt=0.0, le=0.5, unit="m")
+    forearm_radius: float = number(0.05, gt=0.0, le=0.5, unit="m")
+    upper_arm_radius: float = number(0.06, gt=0.0, le=0.5, unit="m")
+    head_radius: float = number(0.12, gt=0.0, le=0.5, unit="m")
+    torso_semi_axes: list[float] = number([0.12, 0.20, 0.30], gt=0.0, le=1.0, unit="m")
+
+
+@dc.dataclass
+class SpeedAlterationConfig:
+    """Speed alteration controllers (seed 004): ``erga``, ``hwang``, ``bimodal``, ``none``.
+
+    Every ``rate_hz`` they choose an end-effector speed along the path, signed (the
+    robot may back away), at most ``speed_limit`` (ISO 10218-1: 0.25 m/s). ERGA: Eq. 11
+    weights ``P``, ``D`` and penalty ``R`` (Eq. 12), GA settings (Section IV-A) and an
+    explicit ``seed``; ``prediction``: ``constant_velocity`` (Eqs. 9-10) or ``kalman``
+    (the tracker's velocity). ``hwang_candidates``: speeds tried by Eq. 13's search.
+    ``bimodal_clearance``: Morato's stop/go distance between the closest ellipsoids.
+    """
+
+    rate_hz: float = number(10.0, ge=1.0, le=100.0, unit="Hz")
+    speed_limit: float = number(0.25, gt=0.0, le=MAX_ROBOT_SPEED, unit="m/s")
+    P: float = number(1.0, ge=0.0, le=1e6)
+    D: float = number(1.0, ge=0.0, le=1e6)
+    R: float = number(10.0, gt=0.0, le=1e6)
+    population: int = number(50, ge=2, le=10_000)
+    generations: int = number(100, ge=1, le=10_000)
+    crossover: float = number(0.8, ge=0.0, le=1.0)
+    mutation: float = number(0.1, ge=0.0, le=1.0)
+    elites: int = number(2, ge=0, le=10_000)
+    seed: int = _seed()
+    prediction: str = "constant_velocity"
+    hwang_candidates: int = number(101, ge=3, le=100_000)
+    bimodal_clearance: float = number(0.0, ge=0.0, le=5.0, unit="m")
+    ellipsoids: EllipsoidConfig = dc.field(default_factory=EllipsoidConfig)
+
+
+@dc.dataclass
+class ZonesConfig:
+    """Safety zones (seed 001, Section 2.5, Eq. 6): green while the closest tracked body
+    is at least ``green_distance`` (d_green) from the tool, red within ``yellow_distance``
+    (the seed's d_yellow, the inner threshold of Eq. 6c), yellow in
+    between; each zone has a speed (fraction of the nominal path speed). Performance
+    recovery (Section 2.6): speeding up (after a zone change or a resume) follows a
+    bounded-jerk profile, path acceleration at most ``max_acceleration`` (1/s) and its
+    rate at most ``max_jerk`` (1/s^2); slowing down is immediate (within the brakes).
+    Decisions at ``rate_hz``."""
+
+    green_distance: float = number(1.0, gt=0.0, le=MAX_CELL, unit="m")
+    yellow_distance: float = number(0.5, gt=0.0, le=MAX_CELL, unit="m")
+    green_speed: float = number(1.0, ge=0.0, le=1.0)
+    yellow_speed: float = number(0.5, ge=0.0, le=1.0)
+    red_speed: float = number(0.1, ge=0.0, le=1.0)
+    max_acceleration: float = number(1.0, gt=0.0, le=100.0, unit="1/s")
+    max_jerk: float = number(5.0, gt=0.0, le=10_000.0, unit="1/s^2")
+    rate_hz: float = number(100.0, ge=1.0, le=1000.0, unit="Hz")
+
+
+ROBOT_GEOMETRIES = ("capsules", "tool_point")
+CONTROLLER_TYPES = ("ssm_override", "erga", "hwang", "bimodal", "none", "zones")
+
+
+@dc.dataclass
+class ControllerConfig:
+    """Everything the safety controller is configured with (a CONFIG file).
+
+    ``type`` chooses the controller: ``ssm_override`` (seed 000, Eq. 12; uses
+    ``safety``), a speed alteration controller of seed 004 (``erga``, ``hwang``,
+    ``bimodal``; ``none`` keeps the pre-programmed speed) configured by ``alteration``,
+    or seed 001's safety ``zones``.
+    """
+
+    type: str = "ssm_override"
+    sensor: SensorConfig = dc.field(default_factory=SensorConfig)
+    tracker: TrackerConfig = dc.field(default_factory=TrackerConfig)
+    safety: SafetyConfig = dc.field(default_factory=SafetyConfig)
+    braking: BrakingConfig = dc.field(default_factory=BrakingConfig)
+    alteration: SpeedAlterationConfig = dc.field(default_factory=SpeedAlterationConfig)
+    zones: ZonesConfig = dc.field(default_factory=ZonesConfig)
+
+
+@dc.dataclass
+class Body:
+    """A tracked rigid body (glove, head) at a fixed offset from its operator, monitored
+    as a sphere of ``radius`` m (default 0.05 m, a hand; give a head about 0.12 m)."""
+
+    name: str = ""
+    offset: list[float] = number([0.0, 0.0, 0.0], ge=-2.0, le=2.0, unit="m")
+    radius: float = number(0.05, ge=0.0, le=0.5, unit="m")
+
+
+@dc.dataclass
+class Waypoint:
+    """At ``time`` the operator sets off for ``position`` as fast as its limits allow."""
+
+    time: float = _time()
+    position: list[float] = _position([0.0, 0.0, 0.0])
+
+
+@dc.dataclass
+class OperatorConfig:
+    """A scripted operator: bodies, timed waypoints, limits and presence window.
+
+    Or a recorded one (``recording`` given): the mapping file ``mapping``'s operator
+    ``name`` (empty: the mapping's only one, whose name it takes) played from the
+    recording (a Motive CSV export or a C3D file; both files relative to the scenario
+    file, ``safety_systems.sensing.recording_mapping``): recording time ``start`` plays at
+    t = 0, ``time_scale`` recording seconds per second (1.3: 30 % faster than recorded),
+    every body moved by ``shift`` (m, cell frame). Its ``bodies`` come from the mapping
+    (leave them empty, or give the mapping's in its order to set other radii; no
+    ``waypoints``); ``max_speed`` and ``max_acceleration`` are unused. A scenario's operators are all scripted or all recorded.
+    """
+
+    name: str = ""
+    max_speed: float = number(1.8, gt=0.0, le=ISO_MAX_HUMAN_SPEED, unit="m/s")
+    max_acceleration: float = number(2.0, gt=0.0, le=100.0, unit="m/s^2")
+    enter_time: float = _time()
+    leave_time: float = number(math.inf, gt=0.0, le=MAX_DURATION, unit="s", infinite=True)
+    bodies: list[Body] = dc.field(default_factory=list)
+    waypoints: list[Waypoint] = dc.field(default_factory=list)
+    recording: str = ""
+    mapping: str = ""
+    start: float = number(0.0, ge=0.0, le=100_000.0, unit="s")
+    time_scale: float = number(1.0, ge=0.1, le=10.0)
+    shift: list[float] = _position([0.0, 0.0, 0.0])
+
+
+@dc.dataclass
+class Gesture:
+    """A gesture command (seed 001, Section 2.1) at ``time``: start, stop or resume."""
+
+    time: float = _time()
+    command: str = "stop"
+
+
+GESTURES = ("start", "stop", "resume")
+
+
+@dc.dataclass
+class Scenario:
+    """One simulation: duration, robot, controller configuration and operators.
+
+    ``sensor``: the cell's real sensor when it differs from the one the controller is
+    configured for (``controller.sensor``), e.g. a larger latency; None: as configured.
+    ``contact_geometry``: what counts as contact for the safety properties:
+    ``capsules`` (a body's sphere within ``contact_distance`` m of a robot capsule; the
+    real tool is ``robot.payload_radius`` and ``robot.tool_length``) or ``tool_point``
+    (a body's centre within ``contact_distance`` of the tool flange, the seed's view).
+    ``jerk_window``: [first, last] sample (controller periods) over which ``compare``
+    reports jerk; empty: the whole run. ``gestures``: timed start/stop/resume commands
+    for the ``zones`` controller.
+    """
+
+    name: str = ""
+    duration: float = number(30.0, gt=0.0, le=MAX_DURATION, unit="s")
+    contact_geometry: str = "capsules"
+    contact_distance: float = number(0.0, ge=0.0, le=1.0, unit="m")
+    robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    controller: ControllerConfig = dc.field(default_factory=ControllerConfig)
+    sensor: typing.Optional[SensorConfig] = None
+    jerk_window: list[int] = number([], ge=2, le=10_000_000)
+    gestures: list[Gesture] = dc.field(default_factory=list)
+    operators: list[OperatorConfig] = dc.field(default_factory=list)
+
+
+def _check(ok: bool, field: str, value: typing.Any, allowed: str) -> None:
+    if not ok:
+        raise ScenarioError(field, value, allowed)
+
+
+def _interval(field: str, start: float, end: float) -> None:
+    _check(start < end, field, [start, end], "start < end")
+
+
+def validate_sensor(s: SensorConfig, prefix: str) -> None:
+    """Checks between a sensor description's fields; raises :class:`ScenarioError`."""
+    for i, d in enumerate(s.dropouts):
+        _interval(f"{prefix}.dropouts[{i}]", d.start, d.end)
+    for i, o in enumerate(s.occlusions):
+        _interval(f"{prefix}.occlusions[{i}]", o.start, o.end)
+    for i, f in enumerate(s.faults):
+        where = f"{prefix}.faults[{i}]"
+        _check(f.kind in FAULT_KINDS, f"{where}.kind", f.kind, " | ".join(FAULT_KINDS))
+        _interval(where, f.start, f.end)
+        _check(len(f.offset) == 3, f"{where}.offset", f.offset, "3 numbers in m")
+
+
+def _box(field: str, box: Box) -> None:
+    _check(len(box.min) == 3 and len(box.max) == 3 and all(
+        a <= b for a, b in zip(box.min, box.max)),
+        field, [box.min, box.max], "min and max: 3 numbers in m each, min <= max")
+
+
+def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None:
+    """Ranges (``check_limits``) and checks between a controller configuration's
+    fields; raises :class:`ScenarioError`."""
+    check_limits(c, prefix)
+    _controller_rules(c, prefix)
+
+
+def _controller_rules(c: ControllerConfig, prefix: str) -> None:
+    validate_sensor(c.sensor, f"{prefix}.sensor")
+    s = c.sensor
+    t = c.tracker
+    _check(t.hidden_bodies in HIDDEN_BODY_RULES, f"{prefix}.tracker.hidden_bodies",
+           t.hidden_bodies, " | ".join(HIDDEN_BODY_RULES))
+    for i, box in enumerate(t.exits):
+        _box(f"{prefix}.tracker.exits[{i}]", box)
+    if t.cell is not None:
+        _box(f"{prefix}.tracker.cell", t.cell)
+    if t.frame_timeout is not None:
+        due = 1.0 / s.rate_hz + s.latency + t.processing_time
+        _check(t.frame_timeout > due, f"{prefix}.tracker.frame_timeout", t.frame_timeout,
+               f"more than one sensor period + latency + processing time ({due:.4g} s)")
+    f = c.safety
+    _check(f.robot_geometry in ROBOT_GEOMETRIES, f"{prefix}.safety.robot_geometry",
+           f.robot_geometry, " | ".join(ROBOT_GEOMETRIES))
+    _check(len(f.link_radii) in (0, 6), f"{prefix}.safety.link_radii", f.link_radii,
+           "empty (the UR5e model's capsules) or 6 radii in m, each 0 < r <= 0.5")
+    _check(f.human_speed in HUMAN_SPEED_MODES, f"{prefix}.safety.human_speed", f.human_speed,
+           " | ".join(HUMAN_SPEED_MODES))
+    _check(f.robot_speed in ROBOT_SPEED_TERMS, f"{prefix}.safety.robot_speed", f.robot_speed,
+           " | ".join(ROBOT_SPEED_TERMS))
+    _check(c.type in CONTROLLER_TYPES, f"{prefix}.type", c.type, " | ".join(CONTROLLER_TYPES))
+    validate_alteration(c.alteration, f"{prefix}.alteration")
+    z = c.zones
+    _check(z.green_distance > z.yellow_distance, f"{prefix}.zones.green_distance",
+           [z.green_distance, z.yellow_distance], "green_distance > yellow_distance > 0 (m)")
+    _check(z.red_speed <= z.yellow_speed <= z.green_speed, f"{prefix}.zones.red_speed",
+           [z.red_speed, z.yellow_speed, z.green_speed],
+           "0 <= red_speed <= yellow_speed <= green_speed <= 1")
+    b = c.braking
+    n = len(b.speed_fraction)
+    for name in ("speed_fraction", "stopping_time", "stopping_distance"):
+        values = getattr(b, name)
+        _check(len(values) == n, f"{prefix}.braking.{name}", values,
+               f"a list as long as speed_fraction ({n} values)")
+    _check(all(a < b_ for a, b_ in zip(b.speed_fraction, b.speed_fraction[1:])),
+           f"{prefix}.braking.speed_fraction", b.speed_fraction, "strictly increasing fractions")
+    _check(n == 0 or b.speed_fraction[-1] == 1.0, f"{prefix}.braking.speed_fraction",
+           b.speed_fraction, "fractions of nominal speed up to and including 1.0")
+
+
+def validate_alteration(a: SpeedAlterationConfig, prefix: str) -> None:
+    """Checks between the speed alteration settings' fields."""
+    _check(a.elites < a.population, f"{prefix}.elites", a.elites, "0 <= elites < population")
+    _check(a.prediction in ("constant_velocity", "kalman"), f"{prefix}.prediction",
+           a.prediction, "constant_velocity | kalman")
+    e = a.ellipsoids
+    _check(len(e.link_radii) in (0, 6), f"{prefix}.ellipsoids.link_radii", e.link_radii,
+           "6 radii in m, or none (the tool only)")
+    _check(e.human in ("hands", "upper_body"), f"{prefix}.ellipsoids.human", e.human,
+           "hands | upper_body")
+    _check(len(e.torso_semi_axes) == 3, f"{prefix}.ellipsoids.torso_semi_axes",
+           e.torso_semi_axes, "3 positive lengths in m")
+
+
+def _points(field: str, points: list, n: int, allowed: str) -> None:
+    _check(len(points) == n, field, points, allowed)
+
+
+def validate_scenario(s: Scenario) -> None:
+    """Ranges (``check_limits``) and checks between a scenario's fields; raises
+    :class:`ScenarioError` (the first problem, in the order below)."""
+    check_limits(s)
+    _check(s.contact_geometry in ROBOT_GEOMETRIES, "contact_geometry", s.contact_geometry,
+           " | ".join(ROBOT_GEOMETRIES))
+    _validate_gestures(s.gestures)
+    _check(not s.jerk_window or (len(s.jerk_window) == 2
+                                 and s.jerk_window[0] < s.jerk_window[1]),
+           "jerk_window", s.jerk_window, "empty, or [first, last] samples with 2 <= first < last")
+    validate_robot(s.robot)
+    _controller_rules(s.controller, "controller")
+    if s.sensor is not None:
+        validate_sensor(s.sensor, "sensor")
+    _validate_operators(s.operators)
+    _validate_sensor_bodies(s)
+
+
+def _validate_gestures(gestures: list) -> None:
+    last = -math.inf
+    for i, g in enumerate(gestures):
+        _check(g.command in GESTURES, f"gestures[{i}].command", g.command, " | ".join(GESTURES))
+        _check(g.time > last, f"gestures[{i}].time", g.time,
+               "0 <= time <= 600 s and after the previous gesture")
+        last = g.time
+
+
+def _validate_operators(operators: list) -> None:
+    """The operators: their count, one kind (scripted or recorded), unique names, then
+    each operator's own fields (:func:`_validate_operator`)."""
+    _check(1 <= len(operators) <= MAX_OPERATORS, "operators", len(operators),
+           f"1 to {MAX_OPERATORS} operators")
+    recorded = [bool(o.recording) for o in operators]
+    _check(all(recorded) or not any(recorded), "operators", "scripted and recorded",
+           "operators all scripted or all recorded")
+    names = set()
+    for i, o in enumerate(operators):
+        f = f"operators[{i}]"
+        _check(NAME.fullmatch(o.name) is not None and o.name not in names, f"{f}.name", o.name,
+               "a unique name of 1 to 64 letters, digits, '_', '-' or '.'")
+        names.add(o.name)
+        _validate_operator(o, f)
+
+
+def _validate_operator(o: OperatorConfig, f: str) -> None:
+    """One operator (field path ``f``): its window, bodies and shift, then a recorded
+    operator's mapping or a scripted one's waypoints (:func:`_validate_waypoints`)."""
+    _check(o.leave_time > o.enter_time, f"{f}.leave_time", o.leave_time,
+           f"later than enter_time ({o.enter_time})")
+    _check(2 <= len(o.bodies) <= MAX_BODIES_PER_OPERATOR, f"{f}.bodies", len(o.bodies),
+           f"2 to {MAX_BODIES_PER_OPERATOR} bodies (both gloves, optionally the head)")
+    for j, b in enumerate(o.bodies):
+        _check(NAME.fullmatch(b.name) is not None, f"{f}.bodies[{j}].name", b.name,
+               "a name of 1 to 64 letters, digits, '_', '-' or '.'")
+        _points(f"{f}.bodies[{j}].offset", b.offset, 3, "3 numbers in m")
+    _points(f"{f}.shift", o.shift, 3, "3 numbers in m")
+    if o.recording:
+        _check(not o.waypoints, f"{f}.waypoints", o.waypoints,
+               "none for a recorded operator (it moves as recorded)")
+        _check(bool(o.mapping), f"{f}.mapping", o.mapping,
+               "the recording's mapping file (a recorded operator needs one)")
+        return
+    _check(not o.mapping, f"{f}.mapping", o.mapping, "empty without a recording")
+    _validate_waypoints(o, f)
+
+
+def _validate_waypoints(o: OperatorConfig, f: str) -> None:
+    """A scripted operator's waypoints: at least one, times increasing, a path its speed
+    and acceleration limits can keep."""
+    _check(len(o.waypoints) >= 1, f"{f}.waypoints", o.waypoints, "at least one waypoint")
+    last = -math.inf
+    for j, w in enumerate(o.waypoints):
+        _points(f"{f}.waypoints[{j}].position", w.position, 3, "3 numbers in m")
+        _check(w.time > last, f"{f}.waypoints[{j}].time", w.time,
+               f"later than the previous waypoint's ({last})")
+        last = w.time
+    try:
+        make_operator_path([w.time for w in o.waypoints], [w.position for w in o.waypoints],
+                           o.max_speed, o.max_acceleration)
+    except ValueError as e:
+        raise ScenarioError(f"{f}.waypoints", [w.time for w in o.waypoints],
+                            f"times the operator's limits can keep ({e})") from None
+
+
+def _validate_sensor_bodies(s: Scenario) -> None:
+    """Body names unique, and every body the sensor's occlusions and faults name exists."""
+    bodies = [f"{o.name}/{b.name}" for o in s.operators for b in o.bodies]
+    _check(len(set(bodies)) == len(bodies), "operators[].bodies[].name", bodies,
+           "unique body names within each operator")
+    sensor, where = actual_sensor(s), "sensor" if s.sensor is not None else "controller.sensor"
+    for i, oc in enumerate(sensor.occlusions):
+        _check(oc.body in bodies, f"{where}.occlusions[{i}].body", oc.body, f"one of {bodies}")
+    for i, fault in enumerate(sensor.faults):
+        if fault.kind in BODY_FAULTS:
+            _check(fault.body in bodies, f"{where}.faults[{i}].body", fault.body,
+                   f"one of {bodies}")
+        else:
+            _check(not fault.body, f"{where}.faults[{i}].body", fault.body,
+                   f"empty: {fault.kind} acts on the whole frame")
+        if fault.kind == FAULT_KINDS[SWAP]:
+            _check(fault.other in bodies and fault.other != fault.body,
+                   f"{where}.faults[{i}].other", fault.other, f"another of {bodies}")
+
+
+def validate_robot(r: RobotConfig, prefix: str = "robot") -> None:
+    """Checks between a robot's fields (its mode, its path); raises
+    :class:`ScenarioError` naming ``prefix``'s fields."""
+    _check(r.mode in ("kinematic", "dynamic"), f"{prefix}.mode", r.mode, "kinematic | dynamic")
+    p = r.path
+    if p.line is not None:
+        _check(not p.waypoints_deg and not p.segment_durations, f"{prefix}.path.line", "line",
+               "either a line or waypoints, not both")
+        _check(r.cycles == 1, f"{prefix}.cycles", r.cycles, "1 for a one-way line path")
+        for name in ("start", "goal", "rpy_deg"):
+            _points(f"{prefix}.path.line.{name}", getattr(p.line, name), 3, "3 numbers")
+        _points(f"{prefix}.path.line.seed_deg", p.line.seed_deg, 6, "6 joint angles in deg")
+        _check(p.line.start != p.line.goal, f"{prefix}.path.line.goal", p.line.goal,
+               "a point other than start")
+    if p.task_path is not None:
+        t = p.task_path
+        _check(p.line is None and not p.waypoints_deg, f"{prefix}.path.task_path", "task_path",
+               "one kind of path: task_path, line or waypoints")
+        _check(bool(t.points) or bool(t.file), f"{prefix}.path.task_path.points", t.points,
+               "2 or more [x, y, z] points in m, or a file")
+        _check(not t.points or (len(t.points) >= 2 and all(len(q) == 3 for q in t.points)),
+               f"{prefix}.path.task_path.points", t.points, "2 or more [x, y, z] points in m")
+        _points(f"{prefix}.path.task_path.rpy_deg", t.rpy_deg, 3, "3 angles in deg")
+        _points(f"{prefix}.path.task_path.seed_deg", t.seed_deg, 6, "6 joint angles in deg")
+    if p.waypoints_deg or p.segment_durations:
+        _check(len(p.waypoints_deg) >= 2, f"{prefix}.path.waypoints_deg", p.waypoints_deg,
+               "at least 2 waypoints of 6 joint angles")
+        for i, w in enumerate(p.waypoints_deg):
+            _points(f"{prefix}.path.waypoints_deg[{i}]", w, 6, "6 joint angles in deg")
+        _check(len(p.segment_durations) == len(p.waypoints_deg),
+               f"{prefix}.path.segment_durations", p.segment_durations,
+               f"{len(p.waypoints_deg)} durations (one per segment, the last closes the cycle)")
+        try:
+            make_joint_path(np.radians(p.waypoints_deg), p.segment_durations, cycles=r.cycles)
+        except ValueError as e:
+            raise ScenarioError(f"{prefix}.path.segment_durations", p.segment_durations,
+                                str(e)) from None
+
+
+def actual_sensor(s: Scenario) -> SensorConfig:
+    """The cell's real sensor: ``s.sensor`` if given, else the one configured."""
+    return s.controller.sensor if s.sensor is None else s.sensor
+
+
+def body_names(s: Scenario) -> list[str]:
+    """The registered body slots, operator by operator: ``operator/body``."""
+    return [f"{o.name}/{b.name}" for o in s.operators for b in o.bodies]
+
+
+def load_typed(schema: type, path: str | Path) -> typing.Any:
+    """Loads a YAML file strictly into the dataclass ``schema`` (the rules of
+    ``safety_systems.files.documents``, declared ranges included; no other checks)."""
+    return load_document(path, schema)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Load and validate a scenario file; raises :class:`ScenarioError`. A task path's
+    ``file`` and recorded operators' files are read here, relative to the scenario
+    file."""
+    def validate(scenario: Scenario) -> None:
+        read_task_path(scenario.robot, Path(path).parent)
+        read_recordings(scenario, Path(path).parent)
+        validate_scenario(scenario)
+
+    return load_document(path, Scenario, validate)
+
+
+def read_recordings(scenario: Scenario, folder: Path) -> None:
+    """Reads every recorded operator's recording and mapping (relative to ``folder``;
+    the paths are replaced by the files' full paths) and fills in its bodies (names and
+    radii from the mapping) and, if empty, its name (the mapping's operator's); an
+    error in either file is reported at the field that names it, with the file's own
+    error."""
+    from safety_systems.sensing.recording_mapping import load_recorded_operator
+
+    for i, o in enumerate(scenario.operators):
+        if not o.recording:
+            continue
+        where = f"operators[{i}]"
+        _check(bool(o.mapping), f"{where}.mapping", o.mapping,
+               "the recording's mapping file (a recorded operator needs one)")
+        o.recording, o.mapping = (str((folder / x).resolve()) for x in (o.recording, o.mapping))
+        try:
+            recorded = load_recorded_operator(o.recording, o.mapping, o.name)
+        except ScenarioError as e:
+            raise ScenarioError(f"{where}.recording", o.recording,
+                                f"a recording its mapping fits ({e})") from None
+        if not o.name:
+            from safety_systems.sensing.recording_mapping import load_mapping
+
+            o.name = load_mapping(o.mapping).operators[0].name
+        if not o.bodies:
+            o.bodies = [Body(name, [0.0, 0.0, 0.0], radius)
+                        for name, radius in zip(recorded.names, recorded.radii)]
+        _check([b.name for b in o.bodies] == list(recorded.names)
+               and all(b.offset == [0.0, 0.0, 0.0] for b in o.bodies), f"{where}.bodies",
+               [b.name for b in o.bodies], f"none (they come from the mapping), or the "
+               f"mapping's {list(recorded.names)} in its order, without offsets")
+
+
+def read_task_path(robot: RobotConfig, folder: Path, prefix: str = "robot") -> None:
+    """Fills a task path's points from its ``file`` (relative to ``folder``); an error
+    in that file is reported at the field that names it, with the file's own error."""
+    task = robot.path.task_path
+    if task is None or task.points or not task.file:
+        return
+    field = f"{prefix}.path.task_path.file"
+    try:
+        task.points = load_typed(TaskPoints, folder / task.file).points
+    except ScenarioError as e:
+        raise ScenarioError(field, task.file, f"a YAML file of points ({e})") from None
+    _check(len(task.points) >= 2, field, task.file,
+           f"a file with 2 or more points ({folder / task.file})")
+
+
+def load_controller_config(path: str | Path) -> ControllerConfig:
+    """Load and validate a controller configuration file."""
+    return load_document(path, ControllerConfig,
+                         lambda config: validate_controller(config, prefix="config"))
+
+
+def scenario_from_text(text: str) -> Scenario:
+    """Load and validate a scenario from YAML text."""
+    scenario = _parse_typed(Scenario, text, "<text>")
+    try:
+        validate_scenario(scenario)
+    except ScenarioError as e:
+        raise e.in_file("<text>") from None
+    return scenario
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """YAML text that :func:`scenario_from_text` loads back to an equal scenario."""
+    return yaml_dump_typed(scenario)

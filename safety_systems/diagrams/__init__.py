@@ -1,0 +1,1 @@
+"""The Drake diagram builders and the simulation of one scenario."""

@@ -1,0 +1,338 @@
+"""Builders: ``AddSafetyController`` and ``MakeWorkcell`` (the whole cell from a scenario).
+
+The diagram (seed Sections 4-6, Fig. 5's loop)::
+
+    OperatorMotion -> MocapSensor -> KalmanTracker -> SeparationMonitor -> SpeedOverride
+                                                             ^                   |
+         UR5e (kinematic, or plant + inverse dynamics) -> RobotCapsules          |
+                    ^                                                            |
+                    +------------------ PathFollower (braking) <-----------------+
+
+Every signal is logged at the control period.
+"""
+
+import dataclasses
+import math
+from collections.abc import Iterable
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.controllers import InverseDynamicsController
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
+from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
+
+from safety_systems.config.configuration import (
+    assumed_stopping,
+    braking_table,
+    frame_timeout,
+    is_recorded,
+    joint_path,
+    monitor_capsules,
+    monitored_body_radii,
+    recorded_operators,
+    scripted_operators,
+    sensor_faults,
+    tracker_regions,
+    tracker_rules,
+)
+from safety_systems.cell.joint_path import JointPath
+from safety_systems.config.scenario import (
+    ControllerConfig,
+    RobotConfig,
+    Scenario,
+    actual_sensor,
+    body_names,
+)
+from safety_systems.systems.bimodal_speed_controller import BimodalSpeedController
+from safety_systems.systems.erga_speed_controller import ErgaSpeedController
+from safety_systems.systems.gesture_source import GestureSource
+from safety_systems.systems.hwang_speed_controller import HwangSpeedController
+from safety_systems.systems.kalman_tracker import KalmanTracker
+from safety_systems.systems.mocap_sensor import MocapSensor
+from safety_systems.systems.operator_motion import OperatorMotion
+from safety_systems.systems.path_follower import PathFollower
+from safety_systems.systems.recorded_motion import RecordedMotion
+from safety_systems.systems.preprogrammed_speed_controller import PreprogrammedSpeedController
+from safety_systems.systems.robot_capsules import RobotCapsules
+from safety_systems.systems.separation_monitor import SeparationMonitor
+from safety_systems.systems.speed_override import SpeedOverride
+from safety_systems.systems.zones_controller import ZonesController
+from safety_systems.cell.ur5e import AddUr5e
+
+# Joint-space gains of the dynamic mode's inverse-dynamics controller: critically
+# damped, natural frequency 30 rad/s (own choice).
+DYNAMIC_KP = 900.0
+DYNAMIC_KD = 60.0
+
+
+def AddOperators(builder: DiagramBuilder, scenario: Scenario):
+    """Adds the operators' ground truth, named ``operators``: ``OperatorMotion`` of the
+    scripted operators, or ``RecordedMotion`` of the recorded ones (the same ports);
+    returns (the system, the occlusions the recordings imply: (body slot, start, end)
+    over each recording's gaps)."""
+    if not is_recorded(scenario):
+        return builder.AddNamedSystem(
+            "operators", OperatorMotion(operators=scripted_operators(scenario))), []
+    operators = recorded_operators(scenario)
+    hidden, first = [], 0
+    for op in operators:
+        hidden += [(first + i, a, b) for i, a, b in op.hidden_intervals()]
+        first += op.num_bodies
+    return builder.AddNamedSystem("operators", RecordedMotion(operators=operators)), hidden
+
+
+@dataclasses.dataclass
+class SafetyController:
+    """What ``AddSafetyController`` added: the tracker, the controller's systems by name
+    and the port carrying the commanded path speed (a fraction of nominal, signed)."""
+
+    tracker: KalmanTracker
+    systems: dict
+    command: OutputPort
+
+
+SPEED_CONTROLLERS = {"erga": ErgaSpeedController, "hwang": HwangSpeedController,
+                     "bimodal": BimodalSpeedController, "none": PreprogrammedSpeedController}
+
+
+def body_roles(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
+    """(operator index, is-a-hand) of every body slot; bodies named ``head`` are heads."""
+    operator_of = [k for k, o in enumerate(scenario.operators) for _ in o.bodies]
+    is_hand = [b.name.lower() != "head" for o in scenario.operators for b in o.bodies]
+    return np.array(operator_of), np.array(is_hand)
+
+
+def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, num_bodies: int,
+                        control_period: float, path=None, operator_of=None,
+                        is_hand=None, body_radii=None) -> SafetyController:
+    """Adds the tracker and the controller ``config.type`` names.
+
+    ``ssm_override`` (seed 000): RobotCapsules (the robot as
+    ``configuration.monitor_capsules`` gives it), SeparationMonitor (bodies of
+    ``body_radii`` m; None: points) and SpeedOverride; left to connect: the
+    RobotCapsules' ``joint_positions``. The
+    seed-004 controllers (``erga``, ``hwang``, ``bimodal``, ``none``) need ``path`` and
+    the body roles (``body_roles``); left to connect: their ``path_state``. ``zones``
+    (seed 001) needs ``path``; left to connect: its ``path_state`` and ``gesture``.
+    Always left to connect: the tracker's ``positions_measured``, ``valid``,
+    ``sample_time``, ``frame_number`` and ``body_ids``.
+    """
+    s, t, f = config.sensor, config.tracker, config.safety
+    tracker = builder.AddNamedSystem("tracker", KalmanTracker(
+        num_bodies=num_bodies, period_sec=1.0 / s.rate_hz, latency_sec=s.latency,
+        processing_time=t.processing_time, frame_timeout=frame_timeout(config),
+        rules=tracker_rules(config), regions=tracker_regions(config)))
+    if config.type == "zones":
+        zones = builder.AddNamedSystem("zones", ZonesController(
+            path=path, config=config.zones, num_bodies=num_bodies))
+        for name in ("positions_estimated", "track_status", "fault"):
+            builder.Connect(tracker.GetOutputPort(name), zones.GetInputPort(name))
+        return SafetyController(tracker, {"zones": zones},
+                                zones.GetOutputPort("path_speed_commanded"))
+    if config.type != "ssm_override":
+        # Decide one control tick after the tracker has processed the newest frame.
+        offset = s.latency + t.processing_time + control_period
+        speed = builder.AddNamedSystem("speed", SPEED_CONTROLLERS[config.type](
+            path=path, config=config.alteration, operator_of=operator_of, is_hand=is_hand,
+            offset_sec=offset))
+        for name in ("positions_estimated", "velocities_estimated", "track_status", "fault"):
+            builder.Connect(tracker.GetOutputPort(name), speed.GetInputPort(name))
+        return SafetyController(tracker, {"speed": speed},
+                                speed.GetOutputPort("path_speed_commanded"))
+    t_s, b = assumed_stopping(config)
+    capsules = monitor_capsules(config)
+    robot = builder.AddNamedSystem("robot_capsules", RobotCapsules(
+        capsules=capsules, period_sec=control_period))
+    monitor = builder.AddNamedSystem("monitor", SeparationMonitor(
+        num_bodies=num_bodies, capsule_radii=capsules.radius, body_radii=body_radii,
+        human_speed=f.human_speed, reaction_time=f.reaction_time,
+        stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
+        human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
+        human_uncertainty_sigmas=f.human_uncertainty_sigmas, occlusion_speed=f.occlusion_speed,
+        iso_speed=f.iso_human_speed,
+        iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed))
+    override = builder.AddNamedSystem("override", SpeedOverride(
+        num_bodies=num_bodies, delta_s=f.delta_s, d_min=f.d_min))
+    for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std",
+                 "unseen_time"):
+        builder.Connect(tracker.GetOutputPort(name), monitor.GetInputPort(name))
+    for name in ("capsule_ends", "capsule_velocities"):
+        builder.Connect(robot.GetOutputPort(name), monitor.GetInputPort(name))
+    builder.Connect(monitor.GetOutputPort("distances"), override.GetInputPort("distances"))
+    builder.Connect(monitor.GetOutputPort("protective_distances"),
+                    override.GetInputPort("protective_distances"))
+    builder.Connect(tracker.GetOutputPort("track_status"), override.GetInputPort("track_status"))
+    builder.Connect(tracker.GetOutputPort("fault"), override.GetInputPort("fault"))
+    return SafetyController(tracker, {"robot_capsules": robot, "monitor": monitor,
+                                      "override": override},
+                            override.GetOutputPort("path_speed_commanded"))
+
+
+@dataclasses.dataclass
+class Workcell:
+    """A built workcell: the diagram, its named systems, and the one logger of every
+    logged signal with each signal's columns in it (``"system.port"``, ``"q"``, ``"v"``)."""
+
+    diagram: Diagram
+    scenario: Scenario
+    path: JointPath
+    body_names: list[str]
+    systems: dict
+    logger: VectorLogSink | None
+    columns: dict[str, slice]
+    plant: MultibodyPlant | None = None
+
+
+def _sensor_intervals(scenario: Scenario) -> tuple[list, list]:
+    names = body_names(scenario)
+    s = actual_sensor(scenario)
+    occlusions = [(names.index(o.body), o.start, o.end) for o in s.occlusions]
+    return occlusions, [(d.start, d.end) for d in s.dropouts]
+
+
+def AddUr5eWithInverseDynamics(builder: DiagramBuilder, dt: float
+                               ) -> tuple[MultibodyPlant, InverseDynamicsController]:
+    """Adds the dynamic mode's UR5e plant (time step ``dt``) and its inverse-dynamics
+    controller (gains ``DYNAMIC_KP``, ``DYNAMIC_KD``), the plant's state fed back and the
+    controller driving the actuators; left to connect: the controller's desired state and
+    desired acceleration."""
+    plant = builder.AddNamedSystem("plant", MultibodyPlant(time_step=dt))
+    AddUr5e(plant)
+    plant.Finalize()
+    model = MultibodyPlant(time_step=dt)
+    AddUr5e(model)
+    model.Finalize()
+    controller = builder.AddNamedSystem("inverse_dynamics", InverseDynamicsController(
+        model, kp=np.full(6, DYNAMIC_KP), ki=np.zeros(6), kd=np.full(6, DYNAMIC_KD),
+        has_reference_acceleration=True))
+    builder.Connect(plant.get_state_output_port(), controller.get_input_port_estimated_state())
+    builder.Connect(controller.get_output_port_control(), plant.get_actuation_input_port())
+    return plant, controller
+
+
+def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollower,
+               dt: float) -> tuple[OutputPort, OutputPort, MultibodyPlant | None]:
+    """Adds the robot in its mode; returns its joint position and velocity ports."""
+    if robot.mode == "kinematic":
+        return (follower.GetOutputPort("joint_positions_desired"),
+                follower.GetOutputPort("joint_velocities_desired"), None)
+    plant, controller = AddUr5eWithInverseDynamics(builder, dt)
+    desired = builder.AddNamedSystem("desired_state", Multiplexer([6, 6]))
+    builder.Connect(follower.GetOutputPort("joint_positions_desired"), desired.get_input_port(0))
+    builder.Connect(follower.GetOutputPort("joint_velocities_desired"), desired.get_input_port(1))
+    builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
+    builder.Connect(follower.GetOutputPort("joint_accelerations_desired"),
+                    controller.get_input_port_desired_acceleration())
+    split = builder.AddNamedSystem("joint_state", Demultiplexer([6, 6]))
+    builder.Connect(plant.get_state_output_port(), split.get_input_port())
+    return split.get_output_port(0), split.get_output_port(1), plant
+
+
+def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> Workcell:
+    """Builds the whole cell of a (validated) scenario.
+
+    Every output port is logged at the control period unless ``logged`` names the
+    signals to keep (``"q"``, ``"v"`` and ``"system.port"`` keys).
+    """
+    robot, config = scenario.robot, scenario.controller
+    dt = 1.0 / robot.control_rate_hz
+    path = joint_path(robot)
+    names = body_names(scenario)
+    builder = DiagramBuilder()
+    motion, recorded_gaps = AddOperators(builder, scenario)
+    sensor = _add_sensor(builder, scenario, motion, recorded_gaps)
+    operator_of, is_hand = body_roles(scenario)
+    safety = AddSafetyController(builder, config=config, num_bodies=len(names),
+                                 control_period=dt, path=path, operator_of=operator_of,
+                                 is_hand=is_hand, body_radii=monitored_body_radii(scenario))
+    for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
+        builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
+    speed = safety.systems.get("speed")
+    zones = safety.systems.get("zones")
+    follower = _add_follower(builder, scenario, path, safety, speed)
+    q_port, v_port, plant = _add_robot(builder, robot, follower, dt)
+    systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker, **safety.systems,
+                   follower=follower)
+    if "robot_capsules" in safety.systems:
+        builder.Connect(q_port, safety.systems["robot_capsules"].GetInputPort("joint_positions"))
+    for controller in (speed, zones):
+        if controller is not None:
+            builder.Connect(follower.GetOutputPort("path_state"),
+                            controller.GetInputPort("path_state"))
+    if zones is not None:
+        gestures = builder.AddNamedSystem("gestures", GestureSource(
+            events=[(g.time, g.command) for g in scenario.gestures]))
+        builder.Connect(gestures.get_output_port(), zones.GetInputPort("gesture"))
+        systems["gestures"] = gestures
+    logger, columns = _log_signals(builder, systems, q_port, v_port, logged, dt)
+    diagram = builder.Build()
+    diagram.set_name("workcell")
+    return Workcell(diagram, scenario, path, names, systems, logger, columns, plant)
+
+
+def _add_sensor(builder: DiagramBuilder, scenario: Scenario, motion, recorded_gaps: list):
+    """The cell's real motion-capture sensor (``actual_sensor``), named ``mocap``, fed by
+    the operators' truth; the recordings' gaps are occlusions."""
+    occlusions, dropouts = _sensor_intervals(scenario)
+    occlusions += recorded_gaps
+    real = actual_sensor(scenario)
+    sensor = builder.AddNamedSystem("mocap", MocapSensor(
+        num_bodies=len(body_names(scenario)), period_sec=1.0 / real.rate_hz,
+        noise_std=real.noise_std, latency_sec=real.latency, occlusions=occlusions,
+        dropped_frames=dropouts, faults=sensor_faults(scenario), seed=real.seed))
+    builder.Connect(motion.GetOutputPort("positions_true"),
+                    sensor.GetInputPort("positions_true"))
+    builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))
+    return sensor
+
+
+def _add_follower(builder: DiagramBuilder, scenario: Scenario, path, safety: SafetyController,
+                  speed) -> PathFollower:
+    """The PathFollower, named ``follower``, driven by the safety controller's command."""
+    robot, config = scenario.robot, scenario.controller
+    follower = builder.AddNamedSystem("follower", PathFollower(
+        path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
+        braking_time_scale=robot.braking_time_scale, period_sec=1.0 / robot.control_rate_hz,
+        max_rate=1.0 if speed is None else config.alteration.speed_limit
+        / speed.preprogrammed_speed))
+    builder.Connect(safety.command, follower.GetInputPort("path_speed_commanded"))
+    return follower
+
+
+def _log_signals(builder: DiagramBuilder, systems: dict, q_port: OutputPort,
+                 v_port: OutputPort, logged: Iterable[str] | None, dt: float):
+    """(the logger, each signal's columns in it): every output port of ``systems`` (and
+    q, v), or those ``logged`` names, through one multiplexer into one sink (one publish
+    event per tick instead of one per signal), split by column when read."""
+    ports = {"q": q_port, "v": v_port}
+    for system_name, system in systems.items():
+        for i in range(system.num_output_ports()):
+            port = system.get_output_port(i)
+            ports[f"{system_name}.{port.get_name()}"] = port
+    if logged is not None:
+        logged = set(logged)
+        unknown = logged - set(ports)
+        if unknown:
+            raise ValueError(f"logged: unknown signals {sorted(unknown)}; allowed: {sorted(ports)}")
+    keys = [key for key in ports if (logged is None or key in logged) and ports[key].size()]
+    sizes = [ports[key].size() for key in keys]
+    columns, start = {}, 0
+    for key, size in zip(keys, sizes):
+        columns[key] = slice(start, start + size)
+        start += size
+    logger = None
+    if keys:
+        mux = builder.AddNamedSystem("log signals", Multiplexer(sizes))
+        for i, key in enumerate(keys):
+            builder.Connect(ports[key], mux.get_input_port(i))
+        logger = builder.AddNamedSystem("log", VectorLogSink(start, dt))
+        builder.Connect(mux.get_output_port(), logger.get_input_port())
+    for key in ports:  # empty signals (no bodies) log no columns
+        if (logged is None or key in logged) and key not in columns:
+            columns[key] = slice(start, start)
+    return logger, columns
+
+
+def control_ticks(duration: float, period: float) -> int:
+    """Number of control ticks in [0, duration]."""
+    return int(math.floor(duration / period + 1e-9)) + 1

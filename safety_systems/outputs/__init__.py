@@ -1,0 +1,1 @@
+"""What runs write and measure: trace, summary, plots, replay, outcome measures, comparisons, provenance."""

@@ -1,0 +1,199 @@
+"""OptiTrack Motive's CSV export: rigid bodies and markers over time.
+
+The export's layout (Motive 2.x and 3.x, "Format Version" 1.2x), as read here::
+
+    Format Version,1.23,Take Name,...,Capture Frame Rate,120.0,...,Rotation Type,Quaternion,
+        Length Units,Meters,Coordinate Space,Global
+    (an empty line)
+    ,Type,Rigid Body,Rigid Body,...,Marker,...
+    ,Name,RightGlove,RightGlove,...,RightGlove:Marker1,...
+    ,ID,1,1,...
+    ,,Rotation,Rotation,Rotation,Rotation,Position,Position,Position,Mean Marker Error,...
+    Frame,Time (Seconds),X,Y,Z,W,X,Y,Z,,...
+    0,0.000000,0.0012,...
+
+The first line holds key, value pairs: ``Rotation Type`` is ``Quaternion`` (columns X, Y,
+Z, W) or an Euler order (``XYZ``, ``XZY``, ``YXZ``, ``YZX``, ``ZXY``, ``ZYX``: columns X,
+Y, Z in degrees, read as rotations about the body's own axes in that order; Motive's
+documentation says "elemental rotations" without saying about which axes, so this is
+our reading), ``Length Units`` is ``Meters``, ``Centimeters`` or ``Millimeters``. The
+bodies are the ``Rigid Body`` columns (position and rotation) and the ``Marker``
+columns (position only); ``Rigid Body Marker`` columns (where the model expects its
+markers) and the quality columns are skipped. An empty cell is a frame where the body
+was not tracked. Times are kept as seconds from the first frame.
+"""
+
+import csv
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from safety_systems.files.documents import read_text
+from safety_systems.files.input_error import InputError
+from safety_systems.sensing.recording import MAX_SAMPLES, Recording, check_recording
+
+EULER_ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
+ROTATION_TYPES = ("Quaternion",) + EULER_ORDERS
+UNITS = {"Meters": 1.0, "Centimeters": 0.01, "Millimeters": 0.001}
+BODY_TYPES = ("Rigid Body", "Marker")
+MAX_BYTES = 512 * 1024 * 1024
+
+
+def _settings(row: list[str], file: str) -> dict[str, str]:
+    if len(row) < 2 or row[0] != "Format Version":
+        raise InputError("line 1", ",".join(row[:4]), "a Motive CSV export (it begins with "
+                         "'Format Version')", file=file)
+    return {row[i].strip(): row[i + 1].strip() for i in range(0, len(row) - 1, 2)}
+
+
+def _header_rows(rows: list[list[str]], file: str) -> tuple[dict, int]:
+    """The Type, Name and ID rows by name, the group row and the axis row, and the index
+    of the first data row."""
+    found: dict[str, list[str]] = {}
+    for i, row in enumerate(rows[1:12], start=1):
+        if len(row) > 1 and row[1] in ("Type", "Name", "ID") and not row[0]:
+            found[row[1]] = row
+        elif row and row[0] == "Frame":
+            if "Type" not in found or "Name" not in found:
+                break
+            found["group"], found["axis"] = rows[i - 1], row
+            return found, i + 1
+    missing = [k for k in ("Type", "Name") if k not in found] or ["Frame"]
+    raise InputError(f"header row '{missing[0]}'", "missing",
+                     "Motive's header rows: Type, Name, ID, the column groups and "
+                     "'Frame,Time (Seconds),...'", file=file)
+
+
+def _number(cell: str, line: int, column: str, file: str) -> float:
+    if not cell.strip():
+        return math.nan
+    try:
+        x = float(cell)
+    except ValueError:
+        raise InputError(f"line {line}, column {column}", cell, "a number or an empty cell",
+                         file=file) from None
+    if not math.isfinite(x):
+        raise InputError(f"line {line}, column {column}", cell, "a finite number", file=file)
+    return x
+
+
+def read_motive_csv(path: str | Path) -> Recording:
+    """Reads a Motive CSV export (see the module docstring); raises InputError."""
+    file = str(path)
+    rows = list(csv.reader(io.StringIO(read_text(path, max_bytes=MAX_BYTES))))
+    if not rows:
+        raise InputError("<file>", "empty", "a Motive CSV export", file=file)
+    settings = _settings(rows[0], file)
+    rotation = settings.get("Rotation Type", "Quaternion")
+    if rotation not in ROTATION_TYPES:
+        raise InputError("Rotation Type", rotation, " | ".join(ROTATION_TYPES), file=file)
+    unit = settings.get("Length Units", "")
+    if unit not in UNITS:
+        raise InputError("Length Units", unit, " | ".join(UNITS), file=file)
+    head, first = _header_rows(rows, file)
+    width = len(head["axis"])
+    pad = {k: (v + [""] * width)[:width] for k, v in head.items()}
+    bodies: dict[tuple[str, str], dict] = {}  # (type, name) -> columns
+    for j in range(2, width):
+        kind, name = pad["Type"][j].strip(), pad["Name"][j].strip()
+        group, axis = pad["group"][j].strip(), pad["axis"][j].strip()
+        if kind not in BODY_TYPES or group not in ("Position", "Rotation"):
+            continue
+        entry = bodies.setdefault((kind, name), {"id": pad.get("ID", pad["Name"])[j].strip()})
+        entry[(group, axis)] = j
+    if not bodies:
+        raise InputError("Type", "no Rigid Body or Marker columns", "a recording of rigid "
+                         "bodies or markers", file=file)
+    data = [r for r in rows[first:] if any(c.strip() for c in r)]
+    if len(data) > MAX_SAMPLES:
+        raise InputError("<frames>", len(data), f"at most {MAX_SAMPLES:,} frames", file=file)
+    used = sorted({1} | {j for b in bodies.values() for k, j in b.items() if k != "id"})
+    table = np.full((len(data), width), np.nan)
+    for i, row in enumerate(data):
+        if len(row) > width:
+            raise InputError(f"line {first + i + 1}", f"{len(row)} cells",
+                             f"at most {width} cells, as in the header", file=file)
+        for j in used:
+            if j < len(row):
+                table[i, j] = _number(row[j], first + i + 1, pad["axis"][j] or str(j + 1),
+                                      file)
+    if np.any(np.isnan(table[:, 1])):
+        raise InputError("Time (Seconds)", "an empty cell", "a time on every frame", file=file)
+    scale = UNITS[unit]
+    names, ids, positions, rotations = [], [], [], []
+    for (kind, name), cols in bodies.items():
+        need = [("Position", a) for a in "XYZ"]
+        if kind == "Rigid Body":
+            need += [("Rotation", a) for a in ("XYZW" if rotation == "Quaternion" else "XYZ")]
+        missing = [f"{g} {a}" for g, a in need if (g, a) not in cols]
+        if missing:
+            raise InputError(f"{kind} '{name}'", f"no {missing[0]} column",
+                             f"columns {', '.join(f'{g} {a}' for g, a in need)}", file=file)
+        p = table[:, [cols[("Position", a)] for a in "XYZ"]] * scale
+        q = np.full((len(data), 4), np.nan)
+        if kind == "Rigid Body":
+            r = table[:, [cols[("Rotation", a)] for a in need_axes(rotation)]]
+            ok = np.all(np.isfinite(r), axis=1)
+            if ok.any():
+                q[ok] = (Rotation.from_quat(r[ok]) if rotation == "Quaternion" else
+                         Rotation.from_euler(rotation, r[ok], degrees=True)).as_quat()
+        p[~np.all(np.isfinite(p), axis=1)] = np.nan
+        names.append(name)
+        ids.append(int(cols["id"]) if cols["id"].isdigit() else 0)
+        positions.append(p)
+        rotations.append(q)
+    times = table[:, 1] - table[0, 1]
+    return check_recording(Recording(file, times, tuple(names), tuple(ids),
+                                     np.stack(positions, axis=1), np.stack(rotations, axis=1)))
+
+
+def need_axes(rotation: str) -> str:
+    """The rotation columns of a rotation type: X, Y, Z, W for quaternions, else X, Y, Z."""
+    return "XYZW" if rotation == "Quaternion" else "XYZ"
+
+
+def motive_csv_text(times: np.ndarray, names: list[str], ids: list[int],
+                    positions: np.ndarray, rotations: np.ndarray, *, rate_hz: float,
+                    units: str = "Meters", rotation_type: str = "Quaternion",
+                    take: str = "safety-systems") -> str:
+    """A Motive CSV export of rigid bodies (the layout :func:`read_motive_csv` reads):
+    ``positions`` (T, B, 3) in metres and ``rotations`` (T, B, 4) quaternions (x, y, z,
+    w) in the capture frame; a row where a body's position is NaN leaves its cells
+    empty (not tracked)."""
+    if units not in UNITS or rotation_type not in ROTATION_TYPES:
+        raise ValueError(f"units {units!r} / rotation_type {rotation_type!r}: allowed "
+                         f"{list(UNITS)} / {list(ROTATION_TYPES)}")
+    axes = need_axes(rotation_type)
+    per = len(axes) + 4  # rotation, position, mean marker error
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    T = len(times)
+    w.writerow(["Format Version", "1.23", "Take Name", take, "Take Notes", "",
+                "Capture Frame Rate", f"{rate_hz:.6f}", "Export Frame Rate", f"{rate_hz:.6f}",
+                "Capture Start Time", "2025-01-01 12.00.00.000 PM", "Capture Start Frame", "0",
+                "Total Frames in Take", str(T), "Total Exported Frames", str(T),
+                "Rotation Type", rotation_type, "Length Units", units,
+                "Coordinate Space", "Global"])
+    w.writerow([])
+    w.writerow(["", "Type"] + ["Rigid Body"] * per * len(names))
+    w.writerow(["", "Name"] + [n for n in names for _ in range(per)])
+    w.writerow(["", "ID"] + [str(i) for i in ids for _ in range(per)])
+    group = ["Rotation"] * len(axes) + ["Position"] * 3 + ["Mean Marker Error"]
+    w.writerow(["", ""] + group * len(names))
+    w.writerow(["Frame", "Time (Seconds)"] + (list(axes) + ["X", "Y", "Z", ""]) * len(names))
+    scale = UNITS[units]
+    for t in range(T):
+        row = [str(t), f"{times[t]:.6f}"]
+        for b in range(len(names)):
+            p, q = positions[t, b], rotations[t, b]
+            if not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+                row += [""] * per
+                continue
+            r = (q if rotation_type == "Quaternion" else
+                 Rotation.from_quat(q).as_euler(rotation_type, degrees=True))
+            row += [f"{x:.6f}" for x in r] + [f"{x / scale:.6f}" for x in p] + ["0.000100"]
+        w.writerow(row)
+    return out.getvalue()

@@ -1,0 +1,218 @@
+"""The mapping of a recording (or a live stream) onto the cell: which recorded rigid body
+is which operator's glove or head, and where the capture frame lies in the cell.
+
+A mapping YAML file::
+
+    capture_to_cell:          # p_cell = R p_capture + translation
+      up_axis: y              # Motive's default: Y up (z: the capture frame is Z up)
+      rpy_deg: [0, 0, 0]      # then a rotation about the cell's x, y, z axes, deg
+      translation: [1.2, -0.4, -0.8]   # m: the capture origin in the cell (robot base) frame
+    operators:
+    - name: technician
+      bodies:
+      - {recorded: RightGlove, name: right_glove, streaming_id: 1, radius: 0.05}
+      - {recorded: LeftGlove, name: left_glove, streaming_id: 2}
+      - {recorded: Helmet, name: head, streaming_id: 3, radius: 0.12}
+
+``recorded`` names the body in the recording (Motive's rigid body name, a C3D point
+label); ``streaming_id`` is its NatNet rigid-body id (Motive's "Streaming ID"), which
+the live runtime needs (frames carry ids, not names; 0: not given) and which, where a
+recording gives ids too, must agree with it. ``up_axis: y`` turns the capture frame's
+Y-up axes into the cell's Z-up ones (a rotation of +90 deg about x: (x, y, z) ->
+(x, -z, y)); ``rpy_deg`` is applied after it (R = Rz(yaw) Ry(pitch) Rx(roll)).
+The body named ``head`` of an operator is its head, the others are hands (as in
+scenarios). Read under the rules of ``safety_systems.files.documents``.
+
+This module must not use ``from __future__ import annotations`` (the YAML loader).
+"""
+
+import dataclasses as dc
+import functools
+import hashlib
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from safety_systems.files.documents import load_document, read_input
+from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
+from safety_systems.files.input_error import InputError
+from safety_systems.files.ranges import number
+from safety_systems.sensing.recording import Recording, fill_gaps, gaps, read_recording, span
+
+UP_AXES = ("y", "z")
+MAX_STREAMING_ID = 2**31 - 1
+MAX_RECORDING_BYTES = 512 * 1024 * 1024
+
+
+@dc.dataclass
+class CaptureToCell:
+    """X_CellCapture: p_cell = R p_capture + translation (see the module docstring)."""
+
+    up_axis: str = "y"
+    rpy_deg: list[float] = number([0.0, 0.0, 0.0], ge=-360.0, le=360.0, unit="deg")
+    translation: list[float] = number([0.0, 0.0, 0.0], ge=-20.0, le=20.0, unit="m")
+
+
+@dc.dataclass
+class MappedBody:
+    """One recorded rigid body as an operator's tracked body (a sphere of ``radius`` m)."""
+
+    recorded: str = ""
+    name: str = ""
+    streaming_id: int = number(0, ge=0, le=MAX_STREAMING_ID)
+    radius: float = number(0.05, ge=0.0, le=0.5, unit="m")
+
+
+@dc.dataclass
+class MappedOperator:
+    name: str = ""
+    bodies: list[MappedBody] = dc.field(default_factory=list)
+
+
+@dc.dataclass
+class RecordingMapping:
+    """See the module docstring. ``ignore_ids``: streaming ids of other rigid bodies in
+    the live stream (a tool, the robot base's calibration body) that the runtime leaves
+    out; any other id it does not know stops the robot (the tracker's ``unknown_id``)."""
+
+    capture_to_cell: CaptureToCell = dc.field(default_factory=CaptureToCell)
+    operators: list[MappedOperator] = dc.field(default_factory=list)
+    ignore_ids: list[int] = number([], ge=1, le=MAX_STREAMING_ID)
+
+
+def validate_mapping(m: RecordingMapping) -> None:
+    """Rules between the mapping's fields; raises InputError."""
+    c = m.capture_to_cell
+    if c.up_axis not in UP_AXES:
+        raise InputError("capture_to_cell.up_axis", c.up_axis, " | ".join(UP_AXES))
+    for name in ("rpy_deg", "translation"):
+        if len(getattr(c, name)) != 3:
+            raise InputError(f"capture_to_cell.{name}", getattr(c, name), "3 numbers")
+    if not 1 <= len(m.operators) <= MAX_OPERATORS:
+        raise InputError("operators", len(m.operators), f"1 to {MAX_OPERATORS} operators")
+    names, recorded, ids = set(), set(), set()
+    for i, o in enumerate(m.operators):
+        if NAME.fullmatch(o.name) is None or o.name in names:
+            raise InputError(f"operators[{i}].name", o.name, "a unique name of 1 to 64 "
+                             "letters, digits, '_', '-' or '.'")
+        names.add(o.name)
+        if not 1 <= len(o.bodies) <= MAX_BODIES_PER_OPERATOR:
+            raise InputError(f"operators[{i}].bodies", len(o.bodies),
+                             f"1 to {MAX_BODIES_PER_OPERATOR} bodies (gloves, head)")
+        slots = set()
+        for j, b in enumerate(o.bodies):
+            where = f"operators[{i}].bodies[{j}]"
+            if NAME.fullmatch(b.name) is None or b.name in slots:
+                raise InputError(f"{where}.name", b.name, "a name unique in its operator, 1 "
+                                 "to 64 letters, digits, '_', '-' or '.'")
+            slots.add(b.name)
+            if not b.recorded or b.recorded in recorded:
+                raise InputError(f"{where}.recorded", b.recorded,
+                                 "the name of a recorded body, each mapped once")
+            recorded.add(b.recorded)
+            if b.streaming_id and b.streaming_id in ids:
+                raise InputError(f"{where}.streaming_id", b.streaming_id,
+                                 "a streaming id given to one body only")
+            ids.add(b.streaming_id)
+    for i, x in enumerate(m.ignore_ids):
+        if x in ids:
+            raise InputError(f"ignore_ids[{i}]", x, "ids of bodies the mapping does not map")
+
+
+def load_mapping(path: str | Path) -> RecordingMapping:
+    """Loads and checks a mapping file; raises InputError (one line)."""
+    return load_document(path, RecordingMapping, validate_mapping)
+
+
+def rotation_matrix(c: CaptureToCell) -> np.ndarray:
+    """R of :class:`CaptureToCell` (3, 3)."""
+    up = np.eye(3) if c.up_axis == "z" else Rotation.from_euler("x", 90.0, degrees=True
+                                                                 ).as_matrix()
+    return Rotation.from_euler("xyz", c.rpy_deg, degrees=True).as_matrix() @ up
+
+
+def to_cell(c: CaptureToCell, positions: np.ndarray) -> np.ndarray:
+    """Capture-frame positions (..., 3) in the cell frame (NaN stays NaN). The one
+    transform of recordings and of the live stream."""
+    return np.asarray(positions, dtype=float) @ rotation_matrix(c).T + np.asarray(
+        c.translation, dtype=float)
+
+
+def bodies(mapping: RecordingMapping) -> list[tuple[str, MappedBody]]:
+    """Every mapped body with its operator's name, operator by operator."""
+    return [(o.name, b) for o in mapping.operators for b in o.bodies]
+
+
+def find_operator(mapping: RecordingMapping, name: str, where: str) -> MappedOperator:
+    """The mapping's operator ``name`` (empty: the only one); raises InputError."""
+    if not name and len(mapping.operators) == 1:
+        return mapping.operators[0]
+    for o in mapping.operators:
+        if o.name == name:
+            return o
+    raise InputError(where, name, "one of the mapping's operators "
+                     f"{[o.name for o in mapping.operators]}")
+
+
+@dc.dataclass(frozen=True, eq=False)
+class RecordedBodies:
+    """One mapped operator's bodies from a recording, in the cell frame: the samples
+    (``times`` (T,), ``points`` (T, n, 3) with untracked samples filled,
+    ``recording.fill_gaps``), when each body is tracked (``tracked_times`` (n, 2), first
+    and last) and the gaps in between (recording time), names, radii and ids."""
+
+    times: np.ndarray
+    points: np.ndarray
+    tracked_times: np.ndarray
+    gaps: tuple
+    names: tuple
+    radii: tuple
+    ids: tuple
+    raw: np.ndarray  # (T, n, 3) the cell-frame samples, NaN where untracked
+
+
+def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedOperator
+                    ) -> RecordedBodies:
+    """The bodies of ``operator`` in ``rec`` (see :class:`RecordedBodies`); raises
+    InputError naming a body the recording lacks or whose id differs."""
+    index = []
+    for j, b in enumerate(operator.bodies):
+        if b.recorded not in rec.names:
+            raise InputError(f"operators[{operator.name}].bodies[{j}].recorded", b.recorded,
+                             f"a body of {rec.file}: {list(rec.names)}")
+        k = rec.body(b.recorded)
+        if b.streaming_id and rec.ids[k] and b.streaming_id != rec.ids[k]:
+            raise InputError(f"operators[{operator.name}].bodies[{j}].streaming_id",
+                             b.streaming_id, f"the recording's id of {b.recorded} "
+                             f"({rec.ids[k]})")
+        index.append(k)
+    raw = to_cell(mapping.capture_to_cell, rec.positions[:, index])
+    tracked = np.all(np.isfinite(raw), axis=2)
+    return RecordedBodies(
+        times=rec.times, points=fill_gaps(rec.times, raw),
+        tracked_times=np.array([span(rec.times, tracked[:, i]) for i in range(len(index))]),
+        gaps=tuple(tuple(gaps(rec.times, tracked[:, i])) for i in range(len(index))),
+        names=tuple(b.name for b in operator.bodies),
+        radii=tuple(b.radius for b in operator.bodies),
+        ids=tuple(rec.ids[k] for k in index), raw=raw)
+
+
+@functools.lru_cache(maxsize=16)
+def _cached(recording: str, mapping: str, operator: str, digests: tuple) -> RecordedBodies:
+    m = load_mapping(mapping)
+    try:
+        rec = read_recording(recording)
+        return recorded_bodies(rec, m, find_operator(m, operator, "name"))
+    except InputError as e:
+        raise e.in_file(mapping) from None
+
+
+def load_recorded_operator(recording: str | Path, mapping: str | Path,
+                           operator: str = "") -> RecordedBodies:
+    """:func:`recorded_bodies` of files, kept while neither file's bytes change (the
+    scenarios of a space share them; each call still reads both files, so that they are
+    named among a result's inputs); raises InputError."""
+    digests = tuple(hashlib.sha256(read_input(p, max_bytes=MAX_RECORDING_BYTES)).hexdigest()
+                    for p in (recording, mapping))
+    return _cached(str(recording), str(mapping), operator, digests)

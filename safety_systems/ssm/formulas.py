@@ -1,0 +1,425 @@
+"""Speed and separation monitoring maths: distances, directed speeds, S and k.
+
+Plain vectorised functions shared by the Drake systems and the batched verifier.
+Shapes: robot quantities are ``(..., 3)``, body quantities ``(..., N, 3)``;
+leading axes broadcast (a batch of scenarios, a time axis, or nothing).
+
+Seed: Lettera, Costa, Callegari, "A Hybrid Architecture for Safe Human-Robot
+Industrial Tasks", Appl. Sci. 2025 (``shared/seeds/000_*``), Eqs. 1 and 6-12.
+"""
+
+import math
+
+import numba
+import numpy as np
+
+from safety_systems.sensing import stops
+from safety_systems.sensing.tracks import tracker_stop, usable
+
+HUMAN_SPEED_MODES = ("estimated", "iso", "estimated_with_floor")
+# The robot's speed in S (SafetyConfig.robot_speed): Eq. 7's directed speed, or the speed
+# of the capsule's fastest point (safety_systems.ssm.separation).
+ROBOT_SPEED_TERMS = ("directed", "fastest_point")
+
+
+# ISO/TS 15066 Eq. 1 (seed Section 2) after ISO 13855: 2000 mm/s, or 1600 mm/s where
+# the resulting S exceeds 500 mm (and then S is not taken below 500 mm).
+ISO_HUMAN_SPEED = 2.0
+ISO_REDUCED_HUMAN_SPEED = 1.6
+ISO_REDUCED_SPEED_THRESHOLD = 0.5
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def separation_pair(p_R, v_R, p_B, v_B):
+    """(d, v_human_directed, v_robot_directed) of one body (Eqs. 6-8; 3-vectors), compiled
+    and callable from other compiled code (see :func:`separation_and_directed_speeds`)."""
+    x0, x1, x2 = p_R[0] - p_B[0], p_R[1] - p_B[1], p_R[2] - p_B[2]  # body -> robot
+    dist = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    h0, h1, h2 = v_B[0], v_B[1], v_B[2]
+    r0, r1, r2 = -v_R[0], -v_R[1], -v_R[2]
+    if dist > 1e-12:
+        v_h, v_r = (h0 * x0 + h1 * x1 + h2 * x2) / dist, (r0 * x0 + r1 * x1 + r2 * x2) / dist
+    elif not math.isnan(dist):  # coincident: the full magnitudes (worst case)
+        v_h, v_r = np.sqrt(h0 * h0 + h1 * h1 + h2 * h2), np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    else:  # a NaN position
+        v_h, v_r = np.nan, np.nan
+    return dist, v_h, v_r
+
+
+@numba.njit(cache=True)
+def _separation_rows(p_R, v_R, p_B, v_B, out, speeds):
+    """Eq. 8's d and (if ``speeds``) Eqs. 6-7's directed speeds of rows (L, 3) / (L, N, 3)
+    into out[0], out[1], out[2] (L, N), compiled."""
+    for row in range(p_B.shape[0]):
+        for i in range(p_B.shape[1]):
+            if speeds:
+                out[0, row, i], out[1, row, i], out[2, row, i] = separation_pair(
+                    p_R[row], v_R[row], p_B[row, i], v_B[row, i])
+            else:
+                x0 = p_R[row, 0] - p_B[row, i, 0]
+                x1 = p_R[row, 1] - p_B[row, i, 1]
+                x2 = p_R[row, 2] - p_B[row, i, 2]
+                out[0, row, i] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+
+
+def _rows(robot: np.ndarray, bodies: np.ndarray, *more: np.ndarray):
+    """Robot arrays (..., 3) and body arrays (..., N, 3) broadcast to one leading shape and
+    flattened to rows (L, 3) and (L, N, 3); returns the leading shape and the arrays (views
+    where no broadcasting is needed)."""
+    arrays = [np.asarray(x, dtype=float) for x in (robot, bodies, *more)]
+    leads = [x.shape[:x.ndim - 1 - (k % 2)] for k, x in enumerate(arrays)]
+    lead = leads[0] if all(a == leads[0] for a in leads) else np.broadcast_shapes(*leads)
+    rows = []
+    for x, own in zip(arrays, leads):
+        tail = x.shape[len(own):]
+        if own != lead:
+            x = np.broadcast_to(x, lead + tail)
+        rows.append(x.reshape((-1,) + tail))
+    return lead, rows
+
+
+def separation_distances(p_robot: np.ndarray, p_bodies: np.ndarray) -> np.ndarray:
+    """Euclidean distance from the robot point to every body, seed Eq. 8.
+
+    Returns shape ``(..., N)``.
+    """
+    lead, (p_R, p_B) = _rows(p_robot, p_bodies)
+    d = np.empty((1,) + p_B.shape[:2])
+    _separation_rows(p_R, p_R, p_B, p_B, d, False)
+    return d[0].reshape(lead + d.shape[2:])
+
+
+def directed_speeds(
+    p_robot: np.ndarray,
+    v_robot: np.ndarray,
+    p_bodies: np.ndarray,
+    v_bodies: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Speeds of each body towards the robot and of the robot towards each body.
+
+    Seed Eq. 6: v^d_RB_i = v_RB_i . (p_R - p_RB_i)/||p_R - p_RB_i||, and Eq. 7:
+    v^d_R = v_R . (p_RB_i - p_R)/||p_RB_i - p_R||. Positive means closing in.
+
+    Interpretation: where a body coincides with the robot point the direction is
+    undefined; there both speeds are taken as their full magnitudes (the worst case).
+
+    Returns ``(v_human_directed, v_robot_directed)``, each shape ``(..., N)``.
+    """
+    return separation_and_directed_speeds(p_robot, v_robot, p_bodies, v_bodies)[1:]
+
+
+def separation_and_directed_speeds(
+    p_robot: np.ndarray,
+    v_robot: np.ndarray,
+    p_bodies: np.ndarray,
+    v_bodies: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eq. 8's distances and Eqs. 6-7's directed speeds at once (they share the offsets):
+    ``(d, v_human_directed, v_robot_directed)``, as :func:`separation_distances` and
+    :func:`directed_speeds` give them; a NaN body position gives NaN everywhere. The
+    pairs are looped over in compiled code (numba), any leading axes flattened."""
+    p_R, v_R = np.asarray(p_robot, dtype=float), np.asarray(v_robot, dtype=float)
+    p_B, v_B = np.asarray(p_bodies, dtype=float), np.asarray(v_bodies, dtype=float)
+    if p_R.ndim == 1 and v_R.ndim == 1 and p_B.ndim == 2 and v_B.ndim == 2:
+        out = np.empty((3, 1, p_B.shape[0]))  # one robot, the common case: no copies
+        _separation_rows(p_R[None], v_R[None], p_B[None], v_B[None], out, True)
+        return out[0, 0], out[1, 0], out[2, 0]
+    lead, (p_R, p_B, v_R, v_B) = _rows(p_R, p_B, v_R, v_B)
+    out = np.empty((3,) + p_B.shape[:2])
+    _separation_rows(p_R, v_R, p_B, v_B, out, True)
+    shape = lead + out.shape[2:]
+    return out[0].reshape(shape), out[1].reshape(shape), out[2].reshape(shape)
+
+
+_MODE_CODES = {mode: code for code, mode in enumerate(HUMAN_SPEED_MODES)}
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def body_protective_distance(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced):
+    """S of one body, compiled and callable from other compiled code:
+    ((v_H (T_s + T_r) + v_R T_r) + (B + C + Z_r)) + Z_d with ``t_sr`` = T_s + T_r and
+    ``const`` = B + C + Z_r, v_H by ``mode`` (its index in ``HUMAN_SPEED_MODES``) and
+    ISO 13855's 1.6 m/s rule in ``iso`` mode (see :func:`monitor_protective_distances`)."""
+    if mode == 1 or (mode == 2 and v_h < iso):  # with_floor: the larger (NaN stays NaN)
+        v_h = iso
+    s = v_h * t_sr + v_r * t_r + const + z_d
+    if mode == 1 and s > ISO_REDUCED_SPEED_THRESHOLD:
+        s = iso_reduced * t_sr + v_r * t_r + const + z_d
+        if s < ISO_REDUCED_SPEED_THRESHOLD:  # noqa: PLR1730 (max() would drop a NaN)
+            s = ISO_REDUCED_SPEED_THRESHOLD
+    return s
+
+
+@numba.njit(cache=True)
+def _protective_kernel(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced, out):
+    """:func:`body_protective_distance` of every element (flat arrays; ``z_d`` of length 1 or of the
+    outputs)."""
+    one_z = z_d.size == 1
+    for i in range(out.size):
+        out[i] = body_protective_distance(v_h[i], v_r[i], z_d[0] if one_z else z_d[i], mode,
+                                          t_sr, t_r, const, iso, iso_reduced)
+
+
+def protective_separation_distance(
+    v_human: np.ndarray,
+    v_robot: np.ndarray,
+    *,
+    reaction_time: float,
+    stopping_time: float,
+    stopping_distance: float,
+    intrusion_distance: float = 0.0,
+    human_uncertainty: np.ndarray | float = 0.0,
+    robot_uncertainty: float = 0.0,
+) -> np.ndarray:
+    """Protective separation distance S_i, seed Eqs. 9-11 (ISO/TS 15066 Eq. 1).
+
+    S_i = v_H (T_s + T_r) + v_R T_r + B + C + Z_d + Z_r, where v_H is the human speed
+    (Eq. 10) and v_R the robot's speed towards the body (Eq. 11). B is the stopping
+    distance ``S_S`` (constant in the seed). :func:`monitor_protective_distances` with
+    ``mode="estimated"``.
+    """
+    return monitor_protective_distances(
+        v_human, v_robot, mode="estimated", reaction_time=reaction_time,
+        stopping_time=stopping_time, stopping_distance=stopping_distance,
+        intrusion_distance=intrusion_distance, human_uncertainty=human_uncertainty,
+        robot_uncertainty=robot_uncertainty)
+
+
+def human_speed_term(
+    v_human_directed: np.ndarray,
+    mode: str,
+    *,
+    iso_speed: float = ISO_HUMAN_SPEED,
+) -> np.ndarray:
+    """The human speed entering S, by ``mode``.
+
+    - ``estimated``: the Kalman filter's directed speed, as the seed does (Eq. 10);
+      negative when the body moves away, which lowers S.
+    - ``iso``: the constant ``iso_speed`` of ISO/TS 15066 Eq. 1 (2.0 m/s); the 1.6 m/s
+      reduction is applied by :func:`monitor_protective_distances`.
+    - ``estimated_with_floor``: the larger of the two.
+    """
+    v = np.asarray(v_human_directed, dtype=float)
+    if mode == "estimated":
+        return v
+    if mode == "iso":
+        return np.full_like(v, iso_speed)
+    if mode == "estimated_with_floor":
+        return np.maximum(v, iso_speed)
+    raise ValueError(f"human_speed mode {mode!r} is not one of {HUMAN_SPEED_MODES}")
+
+
+def monitor_protective_distances(
+    v_human_directed: np.ndarray,
+    v_robot_directed: np.ndarray,
+    *,
+    mode: str,
+    reaction_time: float,
+    stopping_time: float,
+    stopping_distance: float,
+    intrusion_distance: float = 0.0,
+    human_uncertainty: np.ndarray | float = 0.0,
+    robot_uncertainty: float = 0.0,
+    iso_speed: float = ISO_HUMAN_SPEED,
+    iso_reduced_speed: float = ISO_REDUCED_HUMAN_SPEED,
+) -> np.ndarray:
+    """S_i (Eqs. 9-11) for every body under a human-speed ``mode`` (the speed
+    :func:`human_speed_term` gives), in compiled code.
+
+    In ``iso`` mode, ISO 13855's rule is applied: if S computed with 2.0 m/s exceeds
+    0.5 m, S is recomputed with 1.6 m/s but not taken below 0.5 m.
+    """
+    code = _MODE_CODES.get(mode)
+    if code is None:
+        raise ValueError(f"human_speed mode {mode!r} is not one of {HUMAN_SPEED_MODES}")
+    v_h = np.asarray(v_human_directed, dtype=float)
+    v_r = np.asarray(v_robot_directed, dtype=float)
+    z_d = np.asarray(human_uncertainty, dtype=float)
+    shape = v_h.shape
+    if v_r.shape != shape or (z_d.ndim and z_d.shape != shape):
+        shape = np.broadcast_shapes(v_h.shape, v_r.shape, z_d.shape)
+        v_h, v_r = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (v_h, v_r))
+        if z_d.size != 1:
+            z_d = np.ascontiguousarray(np.broadcast_to(z_d, shape))
+    out = np.empty(shape)
+    _protective_kernel(v_h.ravel(), v_r.ravel(), z_d.ravel(), code,
+                       stopping_time + reaction_time, reaction_time,
+                       stopping_distance + intrusion_distance + robot_uncertainty,
+                       iso_speed, iso_reduced_speed, out.ravel())
+    return out
+
+
+def human_uncertainty(base: float, sigmas: float,
+                      position_std: np.ndarray) -> np.ndarray | float:
+    """Z_d of each body, metres: the configured ``base`` plus ``sigmas`` standard
+    deviations of the track's position (not computed when ``sigmas`` is 0, so the seed's
+    constant Z_d stays the float ``base``). A hidden body's extra uncertainty is not in
+    Z_d: it is the radius of its ball (:func:`hidden_ball_radius`), taken off its d."""
+    if sigmas:
+        return base + sigmas * np.asarray(position_std, dtype=float)
+    return base
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def hidden_ball_radius(unseen_time, occlusion_speed):
+    """Radius (m) of the ball a hidden body may be in, around its last accepted
+    estimate: ``occlusion_speed`` (m/s) times the seconds since it was last seen. Not in
+    the seed (its Z_d is constant); see ``safety_systems.sensing.tracks``."""
+    return occlusion_speed * unseen_time
+
+
+# Stand-ins for an infinite S_max (+-): beyond every finite distance, and (dS - 1) times
+# them stays finite, so Eq. 12's arithmetic meets no inf - inf or 0 * inf.
+_S_MAX_CAP = 1e100
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _speed_scale_eq12(d, s_max, delta_s, d_min):
+    """Eq. 12 for one distance (see :func:`speed_override`), compiled."""
+    s = _S_MAX_CAP if math.isnan(s_max) else min(max(s_max, -_S_MAX_CAP), _S_MAX_CAP)
+    if not (d >= d_min and d < np.inf):  # also NaN
+        return 0.0
+    ramp = (d - s) / max((delta_s - 1.0) * s, 1e-12)  # an empty band: a step
+    if math.isnan(ramp):
+        return 0.0
+    return min(max(ramp, 0.0), 1.0)
+
+
+@numba.njit(cache=True)
+def _speed_scale_eq12_elements(d, s_max, delta_s, d_min, out):
+    one_s = s_max.size == 1
+    for i in range(out.size):
+        out[i] = _speed_scale_eq12(d[i], s_max[0] if one_s else s_max[i], delta_s, d_min)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def override_row(d, s, inc, delta_s, d_min):
+    """(k, S_max) of one robot from its bodies' d, S and included flags (N,), compiled and
+    callable from other compiled code (see :func:`overall_speed_override`)."""
+    included, faulty = False, False
+    top, closest = -np.inf, np.inf
+    for i in range(d.size):
+        if not inc[i]:
+            continue
+        included = True
+        if not (np.isfinite(d[i]) and np.isfinite(s[i])):
+            faulty = True
+        else:
+            top = max(top, s[i])
+            closest = min(closest, d[i])
+    if not included:
+        k, top = 1.0, -np.inf
+    elif faulty:  # a non-finite d_i or S_i: stop
+        k, top = 0.0, np.inf
+    else:
+        k = _speed_scale_eq12(closest, top, delta_s, d_min)
+    return k, top
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def override_command(d, s, status, fault, delta_s, d_min, included):
+    """The SpeedOverride's (k, S_max, stop reason) of one robot, compiled: Eq. 12 over
+    the bodies with a usable track (``tracks.usable``: tracking or hidden; their flags
+    are written into ``included`` (N,)) by :func:`override_row`, then fail safe: the
+    tracker's stop rule (``tracks.tracker_stop``: its fault, else a lost track) holds the
+    robot with that reason."""
+    for i in range(d.size):
+        included[i] = usable(status[i])
+    k, top = override_row(d, s, included, delta_s, d_min)
+    reason = float(stops.STOP_SEPARATION if k <= 0.0 else stops.STOP_NONE)
+    held = tracker_stop(status, fault)
+    if held != stops.STOP_NONE:
+        k, reason = 0.0, held
+    return k, top, reason
+
+
+@numba.njit(cache=True)
+def _override_command(d, s, status, fault, delta_s, d_min):
+    return override_command(d, s, status, fault, delta_s, d_min, np.empty(d.size, np.bool_))
+
+
+def speed_override_command(distances: np.ndarray, protective_distances: np.ndarray,
+                           status: np.ndarray, fault: float, *, delta_s: float = 2.0,
+                           d_min: float = 0.30) -> tuple[float, float, int]:
+    """:func:`override_command` of one robot from Python: (k, S_max, stop reason)."""
+    k, top, reason = _override_command(
+        np.ascontiguousarray(distances, dtype=float),
+        np.ascontiguousarray(protective_distances, dtype=float),
+        np.ascontiguousarray(status, dtype=float), float(fault), float(delta_s), float(d_min))
+    return float(k), float(top), int(reason)
+
+
+@numba.njit(cache=True)
+def _override_rows(d, s, inc, delta_s, d_min, k, s_max):
+    """:func:`override_row` of every row (L, N)."""
+    for row in range(d.shape[0]):
+        k[row], s_max[row] = override_row(d[row], s[row], inc[row], delta_s, d_min)
+
+
+def speed_override(
+    distances: np.ndarray,
+    s_max: np.ndarray | float,
+    *,
+    delta_s: float = 2.0,
+    d_min: float = 0.30,
+) -> np.ndarray:
+    """Speed override k per body, seed Eq. 12; shape of ``distances``.
+
+    k = 0 if d_i < S_max or d_i < d_min; else 1 if d_i >= dS * S_max; else
+    (d_i - S_max) / (dS * S_max - S_max). Computed as the ramp (d_i - S_max) /
+    ((dS - 1) S_max) clipped to [0, 1] (1 from d_i = dS * S_max, to rounding), then 0
+    below d_min.
+
+    Interpretations: the zero case is tested first (Eq. 12 lists its cases in the
+    other order, but then d < d_min would not stop the robot whenever
+    d >= dS * S_max, which the text rules out); with S_max <= 0 (every body moving
+    away fast under ``estimated`` speeds) the linear band is empty and k = 1 for
+    d >= d_min. Non-finite distances and an infinite or NaN S_max give k = 0 (fail
+    safe).
+    """
+    d = np.asarray(distances, dtype=float)
+    s = np.asarray(s_max, dtype=float)
+    shape = np.broadcast_shapes(d.shape, s.shape)
+    d = np.ascontiguousarray(np.broadcast_to(d, shape)).reshape(-1)
+    s = s.reshape(1) if s.size == 1 else np.ascontiguousarray(np.broadcast_to(s, shape)).reshape(-1)
+    out = np.empty(shape)
+    _speed_scale_eq12_elements(d, s, float(delta_s), float(d_min), out.reshape(-1))
+    return out
+
+
+def overall_speed_override(
+    distances: np.ndarray,
+    protective_distances: np.ndarray,
+    included: np.ndarray,
+    *,
+    delta_s: float = 2.0,
+    d_min: float = 0.30,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The robot's k from every included body: min over bodies of Eq. 12.
+
+    S_max is the largest S_i of the included bodies (Eq. 12 compares each d_i with
+    S_max, not with its own S_i). Bodies not included (no track) are ignored; with no
+    included body k = 1. An included body with a non-finite d_i or S_i gives k = 0
+    (S_max is then infinite).
+
+    With one S_max for all bodies Eq. 12 is non-decreasing in d_i, so the minimum over
+    the bodies is k of the closest included body, which is what is computed (in
+    compiled code, row by row over any leading axes).
+
+    Returns ``(k, s_max)`` with the body axis (last) reduced.
+    """
+    d = np.asarray(distances, dtype=float)
+    s = np.asarray(protective_distances, dtype=float)
+    inc = np.asarray(included, dtype=bool)
+    if d.ndim == 1 and s.shape == d.shape and inc.shape == d.shape:  # one robot
+        k, s_max = override_row(d, s, inc, float(delta_s), float(d_min))
+        return np.float64(k), np.float64(s_max)
+    shape = d.shape
+    if s.shape != shape or inc.shape != shape:
+        shape = np.broadcast_shapes(d.shape, s.shape, inc.shape)
+        d, s, inc = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (d, s, inc))
+    lead = shape[:-1]
+    k, s_max = np.empty((2, math.prod(lead)))
+    _override_rows(d.reshape(-1, shape[-1]), s.reshape(-1, shape[-1]),
+                   inc.reshape(-1, shape[-1]), float(delta_s), float(d_min), k, s_max)
+    return k.reshape(lead)[()], s_max.reshape(lead)[()]  # one robot: scalars
