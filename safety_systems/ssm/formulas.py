@@ -135,13 +135,30 @@ _MODE_CODES = {mode: code for code, mode in enumerate(HUMAN_SPEED_MODES)}
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def human_speed(v_h, mode, iso):
+    """The human speed v_H entering S (Eq. 10) by ``mode``, its index in
+    ``HUMAN_SPEED_MODES``: ``estimated`` the directed speed as given (negative when the
+    body moves away, which lowers S), ``iso`` the constant ``iso`` of ISO/TS 15066 Eq. 1,
+    ``estimated_with_floor`` the larger of the two (a NaN stays NaN). The one statement
+    of the modes: S and the numpy :func:`human_speed_term` use it."""
+    if mode == 1 or (mode == 2 and v_h < iso):
+        v_h = iso
+    return v_h
+
+
+@numba.njit(cache=True)
+def _human_speed_rows(v, mode, iso, out):
+    for i in range(v.size):
+        out[i] = human_speed(v[i], mode, iso)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def body_protective_distance(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced):
     """S of one body, compiled and callable from other compiled code:
     ((v_H (T_s + T_r) + v_R T_r) + (B + C + Z_r)) + Z_d with ``t_sr`` = T_s + T_r and
     ``const`` = B + C + Z_r, v_H by ``mode`` (its index in ``HUMAN_SPEED_MODES``) and
     ISO 13855's 1.6 m/s rule in ``iso`` mode (see :func:`monitor_protective_distances`)."""
-    if mode == 1 or (mode == 2 and v_h < iso):  # with_floor: the larger (NaN stays NaN)
-        v_h = iso
+    v_h = human_speed(v_h, mode, iso)
     s = v_h * t_sr + v_r * t_r + const + z_d
     if mode == 1 and s > ISO_REDUCED_SPEED_THRESHOLD:
         s = iso_reduced * t_sr + v_r * t_r + const + z_d
@@ -191,7 +208,7 @@ def human_speed_term(
     *,
     iso_speed: float = ISO_HUMAN_SPEED,
 ) -> np.ndarray:
-    """The human speed entering S, by ``mode``.
+    """The human speed entering S, by ``mode`` (:func:`human_speed` of every element).
 
     - ``estimated``: the Kalman filter's directed speed, as the seed does (Eq. 10);
       negative when the body moves away, which lowers S.
@@ -199,14 +216,13 @@ def human_speed_term(
       reduction is applied by :func:`monitor_protective_distances`.
     - ``estimated_with_floor``: the larger of the two.
     """
-    v = np.asarray(v_human_directed, dtype=float)
-    if mode == "estimated":
-        return v
-    if mode == "iso":
-        return np.full_like(v, iso_speed)
-    if mode == "estimated_with_floor":
-        return np.maximum(v, iso_speed)
-    raise ValueError(f"human_speed mode {mode!r} is not one of {HUMAN_SPEED_MODES}")
+    if mode not in HUMAN_SPEED_MODES:
+        raise ValueError(f"human_speed mode {mode!r} is not one of {HUMAN_SPEED_MODES}")
+    v = np.ascontiguousarray(v_human_directed, dtype=float)
+    out = np.empty(v.shape)
+    _human_speed_rows(v.reshape(-1), HUMAN_SPEED_MODES.index(mode), float(iso_speed),
+                      out.reshape(-1))
+    return out
 
 
 def monitor_protective_distances(
