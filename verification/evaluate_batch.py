@@ -314,8 +314,8 @@ def _bounding_sphere(ends, radius):
         thick = max(thick, radius[j])
         for e in range(2):
             x0, x1, x2 = ends[j, e, 0] - c0, ends[j, e, 1] - c1, ends[j, e, 2] - c2
-            far = max(far, np.sqrt(x0 * x0 + x1 * x1 + x2 * x2))
-    return c0, c1, c2, far + thick
+            far = max(far, x0 * x0 + x1 * x1 + x2 * x2)
+    return c0, c1, c2, np.sqrt(far) + thick  # (the root of the largest square)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -422,12 +422,20 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
         tool_only = tool_only and ma[j] == 6 and mb[j] == 6
     for j in range(ca.size):
         tool_only = tool_only and ca[j] == 6 and cb[j] == 6
+    # The monitor's capsules on the real robot's axes (only the radii differ): their ends
+    # are the same numbers, computed once.
+    same_axes = ma.size == ca.size and m_tool == c_tool
+    for j in range(ma.size if same_axes else 0):
+        same_axes = same_axes and ma[j] == ca[j] and mb[j] == cb[j] and mt0[j] == ct0[j] \
+            and mt1[j] == ct1[j]
     # A scenario frozen from a tick on: at rest, held at k = 0 by the same inputs and
     # fault to the interval's end: every later tick of the interval repeats it.
     frozen = np.zeros(s.size, dtype=np.bool_)
     t_end = (k1 - 1) * dt
     # The bounds cost about one pair each: worth it only against several capsules.
     bound_monitor, bound_contact = ma.size > 1, ca.size > 1
+    # The same axes and the same largest radius: the same bounding sphere.
+    same_sphere = same_axes and bound_contact and np.max(m_radius) == np.max(c_radius)
     # Scenarios whose robot has not been slowed yet share its state (s, sigma) bit for bit:
     # in order of s, each computes the robot only where it differs from the one before.
     order = np.argsort(s, kind="mergesort")
@@ -446,17 +454,28 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                      point_v[6, 2]) = tool0_reusing_trig(q, v_joint, trig[b])
                 else:
                     robot_points_one_memo(q, v_joint, m_tool, trig[b], points, point_v)
-                capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_unused)
-                if c_tool != m_tool and not tool_only:
-                    robot_points_one_memo(q, v_joint, c_tool, trig[b], points, point_v)
-                capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
+                if same_axes:
+                    capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
+                    for j in range(ma.size):
+                        for e in range(2):
+                            for i in range(3):
+                                m_ends[j, e, i] = c_ends[j, e, i]
+                else:
+                    capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_unused)
+                    if c_tool != m_tool and not tool_only:
+                        robot_points_one_memo(q, v_joint, c_tool, trig[b], points, point_v)
+                    capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
                 speed = 0.0  # the robot's: its fastest capsule end
                 for j in range(ca.size):
-                    c_fast[j] = 0.0  # capsule j's fastest end (every axis point is slower)
+                    # capsule j's fastest end (every axis point is slower); one root of
+                    # the larger square (the root is monotonic and correctly rounded:
+                    # the same number as the larger of the two roots)
+                    fast2 = 0.0
                     for e in range(2):
                         w0, w1, w2 = c_velocities[j, e, 0], c_velocities[j, e, 1], \
                             c_velocities[j, e, 2]
-                        c_fast[j] = max(c_fast[j], np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+                        fast2 = max(fast2, w0 * w0 + w1 * w1 + w2 * w2)
+                    c_fast[j] = np.sqrt(fast2)
                     speed = max(speed, c_fast[j])
                     # A sphere around capsule j: its axis' midpoint, out to its ends.
                     for i in range(3):
@@ -465,10 +484,10 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     x1 = c_ends[j, 1, 1] - c_mid[j, 1]
                     x2 = c_ends[j, 1, 2] - c_mid[j, 2]
                     c_reach[j] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + c_radius[j]
-                if bound_monitor:
-                    m_sphere = _bounding_sphere(m_ends, m_radius)
                 if bound_contact:
                     c_sphere = _bounding_sphere(c_ends, c_radius)
+                if bound_monitor:
+                    m_sphere = c_sphere if same_sphere else _bounding_sphere(m_ends, m_radius)
                 s_before, rate_before = s[b], rate[b]
             # SeparationMonitor and SpeedOverride on the tracker's estimates.
             fault = tracker_fault(frames[b, _F_FAULT], t, frames[b, _F_GOOD], timeout)
@@ -489,7 +508,8 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                         if bound_monitor:
                             w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
                                 m_velocities[j, e, 2]
-                            v_end = max(v_end, np.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
+                            v_end = max(v_end, w0 * w0 + w1 * w1 + w2 * w2)
+                v_end = np.sqrt(v_end)  # (the root of the largest square, as above)
                 # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
                 far = bound_monitor and not math.isnan(v_end) \
                     and tracker_stop(status[b], fault) == stops.STOP_NONE
