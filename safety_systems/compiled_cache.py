@@ -87,7 +87,29 @@ def compiled_dependencies(root: Path, packages: Iterable[str]) -> dict[Path, lis
 
 def drop_all_stale_builds(root: Path, packages: Iterable[str]) -> None:
     """:func:`drop_stale_builds` for every module of ``packages`` with compiled code,
-    against the compiled modules it imports (see :func:`compiled_dependencies`)."""
+    against the modules it imports (see :func:`compiled_dependencies`).
+
+    It runs at every start of the packages, so the import graph is parsed only when a
+    file it was made of changed: a mark in the first package's ``__pycache__`` keeps those
+    files' sizes and modification times (a file not in it has no build that could be
+    stale, or changed the imports of one that is)."""
+    root = Path(root)
+    packages = tuple(packages)
+    mark = root / packages[0] / "__pycache__" / f"{'+'.join(packages)}.compiled"
+    with contextlib.suppress(OSError):  # no mark, or a file of it gone
+        files = mark.read_text().split("\n")[1:]
+        if mark.read_text() == _graph_mark(files):
+            return
     with contextlib.suppress(OSError):  # an installed copy without its sources: nothing to do
-        for module, deps in compiled_dependencies(Path(root), packages).items():
+        graph = compiled_dependencies(root, packages)
+        for module, deps in graph.items():
             drop_stale_builds(module, deps)
+        files = sorted({str(f) for module, deps in graph.items() for f in (module, *deps)})
+        mark.parent.mkdir(exist_ok=True)
+        mark.write_text(_graph_mark(files))
+
+
+def _graph_mark(files: list[str]) -> str:
+    """A stamp of ``files``' sizes and modification times, then the files, one a line."""
+    stamp = " ".join(f"{s.st_mtime_ns}:{s.st_size}" for s in (Path(f).stat() for f in files))
+    return "\n".join([stamp, *files])
