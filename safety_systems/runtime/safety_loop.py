@@ -14,7 +14,6 @@ Times are the runtime's monotonic clock (capture times from ``mocap.FrameClock``
 
 import math
 
-import numba
 import numpy as np
 
 from safety_systems.config.configuration import (
@@ -29,11 +28,6 @@ from safety_systems.ssm.formulas import speed_override_command
 from safety_systems.cell.robot_geometry import capsule_ends_at
 from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
 from safety_systems.config.configuration import frame_timeout, monitor_terms
-
-
-@numba.njit(cache=True)
-def _fault(frame_fault, now, t_good, timeout):
-    return tracker_fault(frame_fault, now, t_good, timeout)
 
 
 class SafetyLoop:
@@ -108,7 +102,7 @@ class SafetyLoop:
 
     def fault(self, now: float) -> float:
         """The tracker's fault at ``now`` (``tracks.tracker_fault``)."""
-        return float(_fault(self.frame_fault, now, self.t_good[0], self.timeout))
+        return float(tracker_fault(self.frame_fault, now, self.t_good[0], self.timeout))
 
     def decide(self, now: float) -> tuple[float, float, int]:
         """(k, S_max, stop reason) at ``now``: the monitor and the override."""

@@ -1,6 +1,5 @@
 """KalmanTracker: one constant-velocity Kalman filter per tracked body (seed Eqs. 2-4)."""
 
-import numba
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import (
@@ -18,11 +17,6 @@ from safety_systems.sensing.tracks import (
     make_regions,
     tracker_fault,
 )
-
-
-@numba.njit(cache=True)
-def _fault(frame_fault, now, t_good, timeout):
-    return tracker_fault(frame_fault, now, t_good, timeout)
 
 
 class KalmanTracker(LeafSystem):
@@ -152,5 +146,5 @@ class KalmanTracker(LeafSystem):
     def _calc_fault(self, context: Context, output: BasicVector) -> None:
         state = context.get_discrete_state(self._state).get_value()
         tail = self._n * TRACK_SLOT
-        output.SetAtIndex(0, _fault(state[tail + 2], context.get_time(), state[tail + 1],
+        output.SetAtIndex(0, tracker_fault(state[tail + 2], context.get_time(), state[tail + 1],
                                     self._timeout))
