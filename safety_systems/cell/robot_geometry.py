@@ -32,7 +32,7 @@ import numpy as np
 
 from safety_systems.cell import ur5e
 from safety_systems.ssm.formulas import separation_pair
-from safety_systems.cell.ur5e import _cos_sin, _tool0_from_trig
+from safety_systems.cell.ur5e import _tool0_from_trig, trig_reusing
 
 CAPSULE_NAMES = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3", "tool")
 LINK_SEGMENTS = tuple((k, k + 1) for k in range(6))  # DH origin indices of each link
@@ -230,13 +230,7 @@ def robot_points_one(q, v, tool_length, p, pv):
 def robot_points_one_memo(q, v, tool_length, memo, p, pv):
     """:func:`robot_points_one`, equal bit for bit, reusing the trig kept in ``memo`` (15,)
     as ur5e.tool0_reusing_trig does (one memo can serve both)."""
-    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
-    c1, s1 = _cos_sin(q1, memo, 0)
-    c2, s2 = _cos_sin(q2, memo, 1)
-    c23, s23 = _cos_sin(q2 + q3, memo, 2)
-    c234, s234 = _cos_sin(q2 + q3 + q4, memo, 3)
-    c5, s5 = _cos_sin(q5, memo, 4)
-    _points_from_trig((c1, s1, c2, s2, c23, s23, c234, s234, c5, s5), v, tool_length, p, pv)
+    _points_from_trig(trig_reusing(q, memo), v, tool_length, p, pv)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element

@@ -139,18 +139,26 @@ def _cos_sin(angle, memo, j):
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def tool0_reusing_trig(q, v, memo):
-    """:func:`tool0_one`, equal bit for bit, keeping the cosines and sines of its five
-    angles in ``memo`` (15,) (NaN at first) to reuse them at the next call with the same
-    angle: a robot at rest, or joints that do not move in a path segment, costs no
-    trigonometry (most of :func:`tool0_one`'s cost)."""
+def trig_reusing(q, memo):
+    """(c1, s1, c2, s2, c23, s23, c234, s234, c5, s5): the cosines and sines of the
+    kinematics' five angles at q, each reused from ``memo`` (15,) while its angle stays
+    the same (:func:`_cos_sin`)."""
     q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
     c1, s1 = _cos_sin(q1, memo, 0)
     c2, s2 = _cos_sin(q2, memo, 1)
     c23, s23 = _cos_sin(q2 + q3, memo, 2)
     c234, s234 = _cos_sin(q2 + q3 + q4, memo, 3)
     c5, s5 = _cos_sin(q5, memo, 4)
-    return _tool0_from_trig((c1, s1, c2, s2, c23, s23, c234, s234, c5, s5), v)
+    return c1, s1, c2, s2, c23, s23, c234, s234, c5, s5
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def tool0_reusing_trig(q, v, memo):
+    """:func:`tool0_one`, equal bit for bit, keeping the cosines and sines of its five
+    angles in ``memo`` (15,) (NaN at first) to reuse them at the next call with the same
+    angle: a robot at rest, or joints that do not move in a path segment, costs no
+    trigonometry (most of :func:`tool0_one`'s cost)."""
+    return _tool0_from_trig(trig_reusing(q, memo), v)
 
 
 @numba.njit(cache=True)
