@@ -175,10 +175,13 @@ def test_the_stream_stopping_gives_k_0_within_a_control_period(tmp_path, exporte
     assert stale[after].all()  # it never came back
     assert (trace["k"][stale] == 0.0).all()
     assert set(trace["stop_reason"][stale & after]) == {"stale_frame"}
-    # The first stale tick is the first tick past the frame's timeout: within a period.
+    # The first stale tick is the first tick due past the frame's timeout: its due time
+    # (its start less its own lateness, which the overrun watchdog bounds and this
+    # test does not: a loaded machine delays a whole tick) within a period of it.
     first = np.flatnonzero(stale & after)[0]
     last_good = trace["frame_time"][first]
-    assert trace["time"][first] - (last_good + _iso_timeout()) <= PERIOD + 1e-3
+    due = trace["time"][first] - trace["tick_late"][first]
+    assert due - (last_good + _iso_timeout()) <= PERIOD + 1e-6
     assert trace["time"][first - 1] - last_good <= _iso_timeout()
 
 
