@@ -25,7 +25,9 @@ Prints, each beside its goal:
    first counterexample (every evaluation of any model in order: for this project the
    candidates ranked before it and the simulations up to it; a search that found none
    counts as the budget + 1) and the median CPU seconds until it was found (for this
-   project, when the batch that held it was done), and the ratios; then the Drake
+   project, when the batch that held it was done), and the ratios (where no search
+   can do better, every seed falsified or each found at its first evaluation, a tie
+   is printed as one, not as ahead); then the Drake
    diagram's wall time to confirm this project's first counterexample (the run stops a
    quarter second after the violation shows) beside the whole run's;
 4. how much of the default space the subtle configuration leaves unsafe (``fraction``:
@@ -256,15 +258,26 @@ def _table(label: str, rows: dict, budget: int, goal: float) -> None:
                  None)
         elif mine is not None:
             m_hits = sum(r is not None for r in mine)
+            mine_e = _median(mine, "evaluations", budget + 1)
+            # Where both find it at the first evaluation (the least any search can take),
+            # both did the same work: one scenario on the same evaluator.
+            floor = mine_e == evaluations == 1
             for what, ours_v, theirs in (
                     ("successes", m_hits, hits),
-                    ("evaluations", _median(mine, "evaluations", budget + 1), evaluations),
+                    ("evaluations", mine_e, evaluations),
                     ("CPU s", _median(mine, "cpu", math.inf), cpu)):
                 better = ours_v > theirs if what == "successes" else ours_v < theirs
                 ratio = (theirs / ours_v if what != "successes" else ours_v / max(theirs, 1)) \
                     if ours_v else math.inf
+                tied = ((what == "successes" and ours_v == theirs == n)
+                        or (floor and what != "successes"))
                 _row(f"    ratio, {'ours / theirs' if what == 'successes' else 'theirs / ours'}"
-                     f" ({what}; > 1: this project ahead)", f"{ratio:.2f}x", "> 1", better)
+                     f" ({what}; > 1: this project ahead)", f"{ratio:.2f}x",
+                     "> 1", better or (None if tied else False))
+                if tied and not better:
+                    _row("      a tie at the " + ("most: every seed falsified" if what ==
+                         "successes" else "least: the first evaluation, for both"), "", "",
+                         None)
 
 
 def confirm_time(config, found: dict) -> None:

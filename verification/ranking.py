@@ -108,6 +108,44 @@ def bound_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndar
     return np.stack([margin(config, space, prop).at(v, noise) for prop in SCORES], axis=1)
 
 
+def margin_corner(space: ScenarioSpace, config: ControllerConfig, columns, *,
+                  sweeps: int = 3, tally: Tally | None = None) -> dict:
+    """Where the proofs' margins are least, found by coordinate search on
+    :func:`bound_scores` (every candidate scored is counted in ``tally``): from the
+    centre of the unit cube, each sweep scores the points that move one parameter to
+    either end of its range; every parameter whose two ends score apart goes to the
+    lower, and the sweeps repeat from there until nothing moves. Returns, for each
+    score column in ``columns`` (``SCORES``), ``(corner, moves)``: the unit point and
+    which parameters move that margin (none where its premises give no finite margin:
+    then it orders nothing). Both columns are read from the same scorings."""
+    d = len(free_parameters(space))
+    found = {c: (np.full(d, 0.5), np.zeros(d, dtype=bool)) for c in columns}
+    for _ in range(sweeps):
+        probes = []
+        for c in columns:
+            base = found[c][0]
+            for i in range(d):
+                for end in (0.0, 1.0):
+                    p = base.copy()
+                    p[i] = end
+                    probes.append(p)
+        unique, back = np.unique(np.array(probes).reshape(-1, d), axis=0,
+                                 return_inverse=True)
+        scores = bound_scores(space, config, unique, tally=tally)[back.ravel()]
+        moved = False
+        for n, c in enumerate(columns):
+            base, moves = found[c]
+            ends = scores[n * 2 * d:(n + 1) * 2 * d, c].reshape(d, 2)
+            apart = np.isfinite(ends).all(axis=1) & (np.abs(ends[:, 0] - ends[:, 1]) > 1e-9)
+            lower = np.where(ends[:, 1] < ends[:, 0], 1.0, 0.0)
+            new = np.where(apart, lower, base)
+            moved |= bool(np.any(new != base))
+            found[c] = (new, moves | apart)
+        if not moved:
+            break
+    return found
+
+
 def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
                   *, step: float = 0.02, runner=None, tally: Tally | None = None
                   ) -> np.ndarray:

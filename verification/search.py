@@ -5,10 +5,11 @@ Points live in the unit cube over the space's free parameters
 
 - Sweeps: ``grid``, ``sobol``, ``halton``, ``uniform`` and ``corners`` (every vertex).
 - Falsification (:func:`falsify`), cheapest routes first: one Sobol point simulated
-  at once (where violations are common that is all it takes); then the rest of the
-  Sobol set ordered by the proofs' margins evaluated pointwise (``verification
-  .ranking.bound_scores``, microseconds a candidate) and its best simulated in doubling
-  batches; then the reduced model of the loop (``ranking.danger_scores``, about a
+  at once (where violations are common that is all it takes); then Sobol points in the
+  corner of the box where the proofs' margins are least (found by a coordinate search
+  of some hundred pointwise margins, ``verification.ranking.margin_corner``); then the
+  rest of the Sobol set ordered by those margins (``ranking.bound_scores``,
+  microseconds a candidate) and its best simulated in doubling batches; then the reduced model of the loop (``ranking.danger_scores``, about a
   simulation's cost a candidate) and the best it ranks; then CMA-ES (the ``cma``
   package) minimises each property's closed-loop robustness from the best point found,
   each population simulated as one batch. Every evaluation of any model is counted
@@ -26,7 +27,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from safety_systems.config.scenario import ControllerConfig
-from verification.ranking import bound_scores, danger_scores
+from verification.ranking import bound_scores, danger_scores, margin_corner
 from verification.runner import Runner
 from verification.space import (
     ScenarioSpace,
@@ -40,6 +41,9 @@ SWEEPS = ("grid", "sobol", "halton", "uniform", "corners")
 # The reduced model's score column (``ranking.SCORES``) for each column of the runner's
 # figures: contact for the contact figures, separation for the separation ones.
 SCORE_OF = {0: 0, 1: 0, 2: 1, 3: 1}
+# The focus phase's box: the parameters that move a property's margin within this
+# fraction of their range from the margin's least corner (``ranking.margin_corner``).
+FOCUS_WIDTH = 1.0 / 16.0
 
 
 def sweep_points(method: str, n: int, d: int, *, seed: int = 0) -> np.ndarray:
@@ -109,8 +113,8 @@ def evaluate_points(space: ScenarioSpace, config: ControllerConfig, runner: Runn
 
 def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, budget: int,
             seed: int = 0, candidates: int = 8192, pool: int = 16384, opening: int = 1,
-            quick: int | None = None, explore: int = 10, round_size: int = 16,
-            max_round: int = 256, stop_at_first: bool = False,
+            quick: int | None = None, focus: int | None = None, explore: int = 10,
+            round_size: int = 16, max_round: int = 256, stop_at_first: bool = False,
             objectives: tuple | list = (0,), confirm=None) -> SearchLog:
     """Searches for the smallest robustness of each property in ``objectives`` (columns
     of the runner's figures; every simulation measures them all) with at most ``budget``
@@ -119,10 +123,16 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
     1. opening: the first ``opening`` points (at most an eighth of the budget) of a Sobol
        set of ``pool`` points are simulated as one batch, unranked, before anything else
        (where violations are common, this is all it takes);
-    2. quick: the corners (at most 10 free parameters) and the rest of the Sobol set are
+    2. focus: up to ``focus`` of the ``quick`` simulations (default: half) go to Sobol
+       points whose parameters that move a property's proof margin lie within
+       ``FOCUS_WIDTH`` of the corner where that margin is least (``_focus``), the others
+       anywhere in their ranges, in batches of ``round_size`` doubling: the margin
+       needs a few dozen scorings to find that corner, where ranking the whole Sobol set
+       costs ``pool`` of them;
+       then the corners (at most 10 free parameters) and the rest of the Sobol set are
        scored at once by the proofs' margins evaluated pointwise
-       (``ranking.bound_scores``, microseconds each) and up to ``quick`` of them (default:
-       an eighth of the budget) simulated in that order, each property still searched
+       (``ranking.bound_scores``, microseconds each) and the rest of the ``quick``
+       simulations (default: an eighth of the budget in all) go to them in that order, each property still searched
        taking its turn down its own score column (``SCORE_OF``), in batches of
        ``round_size`` doubling up to ``max_round``: violations that come of speed and
        sensing are found here;
@@ -156,7 +166,10 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         sobol = np.vstack([first, engine.random(max(pool, candidates) - opening)])
     rest = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)), sobol[opening:]])
     quick = budget // 8 if quick is None else quick
-    stop = len(log.points) + quick
+    focus = quick // 2 if focus is None else min(focus, quick)
+    if search.wanted(objectives) and focus > 0:
+        _focus(search, objectives, focus, seed, round_size, max_round)
+    stop = len(log.points) + quick - focus
     done: set = set()  # indices of ``rest`` simulated
     queues: dict[int, list] = {j: [] for j in objectives}
     if search.wanted(objectives) and quick > 0:
@@ -207,6 +220,36 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
                 break
             restart += 1
     return log
+
+
+def _focus(search: "_Search", objectives, allowance: int, seed: int, round_size: int,
+           max_round: int) -> None:
+    """Phase 2a of :func:`falsify`: up to ``allowance`` simulations of Sobol points in
+    the corner of the box where each property's proof margin is least. The corner and
+    the parameters that move the margin come from ``ranking.margin_corner`` (a few
+    dozen scorings, counted); each point keeps its other parameters anywhere in their
+    range and puts those within ``FOCUS_WIDTH`` of the corner. The properties take
+    turns, point by point, in batches of ``round_size`` doubling; a property whose
+    margin no parameter moves has nothing to focus on."""
+    space, runner, log = search.space, search.runner, search.log
+    d = len(free_parameters(space))
+    columns = sorted({SCORE_OF[j] for j in search.wanted(objectives)})
+    aims = margin_corner(space, search.config, columns, tally=runner.tally)
+    engine = qmc.Sobol(d, scramble=True, seed=seed + 1)
+    units = engine.random_base2(max(0, math.ceil(math.log2(max(allowance, 1)))))
+    stop, used, size = len(log.points) + allowance, 0, round_size
+    while len(log.points) < stop and used < len(units):
+        wanted = [j for j in search.wanted(objectives) if aims[SCORE_OF[j]][1].any()]
+        if not wanted:
+            return
+        take = units[used:used + min(size, stop - len(log.points))]
+        used += len(take)
+        batch = take.copy()
+        for k in range(len(batch)):
+            corner, moves = aims[SCORE_OF[wanted[k % len(wanted)]]]
+            batch[k, moves] = np.abs(corner[moves] - FOCUS_WIDTH * take[k, moves])
+        search.simulate(batch)
+        size = min(2 * size, max_round)
 
 
 def _interleave(ranked: np.ndarray, plain: np.ndarray, ratio: int) -> list:

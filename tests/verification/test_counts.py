@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import verification.ranking as ranking_module
 import verification.runner as runner_module
 import verification.search as search_module
 import verification.verify as verify_module
@@ -50,6 +51,7 @@ class Counting:
 
         monkeypatch.setattr(runner_module, "_evaluate_chunk", counted_chunk)
         monkeypatch.setattr(search_module, "bound_scores", ranking(bound))
+        monkeypatch.setattr(ranking_module, "bound_scores", ranking(bound))  # margin_corner
         monkeypatch.setattr(search_module, "danger_scores", ranking(danger))
         monkeypatch.setattr(verify_module, "evaluate_drake", counted_drake)
 

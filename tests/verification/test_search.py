@@ -91,3 +91,43 @@ def test_the_opening_batch_is_the_first_sobol_points_simulated_unranked():
     np.testing.assert_array_equal(np.array(log.points[:2]),
                                   sweep_points("sobol", 16384, D, seed=4)[:2])
     assert runner.tally.rankings == 0  # nothing ranked: the CMA-ES phase came next
+
+
+def test_margin_corner_finds_the_parameters_that_move_the_proofs_margins():
+    # The margins fall with the hand's speed (its peak, or what its acceleration allows
+    # over the leg: ranking.hand_speeds) and the noise, and depend on nothing else
+    # (ranking.bound_scores): the coordinate search puts exactly those at their top ends
+    # (the acceleration matters once the peak is at its top, in the second sweep) and
+    # leaves every other parameter where it started.
+    from verification.counts import Tally
+    from verification.ranking import bound_scores, margin_corner
+
+    tally = Tally()
+    found = margin_corner(SPACE, SEED_CONFIG, [0, 1], tally=tally)
+    names = free_parameters(SPACE)
+    for column in (0, 1):
+        corner, moves = found[column]
+        assert sorted(np.array(names)[moves]) == ["acceleration", "noise_std", "peak_speed"]
+        assert np.all(corner[moves] == 1.0) and np.all(corner[~moves] == 0.5)
+        # the corner scores no higher than any of a set of random points
+        pool = np.random.default_rng(0).uniform(size=(256, D))
+        assert bound_scores(SPACE, SEED_CONFIG, corner[None])[0, column] <= \
+            bound_scores(SPACE, SEED_CONFIG, pool)[:, column].min()
+    assert 0 < tally.rankings <= 3 * 2 * 2 * D  # counted: at most 3 sweeps, 2 ends
+
+
+def test_the_focus_phase_simulates_the_margins_corner_first():
+    # After the opening point, the falsifier simulates points whose margin-moving
+    # parameters lie within FOCUS_WIDTH of the corner, the rest spread over their ranges.
+    from verification.search import FOCUS_WIDTH
+
+    names = free_parameters(SPACE)
+    with Runner(workers=1) as runner:
+        log = falsify(SPACE, SEED_CONFIG, runner, budget=64, seed=3, quick=32, explore=0,
+                      objectives=(0,))
+    focused = np.array(log.points[1:17])
+    for name in ("peak_speed", "noise_std"):
+        assert np.all(focused[:, names.index(name)] >= 1.0 - FOCUS_WIDTH)
+    spread = focused[:, names.index("azimuth_deg")]
+    assert spread.min() < 0.25 and spread.max() > 0.75
+    assert runner.tally.rankings > 0
