@@ -14,8 +14,10 @@ so the monitor works on every tick. It prints, beside the goals of issue 17:
 - frame to k: from a packet's arrival (the loop's read of its socket) to the new k
   commanded for it, p50 and p99; goal p99 <= 1 ms.
 
-These are wall-clock figures of a shared two-core machine in ordinary Python (no real-
-time priority, no isolated core): they say what this machine did in this run.
+The loop runs at ``run``'s default real-time priority (SCHED_FIFO 50) where the
+machine grants it, and at normal priority where it does not; the first line says which.
+These are wall-clock figures of a shared two-core machine in ordinary Python (no
+isolated core): they say what this machine did in this run.
 """
 
 import argparse
@@ -87,6 +89,10 @@ def main() -> int:
                     "--mapping", str(mapping), "--log", str(folder / "log"), "--quiet"])
         summary = json.loads((folder / "log" / "summary.json").read_text())
     timing = summary["timing"]
+    scheduling = summary["scheduling"]
+    print("scheduling: " + (f"real-time (SCHED_FIFO {scheduling['priority']})"
+                            if scheduling["policy"] == "fifo" else
+                            f"normal ({scheduling.get('refused', 'asked for')})"))
     print(f"run: exit {code}, {summary['end']}, {summary['ticks']} ticks at "
           f"{1.0 / timing['control_period']:.0f} Hz, {summary['frames']} frames of "
           f"{args.bodies} bodies at {args.frame_rate:g} Hz, {summary['bad_packets']} bad")

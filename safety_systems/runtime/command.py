@@ -45,6 +45,7 @@ def run(args: argparse.Namespace, origin: dict) -> int:
     from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource, parse_mocap
     from safety_systems.runtime.params import NotCertified, load_certified_params, \
         warn_unverified
+    from safety_systems.runtime.realtime import MAX_PRIORITY, real_time
     from safety_systems.runtime.robot_link import connect_robot, parse_robot
     from safety_systems.runtime.safety_loop import SafetyLoop
 
@@ -72,6 +73,9 @@ def run(args: argparse.Namespace, origin: dict) -> int:
         raise InputError("--duration", duration, "0 < duration <= 1e7 s")
     if not 0.0 < args.max_overrun <= 1.0:
         raise InputError("--max-overrun", args.max_overrun, "0 < max-overrun <= 1 s")
+    if not 0 <= args.priority <= MAX_PRIORITY:
+        raise InputError("--priority", args.priority,
+                         f"0 (normal scheduling) or a real-time priority 1-{MAX_PRIORITY}")
     if mocap_address.kind == "replay":
         recording = read_recording(mocap_address.file)
         try:
@@ -104,11 +108,17 @@ def run(args: argparse.Namespace, origin: dict) -> int:
             server.kill()
         return EXIT_FAULT
     try:
-        result = run_live(loop, bodies, names, mocap, robot,
-                          latency=params.controller.sensor.latency,
-                          period=1.0 / params.robot.control_rate_hz,
-                          options=LiveOptions(duration=duration, max_overrun=args.max_overrun,
-                                              status=not args.quiet))
+        with real_time(args.priority) as scheduling:
+            if "refused" in scheduling:
+                print(f"safety-systems: warning: no real-time priority ({scheduling['refused']}"
+                      "): the loop runs at normal priority, its late ticks stopped by the "
+                      "overrun watchdog", file=sys.stderr)
+            result = run_live(loop, bodies, names, mocap, robot,
+                              latency=params.controller.sensor.latency,
+                              period=1.0 / params.robot.control_rate_hz,
+                              options=LiveOptions(duration=duration,
+                                                  max_overrun=args.max_overrun,
+                                                  status=not args.quiet))
     finally:
         if server is not None:
             server.terminate()
@@ -117,7 +127,8 @@ def run(args: argparse.Namespace, origin: dict) -> int:
                 digits={"time": 10, "frame_time": 10, "tick_late": 4})
     summary = dict(params=str(args.params), certified=params.certified,
                    certificate_check=params.line, mocap=args.mocap, robot=robot.name,
-                   mapping=str(args.mapping), **result.summary, provenance=origin)
+                   mapping=str(args.mapping), scheduling=scheduling, **result.summary,
+                   provenance=origin)
     write_json(out / "summary.json", summary)
     if not args.quiet:
         timing = summary["timing"]
@@ -159,6 +170,10 @@ def add_parser(commands) -> None:
     p.add_argument("--max-overrun", type=float, default=0.005,
                    help="seconds a control tick may start late before the watchdog holds "
                         "k at 0 for 0.2 s (default: %(default)s)")
+    p.add_argument("--priority", type=int, default=50,
+                   help="real-time scheduling priority of the loop (Linux SCHED_FIFO, "
+                        "1-99; 0: normal scheduling). Without the privilege for it the "
+                        "loop runs at normal priority and says so (default: %(default)s)")
     p.add_argument("--unverified", action="store_true",
                    help="run parameters that fail their certificate check, saying so "
                         "(default: off, refuse them)")

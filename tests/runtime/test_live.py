@@ -5,6 +5,7 @@ import csv
 import dataclasses
 import json
 import math
+import os
 import subprocess
 import sys
 import threading
@@ -319,12 +320,13 @@ def test_run_accepts_what_check_accepts(tmp_path, exported_params, capsys):
 @pytest.mark.parametrize("argv, field", [
     (["--mocap", "udp://x"], "--mocap"), (["--robot", "ur-rtde://"], "--robot"),
     (["--mocap", f"replay://{CSV}?late=1"], "late"), (["--duration", "-1"], "--duration"),
+    (["--priority", "100"], "--priority"), (["--priority", "-1"], "--priority"),
 ])
 def test_bad_options_are_one_line(tmp_path, exported_params, capsys, argv, field):
     base = {"--mocap": f"replay://{CSV}", "--robot": "none"}
     base.update(dict(zip(argv[::2], argv[1::2])))
     rest = [x for kv in base.items() for x in kv]
-    extra = argv if argv[0] == "--duration" else []
+    extra = argv if argv[0] in ("--duration", "--priority") else []
     code = main(["run", str(exported_params), *rest, "--mapping", str(MAPPING), "--log",
                  str(tmp_path / "log"), "--quiet", *extra])
     assert code == 2
@@ -409,3 +411,24 @@ def test_parameters_certified_as_passed_are_run_with_checks_warning(exported_par
     assert params.certified and params.verdict == "passed"
     warn_unverified(params)
     assert capsys.readouterr().err.strip() == f"safety-systems: warning: {passed.line}"
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_getscheduler"), reason="no POSIX scheduling")
+def test_the_loop_runs_at_real_time_priority_when_it_may_and_restores_it(tmp_path,
+                                                                       exported_params):
+    # The summary says which scheduling the loop had; a real-time priority is the run's
+    # only (the process' policy afterwards is what it was), or its refusal is recorded.
+    policy = os.sched_getscheduler(0)
+    code, _, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=0.3",
+                            "--priority", "20")
+    assert code == 0
+    scheduling = summary["scheduling"]
+    assert scheduling["policy"] in ("fifo", "normal")
+    if scheduling["policy"] == "fifo":
+        assert scheduling["priority"] == 20
+    else:
+        assert "SCHED_FIFO priority 20" in scheduling["refused"]
+    assert os.sched_getscheduler(0) == policy
+    code, _, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=0.3",
+                            "--priority", "0", name="normal")
+    assert code == 0 and summary["scheduling"] == {"policy": "normal", "priority": 0}
