@@ -11,7 +11,9 @@ from safety_systems.config.scenario import EllipsoidConfig
 from safety_systems.speed_alteration.methods import (
     bimodal_speed,
     clearance,
+    collision_trend,
     grid_upper,
+    hwang_candidates,
     hwang_speed,
     operator_ellipsoids,
     preprogrammed_speed,
@@ -75,23 +77,79 @@ def test_hwang_speed_minimises_eq_13():
     grid = np.array([-0.1, 0.0, 0.05, 0.1])
     danger = np.array([[0.1, 0.1], [0.2, 0.2], [0.9, 0.6], [1.5, 1.0]])
     now = np.array([0.5, 0.5])
-    # cost = sum DI + sum (DI - DI_now) + |V - V_pre| / V_pre:
-    #   -0.1: 0.2 - 0.8 + 3 = 2.4;  0: 0.4 - 0.6 + 1 = 0.8;  0.05: 1.5 + 0.5 = 2.0;
-    #   0.1: 2.5 + 1.5 + 1 = 5.0  ->  0.0
-    assert hwang_speed(grid_speeds=grid, danger=danger, danger_now=now, v_pre=0.05) == 0.0
+    P = collision_trend
+
+    def choice(d, n):  # unaltered: the previous speed was V_pre
+        return hwang_speed(speeds=grid, danger=d, danger_now=n, v_pre=0.05, v_prev=0.05)
+
+    def eq_13(d, n):
+        return P(d).sum(axis=1) + (P(d) - P(n)).sum(axis=1) + np.abs(grid - 0.05) / 0.05
+
+    # Eq. 13 of the rows: 2.29, 0.59, 1.28, 2.91 (the last also collides)  ->  0.0
+    np.testing.assert_allclose(eq_13(danger, now), [2.291, 0.593, 1.281, 2.910], atol=1e-3)
+    assert choice(danger, now) == 0.0
     # Without danger the pre-programmed speed wins.
-    zero = np.zeros_like(danger)
-    assert hwang_speed(grid_speeds=grid, danger=zero, danger_now=np.zeros(2),
-                       v_pre=0.05) == 0.05
-    # Backing away from a danger that is high now: with DI_now = 2 and row 0 at 0,
-    #   -0.1: 0 - 4 + 3 = -1;  0: 0.4 - 3.6 + 1 = -2.2;  0.05: 1.5 - 2.5 = -1.0;
-    #   0.1: 2.5 - 1.5 + 1 = 2  ->  0.0; raising rows 1-3 by 1 each adds 4 -> -0.1.
-    falling = danger.copy()
-    falling[0] = [0.0, 0.0]
+    assert choice(np.zeros_like(danger), np.zeros(2)) == 0.05
+    # The penalty index comes first: with rows 1-3 colliding (DI >= 1), -0.1 is the
+    # only collision-free speed, though Eq. 13 prices it above V_pre (1.44 > 0.87).
+    colliding = np.array([[0.0, 0.0], [1.2, 1.2], [1.0, 1.0], [1.5, 1.5]])
     high = np.array([2.0, 2.0])
-    assert hwang_speed(grid_speeds=grid, danger=falling, danger_now=high, v_pre=0.05) == 0.0
-    falling[1:] += 1.0
-    assert hwang_speed(grid_speeds=grid, danger=falling, danger_now=high, v_pre=0.05) == -0.1
+    assert eq_13(colliding, high)[0] > eq_13(colliding, high)[2] + 0.5
+    assert choice(colliding, high) == -0.1
+
+
+def test_hwang_candidates_are_v_pre_and_the_limits():
+    np.testing.assert_array_equal(hwang_candidates(0.05, 0.25), [-0.25, 0.05, 0.25])
+    # A pre-programmed speed above the cap is capped (|V| <= 250 mm/s, Eq. 11).
+    np.testing.assert_array_equal(hwang_candidates(0.4, 0.25), [-0.25, 0.25])
+
+
+# Hwang's trend rule on three candidates (retreat, V_pre, advance) and one pair: the DI
+# now is 0.5; the retreat takes the pair apart, V_pre and the advance bring it closer.
+SPEEDS = np.array([-0.25, 0.05, 0.25])
+NOW = np.array([0.5])
+APART = np.array([[0.3], [0.6], [0.8]])
+
+
+def test_hwang_unaltered_keeps_v_pre_while_it_is_collision_free():
+    assert hwang_speed(speeds=SPEEDS, danger=APART, danger_now=NOW, v_pre=0.05,
+                       v_prev=0.05) == 0.05
+
+
+@pytest.mark.parametrize("v_prev", [-0.25, 0.25, 0.0])
+def test_hwang_altered_keeps_to_speeds_that_reduce_the_collision_trend(v_prev):
+    # Altered (the last choice was not V_pre): V_pre raises the collision-trend sum, the
+    # retreat reduces it, so the retreat is taken although Eq. 13 prices it at 6.
+    assert hwang_speed(speeds=SPEEDS, danger=APART, danger_now=NOW, v_pre=0.05,
+                       v_prev=v_prev) == -0.25
+
+
+def test_hwang_alteration_ends_when_v_pre_reduces_the_trend_too():
+    # The operator leaves: every candidate reduces the sum; Eq. 13 picks V_pre.
+    leaving = np.array([[0.2], [0.3], [0.4]])
+    assert hwang_speed(speeds=SPEEDS, danger=leaving, danger_now=NOW, v_pre=0.05,
+                       v_prev=-0.25) == 0.05
+
+
+def test_hwang_alteration_ends_when_no_speed_reduces_the_trend():
+    # At rest against the start of its path (the retreat goes nowhere) beside an
+    # operator who stands still: no candidate reduces the sum, so Eq. 13 alone decides
+    # and the robot moves on (no deadlock).
+    still = np.array([[0.5], [0.6], [0.8]])
+    assert hwang_speed(speeds=SPEEDS, danger=still, danger_now=NOW, v_pre=0.05,
+                       v_prev=-0.25) == 0.05
+
+
+def test_hwang_altered_ignores_a_reducing_speed_that_collides():
+    # Two pairs. The advance would reduce the sum (it leaves pair 1) but collides with
+    # pair 2; the retreat and V_pre raise it: the penalty index ranks first, then Eq. 13
+    # picks V_pre among the collision-free speeds.
+    now = np.array([0.5, 0.5])
+    danger = np.array([[0.6, 0.6], [0.55, 0.55], [0.05, 1.0]])
+    rise = (collision_trend(danger) - collision_trend(now)).sum(axis=1)
+    assert rise[2] < 0.0 < min(rise[0], rise[1])
+    assert hwang_speed(speeds=SPEEDS, danger=danger, danger_now=now, v_pre=0.05,
+                       v_prev=0.25) == 0.05
 
 
 @pytest.mark.parametrize("gap, threshold, expected", [

@@ -308,8 +308,9 @@ class SpeedAlterationConfig:
     robot may back away), at most ``speed_limit`` (ISO 10218-1: 0.25 m/s). ERGA: Eq. 11
     weights ``P``, ``D`` and penalty ``R`` (Eq. 12), GA settings (Section IV-A) and an
     explicit ``seed``; ``prediction``: ``constant_velocity`` (Eqs. 9-10) or ``kalman``
-    (the tracker's velocity). ``hwang_candidates``: speeds tried by Eq. 13's search.
-    ``bimodal_clearance``: Morato's stop/go distance between the closest ellipsoids.
+    (the tracker's velocity). Hwang's method chooses among the pre-programmed speed and
+    +-``speed_limit``. ``bimodal_clearance``: Morato's stop/go distance between the
+    closest ellipsoids.
     """
 
     rate_hz: float = number(10.0, ge=1.0, le=100.0, unit="Hz")
@@ -324,7 +325,6 @@ class SpeedAlterationConfig:
     elites: int = number(2, ge=0, le=10_000)
     seed: int = _seed()
     prediction: str = "constant_velocity"
-    hwang_candidates: int = number(101, ge=3, le=100_000)
     bimodal_clearance: float = number(0.0, ge=0.0, le=5.0, unit="m")
     ellipsoids: EllipsoidConfig = dc.field(default_factory=EllipsoidConfig)
 

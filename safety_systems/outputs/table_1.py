@@ -7,8 +7,9 @@ over samples 8-22 (Fig. 11(f)); ``models/scenarios/erga_positive.yaml`` and
 ``erga_negative.yaml`` rebuild them on the UR5e. Where ours and the seed's differ by
 more than ``FACTOR``, :func:`why` says what makes the difference, from our speed samples
 and what the seed reports of its profiles (Section IV-B/C). The pre-programmed speed of
-Eq. 8 (path length over duration) is 50 mm/s on both robots, so it is not a cause here;
-the table prints ours.
+Eq. 8 (path length over duration) is 50 mm/s on both robots, so its size is not a cause
+here (its sign in the seed's Eq. 13 may be, for Hwang's: :func:`why`); the table prints
+ours.
 """
 
 import numpy as np
@@ -59,18 +60,20 @@ def why(row: dict, seed_sd: float, seed_erga_sd: float) -> str:
     if kind == "hwang" and larger:
         return (f"The seed's Hwang has {seed_sd:.0f} mm/s^3 here, "
                 f"{100.0 * seed_sd / seed_erga_sd:.0f}% of its ERGA's, so its speed steps in "
-                "this window are small; ours has no smoothing term and, with one hand-tool "
-                "pair, its "
-                "collision-trend terms cannot outweigh |V - V_pre| / V_pre "
-                "(speed_alteration.hwang_speed), so it switches within one period between "
-                f"V_pre and the nearest collision-free speed: {ours}.")
+                "this window are small: the seed reports speeds at the limits in its negative "
+                "simulation only (perhaps the sign of V_preprog, -50 mm/s there, in Eq. 13's "
+                "last term: speed_alteration.hwang_speed). Ours takes V_pre from Eq. 8, "
+                "positive, so both our files alike alter to the limits and back (a retreat "
+                "at -250 mm/s, held while the operator's collision trend falls, then V_pre "
+                f"again), and the end of that falls in this window: {ours}.")
     if kind == "hwang":
-        return ("The seed's Hwang jumps to -250 mm/s and back to +250 mm/s (samples 9-10 of "
-                "the negative simulation: a 500 mm/s step); with one hand-tool pair our "
-                "reading of Eq. 13 cannot reach the limits (the collision-trend terms are "
-                "some 16 times too flat against |V - V_pre| / V_pre, "
-                "speed_alteration.hwang_speed), it only steps between V_pre and the nearest "
-                f"collision-free speed: {ours}. Jerk SD scales with the steps.")
+        return ("Both are at the limits, but the seed's Hwang jumps to -250 mm/s and then to "
+                "+250 mm/s (samples 9-10 of the negative simulation: a 500 mm/s step); ours "
+                "keeps V_pre until its predicted pose collides, then retreats at -250 mm/s "
+                "(the advance at +250 mm/s would meet the hand), holds the retreat while it "
+                "lowers the collision-trend sum and V_pre would not (a wait, once at the "
+                "start of its path) and returns to V_pre (speed_alteration.hwang_speed): "
+                f"smaller steps, and fewer: {ours}. Jerk SD scales with the steps.")
     return ("Stop and go: every stop or restart is a step of V_pre, and the SD grows with "
             "their number and place in the window, which the encounter on the UR5e's path "
             f"sets: {ours}.")

@@ -7,14 +7,16 @@ at the pose each speed leads to:
 
 - ``erga``: the elite real-coded GA minimising Eqs. 11-12 (``safety_systems.speed_alteration.erga``);
 - ``hwang``: Hwang et al.'s objective, Eq. 13 (collision-trend index from the ellipsoids
-  read as Gaussians, with the penalty index), minimised over a grid of speeds;
+  read as Gaussians, with the penalty index), choosing among the pre-programmed speed
+  and the two limits;
 - ``bimodal``: Morato et al.'s stop/go: full speed while every ellipsoid pair is more
   than a clearance apart, else stop;
 - ``none``: the pre-programmed speed (no alteration).
 
 The danger index of a candidate speed is read off a grid of path positions spanning
 every speed the controller may pick (``GRID`` points, the worse neighbour between
-them), so one decision costs one batch of forward kinematics plus the search.
+them; Hwang's three candidates are evaluated as they are), so one decision costs one
+batch of forward kinematics plus the search.
 """
 
 import numpy as np
@@ -168,50 +170,81 @@ def collision_trend(danger: np.ndarray) -> np.ndarray:
         return np.exp(-0.5 / danger)
 
 
-def hwang_speed(*, grid_speeds: np.ndarray, danger: np.ndarray, danger_now: np.ndarray,
-                v_pre: float) -> float:
+def hwang_candidates(v_pre: float, limit: float) -> np.ndarray:
+    """The speeds Hwang's choice is made among (m/s, sorted): -limit, the pre-programmed
+    speed (capped at the limit) and +limit; :func:`hwang_speed` says why."""
+    return np.unique(np.clip([-limit, v_pre, limit], -limit, limit))
+
+
+def hwang_speed(*, speeds: np.ndarray, danger: np.ndarray, danger_now: np.ndarray,
+                v_pre: float, v_prev: float) -> float:
     """Hwang et al.'s choice of speed (seed 004, Eq. 13, with the penalty index).
 
-    Among ``grid_speeds``, the speed that minimises, first, the penalty index, then
+    ``speeds``: the candidates (:func:`hwang_candidates`); ``danger`` (len(speeds),
+    pairs): the DI of each robot-operator pair at the pose each candidate reaches one
+    period ahead, with the operators predicted (Eqs. 7, 9-10); ``danger_now`` (pairs,):
+    at the current pose; ``v_prev``: the speed selected last period. Eq. 13 is
 
-        Eq. 13:  sum_ij P_ij(k) + sum_ij (P_ij(k) - P_ij(k-1)) + |V - V_pre| / |V_pre|,
+        f(V) = sum_ij P_ij(k) + sum_ij (P_ij(k) - P_ij(k-1)) + |V - V_pre| / V_pre,
 
-    with P_ij the collision-trend index (:func:`collision_trend`) of each pair at the pose
-    the speed leads to (``danger`` (G, pairs), k) and at the current pose (``danger_now``
-    (pairs,), k - 1). How each term is read:
+    P_ij the collision-trend index of a pair (:func:`collision_trend`). Seed 004 gives
+    Eq. 13 and one sentence on each term; it cites Hwang, Ju and Chen 2003 for the rest,
+    which we could not consult. How each part is read:
 
-    - P_ij(k): at the predicted next pose, so that the choice of V can change it (at the
-      current pose it would not depend on V and Eq. 13 would always return V_pre).
-    - P_ij(k) - P_ij(k-1): the trend, negative for a speed that takes the pair apart
-      (the seed: it forces the robot "to reduce the sum of the collision-trend index").
-    - |V - V_pre| / V_pre: the departure from the pre-programmed speed (Eq. 8).
-    - The penalty index: seed 004 names it beside the collision-trend index (Section I)
-      without printing it, and reports that Hwang's method keeps DI < 1 (Fig. 11(a)),
-      which a bounded P_ij cannot do on its own. We read it as the penalty of a speed
-      whose predicted pose collides, the seed's own measure of collision: the sum over
-      pairs with DI_ij >= 1 of DI_ij^2 (Eq. 12's DI-bar with unit weight,
-      ``erga.danger_penalty``), ranked before Eq. 13 (as if weighted above anything Eq.
-      13 can add up to, so no weight has to be chosen): a colliding speed is taken only
-      when every speed collides, and then the least colliding one.
+    - P_ij(k) at the pose V leads to (at the current pose no term would depend on V and
+      Eq. 13 would always return V_pre); P_ij(k-1) at the current pose.
+    - The penalty index (named in seed 004's Section I, not printed): a candidate whose
+      predicted pose collides by the seed's measure (DI >= 1, Eq. 12's DI-bar) ranks
+      after every one that does not, whatever Eq. 13 gives; among colliding candidates,
+      the least colliding (sum of DI^2). So no weight has to be chosen, and the predicted
+      DI stays below 1 (as in Fig. 11(a)) wherever a candidate allows it.
+    - The candidates: V_pre and the two limits, nothing between. The seed reports that
+      Hwang's selected velocity "is the maximum speed", switching abruptly to -250 and
+      then to +250 mm/s at two successive samples (Fig. 11(b)), and names no other
+      speed for it. Over a continuous range Eq. 13 cannot do that with the seed's
+      simulated pair (the hand and tool spheres): P_ij is in [0, 1], so between two
+      candidates the P terms of one pair differ by at most 2, while a limit's last term
+      is at least (V_max - V_pre) / V_pre = 4 (seed: 250 and 50 mm/s). A limit then wins
+      only over speeds within 2 V_pre of it: the choice is V_pre while collision-free,
+      else the collision-free speed nearest it (steps of about V_pre; this function did
+      that before). Weighting the P terms does not help: they are smooth in V, so the
+      minimum stays between the limits (on our rebuilds of the seed's two simulations,
+      weights of 20 and 50 gave -115 mm/s at most, or a robot that never left its
+      start). The reported limits thus need a choice among V_pre and the limits: the
+      robot keeps its pre-programmed speed, or alters it to the fastest retreat
+      (-V_max) or advance (+V_max), abruptly (Eq. 13 has no smoothing term).
+    - The trend term, sum_ij (P_ij(k) - P_ij(k-1)). P_ij(k-1) is the past, the same for
+      every candidate, so as a cost the term only doubles the first one. Seed 004 gives
+      it a role of its own: it "is used to force the robot to move at the selected speed
+      to reduce the sum of the collision-trend index". We read it so: while the robot is
+      at an altered speed (``v_prev`` is not V_pre) and some collision-free candidate
+      reduces the sum (its trend term < 0), the choice is among those. The alteration
+      ends when V_pre reduces the sum too (it is then the cheapest), or when no
+      candidate does (Eq. 13 alone then: a robot that retreated from an operator who
+      now stands still moves on, and alters again only if its predicted pose collides).
 
-    Consequence, not a tuning: Eq. 13's last term changes by 1 / V_pre per unit of speed,
-    while the two P_ij(k) terms of a pair change by at most 2 x 0.61 dt / rho per unit of
-    speed (0.61 / rho is the steepest slope of exp(-d^2 / (2 rho^2)), at contact, d = rho,
-    rho the pair's contact distance; a unit of speed moves the robot dt). For seed 004's
-    hand and tool spheres (rho = 0.1 m, dt = 0.1 s, V_pre = 0.05 m/s) that is 1.2 against
-    20: with one such pair the collision-trend terms cannot move the choice, and the
-    method runs at V_pre while that is collision-free, else at the collision-free speed
-    nearest V_pre, switching at once (no smoothing term). Speeds at the limits (the
-    seed's -250/+250 mm/s, Fig. 11(b)) need the collision-trend sum to outweigh the speed
-    term: some 16 pairs near contact at once (seed 004 models every link and the upper
-    body, Fig. 2; its DI and our scenarios keep the hand and tool spheres), or V_pre above
-    rho / (1.2 dt) = 0.83 m/s, beyond the 0.25 m/s cap.
+    So the method runs at V_pre until its predicted pose collides, then jumps to a
+    limit (the advance, cheaper by Eq. 13's last term, if its pose is collision-free,
+    else the retreat), holds it while it reduces the collision-trend sum and V_pre
+    would not, and jumps back: steps of V_max +- V_pre or 2 V_max between decisions.
+
+    A note, not used here: the seed divides by V_preprog, which is -50 mm/s in its
+    negative simulation; read literally, that makes the last term negative there and
+    pushes the choice away from V_pre to the limits, which may be why the seed's Hwang
+    is at the limits in the negative simulation (jerk SD 39x ERGA's) and not in the
+    positive one (2x). Eq. 8 defines V_pre as a length over a time, and so do we (our
+    speeds are signed along the path), so our two files are mirror images.
     """
     trend = collision_trend(danger)
-    cost = (trend.sum(axis=1) + (trend - collision_trend(danger_now)).sum(axis=1)
-            + np.abs(grid_speeds - v_pre) / abs(v_pre))
+    rise = (trend - collision_trend(danger_now)).sum(axis=1)
+    cost = trend.sum(axis=1) + rise + np.abs(speeds - v_pre) / abs(v_pre)
     penalty = danger_penalty(danger, 1.0)
-    return float(grid_speeds[np.lexsort((cost, penalty))[0]])
+    low, high = speeds[0], speeds[-1]
+    altered = np.clip(v_prev, low, high) != np.clip(v_pre, low, high)
+    # While altered, speeds that do not reduce the collision-trend sum rank after those
+    # that do (all alike when none does); the penalty index ranks before both.
+    keeps_rising = (rise >= 0.0) if altered else np.zeros(len(speeds), dtype=bool)
+    return float(speeds[np.lexsort((cost, keeps_rising, penalty))[0]])
 
 
 def clearance(a: Ellipsoids, b: Ellipsoids) -> float:

@@ -64,7 +64,7 @@ class SpeedAlterationController(LeafSystem):
         self._is_hand = np.asarray(is_hand, dtype=bool)
         self._dt = 1.0 / config.rate_hz
         self._v_pre = preprogrammed_speed(path)
-        self._speeds = np.linspace(-config.speed_limit, config.speed_limit, self.grid_size)
+        self._speeds = self.candidate_speeds()
         self._state = self.DeclareDiscreteState(
             np.r_[self._v_pre, 0.0, 0.0, np.full(3 * n, np.nan)])
         self._p = self.DeclareVectorInputPort("positions_estimated", 3 * n)
@@ -85,6 +85,12 @@ class SpeedAlterationController(LeafSystem):
         return self._v_pre
 
     grid_size = GRID  # candidate speeds on which the danger index is evaluated
+
+    def candidate_speeds(self) -> np.ndarray:
+        """The speeds (m/s, sorted) at which ``choose`` gets the danger index:
+        ``grid_size`` evenly over [-speed_limit, speed_limit]."""
+        limit = self._cfg.speed_limit
+        return np.linspace(-limit, limit, self.grid_size)
 
     def choose(self, *, s: float, v_prev: float, danger: np.ndarray,
                danger_now: np.ndarray, gap: float, k: int) -> float:
