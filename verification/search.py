@@ -14,6 +14,10 @@ Points live in the unit cube over the space's free parameters
   each population simulated as one batch. Every evaluation of any model is counted
   (``verification.counts``: the runner's tally); every verdict rests on closed-loop
   simulations.
+
+The rankings model scripted approaches: a space built around a recording
+(``verification.recording_space``) is searched without them (see :func:`falsify`), and
+its corners are swept in their plain order.
 """
 
 import dataclasses
@@ -135,6 +139,10 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
     4. property by property, each with an even share of what is left, CMA-ES from the
        best point so far for it, restarted from the next candidates whenever it stops.
 
+    A recording space has no ranking: phases 2 and 3 take the Sobol set in its own
+    order (``quick`` defaults to half the budget, the search's exploration), and CMA-ES
+    restarts from the Sobol points not yet simulated.
+
     ``stop_at_first`` ends a property's part at its first violation (and skips the
     phases it no longer needs); with ``confirm`` (a function (log, column, simulation
     index) -> bool, e.g. a Drake replay), a violation counts only once ``confirm``
@@ -154,15 +162,20 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         first = engine.random(opening)
         search.simulate(first)
         sobol = np.vstack([first, engine.random(max(pool, candidates) - opening)])
-    rest = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)), sobol[opening:]])
-    quick = budget // 8 if quick is None else quick
+    ranked = space.recording is None  # (the rankings model scripted approaches only)
+    with_corners = ranked and d <= 10
+    rest = np.vstack([corners(space) if with_corners else np.zeros((0, d)), sobol[opening:]])
+    quick = (budget // 8 if ranked else budget // 2) if quick is None else quick
     stop = len(log.points) + quick
     done: set = set()  # indices of ``rest`` simulated
     queues: dict[int, list] = {j: [] for j in objectives}
     if search.wanted(objectives) and quick > 0:
-        scores = bound_scores(space, config, rest, tally=runner.tally)
-        queues = {j: list(np.argsort(scores[:, SCORE_OF[j]], kind="stable"))
-                  for j in objectives}
+        if ranked:
+            scores = bound_scores(space, config, rest, tally=runner.tally)
+            queues = {j: list(np.argsort(scores[:, SCORE_OF[j]], kind="stable"))
+                      for j in objectives}
+        else:
+            queues = {j: list(range(len(rest))) for j in objectives}
     size = round_size
     while search.wanted(objectives) and len(log.points) < stop:
         wanted = [j for j in search.wanted(objectives) if queues[j]]
@@ -181,13 +194,16 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         size = min(2 * size, max_round)
     queue: list = []
     if search.wanted(objectives) and explore > 0:
-        ranked = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)),
-                            sobol[:candidates]])
-        danger = danger_scores(space, config, ranked, runner=runner)
-        orders = [np.argsort(danger[:, SCORE_OF[j]], kind="stable")
-                  for j in search.wanted(objectives)]  # each property's, in turn
-        queue = _interleave(ranked[[i for row in zip(*orders) for i in row]],
-                            sobol[:candidates], 4)
+        if ranked:
+            scored = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)),
+                                sobol[:candidates]])
+            danger = danger_scores(space, config, scored, runner=runner)
+            orders = [np.argsort(danger[:, SCORE_OF[j]], kind="stable")
+                      for j in search.wanted(objectives)]  # each property's, in turn
+            queue = _interleave(scored[[i for row in zip(*orders) for i in row]],
+                                sobol[:candidates], 4)
+        else:  # no ranking: the Sobol points not simulated yet, in order
+            queue = [rest[i] for i in range(len(rest)) if i not in done]
         seen = {tuple(np.round(p, 12)) for p in log.points}
         queue = [p for p in queue if tuple(np.round(p, 12)) not in seen]
     stop = len(log.points) + min(explore, budget - len(log.points))
@@ -287,10 +303,11 @@ def _cma(search: _Search, start, budget, seed, objective=0) -> bool:
 
 def sweep(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, method: str,
           budget: int, seed: int = 0) -> SearchLog:
-    """Evaluates a sweep of at most ``budget`` points (corners in danger order)."""
+    """Evaluates a sweep of at most ``budget`` points (corners in danger order, but a
+    recording space's in their plain order)."""
     d = len(free_parameters(space))
     points = sweep_points(method, budget, d, seed=seed)
-    if method == "corners" and len(points) > 1:
+    if method == "corners" and len(points) > 1 and space.recording is None:
         points = points[np.argsort(danger_scores(space, config, points, runner=runner)[:, 0],
                                    kind="stable")]
     log = SearchLog()
