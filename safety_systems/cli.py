@@ -185,6 +185,10 @@ def _tune(args: argparse.Namespace) -> int:
 
     config, block = load_tunable(args.config, args.tune)
     space = load_space(args.space)
+    if space.recording is not None and args.allow == "proved":
+        raise InputError("--allow", args.allow, "passed with a space built around a "
+                         "recording (the proofs decline recorded motion: its verdicts are "
+                         "passed or falsified, never proved)")
     tasks = [load_scenario(path) for path in (args.tasks or TASKS)]
     try:
         check_block(block, config, control_period=1.0 / space.robot.control_rate_hz)

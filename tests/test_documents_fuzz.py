@@ -112,8 +112,10 @@ def test_mutated_files_load_or_fail_with_one_line(kind):
         root = Path(folder)
         (root / "scenes").mkdir()
         (root / "docs").mkdir()
-        # Files that examples name relative to themselves (../scenes/...).
+        # Files that examples name relative to themselves (../scenes/...,
+        # ../recordings/...).
         shutil.copy(MODELS / "scenes" / "paper_task_path.yaml", root / "scenes")
+        shutil.copytree(MODELS / "recordings", root / "recordings")
 
         @settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
                   suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])

@@ -207,3 +207,20 @@ def test_scripted_and_recorded_operators_do_not_mix(tmp_path, capsys):
 """)
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2
     assert "all scripted or all recorded" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("field, value", [("start", 1.0), ("time_scale", 1.2),
+                                          ("yaw_deg", 30.0), ("shift", [0.1, 0.0, 0.0])])
+def test_a_scripted_operator_refuses_the_recorded_operators_fields(tmp_path, capsys, field,
+                                                                   value):
+    (tmp_path / "s.yaml").write_text(f"""\
+operators:
+- name: walker
+  bodies: [{{name: a}}, {{name: b}}]
+  waypoints: [{{time: 0.0, position: [2.0, 0.0, 0.0]}}]
+  {field}: {value}
+""")
+    assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"operators[0].{field}" in err
+    assert "for a scripted operator" in err

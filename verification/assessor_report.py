@@ -19,8 +19,7 @@ from safety_systems.files.output_files import write_text
 from safety_systems.config.params_file import Params
 from safety_systems.files.ranges import field_limits, type_hints
 from safety_systems.config.scenario import ControllerConfig
-from verification.space import NAMES as SPACE_PARAMETERS
-from verification.space import ScenarioSpace, free_parameters
+from verification.space import ScenarioSpace, free_parameters, parameter_ranges
 from verification.standard_terms import term
 
 MAX_PLOTS = 6  # counterexamples simulated for a plot; the rest are listed
@@ -190,9 +189,8 @@ def _properties(certificate: dict) -> str:
 def _space(certificate: dict, space: ScenarioSpace) -> str:
     a = certificate["assumptions"]
     free = set(free_parameters(space))
-    rows = [[f"<code>{_e(n)}</code>", f"{getattr(space.parameters, n).min:g}",
-             f"{getattr(space.parameters, n).max:g}", "varied" if n in free else "fixed"]
-            for n in SPACE_PARAMETERS]
+    rows = [[f"<code>{_e(n)}</code>", f"{r.min:g}", f"{r.max:g}",
+             "varied" if n in free else "fixed"] for n, r in parameter_ranges(space).items()]
     return (f"<p>Space <code>{_e(a['space_file'])}</code> (SHA-256 "
             f"<code>{_e(a['space_sha256'])}</code>), robot mode {_e(a['robot_mode'])}.</p>"
             "<p>The verdict holds under these assumptions:</p><ul>"

@@ -89,6 +89,10 @@ and propagating worst-case error and velocity bounds (linear in noise and v_max)
 then checked over the continuous box of (v_max, noise) by z3 (unsatisfiability of
 M < 0, and of M_S < 0), with the robot bounds taken at the largest braking time scale
 (stopping time and distance grow with it).
+
+A space built around a recording (``verification.recording_space``) is declined: the
+margins are checked over scripted approaches' parameters only (:func:`_declined` lists
+what a proof over recorded motion would need, measured from the recording).
 """
 
 import dataclasses
@@ -114,7 +118,13 @@ from safety_systems.config.configuration import (
     joint_path,
     placeholder_braking,
 )
-from verification.space import HEAD_BACK, HEAD_UP, OTHER_HAND_OFFSET, ScenarioSpace
+from verification.space import (
+    HEAD_BACK,
+    HEAD_UP,
+    OTHER_HAND_OFFSET,
+    ScenarioSpace,
+    parameter_ranges,
+)
 
 
 # Longest distance from any joint axis to the tool flange, bounded by the link lengths.
@@ -308,7 +318,11 @@ def estimate_error_coefficients(config: ControllerConfig, horizon: int = ERROR_H
 def operators_reach(space: ScenarioSpace) -> float:
     """A bound on how far from the robot base any body of the space's scenarios gets, m:
     the farthest point of the robot, then the start distance, a retreat and the body's
-    offset from the hand."""
+    offset from the hand (a recording space's: ``recording_space.recorded_reach``)."""
+    if space.recording is not None:
+        from verification.recording_space import recorded_reach
+
+        return recorded_reach(space)
     p = space.parameters
     robot = REACH_BOUND + DH_D[0] + space.robot.tool_length
     body = max(OTHER_HAND_OFFSET, math.hypot(HEAD_BACK, HEAD_UP))
@@ -358,17 +372,7 @@ def _setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     gate_widest = ((t.gate_speed + v_max) * p.outlier_frames.max * period + t.gate_width
                    + f.human_uncertainty + e_worst + math.sqrt(3.0) * noise)
     placeholder = placeholder_braking(config)
-    checked = [
-        ("the controller is the SSM speed override (seed 000, Eq. 12)",
-         config.type == "ssm_override"),
-        (f"the space's robot is in {COVERED_MODE} mode, the one this theorem covers "
-         f"(robot.mode: {space.robot.mode}; a dynamic robot's tracking error is not in "
-         "the margin)", space.robot.mode == COVERED_MODE),
-        ("the human-speed term is a constant floor (iso or estimated_with_floor)",
-         f.human_speed in ("iso", "estimated_with_floor")),
-        ("the monitor's robot contains the one contact is measured against "
-         f"({f.robot_geometry} against {space.contact_geometry})",
-         _monitor_covers_contact(config, space)),
+    checked = _model_premises(config, space) + [
         (f"hidden bodies stay hazards: tracks end only where bodies leave "
          f"(hidden_bodies: {t.hidden_bodies}) and a hidden body's ball grows at least as "
          f"fast as a hand (occlusion_speed {f.occlusion_speed:g} >= v_max {v_max:g} m/s)",
@@ -422,6 +426,68 @@ def _setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
            "start_distance": [p.start_distance.min, p.start_distance.max],
            "acceleration": [p.acceleration.min, p.acceleration.max]}
     return premises, box, placeholder, (alpha, beta), scale
+
+
+def _model_premises(config: ControllerConfig, space: ScenarioSpace) -> list[tuple]:
+    """The premises on the controller and the robot that both theorems share, as
+    (statement, holds) pairs."""
+    f = config.safety
+    return [
+        ("the controller is the SSM speed override (seed 000, Eq. 12)",
+         config.type == "ssm_override"),
+        (f"the space's robot is in {COVERED_MODE} mode, the one this theorem covers "
+         f"(robot.mode: {space.robot.mode}; a dynamic robot's tracking error is not in "
+         "the margin)", space.robot.mode == COVERED_MODE),
+        ("the human-speed term is a constant floor (iso or estimated_with_floor)",
+         f.human_speed in ("iso", "estimated_with_floor")),
+        ("the monitor's robot contains the one contact is measured against "
+         f"({f.robot_geometry} against {space.contact_geometry})",
+         _monitor_covers_contact(config, space)),
+    ]
+
+
+def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method: str
+              ) -> Proof:
+    """A recording space's proof, declined: the theorems' margins are checked over the
+    box of a scripted space's parameters, where the peak speed bounds every body's
+    speed and every body is seen standing still for the settle time before it moves.
+    Recorded motion has neither parameter. The premises a proof over it would need (the
+    speed bound, every body seen from the start, no exit reached) are measured from the
+    recording and listed, but no margin is checked over it, so the verdict over a
+    recording space is ``passed`` or ``falsified``, never ``proved``."""
+    from verification.recording_space import recorded_speed, tracked_from_start
+
+    f, t = config.safety, config.tracker
+    p = space.recording.parameters
+    v_max = recorded_speed(space.recording) * p.time_scale.max
+    checked = _model_premises(config, space) + [
+        (f"hidden bodies stay hazards (hidden_bodies: {t.hidden_bodies}) and a hidden "
+         f"body's ball grows at least as fast as the recorded bodies move (occlusion_speed "
+         f"{f.occlusion_speed:g} >= {v_max:.3f} m/s: the recording's fastest segment at the "
+         f"largest time scale, {p.time_scale.max:g})",
+         t.hidden_bodies == "hazard" and f.occlusion_speed >= v_max),
+        (f"the gate admits the recorded bodies' speeds (gate_speed {t.gate_speed:g} >= "
+         f"{v_max:.3f} m/s)", not t.gate or t.gate_speed >= v_max),
+        ("every body is tracked from t = 0 at every point of the box (seen before the "
+         "robot first moves)", tracked_from_start(space)),
+        ("no body reaches an exit region or the cell's walls (where its track would end): "
+         f"all within {operators_reach(space):.2f} m of the base",
+         _tracks_never_end(config, space)),
+        ("the operators are the scripted approaches the theorem's margin is checked over "
+         "(a speed bound from their peak speed, every body seen standing still before it "
+         "moves): a recording space's operators move as recorded, and no margin is "
+         "checked over recorded motion, so this space is searched, never proved", False),
+    ]
+    trusted = [
+        "the recording is the operators' true motion, linear between its samples, and "
+        "the mapping puts it in the cell frame",
+        "the stopping data describes the real robot's stops, times within "
+        f"{p.braking_time_scale.min:g} to {p.braking_time_scale.max:g} of it",
+    ]
+    premises = ([Premise(x, bool(ok), "checked") for x, ok in checked]
+                + [Premise(x, True, "trusted") for x in trusted])
+    box = {name: [r.min, r.max] for name, r in parameter_ranges(space).items()}
+    return Proof(False, method, box, premises, None, {}, placeholder_braking(config), prop)
 
 
 def _unsat_below_zero(fixed: float, k_noise: float, k_speed: float, space: ScenarioSpace,
@@ -523,10 +589,12 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     h = 1.0 / space.robot.control_rate_hz
     v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
          "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
-    premises, box, placeholder, (alpha, beta), scale = _setting(config, space, "contact")
     method = ("SSM stopping theorem over the robot's capsules (verification/proof.py); "
               "margin checked over the box by z3; robot bounds by Lipschitz covering; "
               "tracker error by gain recursion")
+    if space.recording is not None:
+        return _declined(config, space, "contact", method)
+    premises, box, placeholder, (alpha, beta), scale = _setting(config, space, "contact")
     if not all(x.holds for x in premises):
         return Proof(False, method, box, premises, None, {}, placeholder)
     rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
@@ -556,10 +624,12 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     h = 1.0 / space.robot.control_rate_hz
     floor = f.human_speed == "estimated_with_floor"
     v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
-    premises, box, placeholder, (alpha, beta), scale = _setting(config, space, "separation")
     method = ("SSM separation theorem over the robot's capsules (verification/proof.py); "
               "margin checked over the box by z3; robot bounds by Lipschitz covering; "
               "tracker error by gain recursion")
+    if space.recording is not None:
+        return _declined(config, space, "separation", method)
+    premises, box, placeholder, (alpha, beta), scale = _setting(config, space, "separation")
     if not all(x.holds for x in premises):
         return Proof(False, method, box, premises, None, {}, placeholder, "separation")
     path = joint_path(space.robot)

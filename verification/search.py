@@ -9,12 +9,17 @@ Points live in the unit cube over the space's free parameters
   corner of the box where the proofs' margins are least (found by a coordinate search
   of some hundred pointwise margins, ``verification.ranking.margin_corner``); then the
   rest of the Sobol set ordered by those margins (``ranking.bound_scores``,
-  microseconds a candidate) and its best simulated in doubling batches; then the reduced model of the loop (``ranking.danger_scores``, about a
-  simulation's cost a candidate) and the best it ranks; then CMA-ES (the ``cma``
+  microseconds a candidate) and its best simulated in doubling batches; then the
+  reduced model of the loop (``ranking.danger_scores``, about a simulation's cost a
+  candidate) and the best it ranks; then CMA-ES (the ``cma``
   package) minimises each property's closed-loop robustness from the best point found,
   each population simulated as one batch. Every evaluation of any model is counted
   (``verification.counts``: the runner's tally); every verdict rests on closed-loop
   simulations.
+
+The rankings model scripted approaches: a space built around a recording
+(``verification.recording_space``) is searched without them (see :func:`falsify`), and
+its corners are swept in their plain order.
 """
 
 import dataclasses
@@ -132,8 +137,9 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
        then the corners (at most 10 free parameters) and the rest of the Sobol set are
        scored at once by the proofs' margins evaluated pointwise
        (``ranking.bound_scores``, microseconds each) and the rest of the ``quick``
-       simulations (default: an eighth of the budget in all) go to them in that order, each property still searched
-       taking its turn down its own score column (``SCORE_OF``), in batches of
+       simulations (default: an eighth of the budget in all) go to them in that order,
+       each property still searched taking its turn down its own score column
+       (``SCORE_OF``), in batches of
        ``round_size`` doubling up to ``max_round``: violations that come of speed and
        sensing are found here;
     3. thorough: the reduced model of the loop (``ranking.danger_scores``, about a
@@ -144,6 +150,11 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
        geometry of an approach, occlusions or faults are found here;
     4. property by property, each with an even share of what is left, CMA-ES from the
        best point so far for it, restarted from the next candidates whenever it stops.
+
+    A recording space has no ranking and no focus (both model scripted approaches):
+    phases 2 and 3 take the Sobol set in its own order (``quick`` defaults to half the
+    budget, the search's exploration), and CMA-ES restarts from the Sobol points not yet
+    simulated.
 
     ``stop_at_first`` ends a property's part at its first violation (and skips the
     phases it no longer needs); with ``confirm`` (a function (log, column, simulation
@@ -164,18 +175,23 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         first = engine.random(opening)
         search.simulate(first)
         sobol = np.vstack([first, engine.random(max(pool, candidates) - opening)])
-    rest = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)), sobol[opening:]])
-    quick = budget // 8 if quick is None else quick
-    focus = quick // 2 if focus is None else min(focus, quick)
+    ranked = space.recording is None  # (the rankings model scripted approaches only)
+    with_corners = ranked and d <= 10
+    rest = np.vstack([corners(space) if with_corners else np.zeros((0, d)), sobol[opening:]])
+    quick = (budget // 8 if ranked else budget // 2) if quick is None else quick
+    focus = 0 if not ranked else quick // 2 if focus is None else min(focus, quick)
     if search.wanted(objectives) and focus > 0:
         _focus(search, objectives, focus, seed, round_size, max_round)
     stop = len(log.points) + quick - focus
     done: set = set()  # indices of ``rest`` simulated
     queues: dict[int, list] = {j: [] for j in objectives}
     if search.wanted(objectives) and quick > 0:
-        scores = bound_scores(space, config, rest, tally=runner.tally)
-        queues = {j: list(np.argsort(scores[:, SCORE_OF[j]], kind="stable"))
-                  for j in objectives}
+        if ranked:
+            scores = bound_scores(space, config, rest, tally=runner.tally)
+            queues = {j: list(np.argsort(scores[:, SCORE_OF[j]], kind="stable"))
+                      for j in objectives}
+        else:
+            queues = {j: list(range(len(rest))) for j in objectives}
     size = round_size
     while search.wanted(objectives) and len(log.points) < stop:
         wanted = [j for j in search.wanted(objectives) if queues[j]]
@@ -194,13 +210,16 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         size = min(2 * size, max_round)
     queue: list = []
     if search.wanted(objectives) and explore > 0:
-        ranked = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)),
-                            sobol[:candidates]])
-        danger = danger_scores(space, config, ranked, runner=runner)
-        orders = [np.argsort(danger[:, SCORE_OF[j]], kind="stable")
-                  for j in search.wanted(objectives)]  # each property's, in turn
-        queue = _interleave(ranked[[i for row in zip(*orders) for i in row]],
-                            sobol[:candidates], 4)
+        if ranked:
+            scored = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)),
+                                sobol[:candidates]])
+            danger = danger_scores(space, config, scored, runner=runner)
+            orders = [np.argsort(danger[:, SCORE_OF[j]], kind="stable")
+                      for j in search.wanted(objectives)]  # each property's, in turn
+            queue = _interleave(scored[[i for row in zip(*orders) for i in row]],
+                                sobol[:candidates], 4)
+        else:  # no ranking: the Sobol points not simulated yet, in order
+            queue = [rest[i] for i in range(len(rest)) if i not in done]
         seen = {tuple(np.round(p, 12)) for p in log.points}
         queue = [p for p in queue if tuple(np.round(p, 12)) not in seen]
     stop = len(log.points) + min(explore, budget - len(log.points))
@@ -330,10 +349,11 @@ def _cma(search: _Search, start, budget, seed, objective=0) -> bool:
 
 def sweep(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, method: str,
           budget: int, seed: int = 0) -> SearchLog:
-    """Evaluates a sweep of at most ``budget`` points (corners in danger order)."""
+    """Evaluates a sweep of at most ``budget`` points (corners in danger order, but a
+    recording space's in their plain order)."""
     d = len(free_parameters(space))
     points = sweep_points(method, budget, d, seed=seed)
-    if method == "corners" and len(points) > 1:
+    if method == "corners" and len(points) > 1 and space.recording is None:
         points = points[np.argsort(danger_scores(space, config, points, runner=runner)[:, 0],
                                    kind="stable")]
     log = SearchLog()

@@ -33,12 +33,17 @@ parameter) becomes a full :class:`safety_systems.config.scenario.Scenario`:
   glove and head would change nothing: the monitor still sees the operator there.
 - ``braking_time_scale`` > 1 makes the real brakes slower than the stopping data says.
 
+Or, with a ``recording:`` block instead of ``parameters``, a box around a recording of
+real operators (``verification.recording_space`` explains its parameters and how a point
+becomes a scenario). The functions below serve both kinds.
+
 This module must not use ``from __future__ import annotations`` (the YAML loader).
 """
 
 import dataclasses as dc
 import itertools
 import math
+import typing
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +54,7 @@ from safety_systems.cell.operator_paths import segment_profile
 from safety_systems.files.ranges import check_limits, number
 from safety_systems.cell.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
 from safety_systems.config.scenario import (
+    MAX_DURATION,
     ROBOT_GEOMETRIES,
     Body,
     ControllerConfig,
@@ -114,6 +120,39 @@ class SpaceParameters:
 
 
 @dc.dataclass
+class RecordingParameters:
+    """The ranges of a recording space (``verification.recording_space``; angles in
+    degrees, lengths in m, times in s)."""
+
+    time_shift: Range = _r(0.0, 0.0)
+    time_scale: Range = _r(1.0, 1.0)
+    offset_x: Range = _r(0.0, 0.0)
+    offset_y: Range = _r(0.0, 0.0)
+    offset_z: Range = _r(0.0, 0.0)
+    yaw_deg: Range = _r(0.0, 0.0)
+    occlusion_start: Range = _r(0.0, 0.0)
+    occlusion: Range = _r(0.0, 0.0)
+    occluded_bodies: Range = _r(1.0, 1.0)
+    noise_std: Range = _r(0.0, 0.0)
+    latency: Range = _r(0.0, 0.0)
+    braking_time_scale: Range = _r(1.0, 1.0)
+
+
+@dc.dataclass
+class RecordingBlock:
+    """A recording space's motion: every operator of the mapping file ``mapping`` played
+    from the recording ``file`` (both relative to the space file), recording time
+    ``start`` at t = 0 before the shift, for at most ``duration`` s (0: until the
+    recording ends), transformed as ``parameters`` say (``verification.recording_space``)."""
+
+    file: str = ""
+    mapping: str = ""
+    start: float = number(0.0, ge=0.0, le=100_000.0, unit="s")
+    duration: float = number(0.0, ge=0.0, le=MAX_DURATION, unit="s")
+    parameters: RecordingParameters = dc.field(default_factory=RecordingParameters)
+
+
+@dc.dataclass
 class ScenarioSpace:
     """A box of approaches, the cell they happen in and the stated assumptions.
 
@@ -122,7 +161,11 @@ class ScenarioSpace:
     ``contact_distance``: what contact means (as in a scenario). ``hand_radius`` and
     ``head_radius``: the bodies' spheres, m. ``noise_bound_sigmas``: for proofs, sensor
     noise is assumed bounded at this many standard deviations per axis. ``notes``:
-    assumptions in words, repeated in every result.
+    assumptions in words, repeated in every result. ``recording``: a box around a
+    recording instead of ``parameters`` (``verification.recording_space``; then
+    ``settle_time`` is the least time from t = 0 to an extra occlusion, and
+    ``tail_time``, ``hand_radius``, ``head_radius`` and ``noise_bound_sigmas`` are not
+    used: they must keep their defaults).
     """
 
     name: str = ""
@@ -136,6 +179,7 @@ class ScenarioSpace:
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     parameters: SpaceParameters = dc.field(default_factory=SpaceParameters)
     notes: list[str] = dc.field(default_factory=list)
+    recording: typing.Optional[RecordingBlock] = None
 
 
 NAMES = tuple(f.name for f in dc.fields(SpaceParameters))
@@ -153,63 +197,99 @@ _LIMITS = {  # allowed ranges of each parameter
 WHOLE = ("target_link", "operators", "heads", "occluded_bodies", "outlier_frames")
 
 
+def check_ranges(block, limits: dict, whole: tuple, prefix: str) -> None:
+    """Each Range of ``block`` within its ``limits`` (min <= max; every field has
+    them), whole where named in ``whole``; raises ScenarioError naming ``prefix.name``."""
+    for field in dc.fields(block):
+        name = field.name
+        (lo, hi), r = limits[name], getattr(block, name)
+        ok = math.isfinite(r.min) and math.isfinite(r.max) and lo <= r.min <= r.max <= hi
+        if not ok:
+            raise ScenarioError(f"{prefix}.{name}", [r.min, r.max],
+                                f"min <= max within [{lo:g}, {hi:g}]")
+    for name in whole:
+        r = getattr(block, name)
+        if r.min != round(r.min) or r.max != round(r.max):
+            raise ScenarioError(f"{prefix}.{name}", [r.min, r.max], "whole numbers")
+
+
 def validate_space(space: ScenarioSpace) -> None:
     """Range checks; raises ScenarioError naming the field."""
     check_limits(space)
-    for name in NAMES:
-        r = getattr(space.parameters, name)
-        lo, hi = _LIMITS[name]
-        ok = math.isfinite(r.min) and math.isfinite(r.max) and lo <= r.min <= r.max <= hi
-        if not ok:
-            raise ScenarioError(f"parameters.{name}", [r.min, r.max],
-                                f"min <= max within [{lo}, {hi}]")
-    for name in WHOLE:
-        r = getattr(space.parameters, name)
-        if r.min != round(r.min) or r.max != round(r.max):
-            raise ScenarioError(f"parameters.{name}", [r.min, r.max], "whole numbers")
+    check_ranges(space.parameters, _LIMITS, WHOLE, "parameters")
     if space.robot.mode not in ("kinematic", "dynamic"):  # checked before any search
         raise ScenarioError("robot.mode", space.robot.mode, "kinematic | dynamic")
     if space.contact_geometry not in ROBOT_GEOMETRIES:
         raise ScenarioError("contact_geometry", space.contact_geometry,
                             " | ".join(ROBOT_GEOMETRIES))
+    if space.recording is not None:
+        from verification.recording_space import validate_recording
+
+        validate_recording(space)
 
 
 def load_space(path: str | Path) -> ScenarioSpace:
-    """Load and validate a space file (its task path's ``file`` relative to it)."""
+    """Load and validate a space file (its task path's ``file``, and a recording block's
+    files, relative to it)."""
     def validate(space: ScenarioSpace) -> None:
         read_task_path(space.robot, Path(path).parent)
+        if space.recording is not None:
+            from verification.recording_space import read_recording_block
+
+            read_recording_block(space.recording, Path(path).parent)
         validate_space(space)
 
     return load_document(path, ScenarioSpace, validate)
 
 
+def parameter_ranges(space: ScenarioSpace) -> dict[str, Range]:
+    """The space's parameters and their ranges, in order: ``NAMES`` of ``parameters``,
+    or a recording block's (``recording_space.RECORDING_NAMES``)."""
+    block = space.parameters if space.recording is None else space.recording.parameters
+    return {f.name: getattr(block, f.name) for f in dc.fields(block)}
+
+
 def lower_upper(space: ScenarioSpace) -> tuple[np.ndarray, np.ndarray]:
-    """The box's corners as two vectors in the order of ``NAMES``."""
-    p = space.parameters
-    return (np.array([getattr(p, n).min for n in NAMES]),
-            np.array([getattr(p, n).max for n in NAMES]))
+    """The box's corners as two vectors in the order of :func:`parameter_ranges`."""
+    ranges = parameter_ranges(space).values()
+    return np.array([r.min for r in ranges]), np.array([r.max for r in ranges])
 
 
 def free_parameters(space: ScenarioSpace) -> list[str]:
     """Names of the parameters whose range is not a single value."""
-    lo, hi = lower_upper(space)
-    return [n for n, a, b in zip(NAMES, lo, hi) if b > a]
+    return [n for n, r in parameter_ranges(space).items() if r.max > r.min]
 
 
 def to_point(space: ScenarioSpace, unit: np.ndarray) -> dict[str, float]:
     """Maps a point of the unit cube over the free parameters to parameter values."""
-    lo, hi = lower_upper(space)
-    values = {n: float(x) for n, x in zip(NAMES, lo)}
+    ranges = parameter_ranges(space)
+    values = {n: float(r.min) for n, r in ranges.items()}
     for name, u in zip(free_parameters(space), np.asarray(unit, dtype=float)):
-        i = NAMES.index(name)
-        values[name] = float(lo[i] + min(max(u, 0.0), 1.0) * (hi[i] - lo[i]))
+        r = ranges[name]
+        values[name] = float(r.min + min(max(u, 0.0), 1.0) * (r.max - r.min))
     for name in WHOLE:
-        values[name] = float(round(values[name]))
+        if name in values:
+            values[name] = float(round(values[name]))
     return values
+
+
+def contact_assumption(space: ScenarioSpace) -> str:
+    """What contact means in the space's scenarios, in words."""
+    if space.contact_geometry == "capsules":
+        return (f"contact means a body's sphere within {space.contact_distance:g} m of a "
+                f"robot capsule (the tool of {space.robot.payload_radius:g} m radius"
+                f"{f', {space.robot.tool_length:g} m long' if space.robot.tool_length else ''})")
+    return (f"contact means a body within {space.contact_distance:g} m of the tool flange "
+            "(the seed's tool point; the other links are not checked)")
 
 
 def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
     """The assumptions under which a verdict over ``space`` holds, in words."""
+    if space.recording is not None:
+        from verification.recording_space import recording_assumptions
+
+        return recording_assumptions(space, config) + [contact_assumption(space)] \
+            + list(space.notes)
     p = space.parameters
     heads = " and a head" if p.heads.max >= 1 else ""
     links = sorted({CAPSULE_NAMES[int(i)] for i in range(int(p.target_link.min),
@@ -240,12 +320,7 @@ def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
          if p.outlier_frames.max >= 1 else "no outlier frames"),
         f"the robot stops as its stopping data says, times scaled by "
         f"{p.braking_time_scale.min:g} to {p.braking_time_scale.max:g}",
-        (f"contact means a body's sphere within {space.contact_distance:g} m of a robot "
-         f"capsule (the tool of {space.robot.payload_radius:g} m radius"
-         f"{f', {space.robot.tool_length:g} m long' if space.robot.tool_length else ''})"
-         if space.contact_geometry == "capsules" else
-         f"contact means a body within {space.contact_distance:g} m of the tool flange "
-         "(the seed's tool point; the other links are not checked)"),
+        contact_assumption(space),
     ]
     return lines + list(space.notes)
 
@@ -271,9 +346,14 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
     ``path``: the space robot's joint path, if the caller has it already (building it is
     most of the cost for many points). ``validate=False`` skips the range checks, for
     candidates that are only ranked, never simulated (simulated ones are made again
-    with the checks)."""
+    with the checks). A recording space's points: ``recording_space.recorded_scenario``."""
     v = values
     path = joint_path(space.robot) if path is None else path
+    if space.recording is not None:
+        from verification.recording_space import recorded_scenario
+
+        return recorded_scenario(space, config, values, name=name, path=path,
+                                 validate=validate)
     onset = space.settle_time + v["onset_phase"] * path.cycle_time
     target = target_point(space, v, path)
     n_ops = int(round(v["operators"]))

@@ -3,9 +3,11 @@
 scripted operator, shared by the RecordedMotion system and the diagram builder."""
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from safety_systems.sensing.recording import recorded_state_one
 from safety_systems.sensing.recording_mapping import RecordedBodies
@@ -14,9 +16,10 @@ from safety_systems.sensing.recording_mapping import RecordedBodies
 @dataclasses.dataclass(frozen=True, eq=False)
 class RecordedOperator:
     """One operator played from a recording: its ``bodies`` (cell frame), played from
-    recording time ``start`` at t = 0 at ``time_scale`` recording seconds per second,
-    every body moved by ``shift`` (m), present for enter_time <= t < leave_time (and
-    while each body's recording tracks it)."""
+    recording time ``start`` at t = 0 at ``time_scale`` recording seconds per second
+    (every velocity scaled by it), every body turned by ``yaw_deg`` about the cell's z
+    axis (through the robot base) and then moved by ``shift`` (m), present for
+    enter_time <= t < leave_time (and while each body's recording tracks it)."""
 
     bodies: RecordedBodies
     start: float = 0.0
@@ -24,6 +27,12 @@ class RecordedOperator:
     shift: tuple = (0.0, 0.0, 0.0)
     enter_time: float = 0.0
     leave_time: float = math.inf
+    yaw_deg: float = 0.0
+
+    @functools.cached_property
+    def _turn(self) -> np.ndarray:
+        """The transpose of the yaw's rotation matrix (rows of points turn by it)."""
+        return Rotation.from_euler("z", self.yaw_deg, degrees=True).as_matrix().T
 
     @property
     def num_bodies(self) -> int:
@@ -42,7 +51,10 @@ class RecordedOperator:
                            p, v, present)
         if not self.enter_time <= t < self.leave_time:
             present[:] = 0.0
-        return p + np.asarray(self.shift), v * self.time_scale, present
+        v *= self.time_scale
+        if self.yaw_deg != 0.0:
+            p, v = p @ self._turn, v @ self._turn
+        return p + np.asarray(self.shift), v, present
 
     def hidden_intervals(self) -> list[tuple[int, float, float]]:
         """(body index, start, end) intervals of time over which the recording did not

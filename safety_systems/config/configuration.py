@@ -195,5 +195,6 @@ def recorded_operators(scenario: Scenario) -> list[RecordedOperator]:
 
     return [RecordedOperator(bodies=load_recorded_operator(o.recording, o.mapping, o.name),
                              start=o.start, time_scale=o.time_scale, shift=tuple(o.shift),
-                             enter_time=o.enter_time, leave_time=o.leave_time)
+                             enter_time=o.enter_time, leave_time=o.leave_time,
+                             yaw_deg=o.yaw_deg)
             for o in scenario.operators]

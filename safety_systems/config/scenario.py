@@ -400,9 +400,12 @@ class OperatorConfig:
     recording (a Motive CSV export or a C3D file; both files relative to the scenario
     file, ``safety_systems.sensing.recording_mapping``): recording time ``start`` plays at
     t = 0, ``time_scale`` recording seconds per second (1.3: 30 % faster than recorded),
-    every body moved by ``shift`` (m, cell frame). Its ``bodies`` come from the mapping
-    (leave them empty, or give the mapping's in its order to set other radii; no
-    ``waypoints``); ``max_speed`` and ``max_acceleration`` are unused. A scenario's operators are all scripted or all recorded.
+    every body turned by ``yaw_deg`` about the cell's z axis (through the robot base) and
+    then moved by ``shift`` (m, cell frame). Its ``bodies`` come from the mapping (leave
+    them empty, or give the mapping's in its order to set other radii; no
+    ``waypoints``); ``max_speed`` and ``max_acceleration`` are unused. A scenario's
+    operators are all scripted or all recorded; ``start``, ``time_scale``, ``yaw_deg``
+    and ``shift`` are a recorded operator's only.
     """
 
     name: str = ""
@@ -417,6 +420,7 @@ class OperatorConfig:
     start: float = number(0.0, ge=0.0, le=100_000.0, unit="s")
     time_scale: float = number(1.0, ge=0.1, le=10.0)
     shift: list[float] = _position([0.0, 0.0, 0.0])
+    yaw_deg: float = number(0.0, ge=-360.0, le=360.0, unit="deg")
 
 
 @dc.dataclass
@@ -616,6 +620,10 @@ def _validate_operator(o: OperatorConfig, f: str) -> None:
                "the recording's mapping file (a recorded operator needs one)")
         return
     _check(not o.mapping, f"{f}.mapping", o.mapping, "empty without a recording")
+    for name, unset in (("start", 0.0), ("time_scale", 1.0), ("yaw_deg", 0.0),
+                        ("shift", [0.0, 0.0, 0.0])):
+        _check(getattr(o, name) == unset, f"{f}.{name}", getattr(o, name),
+               f"{unset} for a scripted operator (it moves along its waypoints)")
     _validate_waypoints(o, f)
 
 
