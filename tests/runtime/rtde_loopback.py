@@ -25,6 +25,16 @@ OUTPUTS = {"timestamp": ("DOUBLE", "d"), "actual_q": ("VECTOR6D", "6d")}
 FORMATS = {"INT32": "i", "UINT32": "I", "DOUBLE": "d", "UINT8": "B"}
 
 
+_SAY = threading.Lock()
+
+
+def say(message: dict) -> None:
+    """One JSON line on stdout; the connection and stream threads all write, and print's
+    text and newline could otherwise interleave between them."""
+    with _SAY:
+        print(json.dumps(message), flush=True)
+
+
 def input_type(name: str) -> str:
     if name.startswith("input_int_register_"):
         return "INT32"
@@ -56,7 +66,7 @@ class Server:
         self.listener.listen(8)
 
     def serve(self) -> None:
-        print(json.dumps({"listening": True}), flush=True)
+        say({"listening": True})
         while True:
             conn, _ = self.listener.accept()
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -114,7 +124,7 @@ class Server:
             with self.lock:
                 if values.get("speed_slider_mask") == 1:
                     self.slider = values["speed_slider_fraction"]
-            print(json.dumps({"t": time.monotonic(), "values": values}), flush=True)
+            say({"t": time.monotonic(), "values": values})
 
     def stream(self, conn) -> None:
         frequency, outputs = self.outputs[conn]
@@ -129,7 +139,7 @@ class Server:
                         c.close()
                     except OSError:
                         pass
-                print(json.dumps({"dropped": now}), flush=True)
+                say({"dropped": now})
                 return
             with self.lock:
                 self.robot.command(self.slider)
