@@ -44,6 +44,15 @@ code { font-size: 0.95em; }
 """
 
 
+def _spheres(bodies: dict) -> str:
+    """The certificate's bodies in words: the space's hand and head spheres, or each
+    recorded body's from the recording's mapping."""
+    if "radii" in bodies:
+        return "spheres (from the recording's mapping): " + ", ".join(
+            f"{name} {r:g} m" for name, r in bodies["radii"].items())
+    return f"spheres: hands {bodies['hand_radius']:g} m, head {bodies['head_radius']:g} m"
+
+
 def _e(x) -> str:
     return html.escape(str(x), quote=True)
 
@@ -134,8 +143,7 @@ def _whole_cell(cell: dict) -> list[list[str]]:
         ["robot as contact is measured", _e(
             f"{c['geometry']}: radii {_g(c['radii'])} m, tool length {c['tool_length']:g} m")],
         ["robot's speed in S", _e(speed)],
-        ["bodies", _e(f"spheres: hands {cell['bodies']['hand_radius']:g} m, head "
-                      f"{cell['bodies']['head_radius']:g} m")],
+        ["bodies", _e(_spheres(cell["bodies"]))],
         ["hidden bodies", _e(
             f"{h['rule']}: " + ("a hidden body stays a hazard, a ball growing at "
                                 f"{h['occlusion_speed']:g} m/s, until seen leaving through "

@@ -163,13 +163,25 @@ def whole_cell(params: Params, space: ScenarioSpace) -> dict:
                     "radii": [float(r) for r in real.radius],
                     "tool_length": float(real.tool_length),
                     "contact_distance": float(space.contact_distance)},
-        "bodies": {"hand_radius": float(space.hand_radius),
-                   "head_radius": float(space.head_radius)},
+        "bodies": _bodies(space),
         "hidden_bodies": {"rule": t.hidden_bodies, "occlusion_speed": float(f.occlusion_speed),
                           "exits": len(t.exits), "walls": t.cell is not None},
         "frames": {"gate": bool(t.gate), "gate_speed": float(t.gate_speed),
                    "gate_width": float(t.gate_width), "timeout": float(frame_timeout(c))},
     }
+
+
+def _bodies(space: ScenarioSpace) -> dict:
+    """The operators' spheres: the space's hand and head radii, or, for a space built
+    around a recording, each recorded body's radius as its mapping gives it."""
+    if space.recording is None:
+        return {"hand_radius": float(space.hand_radius),
+                "head_radius": float(space.head_radius)}
+    from safety_systems.sensing.recording_mapping import load_mapping
+
+    mapping = load_mapping(space.recording.mapping)
+    return {"radii": {f"{o.name}/{b.name}": float(b.radius) for o in mapping.operators
+                      for b in o.bodies}, "mapping": str(space.recording.mapping)}
 
 
 def counterexamples(report: dict, tune: dict | None) -> list[dict]:

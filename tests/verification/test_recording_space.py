@@ -222,3 +222,27 @@ def test_tune_over_a_recording_space_needs_allow_passed(tmp_path, cli):
     assert code == 2 and out == "" and len(err.splitlines()) == 1
     assert "--allow: got 'proved'" in err and "never proved" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_certificate_gives_the_recorded_bodies_spheres_from_the_mapping(tmp_path):
+    # A recording space's bodies are the mapping's (its hand_radius and head_radius keep
+    # their defaults, unused): the certificate's whole-cell figures and the assessor's
+    # page say so, each body by name. A mapping with other radii shows through.
+    from verification.assessor_report import _spheres
+    from verification.export import _bodies
+
+    folder = tmp_path / "recordings"
+    shutil.copytree(MODELS / "recordings", folder)
+    shutil.copy(MODELS / "spaces" / "recording.yaml", tmp_path / "recording.yaml")
+    text = (tmp_path / "recording.yaml").read_text().replace("../recordings/", "recordings/")
+    (tmp_path / "recording.yaml").write_text(text)
+    mapping = next(folder.glob("*mapping*.yaml"))
+    mapping.write_text(mapping.read_text().replace("radius: 0.12", "radius: 0.15"))
+    space = load_space(tmp_path / "recording.yaml")
+    bodies = _bodies(space)
+    expected = {f"{o.name}/{b.name}": b.radius for o in load_mapping(mapping).operators
+                for b in o.bodies}
+    assert bodies["radii"] == expected and 0.15 in expected.values()
+    assert "head 0.15 m" in _spheres(bodies)
+    default = _bodies(load_space(MODELS / "spaces" / "default.yaml"))
+    assert default == {"hand_radius": 0.05, "head_radius": 0.12}
