@@ -1,5 +1,7 @@
 """Ground truth: run a scenario in the Drake diagram and measure both properties."""
 
+import gc
+
 import numpy as np
 
 from safety_systems.outputs.metrics import (
@@ -48,6 +50,24 @@ def evaluate_drake(scenario: Scenario, *, stop_on: str | None = None,
     confirmation needs no more; the figures are then those of the run so far (the
     violated property's can only fall further; another property's, not yet violated,
     says nothing of the whole run: ``cut_short`` tells)."""
+    try:
+        return _evaluate(scenario, stop_on, margin)
+    finally:
+        collect_diagram_garbage()
+
+
+def collect_diagram_garbage() -> None:
+    """Collects, here on the calling thread, the reference cycles a diagram's building
+    leaves (its builder, plant, scene graph and diagram, unreachable once the run is
+    over). Left to the automatic collector they may be freed on whatever thread next
+    allocates enough: a process pool's queue feeder thread, for one, and destroying
+    them there aborted the process (seen under pytest-xdist, every time, when a
+    Runner's pool started after a Drake replay)."""
+    gc.collect()
+
+
+def _evaluate(scenario: Scenario, stop_on: str | None, margin: float
+              ) -> tuple[Robustness, Run]:
     logged = LOGGED + (command_signal(scenario.controller.type),)
     until = None
     if stop_on is not None:

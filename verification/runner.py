@@ -8,6 +8,7 @@ cut short, which the next run drops (and evaluates again).
 """
 
 import dataclasses
+import gc
 import hashlib
 import json
 import multiprocessing
@@ -177,6 +178,9 @@ class Runner:
             timed = (f.result() for f in futures)
         else:
             if self._pool is None:
+                # on this thread, not the pool's feeder thread: a Drake diagram's
+                # cycles freed there abort (evaluate_drake.collect_diagram_garbage)
+                gc.collect()
                 self._pool = ProcessPoolExecutor(max_workers=self.workers,
                                                  mp_context=_worker_context())
             timed = self._pool.map(_timed, [(fn, c) for c in items])

@@ -46,6 +46,15 @@ def run_task(scenario: Scenario, config: ControllerConfig, *, operators: bool = 
              ) -> TaskRun:
     """Runs ``scenario`` under ``config`` (without its operators when ``operators`` is
     False) until its cycles are done (see the module docstring)."""
+    from verification.evaluate_drake import collect_diagram_garbage
+
+    try:
+        return _run_task(scenario, config, operators)
+    finally:
+        collect_diagram_garbage()
+
+
+def _run_task(scenario: Scenario, config: ControllerConfig, operators: bool) -> TaskRun:
     from pydrake.systems.analysis import Simulator
 
     from safety_systems.diagrams.workcell import MakeWorkcell
