@@ -238,6 +238,14 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
             if not _cma(search, start, share, seed + restart, objective):
                 break
             restart += 1
+    # What CMA-ES could not use (fewer simulations left than a population): the next
+    # candidates in line, so that the whole budget is spent.
+    if search.wanted(objectives) and len(log.points) < budget:
+        seen = {tuple(np.round(p, 12)) for p in log.points}
+        line = [p for p in queue + [rest[i] for i in range(len(rest)) if i not in done]
+                if tuple(np.round(p, 12)) not in seen]
+        if line:
+            search.simulate(np.array(line[:budget - len(log.points)]))
     return log
 
 
