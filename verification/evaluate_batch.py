@@ -649,14 +649,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     monitor = monitor_terms(cfg)
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
-    # S_true of the separation invariant: the simulated robot's own stopping data.
-    by_scale: dict = {}  # (the scenarios of a batch differ in their brakes' scale only)
-    for sc in scenarios:
-        if sc.robot.braking_time_scale not in by_scale:
-            by_scale[sc.robot.braking_time_scale] = robot_stopping(sc)
-    stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
-    truth_t = np.array([x.time for x in stops_true]) + f.reaction_time
-    truth_b = np.array([x.distance for x in stops_true]) + f.intrusion_distance
+    truth_t, truth_b = true_stopping_terms(scenarios, f)
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     path = path_arrays(c.path)
     z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas),
@@ -729,6 +722,20 @@ def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
                   if f.name not in ("cycles", "braking_time_scale"))
     return (text(s.controller), robot, s.contact_geometry, sensor.rate_hz, sensor.seed,
             tuple((len(o.bodies), len(o.waypoints)) for o in s.operators))
+
+
+def true_stopping_terms(scenarios: list[Scenario], safety) -> tuple[np.ndarray, np.ndarray]:
+    """S_true's time and distance terms of each scenario (the separation invariant's):
+    the simulated robot's own stop from full speed (``metrics.robot_stopping``, once per
+    braking time scale: the scenarios of a batch differ in their brakes' scale only)
+    plus T_r, and its distance plus C."""
+    by_scale: dict = {}
+    for sc in scenarios:
+        if sc.robot.braking_time_scale not in by_scale:
+            by_scale[sc.robot.braking_time_scale] = robot_stopping(sc)
+    stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
+    return (np.array([x.time for x in stops_true]) + safety.reaction_time,
+            np.array([x.distance for x in stops_true]) + safety.intrusion_distance)
 
 
 def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> BatchResult:

@@ -37,7 +37,6 @@ from safety_systems.config.configuration import (
     monitored_body_radii,
 )
 from safety_systems.cell.joint_path import joint_path_state
-from safety_systems.outputs.metrics import robot_stopping
 from safety_systems.cell.operator_paths import stack_paths, stacked_position_velocity
 from safety_systems.cell.robot_geometry import (
     NUM_POINTS,
@@ -50,7 +49,11 @@ from safety_systems.ssm.separation import body_separation, capsule_axis
 from safety_systems.ssm.formulas import _speed_scale_eq12
 from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms, scripted_operators
 from verification.counts import Tally
-from verification.evaluate_batch import delivered_frames, dropout_table
+from verification.evaluate_batch import (
+    delivered_frames,
+    dropout_table,
+    true_stopping_terms,
+)
 from safety_systems.ssm.true_measures import is_moving, true_margin
 from verification.space import (
     NAMES,
@@ -374,14 +377,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     monitor = monitor_terms(config)
     mine_arrays = (mine.a, mine.b, mine.t0, mine.t1, mine.radius, mine.tool_length)
     real_arrays = (real.a, real.b, real.t0, real.t1, real.radius, real.tool_length)
-    # S_true's stopping data: the simulated robot's own, per braking time scale.
-    by_scale: dict = {}
-    for sc in scenarios:
-        if sc.robot.braking_time_scale not in by_scale:
-            by_scale[sc.robot.braking_time_scale] = robot_stopping(sc)
-    stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
-    truth_t = np.array([x.time for x in stops_true]) + f.reaction_time
-    truth_b = np.array([x.distance for x in stops_true]) + f.intrusion_distance
+    truth_t, truth_b = true_stopping_terms(scenarios, f)
     ends = np.array([sc.duration for sc in scenarios])
     k_ssm, gap, margin = np.empty(n), np.empty(n), np.empty(n)
     moving = np.empty(n, dtype=np.bool_)
