@@ -242,10 +242,11 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
     # candidates in line, so that the whole budget is spent.
     if search.wanted(objectives) and len(log.points) < budget:
         seen = {tuple(np.round(p, 12)) for p in log.points}
-        line = [p for p in queue + [rest[i] for i in range(len(rest)) if i not in done]
-                if tuple(np.round(p, 12)) not in seen]
-        if line:
-            search.simulate(np.array(line[:budget - len(log.points)]))
+        line = itertools.chain(queue, (rest[i] for i in range(len(rest)) if i not in done))
+        fresh = (p for p in line if tuple(np.round(p, 12)) not in seen)
+        left = list(itertools.islice(fresh, budget - len(log.points)))
+        if left:
+            search.simulate(np.array(left))
     return log
 
 
