@@ -26,8 +26,8 @@ The manifest holds a SHA-256 per output file after dropping what legitimately di
 between runs (provenance, versions, paths, CPU and wall times) and the figures themselves
 (``summary.json``, the comparison rows, ``report.json``'s verdicts and robustness), so a
 difference names the file and the field. Input files' digests are left out too (a comment
-edited in a configuration changes them); what the inputs mean shows in the figures. Plots and HTML replays are not compared (their
-bytes carry timestamps); their inputs are.
+edited in a configuration changes them); what the inputs mean shows in the figures. Plots
+and HTML replays are not compared (their bytes carry timestamps); their inputs are.
 """
 
 import argparse
@@ -165,7 +165,9 @@ def compare(before: Path, after: Path) -> int:
                 if len(lines) == before_lines:
                     lines.append(f"{rel}: content differs")
             else:
-                lines.append(f"{rel}: {'missing' if rel not in b['files'] else 'new' if rel not in a['files'] else 'differs'}")
+                how = ("missing" if rel not in b["files"] else "new" if rel not in a["files"]
+                       else "differs")
+                lines.append(f"{rel}: {how}")
     print(f"{len(a['files'])} files before, {len(b['files'])} after; "
           f"{len(lines)} differences")
     for line in lines[:200]:

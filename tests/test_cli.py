@@ -124,8 +124,10 @@ MODELS = INSPECTION.parents[1]
     (["simulate", str(INSPECTION)], "safety_systems.diagrams.simulation.simulate"),
     (["verify", str(MODELS / "configs" / "iso.yaml"), "--space",
       str(MODELS / "spaces" / "default.yaml")], "verification.verify.verify"),
-    (["compare", str(INSPECTION), "--controllers", "none"], "safety_systems.outputs.compare.compare"),
-    (["plan", str(MODELS / "scenes" / "paper.yaml")], "safety_systems.outputs.plan_report.write_plan"),
+    (["compare", str(INSPECTION), "--controllers", "none"],
+     "safety_systems.outputs.compare.compare"),
+    (["plan", str(MODELS / "scenes" / "paper.yaml")],
+     "safety_systems.outputs.plan_report.write_plan"),
 ])
 def test_an_unwritable_out_is_refused_before_any_work(tmp_path, capsys, monkeypatch, argv,
                                                       work):

@@ -5,7 +5,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from safety_systems.cell.braking import default_braking_table, path_rate_step, tool_stopping_distance
+from safety_systems.cell.braking import (
+    default_braking_table,
+    path_rate_step,
+    tool_stopping_distance,
+)
 from safety_systems.config.configuration import contact_capsules
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.cell.robot_geometry import capsule_ends

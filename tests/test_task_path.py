@@ -7,7 +7,11 @@ from scipy.optimize import brentq
 from safety_systems.cell.cartesian_path import polyline_path
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.config.scenario import ScenarioError, load_scenario
-from safety_systems.cell.ur5e import dh_forward_kinematics, tool0_position, tool0_position_and_velocity
+from safety_systems.cell.ur5e import (
+    dh_forward_kinematics,
+    tool0_position,
+    tool0_position_and_velocity,
+)
 from safety_systems.config.configuration import joint_path
 
 # Seed 001's start and goal (10, 70, 15) and (70, 30, 5) cm, through a corner.

@@ -12,7 +12,12 @@ from safety_systems.config.scenario import (
     SensorConfig,
     TrackerConfig,
 )
-from safety_systems.config.configuration import assumed_stopping, braking_table, frame_timeout, joint_path
+from safety_systems.config.configuration import (
+    assumed_stopping,
+    braking_table,
+    frame_timeout,
+    joint_path,
+)
 
 MEASURED = BrakingConfig(speed_fraction=[0.25, 0.5, 1.0], stopping_time=[0.1, 0.25, 0.4],
                          stopping_distance=[0.02, 0.08, 0.3])

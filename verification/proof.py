@@ -20,9 +20,10 @@ model, or *trusted*, taken from the files). Let
 where T_s, T_r, B, C, Z_d, Z_r are the configuration's, tau its frame timeout, h the
 control period, V_R the largest speed of any point of the monitor's capsule axes on
 the path, r_low the least the monitor's robot speed term can be (-V_R for Eq. 7's
-directed speed, 0 for ``robot_speed: fastest_point``), T_stop the longest stop from full speed under the real brakes and D the
-longest travel of any capsule axis point in it (plus one tick), and E a bound on the
-distance between a tracked body and its estimate at the estimate's capture time. If
+directed speed, 0 for ``robot_speed: fastest_point``), T_stop the longest stop from full
+speed under the real brakes and D the longest travel of any capsule axis point in it
+(plus one tick), and E a bound on the distance between a tracked body and its estimate
+at the estimate's capture time. If
 M >= 0 over the whole box, no scenario in it has a body within c of any capsule of the
 moving robot, whatever the occlusions (of any length, of any bodies), dropped frames,
 and outlier or corrupted frames.

@@ -47,7 +47,13 @@ from safety_systems.cell.robot_geometry import (
 from safety_systems.config.scenario import ControllerConfig, actual_sensor
 from safety_systems.ssm.separation import body_separation, capsule_axis
 from safety_systems.ssm.formulas import _speed_scale_eq12
-from safety_systems.config.configuration import braking_table, frame_timeout, joint_path, monitor_terms, scripted_operators
+from safety_systems.config.configuration import (
+    braking_table,
+    frame_timeout,
+    joint_path,
+    monitor_terms,
+    scripted_operators,
+)
 from verification.counts import Tally
 from verification.evaluate_batch import (
     delivered_frames,
@@ -183,11 +189,12 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
     (a, b, t0, t1, radius, tool length)) at q, v_joint (n, 6); k (Eq. 12 by
     ``ssm._speed_scale_eq12`` over the ``tracked`` bodies p_m, v_m (n, N, 3), radii r_mine,
     Z_d ``z_d``, hidden balls ``ball``, d and S of each by ``separation.body_separation``;
-    1 with no tracked body, 0 on a NaN); the smallest clearance of the ``present`` true bodies ``truth`` to
-    the real capsules; the smallest d_true - S_true over them (S_true: Eqs. 9-11 by
-    ``true_measures.true_margin`` on the true directed speeds (``truth_v`` the bodies'
-    velocities), no Z_d or Z_r, the robot's own stopping time ``truth_t`` and distance
-    ``truth_b`` (n,) with T_r and C folded in, as ``evaluate_batch`` measures it);
+    1 with no tracked body, 0 on a NaN); the smallest clearance of the ``present`` true
+    bodies ``truth`` to the real capsules; the smallest d_true - S_true over them
+    (S_true: Eqs. 9-11 by ``true_measures.true_margin`` on the true directed speeds
+    (``truth_v`` the bodies' velocities), no Z_d or Z_r, the robot's own stopping time
+    ``truth_t`` and distance ``truth_b`` (n,) with T_r and C folded in, as
+    ``evaluate_batch`` measures it);
     whether the robot moves (its fastest capsule end). The two figures are computed
     only where they count: the clearance while the robot moves, the margin where
     ``free`` (no fault, no lost track, within the candidate's time; the row's k, if it

@@ -1,1 +1,2 @@
-"""The cell: the UR5e model and its capsules, joint and Cartesian paths, braking data and true stopping, scripted operators."""
+"""The cell: the UR5e model and its capsules, joint and Cartesian paths, braking data and
+true stopping, scripted operators."""

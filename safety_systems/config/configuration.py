@@ -8,7 +8,12 @@ import numpy as np
 from safety_systems.cell.braking import BrakingTable, default_braking_table, stopping_distance
 from safety_systems.cell.braking import stopping_time as table_stopping_time
 from safety_systems.cell.cartesian_path import line_path, polyline_path
-from safety_systems.cell.joint_path import JointPath, SplinePath, default_joint_path, make_joint_path
+from safety_systems.cell.joint_path import (
+    JointPath,
+    SplinePath,
+    default_joint_path,
+    make_joint_path,
+)
 from safety_systems.cell.operator_paths import ScriptedOperator, make_operator_path
 from safety_systems.cell.recorded_operator import RecordedOperator
 from safety_systems.cell.robot_geometry import Capsules, robot_capsules, tool_point

@@ -1,1 +1,2 @@
-"""What runs write and measure: trace, summary, plots, replay, outcome measures, comparisons, provenance."""
+"""What runs write and measure: trace, summary, plots, replay, outcome measures,
+comparisons, provenance."""

@@ -10,7 +10,10 @@ from safety_systems.config.configuration import joint_path
 from safety_systems.diagrams.simulation import Run
 from safety_systems.diagrams.workcell import body_roles
 from safety_systems.speed_alteration.ellipsoids import danger_index, robot_ellipsoids
-from safety_systems.speed_alteration.methods import operator_ellipsoids_over_time, preprogrammed_speed
+from safety_systems.speed_alteration.methods import (
+    operator_ellipsoids_over_time,
+    preprogrammed_speed,
+)
 
 
 def danger_over_run(run: Run) -> np.ndarray:

@@ -29,7 +29,8 @@ def evaluation_of_run(run: Run, *, contact: bool, every: int = 5) -> dict:
     d = np.where(run["operators.present"][rows] > 0.5,
                  np.linalg.norm(bodies - p_tool[:, None, :], axis=-1), np.inf)
     nearest = np.argmin(d, axis=1)
-    v_h, v_r = directed_speeds(p_tool, v_tool, bodies, run.bodies("operators.velocities_true")[rows])
+    v_bodies = run.bodies("operators.velocities_true")[rows]
+    v_h, v_r = directed_speeds(p_tool, v_tool, bodies, v_bodies)
     pick = np.arange(len(rows))
     path = joint_path(run.scenario.robot)
     dt = float(run.time[rows[1]] - run.time[rows[0]]) if len(rows) > 1 else 1.0

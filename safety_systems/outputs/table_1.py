@@ -32,13 +32,15 @@ def largest_step(row: dict) -> tuple[float, float, float]:
     if v.size < 2:
         return 0.0, first * row["sample_period"], first * row["sample_period"]
     i = int(np.argmax(np.abs(np.diff(v))))
-    return float(abs(v[i + 1] - v[i])), (first + i) * row["sample_period"], (first + i + 1) * row["sample_period"]
+    period = row["sample_period"]
+    return float(abs(v[i + 1] - v[i])), (first + i) * period, (first + i + 1) * period
 
 
 def shifted_sd(row: dict, shift: int) -> float:
     """Our jerk SD (mm/s^3) over the jerk window moved by ``shift`` samples."""
     first, last = row["jerk_samples"]
-    j = jerk(np.asarray(row["samples"]), row["sample_period"])[max(first + shift, 0):last - 1 + shift]
+    j = jerk(np.asarray(row["samples"]), row["sample_period"])
+    j = j[max(first + shift, 0):last - 1 + shift]
     return 1000.0 * float(j.std()) if j.size else 0.0
 
 

@@ -1,1 +1,2 @@
-"""Seed 001's planning, zones and metric: task space, potential field, planners, RRT*, path optimisation and metrics, sweeps, zones, evaluation."""
+"""Seed 001's planning, zones and metric: task space, potential field, planners, RRT*,
+path optimisation and metrics, sweeps, zones, evaluation."""

@@ -36,7 +36,12 @@ import time
 
 import numpy as np
 
-from safety_systems.planning.potential_field import Field, field_from_scene, total_force, total_potential
+from safety_systems.planning.potential_field import (
+    Field,
+    field_from_scene,
+    total_force,
+    total_potential,
+)
 from safety_systems.planning.task_space import TaskScene, clearance, signed_distances
 
 STALL_WINDOW = 20  # steps

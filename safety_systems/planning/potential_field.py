@@ -43,7 +43,12 @@ import functools
 
 import numpy as np
 
-from safety_systems.planning.task_space import ObstacleSet, TaskScene, obstacle_set, signed_distances
+from safety_systems.planning.task_space import (
+    ObstacleSet,
+    TaskScene,
+    obstacle_set,
+    signed_distances,
+)
 
 RHO_FLOOR = 1e-6  # m: rho is clamped here so the potential stays finite inside obstacles
 

@@ -39,7 +39,11 @@ def run(args: argparse.Namespace, origin: dict) -> int:
     from safety_systems.files.output_files import prepare_out, write_json
     from safety_systems.outputs.run_files import write_table
     from safety_systems.sensing.recording import read_recording
-    from safety_systems.sensing.recording_mapping import find_operator, load_mapping, recorded_bodies
+    from safety_systems.sensing.recording_mapping import (
+        find_operator,
+        load_mapping,
+        recorded_bodies,
+    )
     from safety_systems.runtime.live_run import LiveOptions, run_live
     from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource, parse_mocap
     from safety_systems.runtime.params import NotCertified, load_certified_params, \

@@ -1,1 +1,2 @@
-"""Seed 004's speed alteration: ellipsoids and the danger index, ERGA, Hwang's and the bimodal baselines, Table 1."""
+"""Seed 004's speed alteration: ellipsoids and the danger index, ERGA, Hwang's and the
+bimodal baselines, Table 1."""

@@ -5,7 +5,8 @@ pre-programmed path (m/s, signed: negative backs away along the path), from the
 operators' ellipsoids predicted one step ahead (Eqs. 9-10) and the robot's ellipsoids
 at the pose each speed leads to:
 
-- ``erga``: the elite real-coded GA minimising Eqs. 11-12 (``safety_systems.speed_alteration.erga``);
+- ``erga``: the elite real-coded GA minimising Eqs. 11-12
+  (``safety_systems.speed_alteration.erga``);
 - ``hwang``: Hwang et al.'s objective, Eq. 13 (collision-trend index from the ellipsoids
   read as Gaussians, with the penalty index), choosing among the pre-programmed speed
   and the two limits;
@@ -57,7 +58,8 @@ def operator_ellipsoids(positions: np.ndarray, valid: np.ndarray, operator_of: n
     """The operators' ellipsoids from the tracked bodies (N, 3) that are ``valid``.
 
     With ``sizes.human == "upper_body"``, an operator whose two hands are tracked gets
-    the upper-body model (:func:`safety_systems.speed_alteration.ellipsoids.human_ellipsoids`); every other
+    the upper-body model
+    (:func:`safety_systems.speed_alteration.ellipsoids.human_ellipsoids`); every other
     tracked body is a sphere (hand radius for gloves, head radius for heads).
     """
     parts, used = [], np.zeros(len(valid), dtype=bool)

@@ -357,7 +357,8 @@ def _messages(server) -> list[dict]:
 
 def _host() -> str:
     """A loopback address of its own (ur-rtde always uses port 30004)."""
-    return f"127.0.{np.random.default_rng().integers(1, 250)}.{np.random.default_rng().integers(2, 250)}"
+    rng = np.random.default_rng()
+    return f"127.0.{rng.integers(1, 250)}.{rng.integers(2, 250)}"
 
 
 def test_ur_rtde_commands_the_slider_and_leaves_it_at_0(tmp_path, exported_params):

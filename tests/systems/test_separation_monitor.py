@@ -5,7 +5,11 @@ import pytest
 
 from safety_systems.cell.robot_geometry import capsule_ends, robot_capsules, tool_point
 from safety_systems.ssm.separation import pair_figures
-from safety_systems.ssm.formulas import directed_speeds, monitor_protective_distances, separation_distances
+from safety_systems.ssm.formulas import (
+    directed_speeds,
+    monitor_protective_distances,
+    separation_distances,
+)
 from safety_systems.systems.separation_monitor import SeparationMonitor
 
 ARGS = dict(reaction_time=0.1, stopping_time=0.3, stopping_distance=0.2)

@@ -3,7 +3,12 @@ import pytest
 
 from safety_systems.sensing import stops
 from safety_systems.ssm.formulas import overall_speed_override
-from safety_systems.sensing.stops import STOP_LOST_TRACK, STOP_NONE, STOP_SEPARATION, STOP_STALE_FRAME
+from safety_systems.sensing.stops import (
+    STOP_LOST_TRACK,
+    STOP_NONE,
+    STOP_SEPARATION,
+    STOP_STALE_FRAME,
+)
 from safety_systems.systems.speed_override import SpeedOverride
 
 

@@ -21,7 +21,8 @@ INSPECTION = load_scenario("models/scenarios/inspection.yaml")
 
 
 def _plain_s(scenario, v_h, v_r, t_stop, b_stop):
-    """Seed Eqs. 9-11 on the truth, written out (no Z_d, Z_r; see safety_systems.outputs.metrics)."""
+    """Seed Eqs. 9-11 on the truth, written out (no Z_d, Z_r; see
+    safety_systems.outputs.metrics)."""
     f = scenario.controller.safety
     t = t_stop + f.reaction_time
     rest = v_r * f.reaction_time + b_stop + f.intrusion_distance
