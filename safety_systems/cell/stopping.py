@@ -50,10 +50,19 @@ def stop_from_full_speed(table: BrakingTable, braking_time_scale: float,
                  tuple(table.stopping_distance), float(braking_time_scale), float(period))
 
 
-@functools.lru_cache(maxsize=256)
-def _stop(fractions, times, distances, braking_time_scale, period):
+def stop_from(rate: float, table: BrakingTable, braking_time_scale: float,
+              period: float) -> tuple[float, float]:
+    """(time, path_travel) of a stop commanded at path rate ``rate`` (in [0, 1]), as
+    :func:`stop_from_full_speed` runs it from 1."""
+    return _stop(tuple(table.speed_fraction), tuple(table.stopping_time),
+                 tuple(table.stopping_distance), float(braking_time_scale), float(period),
+                 float(rate))
+
+
+@functools.lru_cache(maxsize=4096)
+def _stop(fractions, times, distances, braking_time_scale, period, start=1.0):
     table = BrakingTable(np.array(fractions), np.array(times), np.array(distances))
-    rate, travelled, ticks = 1.0, 0.0, 0
+    rate, travelled, ticks = start, 0.0, 0
     while rate > 0.0:
         new = float(path_rate_step(rate, 0.0, period, table=table, acceleration_limit=1.0,
                                    time_scale=braking_time_scale))
@@ -127,3 +136,73 @@ def true_stopping(path, capsules, table: BrakingTable, braking_time_scale: float
     time, path_travel = stop_from_full_speed(table, braking_time_scale, period)
     speed, delta = _speed_profile(path, capsules, cells)
     return StoppingData(time, path_travel, travel_in(speed, delta, path_travel))
+
+
+# The rates at which the separation invariant's S_true takes the simulated robot's stop
+# when the configuration's S follows the robot's speed (``safety.stopping: by_speed``):
+# j / TRUTH_RATES, j = 0..TRUTH_RATES; a rate between two is taken at the one above.
+TRUTH_RATES = 64
+
+
+@dataclasses.dataclass(frozen=True)
+class StoppingByRate:
+    """Stops commanded at the path rates ``rate`` (j / TRUTH_RATES): their times (s) and
+    the farthest travel of any capsule axis point in each (m), both non-decreasing in
+    the rate (checked: a stop from a lower rate runs through fewer ticks, the rate map
+    of one braking tick being monotonic, see :func:`stops_by_rate`)."""
+
+    rate: np.ndarray
+    time: np.ndarray
+    distance: np.ndarray
+
+    def at(self, rate: float) -> tuple[float, float]:
+        """(time, distance) of the grid rate at or above ``rate`` (clipped to [0, 1])."""
+        j = rate_index(rate)
+        return float(self.time[j]), float(self.distance[j])
+
+
+def rate_index(rate: float) -> int:
+    """Index of the grid rate j / TRUTH_RATES at or above ``rate`` (clipped to [0, 1];
+    a NaN counts as full speed)."""
+    if not rate < 1.0:
+        return TRUTH_RATES
+    return max(0, min(TRUTH_RATES, math.ceil(rate * TRUTH_RATES - 1e-9)))
+
+
+_BY_RATE: dict = {}  # a few stops_by_rate results, newest last
+
+
+def stops_by_rate(path, capsules, table: BrakingTable, braking_time_scale: float,
+                  period: float, *, cells: int = 20000) -> StoppingByRate:
+    """:func:`stops_by_rate_uncached`, kept for the next calls (a sweep asks for the same
+    few)."""
+    key = (content_key(dataclasses.replace(path, cycles=1)), content_key(capsules),
+           content_key(table), float(braking_time_scale), float(period), cells)
+    found = _BY_RATE.pop(key, None)
+    if found is None:
+        found = stops_by_rate_uncached(path, capsules, table, braking_time_scale, period,
+                                       cells=cells)
+    _BY_RATE[key] = found
+    while len(_BY_RATE) > 16:
+        _BY_RATE.pop(next(iter(_BY_RATE)))
+    return found
+
+
+def stops_by_rate_uncached(path, capsules, table: BrakingTable, braking_time_scale: float,
+                           period: float, *, cells: int = 20000) -> StoppingByRate:
+    """:func:`true_stopping`'s time and distance for stops commanded at every grid rate
+    j / TRUTH_RATES (the rate 0: no stop, 0 and 0). Raises if they are not
+    non-decreasing in the rate (a table whose deceleration falls faster than the rate
+    within one tick), which the by-speed bounds rely on."""
+    rates = np.arange(TRUTH_RATES + 1) / TRUTH_RATES
+    speed, delta = _speed_profile(path, capsules, cells)
+    time, distance = np.zeros(rates.size), np.zeros(rates.size)
+    for j, rate in enumerate(rates[1:], start=1):
+        time[j], travel = stop_from(rate, table, braking_time_scale, period)
+        distance[j] = travel_in(speed, delta, travel)
+    if np.any(np.diff(time) < 0.0) or np.any(np.diff(distance) < 0.0):
+        raise ValueError("the braking table's stops do not grow with the speed they start "
+                         "from; the by-speed protective distance needs them to")
+    for a in (rates, time, distance):
+        a.setflags(write=False)
+    return StoppingByRate(rates, time, distance)

@@ -26,7 +26,7 @@ from safety_systems.config.scenario import (
 )
 from safety_systems.sensing.sensor_faults import fault_table
 from safety_systems.sensing.tracks import make_regions, make_rules
-from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS
+from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS, SPEED_LEVELS
 
 
 def tracker_rules(config: ControllerConfig) -> np.ndarray:
@@ -121,6 +121,34 @@ def assumed_stopping(config: ControllerConfig) -> tuple[float, float]:
     b = config.safety.stopping_distance
     return (float(table_stopping_time(table, 1.0)) if t_s is None else t_s,
             float(stopping_distance(table, 1.0)) if b is None else b)
+
+
+def level_stops(config: ControllerConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(T_s, B) the monitor uses at each speed level g / SPEED_LEVELS, g = 0..SPEED_LEVELS
+    (``safety.stopping: by_speed``): :func:`assumed_stopping`'s full-speed values scaled
+    by the braking table's shape, T_s(sigma) = T_s T_table(sigma) / T_table(1) and
+    B(sigma) = B D_table(sigma) / D_table(1) (the table interpolated linearly from
+    (0, 0, 0)). Interpretation: the configured full-speed T_s and B keep their meaning
+    (and their margins over the table, in proportion); ISO/TS 15066 leaves how S_s
+    follows the speed to the stopping data. With ``full_speed`` every level has the
+    full-speed values."""
+    t_s, b = assumed_stopping(config)
+    levels = np.arange(SPEED_LEVELS + 1) / SPEED_LEVELS
+    if config.safety.stopping != "by_speed":
+        return np.full(levels.size, float(t_s)), np.full(levels.size, float(b))
+    table = braking_table(config)
+    shape_t = table_stopping_time(table, levels) / float(table_stopping_time(table, 1.0))
+    shape_b = stopping_distance(table, levels) / float(stopping_distance(table, 1.0))
+    return t_s * shape_t, b * shape_b
+
+
+def level_terms(config: ControllerConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(T_s + T_r, B + C + Z_r) at each speed level (:func:`level_stops`), as
+    ``separation.level_rows`` takes them."""
+    f = config.safety
+    t_s, b = level_stops(config)
+    return (np.ascontiguousarray(t_s + f.reaction_time),
+            np.ascontiguousarray(b + f.intrusion_distance + f.robot_uncertainty))
 
 
 def monitor_terms(config: ControllerConfig) -> tuple:

@@ -26,7 +26,7 @@ from safety_systems.cell.operator_paths import make_operator_path
 from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
 from safety_systems.files.ranges import SEED_MAX, check_limits, number
 from safety_systems.sensing.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
-from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS
+from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS, STOPPING_MODES
 from safety_systems.sensing.tracks import HIDDEN_BODY_RULES
 
 ScenarioError = InputError  # the name this module's callers know
@@ -166,6 +166,13 @@ class SafetyConfig:
     ``payload_radius`` m) or ``tool_point`` (the seed's Eq. 8: the tool flange as a
     point, bodies as points).
 
+    ``stopping``: the robot's stop in S (T_s and B): ``full_speed`` (the seed's: the
+    stop from full speed, ``stopping_time`` and ``stopping_distance``, at every speed)
+    or ``by_speed`` (ISO/TS 15066's S_s from the robot's current speed: the stop from
+    the fastest the robot may run until the next decision, the full-speed values scaled
+    by the braking table's shape; the commanded speed is then one of
+    ``ssm.SPEED_LEVELS`` + 1 levels: ``ssm.formulas.by_speed_command``).
+
     ``robot_speed``: the robot's speed in S (Eq. 11's S_R = v_R T_r): ``directed`` (the
     seed's and ISO/TS 15066's v_R^d, Eq. 7: the speed of the capsule's point nearest
     the body towards it, negative when it moves away) or ``fastest_point`` (the speed of
@@ -176,6 +183,7 @@ class SafetyConfig:
 
     robot_geometry: str = "capsules"
     robot_speed: str = "directed"
+    stopping: str = "full_speed"
     payload_radius: float = number(0.05, gt=0.0, le=1.0, unit="m")
     tool_length: float = number(0.0, ge=0.0, le=1.0, unit="m")
     link_radii: list[float] = number([], gt=0.0, le=0.5, unit="m")
@@ -519,6 +527,8 @@ def _controller_rules(c: ControllerConfig, prefix: str) -> None:
            " | ".join(HUMAN_SPEED_MODES))
     _check(f.robot_speed in ROBOT_SPEED_TERMS, f"{prefix}.safety.robot_speed", f.robot_speed,
            " | ".join(ROBOT_SPEED_TERMS))
+    _check(f.stopping in STOPPING_MODES, f"{prefix}.safety.stopping", f.stopping,
+           " | ".join(STOPPING_MODES))
     _check(c.type in CONTROLLER_TYPES, f"{prefix}.type", c.type, " | ".join(CONTROLLER_TYPES))
     validate_alteration(c.alteration, f"{prefix}.alteration")
     z = c.zones

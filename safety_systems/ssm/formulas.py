@@ -20,6 +20,12 @@ HUMAN_SPEED_MODES = ("estimated", "iso", "estimated_with_floor")
 # The robot's speed in S (SafetyConfig.robot_speed): Eq. 7's directed speed, or the speed
 # of the capsule's fastest point (safety_systems.ssm.separation).
 ROBOT_SPEED_TERMS = ("directed", "fastest_point")
+# The robot's stop in S (SafetyConfig.stopping): the stop from full speed whatever the
+# speed (``full_speed``), or the stop from the speed the robot may have until the next
+# decision (``by_speed``, ISO/TS 15066's S_s from the current speed; :func:`by_speed_command`).
+STOPPING_MODES = ("full_speed", "by_speed")
+# by_speed: the commanded speed is one of SPEED_LEVELS + 1 levels g / SPEED_LEVELS.
+SPEED_LEVELS = 16
 
 
 # ISO/TS 15066 Eq. 1 (seed Section 2) after ISO 13855: 2000 mm/s, or 1600 mm/s where
@@ -347,6 +353,101 @@ def override_command(d, s, status, fault, delta_s, d_min, included):
     if held != stops.STOP_NONE:
         k, reason = 0.0, held
     return k, top, reason
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def level_at_or_above(rate, levels):
+    """The speed level g (of ``levels`` + 1, g / levels) at or above the path rate
+    ``rate`` (clipped to [0, 1]; a NaN counts as full speed)."""
+    if not rate < 1.0:
+        return levels
+    return max(0, min(levels, math.ceil(rate * levels - 1e-9)))
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def by_speed_command(d, s_levels, status, fault, rate, delta_s, d_min, included):
+    """The SpeedOverride's (k, S_max, stop reason) with S following the robot's speed
+    (``safety.stopping: by_speed``), compiled. ``s_levels`` (G + 1, N): each body's S at
+    the speed levels g / G (``separation.level_rows``: T_s and B of the stop from that
+    speed, ``configuration.level_stops``); ``rate`` the path rate now.
+
+    Over the bodies with a usable track (flags into ``included``), with d the closest
+    clearance and S_max(g) the largest S at level g:
+
+    - no usable body: k = 1; a non-finite d or S of a usable body: k = 0;
+    - the robot keeps moving only while d >= S_max(g_now), g_now the level at or above
+      the rate now (ISO/TS 15066: S from the current speed), and d >= d_min; else k = 0,
+      a protective stop;
+    - then k = g / G for the largest g with d >= dS S_max(g) (0 if none): the fastest
+      level whose S, widened by the slow-down band dS, the operator is beyond. A k below
+      the rate slows the robot within its brakes (``braking.rate_step_one``) before d
+      can reach S_max(g_now).
+
+    So whenever k > 0, d >= S_max(g') with g' = max(g_now, g_k): the S of a level at or
+    above every rate the robot can have until the next decision (the rate moves from
+    the rate now towards k). That is the premise ``verification.proof`` takes. Eq. 12's
+    linear ramp is not used: the levels replace it. S_max returned is S_max(g').
+    Then the tracker's stop rule holds the robot as in :func:`override_command`."""
+    levels = s_levels.shape[0] - 1
+    any_included, faulty, closest = False, False, np.inf
+    for i in range(d.size):
+        included[i] = usable(status[i])
+        if not included[i]:
+            continue
+        any_included = True
+        if not np.isfinite(d[i]):
+            faulty = True
+        else:
+            closest = min(closest, d[i])
+        for g in range(levels + 1):
+            if not np.isfinite(s_levels[g, i]):
+                faulty = True
+    g_now = level_at_or_above(rate, levels)
+    if not any_included:
+        k, top = 1.0, -np.inf
+    elif faulty:
+        k, top = 0.0, np.inf
+    else:
+        top_now = -np.inf
+        for i in range(d.size):
+            if included[i]:
+                top_now = max(top_now, s_levels[g_now, i])
+        k, top = 0.0, top_now
+        if closest >= d_min and closest >= top_now:
+            for g in range(levels, 0, -1):
+                top_g = -np.inf
+                for i in range(d.size):
+                    if included[i]:
+                        top_g = max(top_g, s_levels[g, i])
+                if closest >= delta_s * top_g:
+                    k = g / levels
+                    if g > g_now:
+                        top = top_g
+                    break
+    reason = float(stops.STOP_SEPARATION if k <= 0.0 else stops.STOP_NONE)
+    held = tracker_stop(status, fault)
+    if held != stops.STOP_NONE:
+        k, reason = 0.0, held
+    return k, top, reason
+
+
+@numba.njit(cache=True)
+def _by_speed_command(d, s_levels, status, fault, rate, delta_s, d_min):
+    return by_speed_command(d, s_levels, status, fault, rate, delta_s, d_min,
+                            np.empty(d.size, np.bool_))
+
+
+def by_speed_override_command(distances: np.ndarray, level_distances: np.ndarray,
+                              status: np.ndarray, fault: float, rate: float, *,
+                              delta_s: float = 1.0, d_min: float = 0.30
+                              ) -> tuple[float, float, int]:
+    """:func:`by_speed_command` of one robot from Python: (k, S_max, stop reason)."""
+    k, top, reason = _by_speed_command(
+        np.ascontiguousarray(distances, dtype=float),
+        np.ascontiguousarray(level_distances, dtype=float),
+        np.ascontiguousarray(status, dtype=float), float(fault), float(rate), float(delta_s),
+        float(d_min))
+    return float(k), float(top), int(reason)
 
 
 @numba.njit(cache=True)

@@ -47,13 +47,58 @@ def pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
     the speed of the capsule's faster end, which no point of its axis exceeds (a rigid
     link's velocity is affine along the axis)."""
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
+    clearance, h, r = pair_speeds(p, w, r_B, ends, end_velocities, radius, j, robot_speed)
+    return (clearance,
+            body_protective_distance(h, r, z_d, mode, t_sr, t_r, const, iso, iso_reduced), h, r)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def pair_speeds(p, w, r_B, ends, end_velocities, radius, j, robot_speed):
+    """(clearance, v_human_directed, v_robot) of one body and capsule j, as
+    :func:`pair_separation` takes them (``robot_speed`` its index in
+    ``ssm.ROBOT_SPEED_TERMS``)."""
     end_a, end_b, vel_a, vel_b = capsule_axis(ends, end_velocities, j)
     axis, h, r = segment_pair(p, w, end_a, end_b, vel_a, vel_b)
     if robot_speed == 1:
         r = max(math.sqrt(vel_a[0] * vel_a[0] + vel_a[1] * vel_a[1] + vel_a[2] * vel_a[2]),
                 math.sqrt(vel_b[0] * vel_b[0] + vel_b[1] * vel_b[1] + vel_b[2] * vel_b[2]))
-    return (axis - radius[j] - r_B,
-            body_protective_distance(h, r, z_d, mode, t_sr, t_r, const, iso, iso_reduced), h, r)
+    return axis - radius[j] - r_B, h, r
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def body_levels(p_B, v_B, r_B, z_d, ends, end_velocities, radius, monitor, level_t_sr,
+                level_const, out, i):
+    """Body i's S at every speed level into out[:, i] (G + 1, N): the largest over the
+    capsules of ``ssm.body_protective_distance`` with the level's T_s + T_r
+    (``level_t_sr``) and B + C + Z_r (``level_const``), the pair's speeds by
+    :func:`pair_speeds` (``monitor`` as :func:`pair_separation` takes it; its T_s and B
+    are not used). A NaN anywhere gives NaN at every level."""
+    mode, _, t_r, _, iso, iso_reduced, robot_speed = monitor
+    p, w = (p_B[0], p_B[1], p_B[2]), (v_B[0], v_B[1], v_B[2])
+    for g in range(out.shape[0]):
+        out[g, i] = -np.inf
+    for j in range(radius.size):
+        _, h, r = pair_speeds(p, w, r_B, ends, end_velocities, radius, j, robot_speed)
+        for g in range(out.shape[0]):
+            s_g = body_protective_distance(h, r, z_d, mode, level_t_sr[g], t_r, level_const[g],
+                                           iso, iso_reduced)
+            out[g, i] = np.nan if math.isnan(s_g) or math.isnan(out[g, i]) \
+                else max(out[g, i], s_g)
+
+
+@numba.njit(cache=True)
+def level_rows(ends, end_velocities, radius, p_B, v_B, r_B, status, std, z_d_terms, monitor,
+               level_t_sr, level_const, out):
+    """:func:`body_levels` of every body with a usable track into out (G + 1, N); NaN for
+    the others (Z_d as :func:`separation_rows` takes it)."""
+    base, sigmas, _ = z_d_terms
+    for i in range(p_B.shape[0]):
+        if usable(status[i]):
+            body_levels(p_B[i], v_B[i], r_B[i], base + sigmas * std[i], ends, end_velocities,
+                        radius, monitor, level_t_sr, level_const, out, i)
+        else:
+            for g in range(out.shape[0]):
+                out[g, i] = np.nan
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
