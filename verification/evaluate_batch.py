@@ -41,7 +41,7 @@ from safety_systems.config.configuration import (
 )
 from safety_systems.config.configuration import sensor_faults as scenario_faults
 from safety_systems.cell.joint_path import path_arrays, path_state_one
-from safety_systems.outputs.metrics import robot_stopping
+from safety_systems.outputs.metrics import robot_stopping, robot_stops_by_rate
 from safety_systems.cell.operator_paths import (
     check_bodies,
     path_point_one,
@@ -55,10 +55,17 @@ from safety_systems.cell.robot_geometry import (
 )
 from safety_systems.config.scenario import Scenario, actual_sensor
 from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_faults
-from safety_systems.ssm.separation import body_separation, capsule_axis, pair_separation
+from safety_systems.ssm.separation import (
+    body_levels,
+    body_separation,
+    capsule_axis,
+    pair_separation,
+)
 from safety_systems.ssm.formulas import (
     ISO_REDUCED_SPEED_THRESHOLD,
+    by_speed_command,
     hidden_ball_radius,
+    level_at_or_above,
     override_command,
 )
 from safety_systems.ssm.true_measures import is_moving, is_permitted, true_margin
@@ -77,6 +84,7 @@ from safety_systems.config.configuration import (
     frame_timeout,
     is_recorded,
     joint_path,
+    level_terms,
     monitor_terms,
 )
 
@@ -345,7 +353,8 @@ def monitor_pair(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
              status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_t,
-             truth_b, monitor_caps, contact_caps, r_monitor, r_contact, end, brake_scale,
+             truth_b, levels, truth_rates, monitor_caps, contact_caps, r_monitor, r_contact, end,
+             brake_scale,
              brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the tracker's outputs est_p, est_v, status, std, unseen and its
@@ -400,6 +409,11 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     h_iso = max(iso, iso_reduced)
+    # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
+    level_t_sr, level_const = levels
+    by_speed = level_t_sr.size > 0
+    truth_rt, truth_rb = truth_rates
+    s_levels = np.empty((max(level_t_sr.size, 1), est_p.shape[1]))
     z_d_base, z_d_sigmas, occlusion_speed = z_d_terms
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
@@ -511,7 +525,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                             v_end = max(v_end, w0 * w0 + w1 * w1 + w2 * w2)
                 v_end = np.sqrt(v_end)  # (the root of the largest square, as above)
                 # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
-                far = bound_monitor and not math.isnan(v_end) \
+                far = bound_monitor and not by_speed and not math.isnan(v_end) \
                     and tracker_stop(status[b], fault) == stops.STOP_NONE
                 if far:
                     closest_lb, s_ub = np.inf, -np.inf
@@ -531,7 +545,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                             far = far and not (math.isnan(lb) or math.isnan(ub))
                     far = far and closest_lb >= d_min + _MARGIN and (
                         closest_lb - s_ub >= max((delta_s - 1.0) * s_ub, 1e-12) + _MARGIN)
-                near = (bound_monitor and fault == 0.0 and not far
+                near = (bound_monitor and not by_speed and fault == 0.0 and not far
                         and not math.isnan(v_end))  # k = 0 for sure?
                 if near:
                     d_ub, s_lb = np.inf, -np.inf
@@ -562,14 +576,27 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                                     m_velocities, m_radius, monitor)
                                 if nearest >= 0:
                                     hint[b, i] = nearest
-                    k_override = override_command(d, s_row, status[b], fault, delta_s, d_min,
-                                                  included)[0]
+                                if by_speed:
+                                    body_levels(est_p[b, i], est_v[b, i], r_monitor[b, i],
+                                                z_d_base + z_d_sigmas * std[b, i], m_ends,
+                                                m_velocities, m_radius, monitor, level_t_sr,
+                                                level_const, s_levels, i)
+                    if by_speed:
+                        k_override = by_speed_command(d, s_levels, status[b], fault, rate[b],
+                                                      delta_s, d_min, included)[0]
+                    else:
+                        k_override = override_command(d, s_row, status[b], fault, delta_s,
+                                                      d_min, included)[0]
                 memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
             # The properties, on the true state at this tick.
             moving = is_moving(speed) and k <= last[b]
             allowed = is_permitted(k_override) and k <= last[b]
             if moving or allowed:  # (they count only then)
                 closest, margin = np.inf, np.inf
+                stop_t, stop_b = truth_t[b], truth_b[b]  # (full speed: the upper bounds')
+                if by_speed:  # the stop from the rate now (metrics.true_protective_distances)
+                    g = level_at_or_above(rate[b], truth_rt.shape[1] - 1)
+                    stop_t, stop_b = truth_rt[b, g], truth_rb[b, g]
                 for o in range(K):  # each operator's point once, then its bodies
                     if not (t >= enter[b, o] and t < leave[b, o]):
                         continue
@@ -611,7 +638,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                             sep = axis - c_radius[j] - r_contact[b, i]
                             closest = min(closest, sep)
                             margin = min(margin, true_margin(
-                                sep, vh_true, vr_true, mode, truth_t[b], t_r, truth_b[b], iso,
+                                sep, vh_true, vr_true, mode, stop_t, t_r, stop_b, iso,
                                 iso_reduced))
                 if moving:
                     min_sep[b] = min(min_sep[b], closest)
@@ -650,6 +677,10 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
     truth_t, truth_b = true_stopping_terms(scenarios, f)
+    by_speed = f.stopping == "by_speed"
+    levels = level_terms(cfg) if by_speed else (np.empty(0), np.empty(0))
+    truth_rates = true_stopping_by_rate(scenarios, f) if by_speed else (np.empty((B, 1)),
+                                                                          np.empty((B, 1)))
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     path = path_arrays(c.path)
     z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas),
@@ -692,7 +723,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
             stop += 1
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter,
                  c.leave, est_p, est_v, status, std, unseen, frames, timeout, monitor, z_d_terms,
-                 f.delta_s, f.d_min, truth_t, truth_b, monitor_caps, contact_caps, r_monitor,
+                 f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates, monitor_caps,
+                 contact_caps, r_monitor,
                  r_contact, c.end, c.brake_scale, brakes, s, rate, ends_prev, s_last, memo,
                  hint, trig, min_sep, sep_min, sep_time)
         k = stop
@@ -733,6 +765,18 @@ def true_stopping_terms(scenarios: list[Scenario], safety) -> tuple[np.ndarray, 
     for sc in scenarios:
         if sc.robot.braking_time_scale not in by_scale:
             by_scale[sc.robot.braking_time_scale] = robot_stopping(sc)
+    stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
+    return (np.array([x.time for x in stops_true]) + safety.reaction_time,
+            np.array([x.distance for x in stops_true]) + safety.intrusion_distance)
+
+
+def true_stopping_by_rate(scenarios: list[Scenario], safety) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`true_stopping_terms` from every grid rate j / TRUTH_RATES ((B, TRUTH_RATES +
+    1) each; ``metrics.robot_stops_by_rate``), for S_true by speed."""
+    by_scale: dict = {}
+    for sc in scenarios:
+        if sc.robot.braking_time_scale not in by_scale:
+            by_scale[sc.robot.braking_time_scale] = robot_stops_by_rate(sc)
     stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
     return (np.array([x.time for x in stops_true]) + safety.reaction_time,
             np.array([x.distance for x in stops_true]) + safety.intrusion_distance)

@@ -11,6 +11,7 @@ from safety_systems.outputs.metrics import (
     robot_speed,
     true_pairs,
     true_protective_distances,
+    true_rate,
 )
 from safety_systems.config.scenario import Scenario
 from safety_systems.ssm.true_measures import permitted
@@ -35,7 +36,8 @@ def robustness_of_run(run: Run) -> Robustness:
     dt = 1.0 / scenario.robot.control_rate_hz
     rho = stopped_before_contact(clearance.min(axis=-1), speed, scenario.contact_distance)
     separation, time = separation_invariant(
-        clearance, true_protective_distances(scenario, v_h, v_r), permitted(commanded(run)),
+        clearance, true_protective_distances(scenario, v_h, v_r, true_rate(run)),
+        permitted(commanded(run)),
         dt)
     return Robustness(rho, rho + scenario.contact_distance, separation, time)
 

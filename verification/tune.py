@@ -13,10 +13,12 @@ costs differ by orders of magnitude, so each candidate meets the cheap tests fir
    candidate) and the two proofs
    (``verification.proof``, milliseconds each; under ``allow="proved"`` an unproved
    candidate is rejected here);
-2. the candidates left are taken in order of a proxy, the distance beyond which a
-   still operator lets the robot run at full speed (ΔS times S for a body and a robot
-   at rest, at least d_min; it only orders candidates: every figure that decides is
-   measured): the base configuration first, then up to ``candidates`` more. Each is
+2. the candidates left are taken in order of a proxy (:func:`proxy_distance`), the
+   mean over the speed levels of the distance beyond which a still operator lets the
+   robot run at that level (for ``stopping: full_speed`` every level's is the
+   full-speed distance: ΔS times S for a body and a robot at rest, at least d_min; it
+   only orders candidates: every figure that decides is measured): the base
+   configuration first, then up to ``candidates`` more. Each is
    replayed against the counterexamples kept since its screen, then its task
    scenarios are run in the Drake diagram;
 3. a candidate whose total task time beats the best so far is verified in full
@@ -49,7 +51,7 @@ from safety_systems.config.scenario import (
     validate_controller,
 )
 from safety_systems.ssm.formulas import monitor_protective_distances
-from safety_systems.config.configuration import assumed_stopping, frame_timeout
+from safety_systems.config.configuration import frame_timeout, level_stops
 from verification.proof import prove, prove_separation
 from verification.runner import FIELDS, Runner
 from verification.search import sweep_points
@@ -94,6 +96,7 @@ class Candidate:
     reason: str = ""
     proved: dict = dataclasses.field(default_factory=dict)  # property -> bool
     proxy: float = math.inf
+    full_speed: float = math.inf  # full_speed_distance
     checked: int = 0  # kept counterexamples replayed so far
     tasks: list = dataclasses.field(default_factory=list)  # TaskRun
     objective: float = math.inf
@@ -104,24 +107,41 @@ class Candidate:
     def record(self) -> dict:
         return {"index": self.index, "values": self.values, "status": self.status,
                 "reason": self.reason, "proved": self.proved,
-                "full_speed_distance": None if math.isinf(self.proxy) else self.proxy,
+                "full_speed_distance": None if math.isinf(self.full_speed) else self.full_speed,
+                "proxy_distance": None if math.isinf(self.proxy) else self.proxy,
                 "task_times": {t.task: t.task_time for t in self.tasks},
                 "total_task_time": None if math.isinf(self.objective) else self.objective,
                 "verdict": self.verdict, "report": self.report}
 
 
-def full_speed_distance(config: ControllerConfig) -> float:
-    """The proxy: beyond what distance a still operator lets the robot (at rest) run at
-    full speed: ΔS times the monitor's S (Eqs. 9-12) for a body and a robot at rest,
-    and at least d_min (the speed in S by the configuration's mode)."""
+def level_distances(config: ControllerConfig) -> np.ndarray:
+    """Beyond what distance a still operator lets the robot (at rest) run at each speed
+    level g / SPEED_LEVELS: ΔS times the monitor's S (Eqs. 9-11) for a body and a robot at
+    rest with that level's stop (``configuration.level_stops``; every level's is the
+    full-speed stop under ``stopping: full_speed``), at least d_min (the human speed by
+    the configuration's mode)."""
     f = config.safety
-    t_s, b = assumed_stopping(config)
-    s = float(monitor_protective_distances(
+    t_s, b = level_stops(config)
+    s = np.array([float(monitor_protective_distances(
         np.zeros(1), np.zeros(1), mode=f.human_speed, reaction_time=f.reaction_time,
-        stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
-        human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
-        iso_speed=f.iso_human_speed, iso_reduced_speed=f.iso_reduced_human_speed)[0])
-    return max(f.delta_s * max(s, 0.0), f.d_min)
+        stopping_time=float(t), stopping_distance=float(d),
+        intrusion_distance=f.intrusion_distance, human_uncertainty=f.human_uncertainty,
+        robot_uncertainty=f.robot_uncertainty, iso_speed=f.iso_human_speed,
+        iso_reduced_speed=f.iso_reduced_human_speed)[0]) for t, d in zip(t_s, b)])
+    return np.maximum(f.delta_s * np.maximum(s, 0.0), f.d_min)
+
+
+def full_speed_distance(config: ControllerConfig) -> float:
+    """Beyond what distance a still operator lets the robot (at rest) run at full speed
+    (:func:`level_distances` at the top level)."""
+    return float(level_distances(config)[-1])
+
+
+def proxy_distance(config: ControllerConfig) -> float:
+    """The proxy that orders candidates: the mean of :func:`level_distances` (the
+    full-speed distance under ``stopping: full_speed``; lower under ``by_speed``, where
+    the robot runs slower instead of standing nearer than that)."""
+    return float(np.mean(level_distances(config)))
 
 
 def config_text(config: ControllerConfig, header: list[str]) -> str:
@@ -254,7 +274,8 @@ class Tuner:
             for c in valid:
                 if c.status == "screened":
                     self.prove(c)
-                    c.proxy = full_speed_distance(c.config)
+                    c.proxy = proxy_distance(c.config)
+                    c.full_speed = full_speed_distance(c.config)
             order = [pool[0]] + sorted((c for c in pool[1:] if c.status == "screened"),
                                        key=lambda c: (c.proxy, c.index))
             best, evaluated = None, []

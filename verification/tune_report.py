@@ -69,8 +69,9 @@ def _search(result: dict) -> list[str]:
              f"Screened {screen['points']} configurations (the base and Sobol points of the "
              "parameters' box): " + ", ".join(f"{k} {v}" for k, v in
                                               sorted(screen["outcomes"].items())) + ".", "",
-             "Simulated (in order of the full-speed distance, a proxy that only orders "
-             "them):", "",
+             "Simulated (in order of a proxy that only orders them: the mean over the "
+             "speed levels of the distance beyond which a still operator lets the robot run "
+             "at that level, the full-speed distance when S takes the full-speed stop):", "",
              "| candidate | status | total task time [s] | verdict | why | values |",
              "|---|---|---|---|---|---|"]
     for c in result["candidates"]:

@@ -164,9 +164,9 @@ class StoppingByRate:
 def rate_index(rate: float) -> int:
     """Index of the grid rate j / TRUTH_RATES at or above ``rate`` (clipped to [0, 1];
     a NaN counts as full speed)."""
-    if not rate < 1.0:
-        return TRUTH_RATES
-    return max(0, min(TRUTH_RATES, math.ceil(rate * TRUTH_RATES - 1e-9)))
+    from safety_systems.ssm.formulas import level_at_or_above
+
+    return int(level_at_or_above(float(rate), TRUTH_RATES))
 
 
 _BY_RATE: dict = {}  # a few stops_by_rate results, newest last

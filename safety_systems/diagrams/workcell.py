@@ -23,6 +23,7 @@ from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
 
 from safety_systems.config.configuration import (
     assumed_stopping,
+    level_terms,
     braking_table,
     frame_timeout,
     is_recorded,
@@ -57,6 +58,7 @@ from safety_systems.systems.robot_capsules import RobotCapsules
 from safety_systems.systems.separation_monitor import SeparationMonitor
 from safety_systems.systems.speed_override import SpeedOverride
 from safety_systems.systems.zones_controller import ZonesController
+from safety_systems.ssm.formulas import SPEED_LEVELS
 from safety_systems.cell.ur5e import AddUr5e
 
 # Joint-space gains of the dynamic mode's inverse-dynamics controller: critically
@@ -140,6 +142,7 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         return SafetyController(tracker, {"speed": speed},
                                 speed.GetOutputPort("path_speed_commanded"))
     t_s, b = assumed_stopping(config)
+    by_speed = f.stopping == "by_speed"
     capsules = monitor_capsules(config)
     robot = builder.AddNamedSystem("robot_capsules", RobotCapsules(
         capsules=capsules, period_sec=control_period))
@@ -150,17 +153,19 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
         human_uncertainty_sigmas=f.human_uncertainty_sigmas, occlusion_speed=f.occlusion_speed,
         iso_speed=f.iso_human_speed,
-        iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed))
+        iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed,
+        level_terms=level_terms(config) if by_speed else None))
     override = builder.AddNamedSystem("override", SpeedOverride(
-        num_bodies=num_bodies, delta_s=f.delta_s, d_min=f.d_min))
+        num_bodies=num_bodies, delta_s=f.delta_s, d_min=f.d_min,
+        levels=SPEED_LEVELS if by_speed else None))
     for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std",
                  "unseen_time"):
         builder.Connect(tracker.GetOutputPort(name), monitor.GetInputPort(name))
     for name in ("capsule_ends", "capsule_velocities"):
         builder.Connect(robot.GetOutputPort(name), monitor.GetInputPort(name))
     builder.Connect(monitor.GetOutputPort("distances"), override.GetInputPort("distances"))
-    builder.Connect(monitor.GetOutputPort("protective_distances"),
-                    override.GetInputPort("protective_distances"))
+    name = "level_protective_distances" if by_speed else "protective_distances"
+    builder.Connect(monitor.GetOutputPort(name), override.GetInputPort(name))
     builder.Connect(tracker.GetOutputPort("track_status"), override.GetInputPort("track_status"))
     builder.Connect(tracker.GetOutputPort("fault"), override.GetInputPort("fault"))
     return SafetyController(tracker, {"robot_capsules": robot, "monitor": monitor,
@@ -255,6 +260,9 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
                    follower=follower)
     if "robot_capsules" in safety.systems:
         builder.Connect(q_port, safety.systems["robot_capsules"].GetInputPort("joint_positions"))
+    override = safety.systems.get("override")
+    if override is not None and override.HasInputPort("path_state"):  # by_speed
+        builder.Connect(follower.GetOutputPort("path_state"), override.GetInputPort("path_state"))
     for controller in (speed, zones):
         if controller is not None:
             builder.Connect(follower.GetOutputPort("path_state"),

@@ -38,7 +38,13 @@ from safety_systems.config.scenario import Scenario
 from safety_systems.ssm.separation import pair_figures
 from safety_systems.diagrams.simulation import Run
 from safety_systems.ssm.formulas import monitor_protective_distances
-from safety_systems.cell.stopping import StoppingData, true_stopping
+from safety_systems.cell.stopping import (
+    StoppingByRate,
+    StoppingData,
+    rate_index,
+    stops_by_rate,
+    true_stopping,
+)
 from safety_systems.sensing.stops import REJECT_CAUSES, SIMULATED, STOP_REASONS
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.cell.ur5e import tool0_position_and_velocity
@@ -125,11 +131,45 @@ def true_protective_args(scenario: Scenario) -> dict:
                 iso_speed=f.iso_human_speed, iso_reduced_speed=f.iso_reduced_human_speed)
 
 
+def robot_stops_by_rate(scenario: Scenario) -> StoppingByRate:
+    """The simulated robot's stops from every grid rate on the scenario's path, for the
+    real robot's capsules (``safety_systems.cell.stopping.stops_by_rate``)."""
+    from safety_systems.config.configuration import braking_table, joint_path
+
+    robot = scenario.robot
+    return stops_by_rate(joint_path(robot), contact_capsules(robot, scenario.contact_geometry),
+                         braking_table(scenario.controller), robot.braking_time_scale,
+                         1.0 / robot.control_rate_hz)
+
+
 def true_protective_distances(scenario: Scenario, v_human_directed: np.ndarray,
-                              v_robot_directed: np.ndarray) -> np.ndarray:
-    """S_true of pairs with these true directed speeds (any shape)."""
-    return monitor_protective_distances(v_human_directed, v_robot_directed,
-                                        **true_protective_args(scenario))
+                              v_robot_directed: np.ndarray,
+                              rate: np.ndarray | None = None) -> np.ndarray:
+    """S_true of pairs with these true directed speeds (any shape). With ``safety.stopping:
+    by_speed`` the stop is the simulated robot's from its path rate at each tick (``rate``,
+    the first axis's; the grid rate at or above it, ``StoppingByRate.at``), as ISO/TS
+    15066's S_s from the current speed; else the stop from full speed."""
+    args = true_protective_args(scenario)
+    if scenario.controller.safety.stopping != "by_speed":
+        return monitor_protective_distances(v_human_directed, v_robot_directed, **args)
+    if rate is None:
+        raise ValueError("S_true by speed needs the path rate at each tick")
+    v_h, v_r = np.broadcast_arrays(np.asarray(v_human_directed, dtype=float),
+                                   np.asarray(v_robot_directed, dtype=float))
+    stops = robot_stops_by_rate(scenario)
+    index = np.array([rate_index(r) for r in np.asarray(rate, dtype=float)], dtype=int)
+    out = np.empty(v_h.shape)
+    for j in np.unique(index):
+        rows = index == j
+        out[rows] = monitor_protective_distances(
+            v_h[rows], v_r[rows], **(args | dict(stopping_time=float(stops.time[j]),
+                                                 stopping_distance=float(stops.distance[j]))))
+    return out
+
+
+def true_rate(run: Run) -> np.ndarray:
+    """(T,) the robot's path rate at each logged tick (the PathFollower's sigma)."""
+    return run["follower.path_state"][:, 1]
 
 
 def separation_margins(clearance: np.ndarray, s_true: np.ndarray,
@@ -145,7 +185,7 @@ def separation_margins(clearance: np.ndarray, s_true: np.ndarray,
 def run_separation_margins(run: Run) -> np.ndarray:
     """(T,) :func:`separation_margins` of a run."""
     clearance, v_h, v_r = true_pairs(run)
-    s_true = true_protective_distances(run.scenario, v_h, v_r)
+    s_true = true_protective_distances(run.scenario, v_h, v_r, true_rate(run))
     return separation_margins(clearance, s_true, permitted(commanded(run)))
 
 

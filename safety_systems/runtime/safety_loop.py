@@ -39,6 +39,10 @@ class SafetyLoop:
             raise ValueError(f"controller.type: got {config.type!r}; the runtime runs "
                              "ssm_override only")
         f = config.safety
+        if f.stopping != "full_speed":
+            raise ValueError(f"safety.stopping: got {f.stopping!r}; the runtime runs "
+                             "full_speed only (S by speed needs the robot's current speed, "
+                             "which the robot link does not measure yet)")
         n = self.n = len(radii)
         self.rules, self.regions = tracker_rules(config), tracker_regions(config)
         self.timeout = frame_timeout(config)

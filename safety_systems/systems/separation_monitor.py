@@ -65,6 +65,10 @@ class SeparationMonitor(LeafSystem):
         iso_speed, iso_reduced_speed: ISO/TS 15066 human speeds in metres per second.
         robot_speed: the robot's speed in S: ``directed`` (Eq. 7) or ``fastest_point``
             (``separation.pair_separation``).
+        level_terms: None, or (T_s + T_r, B + C + Z_r) at each speed level
+            (``configuration.level_terms``, ``safety.stopping: by_speed``): then the
+            output ``level_protective_distances`` holds every body's S at each level
+            ((G + 1) x N, level-major; ``separation.level_rows``).
     """
 
     def __init__(
@@ -85,6 +89,7 @@ class SeparationMonitor(LeafSystem):
         iso_speed: float = ISO_HUMAN_SPEED,
         iso_reduced_speed: float = ISO_REDUCED_HUMAN_SPEED,
         robot_speed: str = "directed",
+        level_terms=None,
     ):
         super().__init__()
         if num_bodies < 0:
@@ -140,6 +145,38 @@ class SeparationMonitor(LeafSystem):
                 name, num_bodies, lambda c, o, r=row: o.SetFromVector(self._cache.Eval(c)[r]),
                 prerequisites_of_calc={self._cache.ticket()},
             )
+
+        self._levels = None
+        if level_terms is not None:
+            self._levels = tuple(np.ascontiguousarray(x, dtype=float) for x in level_terms)
+            g = self._levels[0].size
+            if g < 2 or self._levels[1].size != g or not all(
+                    np.all(np.isfinite(x)) for x in self._levels):
+                raise ValueError(f"level_terms: got {[x.tolist() for x in self._levels]}; "
+                                 "allowed: two equal lists of 2 or more finite numbers")
+            self._level_cache = self.DeclareCacheEntry(
+                description="levels",
+                value_producer=ValueProducer(
+                    allocate=AbstractValue.Make(np.zeros((g, num_bodies))).Clone,
+                    calc=self._calc_levels),
+                prerequisites_of_calc={self.all_input_ports_ticket()})
+            self.DeclareVectorOutputPort(
+                "level_protective_distances", g * num_bodies,
+                lambda c, o: o.SetFromVector(self._level_cache.Eval(c).reshape(-1)),
+                prerequisites_of_calc={self._level_cache.ticket()})
+
+    def _calc_levels(self, context, value):
+        n = self._n
+        if n == 0:
+            return
+        separation.level_rows(
+            np.asarray(self._ends.Eval(context)).reshape(-1, 2, 3),
+            np.asarray(self._end_v.Eval(context)).reshape(-1, 2, 3), self._radius,
+            np.asarray(self._p_B.Eval(context)).reshape(n, 3),
+            np.asarray(self._v_B.Eval(context)).reshape(n, 3), self._r_B,
+            np.asarray(self._status.Eval(context)), np.asarray(self._std.Eval(context)),
+            self._z_d_terms, self._monitor, self._levels[0], self._levels[1],
+            value.get_mutable_value())
 
     def _calc_all(self, context, value):
         n = self._n

@@ -41,7 +41,10 @@ def _config(name, **safety):
     _config("seed_estimated"),
     _config("iso"),
     _config("iso", human_speed="estimated_with_floor", human_uncertainty_sigmas=2.0),
-], ids=["estimated", "iso", "floor_with_sigmas"])
+    _config("iso", stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
+            intrusion_distance=0.0, robot_uncertainty=0.2),
+    _config("seed_estimated", stopping="by_speed", delta_s=1.5),
+], ids=["estimated", "iso", "floor_with_sigmas", "by_speed", "by_speed_estimated"])
 def test_batch_agrees_with_drake_on_random_scenarios(config):
     rng = np.random.default_rng(20261122)
     d = len(free_parameters(WIDE))
@@ -87,7 +90,9 @@ def _tracker(config, **kw):
     _tracker(_config("iso", human_speed="estimated_with_floor", human_uncertainty_sigmas=2.0,
                      tool_length=0.2), hidden_bodies="expire", gate=False),
     _config("iso", robot_speed="fastest_point", robot_uncertainty=0.0),
-], ids=["seed", "iso", "previous", "expire_floor_sigmas_tool", "fastest_point"])
+    _config("iso", stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
+            robot_uncertainty=0.1, delta_s=1.2),
+], ids=["seed", "iso", "previous", "expire_floor_sigmas_tool", "fastest_point", "by_speed"])
 def test_batch_agrees_with_drake_on_the_whole_cell_space(config):
     # Capsules or the tool point, heads, long occlusions of several bodies, outlier frames,
     # both tracker rules, the gate on and off, and every kind of sensor fault.
