@@ -36,6 +36,7 @@ operators:
         ("controller: {sensor: {rate_hz: 5}}", "controller.sensor.rate_hz"),
         ("controller: {safety: {human_speed: guess}}", "controller.safety.human_speed"),
         ("controller: {safety: {delta_s: 0.5}}", "controller.safety.delta_s"),
+        ("controller: {safety: {stopping: current}}", "controller.safety.stopping"),
         (OK.replace("[0, 0.2, 0]", "[0, x, 0]"), "operators[0].bodies[0].offset[1]"),
         (OK + "  max_speed: 2.5\n", "operators[0].max_speed"),
         (OK.replace("{name: r, offset: [0, -0.2, 0]}", ""), "operators[0].bodies"),
