@@ -210,8 +210,8 @@ def _rebuilt(function, **names):
 @pytest.fixture
 def flipped_sign(monkeypatch):
     """Eqs. 6-7 with the wrong sign: closing in counts as moving away. The product's
-    compiled monitor pair (``separation.pair_separation``) is rebuilt with the pair's
-    speeds flipped, and so are the functions that inline it: ``body_separation``, the
+    compiled monitor pair (``separation.pair_speeds`` and ``pair_separation``) is rebuilt
+    with the pair's speeds flipped, and so are the functions that inline it: ``body_separation``, the
     diagram's SeparationMonitor (through ``separation.separation_rows``) and the batched
     evaluator's ticks (both its seams, ``monitor_body`` and ``monitor_pair``)."""
 
@@ -220,7 +220,8 @@ def flipped_sign(monkeypatch):
         d, v_h, v_r = segment_pair(p_B, v_B, A, B, v_A, v_B2)
         return d, -v_h, -v_r
 
-    pair = _rebuilt(separation_module.pair_separation, segment_pair=flipped_pair)
+    speeds = _rebuilt(separation_module.pair_speeds, segment_pair=flipped_pair)
+    pair = _rebuilt(separation_module.pair_separation, pair_speeds=speeds)
     body = _rebuilt(separation_module.body_separation, pair_separation=pair)
     monkeypatch.setattr(separation_module, "separation_rows",
                         _rebuilt(separation_module.separation_rows, body_separation=body))
