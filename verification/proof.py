@@ -81,6 +81,56 @@ v_lo (T_s + T_r) + r T_r + B + C + Z_d + Z_r with r the monitor's robot speed te
 S_true_ij at most v_hi (T* + T_r) + r* T_r + B* + C with T* <= T_stop, B* <= D and r*
 the true directed speed: r* - r <= -g. So clearance_ij(t) - S_true_ij(t) > M_S >= 0.
 
+Speed levels (``safety.stopping: by_speed``, ISO/TS 15066's S_s from the robot's
+current speed). The override commands one of the levels sigma_g = g / G (G =
+``ssm.SPEED_LEVELS``) by ``ssm.by_speed_command``; the monitor computes each body's S at
+every level with T_s(sigma_g) and B(sigma_g) (``configuration.level_stops``), and
+S_true takes T* and B* from the simulated robot's stop from its true rate at the tick
+(``cell.stopping.stops_by_rate``: the grid rate at or above it). Both theorems then
+hold with one margin per level g = 1..G, each checked over the box (one z3 query, the
+levels' conditions in a disjunction); the proof reports the least, and at which level
+(``Proof.terms``: ``speed_level``, ``level_margins``). Let rho_g (:func:`level_rate`)
+bound every rate the override counts as level g or below and the grid rate S_true
+takes for such a rate (g / G but for the rules' rounding), and rho'_g = min(1, rho_g +
+a_b h) every rate over the tick before (a_b: the table's fastest deceleration at the
+space's shortest braking time scale; the rate falls at most a_b h in a tick). Then
+
+    M_g = v (T_s(sigma_g) + T_r) + r_g T_r + B(sigma_g) + C + Z_d + Z_r
+          - E - v_max (tau + T_stop(rho_g) + h) - V_R rho_g h - D(rho_g) - c
+
+    M_S,g = v_lo (T_s(sigma_g) + T_r) - v_hi (T_stop(rho_g) + T_r) + g_g T_r
+            + B(sigma_g) - D(rho_g) + Z_d + Z_r - E - v_max tau
+
+with T_stop(rho) and D(rho) the stop commanded at path rate rho (D over a path
+window of that stop plus one tick at rho), r_g = -V_R rho'_g (directed) or 0
+(fastest_point), and g_g = -V_R (rho_g + rho'_g) (directed) or -a(rho'_g) h
+(fastest_point, a(rho) = |d2p/ds2| rho^2 + V_R |d sigma/dt|). At g = G every term is
+the full-speed one (rho = rho' = 1, T_s(1) = T_s, B(1) = B): M_G = M and M_S,G = M_S.
+Z_d + Z_r adds to every level's margin alike, so ``needed_allowance`` is the least
+level's shortfall.
+
+Proof sketch (what changes). Whenever k(t) > 0 the override found d(t) >= S_max(g_now)
+(g_now the level at or above the rate now) and d(t) >= dS S_max(g_k) with k = g_k / G,
+g_k >= 1 (the level 0 never permits motion, though g_now may be 0). So d(t) >=
+S_max(g') with g' = max(g_now, g_k) in 1..G (for dS > 1 this needs S_max(g_k) >= 0: a
+checked premise, the monitor's least S at any level is not negative). The rate now is
+at most rho_{g'}, and so is k; one tick moves the rate from the rate now towards k
+without passing it (``braking.rate_step_one``), so sigma(t + h) <= rho_{g'}.
+Theorem 1: at the last tick t' with k > 0 before t_c the rate left is at most
+rho_{g'}; every later command is 0, and a stop from a lower rate takes no longer and
+travels no farther (a braking step preserves the order of rates: checked), so t_c - t'
+<= T_stop(rho_{g'}) + h and the capsule axes travel at most V_R rho_{g'} h +
+D(rho_{g'}) after t'. The monitor's capsule velocities at t' are differenced over the
+tick before, at rates up to rho'_{g'}, so its directed robot term is at least -V_R
+rho'_{g'}. The rest is as above, with the level's terms: clearance_ij(t_c) >= M_{g'} +
+c. Theorem 2: at a tick t with k(t) > 0, S_true takes the stop from the grid rate at
+or above sigma(t), at most rho_{g'}: T* <= T_stop(rho_{g'}) and B* <= D(rho_{g'})
+(stops grow with the rate, checked there too); S_true's robot term is at most V_R
+sigma(t) <= V_R rho_{g'}, the monitor's at least -V_R rho'_{g'} (directed), or within
+a(rho'_{g'}) h of the instant's speed of any axis point (fastest_point). The rest is as
+above: clearance_ij(t) - S_true_ij(t) > M_S,{g'}. As g' is one of 1..G, every level's
+margin >= 0 proves the theorem.
+
 The bounds V_R, D, T_stop and E are computed here, soundly: V_R and D by a Lipschitz
 covering of the path (grid values of every capsule end's speed, whose maximum bounds
 every axis point's, plus the largest change between grid points, from a bound on a
@@ -109,7 +159,7 @@ from safety_systems.cell.joint_path import JointPath, SplinePath, joint_path_sta
 from safety_systems.sensing.kalman import axis_predict, axis_update
 from safety_systems.cell.robot_geometry import Capsules, capsule_ends
 from safety_systems.config.scenario import ControllerConfig
-from safety_systems.cell.stopping import stop_from_full_speed
+from safety_systems.cell.stopping import rate_index, stop_from, TRUTH_RATES
 from safety_systems.sensing.tracks import MIN_MEASUREMENT_STD
 from safety_systems.cell.ur5e import DH_A, DH_D
 from safety_systems.config.configuration import (
@@ -117,8 +167,10 @@ from safety_systems.config.configuration import (
     braking_table,
     frame_timeout,
     joint_path,
+    level_stops,
     placeholder_braking,
 )
+from safety_systems.ssm.formulas import SPEED_LEVELS, level_at_or_above
 from verification.space import (
     HEAD_BACK,
     HEAD_UP,
@@ -219,10 +271,23 @@ def capsule_reach(capsules: Capsules) -> float:
 
 def robot_bounds(path: JointPath, config: ControllerConfig, *, period: float,
                  braking_time_scale: float, capsules: Capsules | None = None,
-                 cells: int = 20000) -> RobotBounds:
+                 cells: int = 20000, rate: float = 1.0) -> RobotBounds:
     """V_R, T_stop and D for ``path`` under the configured table scaled by
     ``braking_time_scale``, over the axis ends of ``capsules`` (None: the configuration's
-    monitor capsules; see the module docstring)."""
+    monitor capsules; see the module docstring), the stop commanded at path rate
+    ``rate`` (1: from full speed) and D over the tick before it at that rate."""
+    return robot_bounds_by_rate(path, config, period=period,
+                                braking_time_scale=braking_time_scale, capsules=capsules,
+                                cells=cells, rates=(rate,))[0]
+
+
+def robot_bounds_by_rate(path: JointPath, config: ControllerConfig, *, period: float,
+                         braking_time_scale: float, rates, capsules: Capsules | None = None,
+                         cells: int = 20000) -> list[RobotBounds]:
+    """:func:`robot_bounds` at each path rate of ``rates``, the path covered once: V_R (at
+    nominal rate, the same for all), T_stop the ticks of a stop commanded at the rate (as
+    the PathFollower runs it) and D the largest travel of any capsule axis point over a
+    window of path parameter as long as that stop's plus one tick at the rate."""
     capsules = monitor_capsules(config) if capsules is None else capsules
     table = braking_table(config)
     delta = path.cycle_time / cells
@@ -232,24 +297,29 @@ def robot_bounds(path: JointPath, config: ControllerConfig, *, period: float,
     speed = np.linalg.norm(end_v, axis=-1).reshape(len(s), -1).max(axis=1)
     slack = tool_acceleration_bound(path, capsule_reach(capsules)) * delta / 2.0
     cell_bound = np.maximum(speed[:-1], speed[1:]) + slack  # |p'| on each cell, any end
-    # A stop from full speed, as the PathFollower runs it.
-    stop_time, travelled = stop_from_full_speed(table, braking_time_scale, period)
-    window = int(math.ceil((travelled + period) / delta)) + 1  # + the tick after t'
-    arcs = np.convolve(np.tile(cell_bound, 2), np.ones(window), "valid")[:cells] * delta
-    return RobotBounds(float(cell_bound.max()), stop_time, float(arcs.max()), delta)
+    tiled = np.tile(cell_bound, 2)
+    out = []
+    for rate in rates:
+        # A stop commanded at ``rate``, as the PathFollower runs it.
+        stop_time, travelled = stop_from(float(rate), table, braking_time_scale, period)
+        window = int(math.ceil((travelled + rate * period) / delta)) + 1  # + the tick after t'
+        arcs = np.convolve(tiled, np.ones(window), "valid")[:cells] * delta
+        out.append(RobotBounds(float(cell_bound.max()), stop_time, float(arcs.max()), delta))
+    return out
 
 
 def robot_acceleration_bound(path: JointPath | SplinePath, config: ControllerConfig,
-                             space: ScenarioSpace, tool_speed: float) -> float:
+                             space: ScenarioSpace, tool_speed: float, *,
+                             rate: float = 1.0) -> float:
     """A bound (m/s^2) on the acceleration of any point of the monitor's capsule axes:
-    |d2p/ds2| sigma^2 + |dp/ds| |d sigma/dt| with sigma <= 1 and the path rate changing
+    |d2p/ds2| sigma^2 + |dp/ds| |d sigma/dt| with sigma <= ``rate`` and the path rate changing
     no faster than the robot's acceleration limit or the brakes' fastest deceleration
     (at the space's shortest braking time scale); ``tool_speed`` bounds |dp/ds|."""
     capsules = monitor_capsules(config)
     rate_change = max(space.robot.acceleration_limit,
                       float(np.max(braking_table(config).deceleration))
                       / space.parameters.braking_time_scale.min)
-    return (tool_acceleration_bound(path, capsule_reach(capsules))
+    return (tool_acceleration_bound(path, capsule_reach(capsules)) * rate * rate
             + tool_speed * rate_change)
 
 
@@ -358,6 +428,19 @@ def _monitor_covers_contact(config: ControllerConfig, space: ScenarioSpace) -> b
     return bool(np.all(mine.radius >= real.radius) and mine.tool_length >= real.tool_length)
 
 
+def least_level_separation(config: ControllerConfig, space: ScenarioSpace) -> float:
+    """The least the monitor's S can be at any speed level g = 1..G (m): its human term
+    at the least human speed, its robot term at the least it can be there
+    (:func:`robot_speed_low`), B(g) + C + Z_d + Z_r (Z_d at its base)."""
+    f = config.safety
+    lv = speed_levels(config, space)
+    v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
+         "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
+    s = (v * (lv.t_s + f.reaction_time) + robot_speed_low(config, lv) * f.reaction_time
+         + lv.b + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty)
+    return float(s.min())
+
+
 def _setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     """What both theorems share: the box's extremes, the tracker's error coefficients and
     the premises, checked and trusted (``prop``: ``contact`` or ``separation``, which
@@ -394,13 +477,23 @@ def _setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
         ("every body is seen before its onset (settle time > frame timeout)",
          space.settle_time > frame_timeout(config)),
     ]
-    if prop == "contact":
-        checked.append(("a braking step preserves the order of speeds",
+    by_speed = f.stopping == "by_speed"
+    if prop == "contact" or by_speed:
+        checked.append(("a braking step preserves the order of speeds"
+                        + (" (so a stop from a lower speed level takes no longer and travels "
+                           "no farther)" if by_speed else ""),
                         braking_is_monotone(config, h, scale)))
+    if by_speed:
+        least = least_level_separation(config, space)
+        checked.append((f"d >= dS S_max(g) gives d >= S_max(g) at every speed level: dS = 1 "
+                        f"or the monitor's S is never negative (dS {f.delta_s:g}; the least S "
+                        f"at any level {least:.4f} m)", f.delta_s == 1.0 or least >= 0.0))
     checked.append((f"the tracker's error recursion converged within {ERROR_HORIZON} frames",
                     converged))
     trusted = [
-        ("the stopping data describes the real robot's stops, times within "
+        ("the stopping data describes the real robot's stops"
+         + (" from every speed (S by speed uses its rows below full speed)"
+            if by_speed else "") + ", times within "
          f"{p.braking_time_scale.min:g} to {scale:g} of it"
          + (" (THE BUILT-IN PLACEHOLDER DERIVED FROM UR5/CB3 DATA, NOT MEASURED ON THIS "
             "CELL)" if placeholder else " (the configuration's braking table)")),
@@ -434,8 +527,11 @@ def _model_premises(config: ControllerConfig, space: ScenarioSpace) -> list[tupl
     (statement, holds) pairs."""
     f = config.safety
     return [
-        ("the controller is the SSM speed override (seed 000, Eq. 12)",
-         config.type == "ssm_override"),
+        ("the controller is the SSM speed override (seed 000, Eq. 12)"
+         if f.stopping != "by_speed" else
+         f"the controller is the SSM speed override with S by speed (ssm.by_speed_command: "
+         f"{SPEED_LEVELS} levels, S from the stop at the level of the rate now and of the "
+         "command)", config.type == "ssm_override"),
         (f"the space's robot is in {COVERED_MODE} mode, the one this theorem covers "
          f"(robot.mode: {space.robot.mode}; a dynamic robot's tracking error is not in "
          "the margin)", space.robot.mode == COVERED_MODE),
@@ -491,46 +587,135 @@ def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method:
     return Proof(False, method, box, premises, None, {}, placeholder_braking(config), prop)
 
 
-def _unsat_below_zero(fixed: float, k_noise: float, k_speed: float, space: ScenarioSpace,
-                      extra=None) -> bool:
-    """z3: fixed - k_noise noise - k_speed v_max (+ ``extra(v_max)``, a z3 term) < 0 has no
-    solution with (v_max, noise) in the space's box."""
+def _unsat_below_zero(m: "Margin", space: ScenarioSpace) -> bool:
+    """z3: some row of ``m`` (a speed level) is below 0 somewhere in the space's
+    (v_max, noise) box has no solution: one query, the rows' conditions in a
+    disjunction (:class:`Margin`: fixed - k_noise noise - k_speed v_max - v_true(v_max)
+    t_true per row)."""
     p = space.parameters
     vm, nz = z3.Reals("v_max noise")
     solver = z3.Solver()
     solver.add(vm >= p.peak_speed.min, vm <= p.peak_speed.max,
                nz >= p.noise_std.min, nz <= p.noise_std.max)
-    margin = (z3.RealVal(repr(fixed)) - z3.RealVal(repr(k_noise)) * nz
-              - z3.RealVal(repr(k_speed)) * vm)
-    if extra is not None:
-        margin = margin + extra(vm)
-    solver.add(margin < 0)
+    if m.floor:
+        top = z3.If(vm > z3.RealVal(repr(m.v_true)), vm, z3.RealVal(repr(m.v_true)))
+    else:
+        top = z3.RealVal(repr(float(m.v_true)))
+    below = []
+    for fixed, k_speed, t_true in zip(m.fixed, m.k_speed, m.t_true):
+        row = (z3.RealVal(repr(float(fixed))) - z3.RealVal(repr(float(m.k_noise))) * nz
+               - z3.RealVal(repr(float(k_speed))) * vm)
+        if t_true != 0.0:
+            row = row - top * z3.RealVal(repr(float(t_true)))
+        below.append(row < 0)
+    solver.add(z3.Or(*below))
     return solver.check() == z3.unsat
 
 
 @dataclasses.dataclass(frozen=True)
-class Margin:
-    """A theorem's margin as a function of the hand speed bound v_max and the noise:
-    M(v_max, noise) = fixed - k_noise noise - k_speed v_max - v_true(v_max) t_true, with
-    v_true(v_max) the human speed of S_true (separation only: max(v_max, floor) under
-    ``estimated_with_floor``, the constant ``v_true`` otherwise; 0 for contact).
-    ``prove`` and ``prove_separation`` check it over the box; the falsifier's cheapest
-    ranking evaluates it pointwise (``verification.ranking.bound_scores``)."""
+class Levels:
+    """The speeds the theorems take the robot's stop from, one row each: under
+    ``safety.stopping: full_speed`` one row, the stop from full speed with the
+    configuration's T_s and B; under ``by_speed`` one per speed level g = 1..G (the level
+    g' = max(g_now, g_k) whose S the override checked whenever k > 0, see the module
+    docstring), the monitor's T_s(sigma_g) and B(sigma_g) (``configuration.level_stops``)
+    and the robot bounds of a stop commanded at ``rate`` (:func:`level_rate`)."""
 
-    fixed: float
+    level: np.ndarray  # g of each row (full_speed: G alone)
+    rate: np.ndarray  # rho_g: no path rate until the next decision exceeds it
+    previous_rate: np.ndarray  # no path rate over the tick before the decision exceeds it
+    t_s: np.ndarray  # s, the monitor's T_s at the level
+    b: np.ndarray  # m, the monitor's B at the level
+    stop_time: np.ndarray  # s, T_stop(rho_g)
+    stop_travel: np.ndarray  # m, D(rho_g)
+    tool_speed: float  # V_R at nominal path rate
+    by_speed: bool
+
+
+def level_rate(g: int, levels: int = SPEED_LEVELS) -> float:
+    """rho_g: a bound on every path rate the override counts as level g or below
+    (``ssm.formulas.level_at_or_above``), and on the grid rate S_true takes the simulated
+    robot's stop from for such a rate (``cell.stopping.rate_index``): the largest float
+    rate r with level_at_or_above(r) <= g, found by bisection on the rule itself (both
+    rules are non-decreasing in the rate, so every rate of level g or below is at most
+    r, and its grid index at most rate_index(r)), raised to that grid rate if it is
+    higher; 1 for g = G. Interpretation: the rules' rounding tolerance (1e-9 in units of
+    their own step) lets a level cover rates a hair above g / G; the bound keeps them."""
+    if g >= levels:
+        return 1.0
+    lo, hi = g / levels, (g + 1) / levels
+    if not (level_at_or_above(lo, levels) <= g < level_at_or_above(hi, levels)):
+        raise ValueError(f"level_at_or_above does not put {lo!r} at level {g} or below and "
+                         f"{hi!r} above it")
+    while True:
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if level_at_or_above(mid, levels) <= g:
+            lo = mid
+        else:
+            hi = mid
+    return min(1.0, max(lo, rate_index(lo) / TRUTH_RATES))
+
+
+def speed_levels(config: ControllerConfig, space: ScenarioSpace) -> Levels:
+    """The :class:`Levels` of ``config`` on ``space``'s robot, the stops at the space's
+    largest braking time scale (they grow with it). The rate over the tick before a
+    decision exceeds the rate at it by at most one braking step, the table's fastest
+    deceleration over the space's shortest braking time scale times the period."""
+    f, p = config.safety, space.parameters
+    h = 1.0 / space.robot.control_rate_hz
+    if f.stopping == "by_speed":
+        level = np.arange(1, SPEED_LEVELS + 1)
+        rate = np.array([level_rate(int(g)) for g in level])
+        drop = float(np.max(braking_table(config).deceleration)) \
+            / p.braking_time_scale.min * h
+        previous = np.minimum(1.0, rate + drop)
+        t_all, b_all = level_stops(config)
+        t_s, b = np.asarray(t_all[1:], dtype=float), np.asarray(b_all[1:], dtype=float)
+    else:
+        level, rate, previous = np.array([SPEED_LEVELS]), np.ones(1), np.ones(1)
+        t_s, b = (np.array([float(x)]) for x in assumed_stopping(config))
+    bounds = robot_bounds_by_rate(joint_path(space.robot), config, period=h,
+                                  braking_time_scale=p.braking_time_scale.max, rates=rate)
+    return Levels(level, rate, previous, t_s, b, np.array([x.stop_time for x in bounds]),
+                  np.array([x.stop_travel for x in bounds]), bounds[0].tool_speed,
+                  f.stopping == "by_speed")
+
+
+@dataclasses.dataclass(frozen=True)
+class Margin:
+    """A theorem's margin as a function of the hand speed bound v_max and the noise, one
+    row per speed level (:class:`Levels`; one row under ``full_speed``):
+    M_g(v_max, noise) = fixed_g - k_noise noise - k_speed_g v_max - v_true(v_max) t_true_g,
+    with v_true(v_max) the human speed of S_true (separation only: max(v_max, floor)
+    under ``estimated_with_floor``, the constant ``v_true`` otherwise; 0 for contact).
+    The margin is the least row. ``prove`` and ``prove_separation`` check every row over
+    the box; the falsifier's cheapest ranking evaluates it pointwise
+    (``verification.ranking.bound_scores``)."""
+
+    fixed: np.ndarray
     k_noise: float
-    k_speed: float
-    t_true: float = 0.0
+    k_speed: np.ndarray
+    t_true: np.ndarray
     v_true: float = 0.0
     floor: bool = False  # v_true(v_max) = max(v_max, v_true)
+    level: np.ndarray = dataclasses.field(default_factory=lambda: np.array([SPEED_LEVELS]))
 
     def human_speed(self, v_max):
         return np.maximum(v_max, self.v_true) if self.floor else self.v_true
 
+    def rows_at(self, v_max, noise) -> np.ndarray:
+        """M_g at (v_max, noise) (numbers or arrays of one shape), each row (level) along
+        a new last axis."""
+        v = np.asarray(v_max, dtype=float)[..., None]
+        n = np.asarray(noise, dtype=float)[..., None]
+        return (self.fixed - self.k_noise * n - self.k_speed * v
+                - self.human_speed(v) * self.t_true)
+
     def at(self, v_max, noise):
-        """M at (v_max, noise) (numbers or arrays of one shape)."""
-        return (self.fixed - self.k_noise * np.asarray(noise) - self.k_speed
-                * np.asarray(v_max) - self.human_speed(np.asarray(v_max)) * self.t_true)
+        """M at (v_max, noise) (numbers or arrays of one shape): the least row's."""
+        return self.rows_at(v_max, noise).min(axis=-1)
 
 
 def margin(config: ControllerConfig, space: ScenarioSpace, prop: str = "contact") -> Margin:
@@ -538,134 +723,159 @@ def margin(config: ControllerConfig, space: ScenarioSpace, prop: str = "contact"
     module docstring) for ``config`` on ``space``'s robot and sensor bounds, whether or
     not its premises hold (without them it bounds nothing; it still orders scenarios by
     how close their hand speed and noise come to breaking it)."""
+    return _margin(config, space, prop, speed_levels(config, space))
+
+
+def _margin(config: ControllerConfig, space: ScenarioSpace, prop: str, lv: Levels) -> Margin:
     f = config.safety
     h = 1.0 / space.robot.control_rate_hz
-    scale = space.parameters.braking_time_scale.max
     alpha, beta, _ = estimate_error_coefficients(config)
-    rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
-    t_s, b = assumed_stopping(config)
     tau = frame_timeout(config)
     k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
     if prop == "contact":
         v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
              "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
-        fixed = (v * (t_s + f.reaction_time) + robot_speed_low(config, rb) * f.reaction_time
-                 + b + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty
-                 - rb.tool_speed * h - rb.stop_travel - space.contact_distance)
-        return Margin(fixed, k_noise, math.sqrt(3.0) * beta + tau + rb.stop_time + h)
+        fixed = (v * (lv.t_s + f.reaction_time) + robot_speed_low(config, lv) * f.reaction_time
+                 + lv.b + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty
+                 - lv.tool_speed * lv.rate * h - lv.stop_travel - space.contact_distance)
+        return Margin(fixed, k_noise, math.sqrt(3.0) * beta + tau + lv.stop_time + h,
+                      np.zeros(lv.level.size), level=lv.level)
     if prop != "separation":
         raise ValueError(f"prop: got {prop!r}; allowed: contact | separation")
     floor = f.human_speed == "estimated_with_floor"
     v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
-    fixed = (v_lo * (t_s + f.reaction_time) + robot_speed_gap(config, space, rb) * f.reaction_time
-             + b - rb.stop_travel + f.human_uncertainty + f.robot_uncertainty)
+    fixed = (v_lo * (lv.t_s + f.reaction_time)
+             + robot_speed_gap(config, space, lv) * f.reaction_time
+             + lv.b - lv.stop_travel + f.human_uncertainty + f.robot_uncertainty)
     v_true = f.iso_human_speed if floor else max(f.iso_human_speed, f.iso_reduced_human_speed)
-    return Margin(fixed, k_noise, math.sqrt(3.0) * beta + tau, rb.stop_time + f.reaction_time,
-                  v_true, floor)
+    return Margin(fixed, k_noise, np.full(lv.level.size, math.sqrt(3.0) * beta + tau),
+                  lv.stop_time + f.reaction_time, v_true, floor, lv.level)
 
 
-def robot_speed_low(config: ControllerConfig, rb: RobotBounds) -> float:
-    """The least the monitor's robot speed term can be, m/s: -V_R for Eq. 7's directed
-    speed (a robot moving away lowers S), 0 for ``fastest_point`` (a speed)."""
-    return 0.0 if config.safety.robot_speed == "fastest_point" else -rb.tool_speed
+def robot_speed_low(config: ControllerConfig, lv: Levels) -> np.ndarray:
+    """The least the monitor's robot speed term can be at each level, m/s: -V_R times the
+    fastest rate over the tick its capsule velocities are differenced over for Eq. 7's
+    directed speed (a robot moving away lowers S), 0 for ``fastest_point`` (a speed)."""
+    if config.safety.robot_speed == "fastest_point":
+        return np.zeros(lv.level.size)
+    return -lv.tool_speed * lv.previous_rate
 
 
-def robot_speed_gap(config: ControllerConfig, space: ScenarioSpace, rb: RobotBounds) -> float:
-    """How far (m/s, negative) the monitor's robot speed term can fall short of S_true's:
-    directed, 2 V_R (the monitor's capsule point may move away from the estimate while
-    S_true's moves towards the body); fastest_point, a h (the monitor's speed is the
-    capsule's fastest end by Eq. 5, its ends differenced over the last tick, at most a h
-    short of the instant's, a: :func:`robot_acceleration_bound`; no axis point moves
+def robot_speed_gap(config: ControllerConfig, space: ScenarioSpace, lv: Levels) -> np.ndarray:
+    """How far (m/s, negative) the monitor's robot speed term can fall short of S_true's
+    at each level: directed, V_R (rho_g + the tick before's rate) (the monitor's capsule
+    point may move away from the estimate while S_true's moves towards the body);
+    fastest_point, a h (the monitor's speed is the capsule's fastest end by Eq. 5, its
+    ends differenced over the last tick, at most a h short of the instant's, a:
+    :func:`robot_acceleration_bound` at the tick's fastest rate; no axis point moves
     faster)."""
     if config.safety.robot_speed == "fastest_point":
         h = 1.0 / space.robot.control_rate_hz
-        return -robot_acceleration_bound(joint_path(space.robot), config, space,
-                                         rb.tool_speed) * h
-    return -2.0 * rb.tool_speed
+        path = joint_path(space.robot)
+        return np.array([-robot_acceleration_bound(path, config, space, lv.tool_speed,
+                                                   rate=float(r)) * h
+                         for r in lv.previous_rate])
+    return -lv.tool_speed * (lv.rate + lv.previous_rate)
+
+
+def _worst(m: Margin, space: ScenarioSpace) -> tuple[float, int]:
+    """The margin at the box's worst corner (the largest v_max and noise: every row falls
+    in both) and the row it is least in."""
+    p = space.parameters
+    rows = m.rows_at(p.peak_speed.max, p.noise_std.max)
+    i = int(np.argmin(rows))
+    return float(rows[i]), i
+
+
+def _z3_premise(name: str, lv: Levels, holds: bool, worst: float, i: int
+                ) -> Premise:
+    if not lv.by_speed:
+        return Premise(f"z3: {name} >= 0 for every (v_max, noise) in the box", holds, "checked")
+    return Premise(f"z3: {name}(g) >= 0 at every speed level g = 1..{SPEED_LEVELS} for every "
+                   f"(v_max, noise) in the box (least at level {int(lv.level[i])}, rate "
+                   f"{lv.rate[i]:.4f}: {worst:.4f} m at the worst corner)", holds, "checked")
+
+
+def _level_terms(lv: Levels, m: Margin, space: ScenarioSpace, i: int) -> dict:
+    """The terms that say which speed level the margin is least at (by_speed)."""
+    f = {"stopping": "by_speed" if lv.by_speed else "full_speed"}
+    if lv.by_speed:
+        p = space.parameters
+        rows = m.rows_at(p.peak_speed.max, p.noise_std.max)
+        f |= {"speed_level": int(lv.level[i]), "level_rate": float(lv.rate[i]),
+              "previous_rate": float(lv.previous_rate[i]),
+              "level_margins": {str(int(g)): float(x) for g, x in zip(lv.level, rows)}}
+    return f
 
 
 def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
-    """Tries to prove "stopped before contact" for ``config`` over ``space``."""
-    f, p = config.safety, space.parameters
+    """Tries to prove "stopped before contact" for ``config`` over ``space`` (under
+    ``safety.stopping: by_speed`` at every speed level)."""
+    f = config.safety
     h = 1.0 / space.robot.control_rate_hz
     v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
          "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
     method = ("SSM stopping theorem over the robot's capsules (verification/proof.py); "
-              "margin checked over the box by z3; robot bounds by Lipschitz covering; "
-              "tracker error by gain recursion")
+              "margin checked over the box by z3"
+              + (", at every speed level" if f.stopping == "by_speed" else "")
+              + "; robot bounds by Lipschitz covering; tracker error by gain recursion")
     if space.recording is not None:
         return _declined(config, space, "contact", method)
-    premises, box, placeholder, (alpha, beta), scale = _setting(config, space, "contact")
+    premises, box, placeholder, (alpha, beta), _ = _setting(config, space, "contact")
     if not all(x.holds for x in premises):
         return Proof(False, method, box, premises, None, {}, placeholder)
-    rb = robot_bounds(joint_path(space.robot), config, period=h, braking_time_scale=scale)
-    t_s, b = assumed_stopping(config)
+    lv = speed_levels(config, space)
     tau = frame_timeout(config)
-    m = margin(config, space, "contact")
-    fixed, k_noise, k_speed = m.fixed, m.k_noise, m.k_speed
-    holds = _unsat_below_zero(fixed, k_noise, k_speed, space)
-    worst = fixed - k_noise * p.noise_std.max - k_speed * p.peak_speed.max
-    terms = {"v": v, "T_s": t_s, "T_r": f.reaction_time, "B": b, "tau": tau, "h": h,
-             "V_R": rb.tool_speed, "robot_speed": f.robot_speed,
-             "T_stop": rb.stop_time, "D": rb.stop_travel,
+    m = _margin(config, space, "contact", lv)
+    holds = _unsat_below_zero(m, space)
+    worst, i = _worst(m, space)
+    terms = {"v": v, "T_s": float(lv.t_s[i]), "T_r": f.reaction_time, "B": float(lv.b[i]),
+             "tau": tau, "h": h, "V_R": lv.tool_speed, "robot_speed": f.robot_speed,
+             "T_stop": float(lv.stop_time[i]), "D": float(lv.stop_travel[i]),
              "E_per_axis": {"alpha": alpha, "beta": beta},
              "C+Z_d+Z_r": f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty,
-             "contact_distance": space.contact_distance}
-    premises = premises + [Premise("z3: M >= 0 for every (v_max, noise) in the box", holds,
-                                   "checked")]
+             "contact_distance": space.contact_distance} | _level_terms(lv, m, space, i)
+    premises = premises + [_z3_premise("M", lv, holds, worst, i)]
     return Proof(holds, method, box, premises, worst, terms, placeholder)
 
 
 def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     """Tries to prove the separation invariant for ``config`` over ``space`` (the second
-    theorem of the module docstring); when the margin falls short, says by how much
-    Z_d + Z_r would have to grow (``Proof.needed_allowance``)."""
+    theorem of the module docstring; under ``safety.stopping: by_speed`` at every speed
+    level); when the margin falls short, says by how much Z_d + Z_r would have to grow
+    (``Proof.needed_allowance``: every level's margin gains what Z_d + Z_r gains)."""
     f = config.safety
     p = space.parameters
-    h = 1.0 / space.robot.control_rate_hz
     floor = f.human_speed == "estimated_with_floor"
     v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
     method = ("SSM separation theorem over the robot's capsules (verification/proof.py); "
-              "margin checked over the box by z3; robot bounds by Lipschitz covering; "
-              "tracker error by gain recursion")
+              "margin checked over the box by z3"
+              + (", at every speed level" if f.stopping == "by_speed" else "")
+              + "; robot bounds by Lipschitz covering; tracker error by gain recursion")
     if space.recording is not None:
         return _declined(config, space, "separation", method)
-    premises, box, placeholder, (alpha, beta), scale = _setting(config, space, "separation")
+    premises, box, placeholder, (alpha, beta), _ = _setting(config, space, "separation")
     if not all(x.holds for x in premises):
         return Proof(False, method, box, premises, None, {}, placeholder, "separation")
-    path = joint_path(space.robot)
-    rb = robot_bounds(path, config, period=h, braking_time_scale=scale)
-    t_s, b = assumed_stopping(config)
+    lv = speed_levels(config, space)
     tau = frame_timeout(config)
-    m = margin(config, space, "separation")
-    t_true = m.t_true  # T_stop + T_r of S_true
-    allowance = f.human_uncertainty + f.robot_uncertainty
-    fixed, k_noise, k_speed = m.fixed, m.k_noise, m.k_speed
-    v_hi = m.human_speed  # S_true's human speed, at most
-
-    def z3_human(vm):
-        if floor:
-            top = z3.If(vm > z3.RealVal(repr(f.iso_human_speed)), vm,
-                        z3.RealVal(repr(f.iso_human_speed)))
-        else:
-            top = z3.RealVal(repr(v_hi(0.0)))
-        return -top * z3.RealVal(repr(t_true))
-
-    holds = _unsat_below_zero(fixed, k_noise, k_speed, space, z3_human)
-    # The margin falls in v_max and in noise: its worst corner is the largest of both.
-    worst = (fixed - v_hi(p.peak_speed.max) * t_true - k_noise * p.noise_std.max
-             - k_speed * p.peak_speed.max)
-    terms = {"v_lo": v_lo, "v_hi": v_hi(p.peak_speed.max), "T_s": t_s,
-             "T_r": f.reaction_time, "B": b, "tau": tau, "V_R": rb.tool_speed,
-             "T_stop": rb.stop_time, "D": rb.stop_travel,
-             "E_per_axis": {"alpha": alpha, "beta": beta}, "Z_d+Z_r": allowance,
-             "human_speed_term": v_lo * (t_s + f.reaction_time) - v_hi(p.peak_speed.max)
-             * t_true,
+    m = _margin(config, space, "separation", lv)
+    holds = _unsat_below_zero(m, space)
+    worst, i = _worst(m, space)
+    v_hi = float(m.human_speed(p.peak_speed.max))  # S_true's human speed, at most
+    t_s, t_true = float(lv.t_s[i]), float(m.t_true[i])  # T_stop + T_r of S_true
+    terms = {"v_lo": v_lo, "v_hi": v_hi, "T_s": t_s,
+             "T_r": f.reaction_time, "B": float(lv.b[i]), "tau": tau, "V_R": lv.tool_speed,
+             "T_stop": float(lv.stop_time[i]), "D": float(lv.stop_travel[i]),
+             "E_per_axis": {"alpha": alpha, "beta": beta},
+             "Z_d+Z_r": f.human_uncertainty + f.robot_uncertainty,
+             "human_speed_term": v_lo * (t_s + f.reaction_time) - v_hi * t_true,
              "robot_speed": f.robot_speed,
-             "robot_speed_term": robot_speed_gap(config, space, rb) * f.reaction_time,
-             "stopping_distance_term": b - rb.stop_travel,
-             "sensing_term": -(k_noise * p.noise_std.max + k_speed * p.peak_speed.max)}
-    premises = premises + [Premise("z3: M_S >= 0 for every (v_max, noise) in the box", holds,
-                                   "checked")]
+             "robot_speed_term": float(robot_speed_gap(config, space, lv)[i])
+             * f.reaction_time,
+             "stopping_distance_term": float(lv.b[i] - lv.stop_travel[i]),
+             "sensing_term": -float(m.k_noise * p.noise_std.max + m.k_speed[i]
+                                    * p.peak_speed.max)} | _level_terms(lv, m, space, i)
+    premises = premises + [_z3_premise("M_S", lv, holds, worst, i)]
     return Proof(holds, method, box, premises, worst, terms, placeholder, "separation",
                  0.0 if holds else max(-worst, 0.0))
