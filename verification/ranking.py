@@ -4,9 +4,10 @@ a lower score is more dangerous). Each candidate scored by either is one evaluat
 model of the loop: it is counted (``verification.counts``, kind ``rankings``).
 
 :func:`bound_scores`, the falsifier's ranking: the proofs' margins
-(``verification.proof.margin``, one per property) evaluated pointwise, at each
-candidate's own fastest hand speed and noise, from its parameters alone (no
-scenario is built): microseconds per candidate, some thousand times cheaper than a
+(``verification.proof.margin``, one per property; under ``safety.stopping: by_speed``
+the least over the speed levels' margins) evaluated pointwise, at each candidate's own
+fastest hand speed and noise, from its parameters alone (no scenario is built):
+microseconds per candidate, some thousand times cheaper than a
 closed-loop simulation. It knows nothing of the geometry of an approach; it tells which
 candidates' sensing and speeds come closest to breaking the theorem.
 
@@ -16,7 +17,8 @@ the robot's braked path rate on the scenario as the sensor shows it (see
 per candidate: the closest a body comes to the real robot while it moves ("stopped
 before contact") and the smallest d_true - S_true while motion is permitted (the
 separation invariant, on the true speeds and the simulated robot's own stopping data).
-It sees the geometry of an approach, occlusions and faults, and costs about as much as
+Under ``safety.stopping: by_speed`` it runs the by-speed override and S_true's stop from
+the true rate, as the loop does. It sees the geometry of an approach, occlusions and faults, and costs about as much as
 a batched closed-loop simulation of the same candidate (it builds the scenario and
 steps it): the falsifier turns to it only after the cheap ranking (``search.falsify``),
 and ``sweep`` orders corners with it.
@@ -45,12 +47,14 @@ from safety_systems.cell.robot_geometry import (
     segment_pair,
 )
 from safety_systems.config.scenario import ControllerConfig, actual_sensor
-from safety_systems.ssm.separation import body_separation, capsule_axis
-from safety_systems.ssm.formulas import _speed_scale_eq12
+from safety_systems.sensing.tracks import TRACK_NONE, TRACK_TRACKING
+from safety_systems.ssm.separation import body_levels, body_separation, capsule_axis
+from safety_systems.ssm.formulas import _speed_scale_eq12, by_speed_command, level_at_or_above
 from safety_systems.config.configuration import (
     braking_table,
     frame_timeout,
     joint_path,
+    level_terms,
     monitor_terms,
     scripted_operators,
 )
@@ -58,6 +62,7 @@ from verification.counts import Tally
 from verification.evaluate_batch import (
     delivered_frames,
     dropout_table,
+    true_stopping_by_rate,
     true_stopping_terms,
 )
 from safety_systems.ssm.true_measures import is_moving, true_margin
@@ -182,7 +187,7 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
 @numba.njit(cache=True)
 def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, truth_v,
                 present, r_real, monitor, truth_t, truth_b, z_d, delta_s, d_min, free,
-                k_out, gap_out, margin_out, moving_out):
+                levels, rate, truth_rates, k_out, gap_out, margin_out, moving_out):
     """The reduced model's monitor and measure at one time for every candidate c,
     compiled, through the product's compiled functions: the robot's capsules
     (``robot_geometry``; ``mine`` the monitor's, ``real`` the contact geometry's, each
@@ -198,10 +203,23 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
     whether the robot moves (its fastest capsule end). The two figures are computed
     only where they count: the clearance while the robot moves, the margin where
     ``free`` (no fault, no lost track, within the candidate's time; the row's k, if it
-    is its command (``free`` of 2), > 0); inf elsewhere."""
+    is its command (``free`` of 2), > 0); inf elsewhere.
+
+    ``safety.stopping: by_speed`` (``levels`` = ``configuration.level_terms``, empty
+    otherwise): k by ``ssm.by_speed_command`` from every tracked body's S at each level
+    (``separation.body_levels``) and the path rate now ``rate`` (n,), and S_true's stop
+    from the grid rate at or above it, ``truth_rates`` ((n, G_true + 1) times and
+    distances, T_r and C folded in), as the batched evaluator runs them."""
     mode, iso, iso_reduced, t_r = monitor[0], monitor[4], monitor[5], monitor[2]
     ma, mb, mt0, mt1, m_radius, m_tool = mine
     ca, cb, ct0, ct1, c_radius, c_tool = real
+    level_t_sr, level_const = levels
+    by_speed = level_t_sr.size > 0
+    truth_rt, truth_rb = truth_rates
+    n_bodies = p_m.shape[1]
+    s_levels = np.empty((max(level_t_sr.size, 1), n_bodies))
+    d_row, status_row = np.empty(n_bodies), np.empty(n_bodies)
+    included = np.empty(n_bodies, np.bool_)
     points, point_v = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
     m_ends, m_vel = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
     c_ends, c_vel = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
@@ -209,21 +227,33 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
         robot_points_one(q[c], v_joint[c], m_tool, points, point_v)
         capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_vel)
         d, top, any_tracked, faulty = np.inf, -np.inf, False, False
-        for i in range(p_m.shape[1]):
+        for i in range(n_bodies):
+            status_row[i] = TRACK_TRACKING if tracked[c, i] else TRACK_NONE
             if tracked[c, i]:
                 any_tracked = True
                 d_i, s_i, _, _, _ = body_separation(p_m[c, i], v_m[c, i], r_mine[c, i], z_d,
                                                     ball[c, i], m_ends, m_vel, m_radius,
                                                     monitor)
+                d_row[i] = d_i
+                if by_speed:
+                    body_levels(p_m[c, i], v_m[c, i], r_mine[c, i], z_d, m_ends, m_vel,
+                                m_radius, monitor, level_t_sr, level_const, s_levels, i)
                 if math.isnan(d_i) or math.isnan(s_i):
                     faulty = True
                 else:
                     d, top = min(d, d_i), max(top, s_i)
         k = 1.0
-        if faulty:
+        if by_speed:
+            k = by_speed_command(d_row, s_levels, status_row, 0.0, rate[c], delta_s, d_min,
+                                 included)[0]
+        elif faulty:
             k = 0.0
         elif any_tracked:
             k = _speed_scale_eq12(d, top, delta_s, d_min)
+        stop_t, stop_b = truth_t[c], truth_b[c]
+        if by_speed:  # the stop from the rate now (metrics.true_protective_distances)
+            g = level_at_or_above(rate[c], truth_rt.shape[1] - 1)
+            stop_t, stop_b = truth_rt[c, g], truth_rb[c, g]
         if c_tool != m_tool:
             robot_points_one(q[c], v_joint[c], c_tool, points, point_v)
         capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_vel)
@@ -246,8 +276,7 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
                         gap = min(gap, clearance)
                     if allowed:
                         margin = min(margin, true_margin(
-                            clearance, vh, vr, mode, truth_t[c], t_r, truth_b[c], iso,
-                            iso_reduced))
+                            clearance, vh, vr, mode, stop_t, t_r, stop_b, iso, iso_reduced))
         k_out[c], gap_out[c], margin_out[c], moving_out[c] = k, gap, margin, moving
 
 
@@ -275,7 +304,9 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     time beyond the exit radius (a lost track nearer stops the robot); in outlier
     frames, displaced, unless the gate rejects them, which stops the robot; for
     ``estimated`` speeds, its directed speed ``ESTIMATE_LAG`` late) and commands k by
-    Eqs. 9-12 over every capsule; k is 0 while the tracker's newest frame is older than
+    Eqs. 9-12 over every capsule (``safety.stopping: by_speed``: one of the speed levels
+    by ``ssm.by_speed_command`` at the path rate now, and S_true from the stop at the
+    true rate; see :func:`_score_rows`); k is 0 while the tracker's newest frame is older than
     the frame timeout (frames late beyond the configured latency, or dropped). The robot
     starts at rest and its path rate follows k through ``path_follower_step`` (acceleration
     limit and braking data). Controllers other than ``ssm_override`` are not modelled
@@ -385,6 +416,10 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     mine_arrays = (mine.a, mine.b, mine.t0, mine.t1, mine.radius, mine.tool_length)
     real_arrays = (real.a, real.b, real.t0, real.t1, real.radius, real.tool_length)
     truth_t, truth_b = true_stopping_terms(scenarios, f)
+    by_speed = f.stopping == "by_speed"
+    levels = level_terms(config) if by_speed else (np.empty(0), np.empty(0))
+    truth_rates = true_stopping_by_rate(scenarios, f) if by_speed \
+        else (np.empty((n, 1)), np.empty((n, 1)))
     ends = np.array([sc.duration for sc in scenarios])
     k_ssm, gap, margin = np.empty(n), np.empty(n), np.empty(n)
     moving = np.empty(n, dtype=np.bool_)
@@ -423,8 +458,8 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
         free = np.where(inside & ~stale[0] & ~lost, 2 if ssm_only else 1, 0).astype(np.int64)
         _score_rows(q, v_joint, mine_arrays, real_arrays, p_m, v_m, tracked, ball, r_mine,
                     truth, bodies(v_now), present, r_real, monitor, truth_t, truth_b,
-                    float(f.human_uncertainty), f.delta_s, f.d_min, free, k_ssm, gap, margin,
-                    moving)
+                    float(f.human_uncertainty), f.delta_s, f.d_min, free, levels, rate,
+                    truth_rates, k_ssm, gap, margin, moving)
         command_now = np.where(lost, 0.0, k_ssm if ssm_only else 1.0)
         closest = np.where(moving & inside, np.minimum(closest, gap), closest)
         smallest = np.minimum(smallest, margin)

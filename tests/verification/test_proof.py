@@ -7,26 +7,38 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from safety_systems.cell.braking import BrakingTable, path_rate_step
 from safety_systems.config.configuration import monitor_capsules, tracker_rules
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.sensing.kalman import axis_predict, process_noise, transition_matrix
 from safety_systems.cell.robot_geometry import capsule_ends
+from safety_systems.cell.stopping import TRUTH_RATES, rate_index
 from safety_systems.config.scenario import Box, BrakingConfig, load_controller_config
 from safety_systems.sensing.tracks import TRACK_SLOT, frame_update
-from safety_systems.config.configuration import braking_table, frame_timeout, joint_path
+from safety_systems.config.configuration import (
+    braking_table,
+    frame_timeout,
+    joint_path,
+    level_stops,
+)
+from safety_systems.ssm.formulas import SPEED_LEVELS, level_at_or_above
 from verification.proof import (
     ERROR_HORIZON,
     braking_is_monotone,
     capsule_reach,
     estimate_error_coefficients,
     joint_rate_bounds,
+    level_rate,
+    margin,
     operators_reach,
     prove,
     prove_separation,
     robot_acceleration_bound,
     robot_bounds,
+    speed_levels,
     tool_acceleration_bound,
 )
 from verification.space import Range, load_space
@@ -449,4 +461,178 @@ def test_the_fastest_point_robot_speed_needs_a_small_allowance():
     points = sweep_points("sobol", 1024, len(free_parameters(SPACE)), seed=6)
     result = evaluate_many([make_scenario(SPACE, tight, to_point(SPACE, u)) for u in points])
     assert np.isfinite(result.separation).sum() > 50
+    assert result.separation.min() >= 0.0 and result.robustness.min() >= 0.0
+
+
+# --- safety.stopping: by_speed (one margin per speed level) ----------------------------
+
+# iso.yaml with S from the stop at the robot's speed, the robot's fastest point in S, a
+# shorter T_r, no C, and the least round Z_r that proves both theorems on the default
+# space (the separation theorem asks for 0.2126 m, at level 1).
+BY_SPEED = _safety(ISO, stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
+                   intrusion_distance=0.0, robot_uncertainty=0.22)
+BY_SPEED_DIRECTED = _safety(BY_SPEED, robot_speed="directed", robot_uncertainty=0.40)
+SEPARATION_Z3 = "z3: M_S(g) >= 0 at every speed level g = 1..16"
+
+
+def _worst_corner(space=SPACE):
+    return space.parameters.peak_speed.max, space.parameters.noise_std.max
+
+
+def test_by_speed_proves_both_theorems_and_names_the_least_level():
+    for proof in (prove(BY_SPEED, SPACE), prove_separation(BY_SPEED, SPACE)):
+        assert proof.proved and all(x.holds for x in proof.premises)
+        t = proof.terms
+        assert t["stopping"] == "by_speed" and len(t["level_margins"]) == SPEED_LEVELS
+        assert min(t["level_margins"].values()) == proof.margin_at_worst_corner >= 0.0
+        assert t["level_margins"][str(t["speed_level"])] == proof.margin_at_worst_corner
+        assert f"least at level {t['speed_level']}," in proof.premises[-1].statement
+        assert any("S by speed" in x.statement for x in proof.premises)
+    sep = prove_separation(BY_SPEED, SPACE)
+    assert sep.needed_allowance == 0.0 and sep.margin_at_worst_corner < 0.01
+    assert sep.terms["speed_level"] == 1  # the slowest level is the tightest here
+
+
+def test_by_speed_fails_at_a_named_level_when_z_r_or_t_s_is_short():
+    short = prove_separation(_safety(BY_SPEED, robot_uncertainty=0.15), SPACE)
+    assert not short.proved and len(_failed(short)) == 1
+    assert _failed(short)[0].startswith(SEPARATION_Z3 + " for every (v_max, noise) in the "
+                                        "box (least at level 1,")
+    assert short.margin_at_worst_corner < 0.0
+    assert short.needed_allowance == pytest.approx(-short.margin_at_worst_corner, abs=1e-15)
+    # needed_allowance is what makes the least level prove, and no less.
+    z = 0.15 + short.needed_allowance
+    assert prove_separation(_safety(BY_SPEED, robot_uncertainty=z + 1e-9), SPACE).proved
+    assert not prove_separation(_safety(BY_SPEED, robot_uncertainty=z - 1e-6), SPACE).proved
+    # A short T_s costs most where the robot is fastest: contact fails at level 16.
+    fast = prove(_safety(BY_SPEED, stopping_time=0.3), SPACE)
+    assert not fast.proved and fast.terms["speed_level"] == SPEED_LEVELS
+    assert fast.terms["level_margins"]["1"] > 0.0 > fast.margin_at_worst_corner
+    assert "least at level 16," in _failed(fast)[0]
+
+
+def test_low_levels_can_fail_where_the_full_speed_stop_proves():
+    # The levels below full speed are checked, not only the full-speed one: with a little
+    # less Z_r the full-speed S still proves, S by speed fails at its slow levels only.
+    config = _safety(BY_SPEED, robot_uncertainty=0.205)
+    proof = prove_separation(config, SPACE)
+    rows = proof.terms["level_margins"]
+    assert not proof.proved and rows["1"] < 0.0 < rows["16"]
+    assert prove_separation(_safety(config, stopping="full_speed"), SPACE).proved
+
+
+@pytest.mark.parametrize("config", [BY_SPEED, BY_SPEED_DIRECTED], ids=["fastest", "directed"])
+def test_level_16_is_the_full_speed_margin(config):
+    full = _safety(config, stopping="full_speed")
+    for prover in (prove, prove_separation):
+        by_level, at_full = prover(config, SPACE), prover(full, SPACE)
+        assert by_level.terms["level_margins"]["16"] == pytest.approx(
+            at_full.margin_at_worst_corner, abs=1e-12)
+    lv, one = speed_levels(config, SPACE), speed_levels(full, SPACE)
+    assert (lv.rate[-1], lv.previous_rate[-1], lv.t_s[-1], lv.b[-1]) == (1.0, 1.0, 0.54, 0.26)
+    assert (lv.stop_time[-1], lv.stop_travel[-1]) == (one.stop_time[0], one.stop_travel[0])
+    assert one.level.size == 1 and not one.by_speed
+
+
+@pytest.mark.parametrize("config", [BY_SPEED, BY_SPEED_DIRECTED], ids=["fastest", "directed"])
+def test_each_level_s_margin_is_the_theorem_s(config):
+    # Every level's margin from its own terms: the monitor's T_s(sigma_g) and B(sigma_g),
+    # the stop commanded at rho_g (its ticks counted here), the robot's speed scaled by
+    # the level's rate (and by the tick before's where the monitor differences it).
+    f, p = config.safety, SPACE.parameters
+    lv = speed_levels(config, SPACE)
+    t_s, b = level_stops(config)
+    np.testing.assert_array_equal(lv.t_s, t_s[1:])
+    np.testing.assert_array_equal(lv.b, b[1:])
+    assert np.all(np.diff(lv.rate) > 0.0) and lv.rate[0] < 0.1
+    table = braking_table(config)
+    for rate, stop_time in zip(lv.rate, lv.stop_time):
+        sigma, ticks = rate, 0
+        while sigma > 0.0:
+            sigma = float(path_rate_step(sigma, 0.0, H, table=table, acceleration_limit=2.0,
+                                         time_scale=p.braking_time_scale.max))
+            ticks += 1
+        assert stop_time == pytest.approx(ticks * H, abs=1e-12)
+    drop = float(np.max(table.deceleration)) / p.braking_time_scale.min * H
+    previous = np.minimum(1.0, lv.rate + drop)
+    np.testing.assert_allclose(lv.previous_rate, previous, rtol=0, atol=1e-15)
+    v_max, noise = _worst_corner()
+    alpha, beta, _ = estimate_error_coefficients(config)
+    e = math.sqrt(3.0) * (alpha * SPACE.noise_bound_sigmas * noise + beta * v_max)
+    v_r, tau = lv.tool_speed, frame_timeout(config)
+    fastest = f.robot_speed == "fastest_point"
+    low = 0.0 if fastest else -v_r * previous
+    contact = (2.0 * (lv.t_s + f.reaction_time) + low * f.reaction_time + lv.b
+               + f.human_uncertainty + f.robot_uncertainty - e
+               - v_max * (tau + lv.stop_time + H) - v_r * lv.rate * H - lv.stop_travel)
+    np.testing.assert_allclose(margin(config, SPACE, "contact").rows_at(v_max, noise), contact,
+                               rtol=0, atol=1e-12)
+    if fastest:
+        gap = -np.array([robot_acceleration_bound(PATH, config, SPACE, v_r, rate=r)
+                         for r in previous]) * H
+        a = tool_acceleration_bound(PATH, capsule_reach(monitor_capsules(config)))
+        np.testing.assert_allclose(gap, -(a * previous**2 + v_r * max(
+            SPACE.robot.acceleration_limit, float(np.max(table.deceleration)))) * H,
+            rtol=1e-12)
+    else:
+        gap = -v_r * (lv.rate + previous)
+    separation = (2.0 * (lv.t_s + f.reaction_time) - 2.0 * (lv.stop_time + f.reaction_time)
+                  + gap * f.reaction_time + lv.b - lv.stop_travel + f.human_uncertainty
+                  + f.robot_uncertainty - e - v_max * tau)
+    np.testing.assert_allclose(margin(config, SPACE, "separation").rows_at(v_max, noise),
+                               separation, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("rate", [0.3, 0.0625 + 1e-11])
+def test_robot_bounds_cover_a_stop_from_below_full_speed(rate):
+    rb = robot_bounds(PATH, ISO, period=H, braking_time_scale=1.0, rate=rate)
+    full = robot_bounds(PATH, ISO, period=H, braking_time_scale=1.0)
+    capsules, table = monitor_capsules(ISO), braking_table(ISO)
+    path = dc.replace(PATH, cycles=2)
+    s = np.linspace(0.0, PATH.cycle_time, 300, endpoint=False)
+    sigma, travelled = np.full(s.size, rate), np.zeros((s.size,) + capsules.radius.shape + (2,))
+    ends = capsule_ends(joint_path_state(path, s)[0], capsules)[0]
+    while np.any(sigma > 0.0):
+        new = path_rate_step(sigma, 0.0, H, table=table, acceleration_limit=1.0)
+        s = s + 0.5 * (sigma + new) * H
+        sigma = new
+        moved = capsule_ends(joint_path_state(path, s)[0], capsules)[0]
+        travelled += np.linalg.norm(moved - ends, axis=-1)
+        ends = moved
+    assert rb.stop_travel >= travelled.max() > 0.3 * rb.stop_travel
+    assert rb.stop_travel < full.stop_travel and rb.stop_time < full.stop_time
+    assert rb.tool_speed == full.tool_speed
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, SPEED_LEVELS), st.floats(-2e-10, 2e-10), st.floats(0.0, 1.0))
+def test_level_rate_bounds_every_rate_of_its_level(g, nudge, anywhere):
+    # rho_g is at least every path rate the override counts as level g (near the levels'
+    # boundaries too, where the rules' rounding tolerance decides) and the grid rate
+    # S_true takes its stop from for it.
+    for rate in (min(max(g / SPEED_LEVELS + nudge, 0.0), 1.0), anywhere):
+        level = int(level_at_or_above(rate, SPEED_LEVELS))
+        if level == 0:
+            continue
+        bound = level_rate(level)
+        assert rate <= bound and rate_index(rate) / TRUTH_RATES <= bound <= 1.0
+        assert bound < (level + 1) / SPEED_LEVELS
+
+
+def test_the_tightest_by_speed_configuration_breaks_neither_property_in_simulation():
+    # Soundness against the closed loop (the by-speed override, S_true from the stop at
+    # the true rate): BY_SPEED with just the allowance its proof asks for, over 1024 Sobol
+    # scenarios of the default space.
+    from verification.evaluate_batch import evaluate_many
+    from verification.search import sweep_points
+    from verification.space import free_parameters, make_scenario, to_point
+
+    bare = _safety(BY_SPEED, robot_uncertainty=0.0)
+    needed = prove_separation(bare, SPACE).needed_allowance
+    assert 0.2 < needed < 0.22
+    tight = _safety(bare, robot_uncertainty=needed + 1e-6)
+    assert prove_separation(tight, SPACE).proved and prove(tight, SPACE).proved
+    points = sweep_points("sobol", 1024, len(free_parameters(SPACE)), seed=6)
+    result = evaluate_many([make_scenario(SPACE, tight, to_point(SPACE, u)) for u in points])
+    assert np.isfinite(result.separation).sum() > 500  # let move near someone, often
     assert result.separation.min() >= 0.0 and result.robustness.min() >= 0.0
