@@ -137,3 +137,29 @@ def test_tune_refuses_bad_bounds(tmp_path, cli, entry, needle):
     code, _, err = cli(["tune", config, "--space", SMALL_SPACE, "--out", tmp_path / "out"])
     assert code == 2 and needle in err and len(err.splitlines()) == 1, err
     assert str(config) in err
+
+
+def test_refining_lowers_the_proxy_and_keeps_both_proofs(tmp_path):
+    from verification.proof import prove, prove_separation
+    from verification.tune import Candidate, Tuner, proxy_distance
+    from verification.tune_space import load_tunable, with_values
+
+    config, block = load_tunable(ISO, MODELS / "tune" / "ssm.yaml")
+    space = load_space(MODELS / "spaces" / "default.yaml")
+    tuner = Tuner(config, block, space, [], tmp_path, space_path="default.yaml")
+    start = {p.name: v for p, v in zip(block, ["iso", "fastest_point", "by_speed", 0.15, 0.1,
+                                                0.3, 1.2, 0.2, 0.1])}
+    c = Candidate(1, start, with_values(config, start))
+    c.proxy = proxy_distance(c.config)
+    assert prove(c.config, space).proved and prove_separation(c.config, space).proved
+    refined = tuner.refine(c, 2)
+    assert refined is not None and refined.proxy < c.proxy - 0.1
+    assert refined.proxy == pytest.approx(proxy_distance(refined.config))
+    assert prove(refined.config, space).proved
+    assert prove_separation(refined.config, space).proved
+    # It went as far as the proofs let it: a little less Z_r no longer proves.
+    z_r = refined.config.safety.robot_uncertainty
+    assert z_r < 0.25
+    tighter = dataclasses.replace(refined.config, safety=dataclasses.replace(
+        refined.config.safety, robot_uncertainty=z_r - 0.01))
+    assert not prove_separation(tighter, space).proved
