@@ -761,22 +761,22 @@ def true_stopping_terms(scenarios: list[Scenario], safety) -> tuple[np.ndarray, 
     the simulated robot's own stop from full speed (``metrics.robot_stopping``, once per
     braking time scale: the scenarios of a batch differ in their brakes' scale only)
     plus T_r, and its distance plus C."""
-    by_scale: dict = {}
-    for sc in scenarios:
-        if sc.robot.braking_time_scale not in by_scale:
-            by_scale[sc.robot.braking_time_scale] = robot_stopping(sc)
-    stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
-    return (np.array([x.time for x in stops_true]) + safety.reaction_time,
-            np.array([x.distance for x in stops_true]) + safety.intrusion_distance)
+    return _true_terms(scenarios, safety, robot_stopping)
 
 
 def true_stopping_by_rate(scenarios: list[Scenario], safety) -> tuple[np.ndarray, np.ndarray]:
     """:func:`true_stopping_terms` from every grid rate j / TRUTH_RATES ((B, TRUTH_RATES +
     1) each; ``metrics.robot_stops_by_rate``), for S_true by speed."""
+    return _true_terms(scenarios, safety, robot_stops_by_rate)
+
+
+def _true_terms(scenarios: list[Scenario], safety, stops_of) -> tuple[np.ndarray, np.ndarray]:
+    """``stops_of(scenario)``'s time plus T_r and distance plus C for each scenario, taken
+    once per braking time scale."""
     by_scale: dict = {}
     for sc in scenarios:
         if sc.robot.braking_time_scale not in by_scale:
-            by_scale[sc.robot.braking_time_scale] = robot_stops_by_rate(sc)
+            by_scale[sc.robot.braking_time_scale] = stops_of(sc)
     stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
     return (np.array([x.time for x in stops_true]) + safety.reaction_time,
             np.array([x.distance for x in stops_true]) + safety.intrusion_distance)

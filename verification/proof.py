@@ -808,6 +808,14 @@ def _level_terms(lv: Levels, m: Margin, space: ScenarioSpace, i: int) -> dict:
     return f
 
 
+def _method(theorem: str, stopping: str) -> str:
+    """The ``method`` a proof of ``theorem`` (``stopping`` or ``separation``) states."""
+    return (f"SSM {theorem} theorem over the robot's capsules (verification/proof.py); "
+            "margin checked over the box by z3"
+            + (", at every speed level" if stopping == "by_speed" else "")
+            + "; robot bounds by Lipschitz covering; tracker error by gain recursion")
+
+
 def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     """Tries to prove "stopped before contact" for ``config`` over ``space`` (under
     ``safety.stopping: by_speed`` at every speed level)."""
@@ -815,10 +823,7 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     h = 1.0 / space.robot.control_rate_hz
     v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
          "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
-    method = ("SSM stopping theorem over the robot's capsules (verification/proof.py); "
-              "margin checked over the box by z3"
-              + (", at every speed level" if f.stopping == "by_speed" else "")
-              + "; robot bounds by Lipschitz covering; tracker error by gain recursion")
+    method = _method("stopping", f.stopping)
     if space.recording is not None:
         return _declined(config, space, "contact", method)
     premises, box, placeholder, (alpha, beta), _ = _setting(config, space, "contact")
@@ -848,10 +853,7 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     p = space.parameters
     floor = f.human_speed == "estimated_with_floor"
     v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
-    method = ("SSM separation theorem over the robot's capsules (verification/proof.py); "
-              "margin checked over the box by z3"
-              + (", at every speed level" if f.stopping == "by_speed" else "")
-              + "; robot bounds by Lipschitz covering; tracker error by gain recursion")
+    method = _method("separation", f.stopping)
     if space.recording is not None:
         return _declined(config, space, "separation", method)
     premises, box, placeholder, (alpha, beta), _ = _setting(config, space, "separation")

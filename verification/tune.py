@@ -300,7 +300,7 @@ class Tuner:
                 continue
             if isinstance(values[p.name], int):
                 continue  # (a count: not bisected)
-            ends = {end: proxy_distance(self.build_unchecked(dict(values, **{p.name: end})))
+            ends = {end: proxy_distance(with_values(self.config, dict(values, **{p.name: end})))
                     for end in (p.min, p.max)}
             target = min(ends, key=ends.get)
             if not ends[target] < proxy:
@@ -322,10 +322,6 @@ class Tuner:
         out.proved = {"contact": True, "separation": True}
         out.proxy, out.full_speed = proxy, full_speed_distance(out.config)
         return out
-
-    def build_unchecked(self, values: dict) -> ControllerConfig:
-        """The configuration with these values, not validated (for the proxy only)."""
-        return with_values(self.config, values)
 
     def run(self) -> dict:
         self.out.mkdir(parents=True, exist_ok=True)

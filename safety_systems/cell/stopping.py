@@ -114,15 +114,20 @@ def content_key(obj) -> tuple:
 _PROFILES: dict = {}  # a few (path, capsules, cells) speed profiles, newest last
 
 
+def _kept(cache: dict, size: int, key, make):
+    """``cache[key]``, made by ``make()`` when absent; the ``size`` newest kept."""
+    found = cache.pop(key, None)
+    if found is None:
+        found = make()
+    cache[key] = found
+    while len(cache) > size:
+        cache.pop(next(iter(cache)))
+    return found
+
+
 def _speed_profile(path, capsules, cells: int) -> tuple[np.ndarray, float]:
     key = (content_key(dataclasses.replace(path, cycles=1)), content_key(capsules), cells)
-    profile = _PROFILES.pop(key, None)
-    if profile is None:
-        profile = fastest_point_speed(path, capsules, cells)
-    _PROFILES[key] = profile
-    while len(_PROFILES) > 8:
-        _PROFILES.pop(next(iter(_PROFILES)))
-    return profile
+    return _kept(_PROFILES, 8, key, lambda: fastest_point_speed(path, capsules, cells))
 
 
 def true_stopping(path, capsules, table: BrakingTable, braking_time_scale: float,
@@ -178,14 +183,8 @@ def stops_by_rate(path, capsules, table: BrakingTable, braking_time_scale: float
     few)."""
     key = (content_key(dataclasses.replace(path, cycles=1)), content_key(capsules),
            content_key(table), float(braking_time_scale), float(period), cells)
-    found = _BY_RATE.pop(key, None)
-    if found is None:
-        found = stops_by_rate_uncached(path, capsules, table, braking_time_scale, period,
-                                       cells=cells)
-    _BY_RATE[key] = found
-    while len(_BY_RATE) > 16:
-        _BY_RATE.pop(next(iter(_BY_RATE)))
-    return found
+    return _kept(_BY_RATE, 16, key, lambda: stops_by_rate_uncached(
+        path, capsules, table, braking_time_scale, period, cells=cells))
 
 
 def stops_by_rate_uncached(path, capsules, table: BrakingTable, braking_time_scale: float,
