@@ -28,18 +28,23 @@ BY_SPEED = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety, stopp
 TRACKING = float(TRACK_TRACKING)
 
 
-def test_level_stops_scale_the_full_speed_values_by_the_tables_shape():
+def test_level_stops_keep_the_configured_margin_over_the_table_at_every_level():
     t_full, b_full = level_stops(ISO)
     assert np.all(t_full == 0.54) and np.all(b_full == 0.26)
     t, b = level_stops(BY_SPEED)
     assert t[-1] == pytest.approx(0.54) and b[-1] == pytest.approx(0.26)
-    assert t[0] == 0.0 and b[0] == 0.0
     assert np.all(np.diff(t) > 0.0) and np.all(np.diff(b) > 0.0)
-    # The placeholder table stops at constant deceleration: time proportional to speed.
+    # The placeholder table stops from full speed in 0.53 s at constant deceleration
+    # (time proportional to speed); T_s = 0.54 s keeps its 0.01 s at every level.
     levels = np.arange(SPEED_LEVELS + 1) / SPEED_LEVELS
-    assert t == pytest.approx(0.54 * levels)
-    # Its distance rows go with the square of the speed; between them the line is above.
-    assert np.all(b >= 0.26 * levels ** 2 - 1e-12)
+    assert t == pytest.approx(0.53 * levels + 0.01)
+    # The table's distance at full speed is B itself (no margin to keep): its rows go
+    # with the square of the speed, and between them the line is above.
+    assert b[0] == 0.0 and np.all(b >= 0.26 * levels ** 2 - 1e-12)
+    # A T_s below the table (which the proofs refuse) shrinks in proportion instead.
+    short = dataclasses.replace(BY_SPEED, safety=dataclasses.replace(BY_SPEED.safety,
+                                                                     stopping_time=0.5))
+    assert level_stops(short)[0] == pytest.approx(0.5 * levels)
 
 
 def _levels(n, rng):
@@ -59,7 +64,7 @@ def test_motion_is_permitted_only_beyond_s_at_every_speed_until_the_next_decisio
     d = rng.uniform(0.0, 3.5, size=n)
     k, top, reason = by_speed_override_command(d, s, np.full(n, TRACKING), 0.0, rate,
                                                delta_s=delta_s, d_min=d_min)
-    g_now = int(np.ceil(rate * SPEED_LEVELS - 1e-9))
+    g_now = int(np.ceil((rate - 1e-9) * SPEED_LEVELS))
     assert k * SPEED_LEVELS == pytest.approx(round(k * SPEED_LEVELS))  # a level
     if k > 0.0:
         g = max(g_now, round(k * SPEED_LEVELS))
@@ -76,13 +81,14 @@ def test_motion_is_permitted_only_beyond_s_at_every_speed_until_the_next_decisio
 
 def test_a_robot_faster_than_s_allows_stops_and_a_slow_one_creeps():
     s = _levels(1, np.random.default_rng(1))
-    d = np.array([s[8, 0] + 1e-6])  # beyond S of level 8, not of level 9
+    half = SPEED_LEVELS // 2
+    d = np.array([s[half, 0] + 1e-6])  # beyond S of the half-speed level, not the next
     k, _, _ = by_speed_override_command(d, s, [TRACKING], 0.0, 0.25, delta_s=1.0, d_min=0.0)
     assert k == 0.5
     k, _, reason = by_speed_override_command(d, s, [TRACKING], 0.0, 0.9, delta_s=1.0, d_min=0.0)
     assert k == 0.0 and reason == stops.STOP_SEPARATION  # S of its own speed is not met
     k, _, _ = by_speed_override_command(d, s, [TRACKING], 0.0, 0.0, delta_s=1.0, d_min=0.0)
-    assert k == 0.5  # from rest it may start towards level 8
+    assert k == 0.5  # from rest it may start towards the half-speed level
 
 
 @pytest.mark.parametrize("case", ["nan_d", "nan_s", "fault", "lost"])
@@ -106,7 +112,7 @@ def test_the_speed_override_system_reads_the_rate_and_the_levels():
     o = SpeedOverride(num_bodies=1, delta_s=1.0, d_min=0.0, levels=SPEED_LEVELS)
     c = o.CreateDefaultContext()
     s = _levels(1, np.random.default_rng(1))
-    o.GetInputPort("distances").FixValue(c, [s[8, 0] + 1e-6])
+    o.GetInputPort("distances").FixValue(c, [s[SPEED_LEVELS // 2, 0] + 1e-6])
     o.GetInputPort("level_protective_distances").FixValue(c, s.reshape(-1))
     o.GetInputPort("track_status").FixValue(c, [TRACKING])
     o.GetInputPort("fault").FixValue(c, [0.0])

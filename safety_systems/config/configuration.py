@@ -125,21 +125,31 @@ def assumed_stopping(config: ControllerConfig) -> tuple[float, float]:
 
 def level_stops(config: ControllerConfig) -> tuple[np.ndarray, np.ndarray]:
     """(T_s, B) the monitor uses at each speed level g / SPEED_LEVELS, g = 0..SPEED_LEVELS
-    (``safety.stopping: by_speed``): :func:`assumed_stopping`'s full-speed values scaled
-    by the braking table's shape, T_s(sigma) = T_s T_table(sigma) / T_table(1) and
-    B(sigma) = B D_table(sigma) / D_table(1) (the table interpolated linearly from
-    (0, 0, 0)). Interpretation: the configured full-speed T_s and B keep their meaning
-    (and their margins over the table, in proportion); ISO/TS 15066 leaves how S_s
-    follows the speed to the stopping data. With ``full_speed`` every level has the
+    (``safety.stopping: by_speed``), from :func:`assumed_stopping`'s full-speed values and
+    the braking table (interpolated linearly from (0, 0, 0)): the larger of
+
+    - the table's stop from the level plus the configured margin over the table's
+      full-speed stop, T_table(sigma) + (T_s - T_table(1)), and likewise for B with
+      D_table; and
+    - the full-speed value scaled by the table's shape, T_s T_table(sigma) / T_table(1)
+      (B D_table(sigma) / D_table(1)).
+
+    Interpretation: ISO/TS 15066 leaves how S_s follows the speed to the stopping data.
+    The configured T_s and B keep their meaning at full speed; a margin they carry over
+    the table (here 0.54 s against 0.53 s) stays whole at every level, since what it
+    covers (a control tick's rounding, the brakes' onset) does not shrink with the speed;
+    a T_s or B below the table (unsafe at full speed, and the proofs say so) shrinks in
+    proportion instead of going negative. With ``full_speed`` every level has the
     full-speed values."""
     t_s, b = assumed_stopping(config)
     levels = np.arange(SPEED_LEVELS + 1) / SPEED_LEVELS
     if config.safety.stopping != "by_speed":
         return np.full(levels.size, float(t_s)), np.full(levels.size, float(b))
     table = braking_table(config)
-    shape_t = table_stopping_time(table, levels) / float(table_stopping_time(table, 1.0))
-    shape_b = stopping_distance(table, levels) / float(stopping_distance(table, 1.0))
-    return t_s * shape_t, b * shape_b
+    t_table = np.asarray(table_stopping_time(table, levels), dtype=float)
+    d_table = np.asarray(stopping_distance(table, levels), dtype=float)
+    return (np.maximum(t_s * t_table / t_table[-1], t_table + (t_s - t_table[-1])),
+            np.maximum(b * d_table / d_table[-1], d_table + (b - d_table[-1])))
 
 
 def level_terms(config: ControllerConfig) -> tuple[np.ndarray, np.ndarray]:

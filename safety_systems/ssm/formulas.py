@@ -25,7 +25,7 @@ ROBOT_SPEED_TERMS = ("directed", "fastest_point")
 # decision (``by_speed``, ISO/TS 15066's S_s from the current speed; :func:`by_speed_command`).
 STOPPING_MODES = ("full_speed", "by_speed")
 # by_speed: the commanded speed is one of SPEED_LEVELS + 1 levels g / SPEED_LEVELS.
-SPEED_LEVELS = 16
+SPEED_LEVELS = 64
 
 
 # ISO/TS 15066 Eq. 1 (seed Section 2) after ISO 13855: 2000 mm/s, or 1600 mm/s where
@@ -358,10 +358,14 @@ def override_command(d, s, status, fault, delta_s, d_min, included):
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def level_at_or_above(rate, levels):
     """The speed level g (of ``levels`` + 1, g / levels) at or above the path rate
-    ``rate`` (clipped to [0, 1]; a NaN counts as full speed)."""
+    ``rate`` (clipped to [0, 1]; a NaN counts as full speed). A rate at most 1e-9 above
+    g / levels counts as level g: the tolerance is in units of the rate, not of the
+    level, so that with power-of-two level counts (the override's SPEED_LEVELS, S_true's
+    TRUTH_RATES) a level-g rate maps exactly to a grid rate at or below g / levels
+    (``verification.proof.level_rate``)."""
     if not rate < 1.0:
         return levels
-    return max(0, min(levels, math.ceil(rate * levels - 1e-9)))
+    return max(0, min(levels, math.ceil((rate - 1e-9) * levels)))
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element

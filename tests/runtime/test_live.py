@@ -151,8 +151,13 @@ def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, 
     inside = (t_run >= 0.0) & (t_run <= length)
     assert inside.sum() > 0.9 * length / PERIOD
     assert 0.0 < k_sim.mean() < 1.0 and len(set(np.round(k_sim, 3))) >= 2  # k changes
-    # Up to timing jitter of one frame (1 / rate).
-    width = 1.0 / controller.sensor.rate_hz
+    # Up to timing jitter of one frame (1 / rate), and whatever this machine added: the
+    # run is real time, so on a loaded machine its ticks and frames come late; the band
+    # widens by the lateness the trace itself records, no more (0 on an idle machine).
+    period = 1.0 / controller.sensor.rate_hz
+    frame_age = t_run[inside] - (trace["frame_time"][inside] - t0)
+    late = max(0.0, np.nanmax(frame_age) - controller.sensor.latency - period)
+    width = period + late + max(0.0, np.nanmax(trace["tick_late"][inside]))
     assert _same_band(sim.time, k_sim, t_run[inside], trace["k"][inside], width) == []
     # Not a band so wide that it holds anything: the run's k spends as long at 0.
     stopped_sim = np.mean(k_sim == 0.0)
