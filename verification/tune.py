@@ -275,52 +275,75 @@ class Tuner:
         """A proved candidate pushed, one parameter at a time, towards a lower proxy while
         both proofs still hold: a choice is taken if it proves and lowers the proxy; a
         number is bisected (REFINE_STEPS times) between its value and the end of its range
-        that lowers the proxy. Proofs take milliseconds, so this costs no simulation (the
+        that lowers the proxy. A number the proxy does not depend on (the frame timeout,
+        the tracker's noise) goes instead towards the end where the proofs' least margin
+        is larger, if it is: that margin is what the parameters after it in the block
+        (T_r, Z_r) then spend. Proofs take milliseconds, so this costs no simulation (the
         proofs it runs are counted). None if nothing lowered the proxy."""
-        values, proxy = dict(c.values), c.proxy
+        values = dict(c.values)
 
-        def proves(trial: dict) -> float | None:  # its proxy if valid and proved
+        def judged(trial: dict) -> tuple | None:  # (proxy, -least margin) if both prove
             try:
                 config = self.build(trial)
             except InputError:
                 return None
             self.counts["proofs"] += 2
-            if not (prove(config, self.space).proved
-                    and prove_separation(config, self.space).proved):
+            proofs = (prove(config, self.space), prove_separation(config, self.space))
+            if not all(x.proved for x in proofs):
                 return None
-            return proxy_distance(config)
+            return (round(proxy_distance(config), 12),
+                    -min(x.margin_at_worst_corner for x in proofs))
 
+        def margin(trial: dict) -> float:  # the proofs' least margin, proved or not
+            try:
+                config = self.build(trial)
+            except InputError:
+                return -math.inf
+            self.counts["proofs"] += 2
+            return min(prove(config, self.space).margin_at_worst_corner,
+                       prove_separation(config, self.space).margin_at_worst_corner)
+
+        key = judged(values)
+        if key is None:
+            return None
         for p in self.block:
             if p.choices:
                 for choice in p.choices:
                     trial = dict(values, **{p.name: choice})
-                    found = proves(trial) if str(choice) != str(values[p.name]).lower() else None
-                    if found is not None and found < proxy:
-                        values, proxy = trial, found
+                    found = judged(trial) if str(choice) != str(values[p.name]).lower() \
+                        else None
+                    if found is not None and found[0] < key[0]:
+                        values, key = trial, found
                 continue
             if isinstance(values[p.name], int):
                 continue  # (a count: not bisected)
-            ends = {end: proxy_distance(with_values(self.config, dict(values, **{p.name: end})))
-                    for end in (p.min, p.max)}
-            target = min(ends, key=ends.get)
-            if not ends[target] < proxy:
-                continue  # the proxy does not fall this way (or does not depend on it)
+            ends = {end: round(proxy_distance(with_values(
+                self.config, dict(values, **{p.name: end}))), 12) for end in (p.min, p.max)}
+            if min(ends.values()) < key[0]:
+                target = min(ends, key=ends.get)
+            elif all(v == key[0] for v in ends.values()):  # the proxy does not depend on it
+                room = {end: margin(dict(values, **{p.name: end})) for end in ends}
+                target = max(room, key=room.get)
+                if not room[target] > -key[1]:
+                    continue
+            else:
+                continue  # the proxy does not fall this way
             good, bad = values[p.name], target  # proved; not known
             for step in range(REFINE_STEPS + 1):
                 x = bad if step == 0 else 0.5 * (good + bad)  # the end itself first
                 trial = dict(values, **{p.name: x})
-                found = proves(trial)
-                if found is not None and found < proxy:
-                    values, proxy, good = trial, found, x
+                found = judged(trial)
+                if found is not None and found < key:
+                    values, key, good = trial, found, x
                     if step == 0:
                         break
                 else:
                     bad = x
-        if proxy >= c.proxy:
+        if not key[0] < round(c.proxy, 12):
             return None
         out = Candidate(index, values, self.build(values))
         out.proved = {"contact": True, "separation": True}
-        out.proxy, out.full_speed = proxy, full_speed_distance(out.config)
+        out.proxy, out.full_speed = proxy_distance(out.config), full_speed_distance(out.config)
         return out
 
     def run(self) -> dict:

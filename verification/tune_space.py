@@ -15,7 +15,10 @@ field's declared range; whole numbers for integer fields), strings and flags get
 the sensor's rate, latency and noise, the tracker's processing time; so are the cell's
 layout (exits and walls) and the controller's type. The reaction time T_r may be tuned,
 but never below the loop's own reaction time (the frame timeout and a control tick):
-S cannot claim a faster reaction than the loop has.
+S cannot claim a faster reaction than the loop has. The frame timeout is a setting (how
+old the newest frame may be before the tracker stops the robot), tunable above one
+sensor period + latency + processing time: a shorter one stops sooner on a late frame,
+and lets T_r and the separation allowance shrink.
 
 This module must not use ``from __future__ import annotations`` (the YAML loader).
 """
@@ -129,12 +132,20 @@ def check_block(block: list[TunedParameter], config: ControllerConfig, *,
         seen.add(p.name)
         if leaf in (float, int):
             _check_bounds(p, where, leaf, field_limits(schema, last))
+            for bound in ("min", "max"):  # the configuration's own rules at each end
+                try:
+                    validate_controller(with_values(config, {p.name: getattr(p, bound)}))
+                except InputError as e:
+                    raise InputError(f"{where}.{bound}", getattr(p, bound),
+                                     f"a value the configuration accepts ({e.allowed})"
+                                     ) from None
             if p.name == REACTION_TIME:
-                floor = frame_timeout(config) + control_period
+                floor = reaction_floor(config, block, control_period)
                 if p.min < floor - 1e-12:
                     raise InputError(f"{where}.min", p.min, f"min >= {floor:.4g} s, the "
                                      "loop's own reaction time (frame timeout + a control "
-                                     "tick): T_r cannot claim a faster reaction")
+                                     "tick, with the least frame timeout the block "
+                                     "allows): T_r cannot claim a faster reaction")
         else:
             if p.min is not None or p.max is not None or not p.choices:
                 raise InputError(where, p.name, "choices: [...] (a string or flag has no "
@@ -145,6 +156,20 @@ def check_block(block: list[TunedParameter], config: ControllerConfig, *,
                 except InputError as e:
                     raise InputError(f"{where}.choices", choice,
                                      f"a value the configuration accepts ({e.allowed})") from None
+
+
+FRAME_TIMEOUT = "tracker.frame_timeout"
+
+
+def reaction_floor(config: ControllerConfig, block: list[TunedParameter],
+                   control_period: float) -> float:
+    """The least T_r any candidate of ``block`` may have: the loop's own reaction time,
+    the frame timeout (the least the block allows, if it tunes it) plus a control
+    tick. Each candidate is held to its own frame timeout's (``Tuner.build``)."""
+    timeouts = [p.min for p in block if p.name == FRAME_TIMEOUT and p.min is not None]
+    if timeouts:
+        config = with_values(config, {FRAME_TIMEOUT: min(timeouts)})
+    return frame_timeout(config) + control_period
 
 
 def _check_bounds(p: TunedParameter, where: str, leaf: type, limits) -> None:

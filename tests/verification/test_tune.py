@@ -126,6 +126,7 @@ def test_tune_refuses_measured_and_unknown_parameters(tmp_path, cli, name, needl
 
 @pytest.mark.parametrize("entry, needle", [
     ("{name: safety.reaction_time, min: 0.05, max: 0.2}", "loop's own reaction time"),
+    ("{name: tracker.frame_timeout, min: 0.06, max: 0.09}", "more than one sensor period"),
     ("{name: safety.d_min, min: 0.1, max: 9.0}", "d_min <= 5"),
     ("{name: safety.d_min, min: 0.3, max: 0.1}", "max >= min"),
     ("{name: safety.human_speed, choices: [iso, fast]}", "iso"),
@@ -147,8 +148,12 @@ def test_refining_lowers_the_proxy_and_keeps_both_proofs(tmp_path):
     config, block = load_tunable(ISO, MODELS / "tune" / "ssm.yaml")
     space = load_space(MODELS / "spaces" / "default.yaml")
     tuner = Tuner(config, block, space, [], tmp_path, space_path="default.yaml")
-    start = {p.name: v for p, v in zip(block, ["iso", "fastest_point", "by_speed", 0.15, 0.1,
-                                                0.3, 1.2, 0.2, 0.1])}
+    start = {"safety.human_speed": "iso", "safety.robot_speed": "fastest_point",
+             "safety.stopping": "by_speed", "tracker.frame_timeout": 0.09,
+             "safety.reaction_time": 0.15, "safety.intrusion_distance": 0.1,
+             "safety.robot_uncertainty": 0.3, "safety.delta_s": 1.2, "safety.d_min": 0.2,
+             "tracker.velocity_process_noise": 0.1}
+    assert set(start) == {p.name for p in block}
     c = Candidate(1, start, with_values(config, start))
     c.proxy = proxy_distance(c.config)
     assert prove(c.config, space).proved and prove_separation(c.config, space).proved
@@ -163,3 +168,22 @@ def test_refining_lowers_the_proxy_and_keeps_both_proofs(tmp_path):
     tighter = dataclasses.replace(refined.config, safety=dataclasses.replace(
         refined.config.safety, robot_uncertainty=z_r - 0.01))
     assert not prove_separation(tighter, space).proved
+    # The frame timeout, on which the proxy does not depend, went to the end where the
+    # proofs have more room, and T_r followed it down to the loop's own reaction time.
+    assert refined.values["tracker.frame_timeout"] == 0.074
+    assert refined.config.safety.reaction_time == pytest.approx(0.074 + 0.002)
+
+
+def test_t_r_may_go_as_low_as_the_least_frame_timeout_the_block_allows():
+    from safety_systems.files.input_error import InputError
+    from verification.tune_space import TunedParameter, check_block
+
+    config = load_controller_config(ISO)
+    t_r = TunedParameter(name="safety.reaction_time", min=0.076, max=0.2)
+    timeout = TunedParameter(name="tracker.frame_timeout", min=0.074, max=0.096)
+    check_block([timeout, t_r], config, control_period=0.002)  # 0.074 + a tick
+    with pytest.raises(InputError, match="loop's own reaction time"):
+        check_block([t_r], config, control_period=0.002)  # iso.yaml's own: 0.096 + a tick
+    with pytest.raises(InputError, match="loop's own reaction time"):
+        check_block([dataclasses.replace(timeout, min=0.08), t_r], config,
+                    control_period=0.002)
