@@ -112,11 +112,11 @@ def main() -> int:
         print(f"   {task.name}: " + "; ".join(
             f"{name} {d:.2f} m: a body within it for {s:.1f} s"
             for (name, d), s in zip(distances, seconds)))
-    print("   (an operator standing still within the full-speed distance holds the robot; "
-          "a proof over hands of up to 2.0 m/s needs at least 2.0 m/s x (T_r + T_s) + B "
-          "and the sensing allowance: for both properties here about 1.92 m with the "
-          "directed robot speed (T_r 0.1 s, C 0, Z_r 0.38 m) and 1.74 m with "
-          "fastest_point (Z_r 0.2 m), whose S counts the robot's speed even moving away)")
+    print("   (nearer than the full-speed distance a still operator keeps the robot below "
+          "full speed: under stopping: full_speed it stops, under by_speed it creeps at "
+          "the fastest speed level whose S the operator is beyond; a proof over hands of "
+          "up to 2.0 m/s needs that distance to hold 2.0 m/s x (T_r + T_s) + B and the "
+          "sensing allowance)")
     print(f"\n3. tune wall time: {wall:.0f} s ({result['counts']})")
     return 0
 
