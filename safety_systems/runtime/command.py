@@ -68,10 +68,6 @@ def run(args: argparse.Namespace, origin: dict) -> int:
         raise InputError("controller.type", params.controller.type,
                          "ssm_override (the runtime runs the SSM speed override)",
                          file=args.params)
-    if params.controller.safety.stopping != "full_speed":
-        raise InputError("safety.stopping", params.controller.safety.stopping,
-                         "full_speed (S by speed needs the robot's current speed, which the "
-                         "runtime's robot link does not measure yet)", file=args.params)
     names = [f"{o.name}/{b.name}" for o in mapping.operators for b in o.bodies]
     radii = [b.radius for o in mapping.operators for b in o.bodies]
     rate = params.controller.sensor.rate_hz

@@ -107,7 +107,7 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
     status_due = 0.0
 
     def command(t: float) -> tuple[float, float, int]:
-        k, s_max, reason = loop.decide(t)
+        k, s_max, reason = loop.decide(t, robot.rate_bound())
         cause = (stops.STOP_ROBOT_LOST if state["lost"] else stops.STOP_BAD_PACKET
                  if state["bad"] else stops.STOP_OVERRUN if t < state["overrun_until"]
                  else None)

@@ -15,8 +15,17 @@ says so or when the controller's timestamp has not advanced for ``timeout`` s.
 commanded k by the simulator's own PathFollower step (``braking.path_follower_step`` and
 ``joint_path.joint_path_state``), so the monitor sees a robot that moves as the
 simulated one would; what would have been commanded is logged.
+
+**The robot's speed now** (``rate_bound``, which S by speed needs: ``safety.stopping:
+by_speed``). The model robot's path rate is known exactly. A UR's is bounded from what
+the runtime told it: the largest k sent within the stopping data's full-speed stopping
+time (its ``braking`` table; before that long has passed since the first command, the
+slider's earlier setting is unknown and the bound is 1). This is sound only if the
+robot slows to a lower slider setting at least as fast as the stopping data says: a
+premise the runtime trusts (the same stopping data the proofs trust), not one it checks.
 """
 
+import collections
 import ctypes
 import dataclasses
 import math
@@ -26,6 +35,7 @@ import urllib.parse
 import numpy as np
 
 from safety_systems.cell.braking import path_follower_step
+from safety_systems.cell.braking import stopping_time as table_stopping_time
 from safety_systems.files.input_error import InputError
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.config.scenario import ControllerConfig, RobotConfig
@@ -90,6 +100,10 @@ class ModelRobot:
     def command(self, k: float) -> None:
         self.sent = k
 
+    def rate_bound(self) -> float:
+        """The model's path rate now (exact: it is the simulator's path follower)."""
+        return self.rate
+
     def advance_to(self, t: float) -> None:
         """Control periods at the last command (the PathFollower's update) until the
         model's time reaches ``t`` (the loop's time: when the loop skips ticks, the model
@@ -111,7 +125,7 @@ class ModelRobot:
 class UrRtdeRobot:
     """A UR over RTDE through ``ur-rtde`` (see the module docstring)."""
 
-    def __init__(self, address: RobotAddress, frequency: float):
+    def __init__(self, address: RobotAddress, frequency: float, stop_window: float):
         import rtde_io
         import rtde_receive
 
@@ -129,6 +143,8 @@ class UrRtdeRobot:
         self._stamp, self._seen = -math.inf, self._now()
         self.sent = math.nan
         self.lost = False
+        self._window = float(stop_window)
+        self._sent_log = collections.deque()  # (time, k) of the commands, see rate_bound
 
     def read(self) -> tuple[np.ndarray, float]:
         """(actual joint positions, the controller's timestamp); raises RobotLost."""
@@ -150,11 +166,17 @@ class UrRtdeRobot:
 
     def command(self, k: float) -> None:
         self.sent = k
+        self._sent_log.append((self._now(), float(k)))
         if not self.lost:
             try:
                 self._io.setSpeedSlider(float(k))
             except RuntimeError:
                 self.lost = True
+
+    def rate_bound(self) -> float:
+        """The largest k sent within the full-speed stopping time (the module
+        docstring), 1 when not yet known."""
+        return sent_rate_bound(self._sent_log, self._now(), self._window)
 
     def advance_to(self, t: float) -> None:
         pass
@@ -177,6 +199,22 @@ class UrRtdeRobot:
                 _keep_alive(interface)
 
 
+def sent_rate_bound(sent: collections.deque, now: float, window: float) -> float:
+    """A bound on the path rate at ``now`` from the commands ``sent`` ((time, k), oldest
+    first): the largest k in effect at any time in [now - window, now] (the one sent
+    last before now - window, and every later one), clipped to [0, 1]; 1 when no
+    command is older than the window or any is not a number. Drops the commands no
+    longer needed."""
+    while len(sent) >= 2 and sent[1][0] <= now - window:
+        sent.popleft()
+    if not sent or sent[0][0] > now - window:
+        return 1.0
+    ks = [k for _, k in sent]
+    if not all(math.isfinite(k) for k in ks):
+        return 1.0
+    return min(max(max(ks), 0.0), 1.0)
+
+
 def _keep_alive(interface) -> None:
     """Never destroys ``interface``: ur-rtde 1.6's interfaces disconnect again in their
     destructor, and after a broken connection that throws there, which aborts the
@@ -189,4 +227,5 @@ def _keep_alive(interface) -> None:
 def connect_robot(address: RobotAddress, robot: RobotConfig, config: ControllerConfig):
     if address.kind == "none":
         return ModelRobot(robot, config)
-    return UrRtdeRobot(address, robot.control_rate_hz)
+    window = float(table_stopping_time(braking_table(config), 1.0))
+    return UrRtdeRobot(address, robot.control_rate_hz, window)

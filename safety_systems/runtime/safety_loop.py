@@ -7,7 +7,10 @@ the order the Drake diagram calls them (no copy of any rule lives here).
   Eq. 5, (ends - previous ends) / dt over the robot's own sample times;
 - a decision at time t: ``tracks.tracker_fault`` (the frame's fault, else stale after
   the frame timeout), ``separation.separation_rows`` (SeparationMonitor, Eqs. 6-11)
-  and ``ssm.speed_override_command`` (SpeedOverride, Eq. 12 and its fail-safe stops).
+  and ``ssm.speed_override_command`` (SpeedOverride, Eq. 12 and its fail-safe stops);
+  under ``safety.stopping: by_speed`` also ``separation.level_rows`` (S at every speed
+  level) and ``ssm.by_speed_override_command``, given a bound on the robot's path rate
+  now (the robot link's ``rate_bound``).
 
 Times are the runtime's monotonic clock (capture times from ``mocap.FrameClock``).
 """
@@ -17,14 +20,15 @@ import math
 import numpy as np
 
 from safety_systems.config.configuration import (
+    level_terms,
     monitor_capsules,
     monitored_radii,
     tracker_regions,
     tracker_rules,
 )
 from safety_systems.config.scenario import ControllerConfig
-from safety_systems.ssm.separation import separation_rows
-from safety_systems.ssm.formulas import speed_override_command
+from safety_systems.ssm.separation import level_rows, separation_rows
+from safety_systems.ssm.formulas import by_speed_override_command, speed_override_command
 from safety_systems.cell.robot_geometry import capsule_ends_at
 from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
 from safety_systems.config.configuration import frame_timeout, monitor_terms
@@ -39,10 +43,6 @@ class SafetyLoop:
             raise ValueError(f"controller.type: got {config.type!r}; the runtime runs "
                              "ssm_override only")
         f = config.safety
-        if f.stopping != "full_speed":
-            raise ValueError(f"safety.stopping: got {f.stopping!r}; the runtime runs "
-                             "full_speed only (S by speed needs the robot's current speed, "
-                             "which the robot link does not measure yet)")
         n = self.n = len(radii)
         self.rules, self.regions = tracker_rules(config), tracker_regions(config)
         self.timeout = frame_timeout(config)
@@ -64,6 +64,9 @@ class SafetyLoop:
         self._robot_time = math.nan
         self.out = np.full((4, n), np.nan)  # d, S, v_human, v_robot
         self.nearest = np.full(n, -1, dtype=np.int64)
+        self.levels = level_terms(config) if f.stopping == "by_speed" else None
+        if self.levels is not None:  # S at each level, (G + 1, N)
+            self.level_out = np.full((self.levels[0].size, n), np.nan)
         self._warm_up()
 
     def _warm_up(self) -> None:
@@ -108,11 +111,22 @@ class SafetyLoop:
         """The tracker's fault at ``now`` (``tracks.tracker_fault``)."""
         return float(tracker_fault(self.frame_fault, now, self.t_good[0], self.timeout))
 
-    def decide(self, now: float) -> tuple[float, float, int]:
-        """(k, S_max, stop reason) at ``now``: the monitor and the override."""
+    def decide(self, now: float, rate: float = 1.0) -> tuple[float, float, int]:
+        """(k, S_max, stop reason) at ``now``: the monitor and the override. ``rate``:
+        a bound on the robot's path rate now (used under ``by_speed`` only; a NaN or
+        a missing bound counts as full speed)."""
         if self.n:
             separation_rows(self.ends, self.end_velocities, self.capsules.radius, self.p,
                             self.v, self.radii, self.status, self.std, self.unseen,
                             self.z_d_terms, self.monitor, self.out, self.nearest)
-        return speed_override_command(self.out[0], self.out[1], self.status, self.fault(now),
-                                      delta_s=self.delta_s, d_min=self.d_min)
+        if self.levels is None:
+            return speed_override_command(self.out[0], self.out[1], self.status,
+                                          self.fault(now), delta_s=self.delta_s,
+                                          d_min=self.d_min)
+        if self.n:
+            level_rows(self.ends, self.end_velocities, self.capsules.radius, self.p, self.v,
+                       self.radii, self.status, self.std, self.z_d_terms, self.monitor,
+                       self.levels[0], self.levels[1], self.level_out)
+        return by_speed_override_command(self.out[0], self.level_out, self.status,
+                                         self.fault(now), rate if math.isfinite(rate)
+                                         else 1.0, delta_s=self.delta_s, d_min=self.d_min)

@@ -115,14 +115,21 @@ def _same_band(t_sim, k_sim, t_run, k_run, width):
     return out
 
 
-@pytest.mark.parametrize("config", ["iso export", "seed_estimated.yaml"])
+@pytest.mark.parametrize("config", ["iso export", "seed_estimated.yaml", "iso by_speed"])
 def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, config):
-    """iso.yaml as exported (certified), and the seed's configuration as a plain file
-    run with --unverified (its verification falsifies it: check refuses it)."""
+    """iso.yaml as exported (certified), the seed's configuration as a plain file run with
+    --unverified (its verification falsifies it: check refuses it), and iso.yaml with S
+    by speed (the model robot's rate into the override, as the simulator's path
+    follower gives it)."""
     from safety_systems.runtime.params import load_certified_params
 
     if config == "iso export":
         params, extra = exported_params, ()
+    elif config == "iso by_speed":
+        params, extra = tmp_path / "by_speed.yaml", ("--unverified",)
+        text = (MODELS / "configs" / "iso.yaml").read_text()
+        params.write_text(text.replace("\nsafety:\n", "\nsafety:\n  stopping: by_speed\n"))
+        assert load_controller_config(params).safety.stopping == "by_speed"
     else:
         params, extra = MODELS / "configs" / config, ("--unverified",)
     loaded = load_certified_params(params, unverified=True)
@@ -438,3 +445,21 @@ def test_the_loop_runs_at_real_time_priority_when_it_may_and_restores_it(tmp_pat
     code, _, summary = _run(tmp_path, exported_params, f"replay://{CSV}?duration=0.3",
                             "--priority", "0", name="normal")
     assert code == 0 and summary["scheduling"] == {"policy": "normal", "priority": 0}
+
+
+def test_the_rate_bound_from_the_commands_sent_is_the_largest_k_in_the_window():
+    from collections import deque
+
+    from safety_systems.runtime.robot_link import sent_rate_bound
+
+    window = 0.53
+    sent = deque([(0.0, 0.2)])
+    assert sent_rate_bound(sent, 0.5, window) == 1.0  # the slider before 0.0: unknown
+    sent.extend([(0.6, 0.9), (0.7, 0.3), (1.0, 0.1)])
+    assert sent_rate_bound(sent, 1.1, window) == 0.9  # 0.9 was in effect at 0.6-0.7
+    assert sent_rate_bound(sent, 1.25, window) == 0.3  # 0.9 gave way at 0.7 < 1.25 - 0.53
+    assert list(sent)[0] == (0.7, 0.3)  # what no later bound needs is dropped
+    assert sent_rate_bound(sent, 2.0, window) == 0.1
+    sent.append((2.1, math.nan))
+    assert sent_rate_bound(sent, 2.2, window) == 1.0  # a NaN sent: full speed
+    assert sent_rate_bound(deque(), 5.0, window) == 1.0
