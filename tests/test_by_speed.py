@@ -153,6 +153,18 @@ def test_s_true_by_speed_takes_the_stop_from_the_rate_now():
         true_protective_distances(sc, v_h, v_r)
 
 
-def test_the_runtime_refuses_s_by_speed():
-    with pytest.raises(ValueError, match="safety.stopping"):
-        SafetyLoop(BY_SPEED, np.array([0.05]))
+def test_the_runtime_takes_s_from_the_rate_bound_and_a_missing_one_as_full_speed():
+    loop = SafetyLoop(BY_SPEED, np.array([0.05]))
+    q = np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0])
+    loop.robot(q, 0.0)
+    loop.robot(q, 0.002)  # at rest
+    for t in (0.0, 0.05, 0.1):
+        loop.frame(t, np.array([[1.7, 0.0, 0.3]]), np.ones(1), np.ones(1))
+    loop.decide(0.1, 0.0)
+    d, s = loop.out[0, 0], loop.level_out[:, 0]
+    assert np.all(np.diff(s) > 0.0) and s[1] < d < s[-1]  # some levels met, not all
+    k_slow, _, _ = loop.decide(0.1, 0.0)
+    assert 0.0 < k_slow < 1.0  # from rest: the fastest level whose S is met
+    k_fast, _, reason = loop.decide(0.1, 1.0)
+    assert k_fast == 0.0 and reason == stops.STOP_SEPARATION  # at full speed: S not met
+    assert loop.decide(0.1, np.nan)[0] == 0.0  # no bound: full speed
