@@ -282,26 +282,24 @@ class Tuner:
         proofs it runs are counted). None if nothing lowered the proxy."""
         values = dict(c.values)
 
-        def judged(trial: dict) -> tuple | None:  # (proxy, -least margin) if both prove
+        def assessed(trial: dict) -> tuple[bool, float, float] | None:
+            """(both proved, proxy, the proofs' least margin); None if not valid."""
             try:
                 config = self.build(trial)
             except InputError:
                 return None
             self.counts["proofs"] += 2
             proofs = (prove(config, self.space), prove_separation(config, self.space))
-            if not all(x.proved for x in proofs):
-                return None
-            return (round(proxy_distance(config), 12),
-                    -min(x.margin_at_worst_corner for x in proofs))
+            return (all(x.proved for x in proofs), round(proxy_distance(config), 12),
+                    min(x.margin_at_worst_corner for x in proofs))
+
+        def judged(trial: dict) -> tuple | None:  # (proxy, -least margin) if both prove
+            found = assessed(trial)
+            return (found[1], -found[2]) if found is not None and found[0] else None
 
         def margin(trial: dict) -> float:  # the proofs' least margin, proved or not
-            try:
-                config = self.build(trial)
-            except InputError:
-                return -math.inf
-            self.counts["proofs"] += 2
-            return min(prove(config, self.space).margin_at_worst_corner,
-                       prove_separation(config, self.space).margin_at_worst_corner)
+            found = assessed(trial)
+            return -math.inf if found is None else found[2]
 
         key = judged(values)
         if key is None:

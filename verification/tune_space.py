@@ -133,12 +133,7 @@ def check_block(block: list[TunedParameter], config: ControllerConfig, *,
         if leaf in (float, int):
             _check_bounds(p, where, leaf, field_limits(schema, last))
             for bound in ("min", "max"):  # the configuration's own rules at each end
-                try:
-                    validate_controller(with_values(config, {p.name: getattr(p, bound)}))
-                except InputError as e:
-                    raise InputError(f"{where}.{bound}", getattr(p, bound),
-                                     f"a value the configuration accepts ({e.allowed})"
-                                     ) from None
+                _accepted(config, p.name, getattr(p, bound), f"{where}.{bound}")
             if p.name == REACTION_TIME:
                 floor = reaction_floor(config, block, control_period)
                 if p.min < floor - 1e-12:
@@ -151,11 +146,17 @@ def check_block(block: list[TunedParameter], config: ControllerConfig, *,
                 raise InputError(where, p.name, "choices: [...] (a string or flag has no "
                                  "min or max)")
             for choice in p.choices:
-                try:
-                    validate_controller(with_values(config, {p.name: choice}))
-                except InputError as e:
-                    raise InputError(f"{where}.choices", choice,
-                                     f"a value the configuration accepts ({e.allowed})") from None
+                _accepted(config, p.name, choice, f"{where}.choices")
+
+
+def _accepted(config: ControllerConfig, name: str, value, where: str) -> None:
+    """Raises InputError (naming ``where``) unless the configuration's rules accept
+    ``config`` with ``name`` set to ``value``."""
+    try:
+        validate_controller(with_values(config, {name: value}))
+    except InputError as e:
+        raise InputError(where, value, f"a value the configuration accepts ({e.allowed})"
+                         ) from None
 
 
 FRAME_TIMEOUT = "tracker.frame_timeout"
