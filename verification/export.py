@@ -49,8 +49,8 @@ from verification.space import ScenarioSpace, load_space
 
 DEPENDENCIES = ("drake", "numpy", "scipy", "numba", "z3-solver", "cma", "filterpy")
 VERDICT_MEANING = {
-    "proved": "proved over the whole continuous box of the scenario space (verification/"
-              "proof.py), the search and the Drake replays agreeing",
+    "proved": "proved over the whole continuous box of the scenario space "
+              "(verification.proof), the search and the Drake replays agreeing",
     "passed": "no counterexample found by the search, and no proof: weaker than proved",
     "falsified": "a counterexample confirmed in the Drake diagram: NOT SAFE TO DEPLOY",
     "inconclusive": "the evidence contradicts itself (an evaluator or the proof is wrong): "

@@ -810,7 +810,7 @@ def _level_terms(lv: Levels, m: Margin, space: ScenarioSpace, i: int) -> dict:
 
 def _method(theorem: str, stopping: str) -> str:
     """The ``method`` a proof of ``theorem`` (``stopping`` or ``separation``) states."""
-    return (f"SSM {theorem} theorem over the robot's capsules (verification/proof.py); "
+    return (f"SSM {theorem} theorem over the robot's capsules (verification.proof); "
             "margin checked over the box by z3"
             + (", at every speed level" if stopping == "by_speed" else "")
             + "; robot bounds by Lipschitz covering; tracker error by gain recursion")
