@@ -32,9 +32,9 @@ from safety_systems.config.configuration import with_controller
 from safety_systems.outputs.metrics import true_separations
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
-from verification.space import load_space
-from verification.tune import TASKS, Tuner, full_speed_distance
-from verification.tune_space import load_tunable, with_values
+from verification.spaces.space import load_space
+from verification.tune.tuner import TASKS, Tuner, full_speed_distance
+from verification.tune.tunable import load_tunable, with_values
 
 ROOT = Path(__file__).parents[1]
 GOAL = 0.30  # less time lost than iso.yaml

@@ -49,12 +49,12 @@ from pathlib import Path
 import numpy as np
 
 from safety_systems.config.scenario import load_controller_config
-from verification.evaluate_batch import evaluate_many
-from verification.evaluate_drake import evaluate_drake
-from verification.proof import prove
-from verification.runner import Runner
-from verification.search import falsify, sweep_points
-from verification.space import free_parameters, load_space, make_scenario, to_point
+from verification.search.evaluate_batch import evaluate_many
+from verification.search.evaluate_drake import evaluate_drake
+from verification.proof.theorems import prove
+from verification.search.runner import Runner
+from verification.search.strategies import falsify, sweep_points
+from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
 from verification.verify import verify
 
 ROOT = Path(__file__).parents[1]
@@ -163,7 +163,7 @@ class _Objective:
         self.calls, self.first, self.start = 0, None, time.process_time()
 
     def eval_sample(self, sample) -> float:
-        from verification.runner import FIELDS  # (the figures' order)
+        from verification.search.runner import FIELDS  # (the figures' order)
 
         self.calls += 1
         scenario = make_scenario(self.space, self.config,

@@ -49,7 +49,7 @@ def _configuration(path: str, unverified: bool):
 
     if not looks_like_params(path):
         return load_controller_config(path), None
-    from verification.certificate import EXIT_UNREADABLE, check
+    from verification.deploy.certificate import EXIT_UNREADABLE, check
 
     result = check(path)
     if result.params is None:  # params.yaml itself cannot be read
@@ -122,8 +122,8 @@ def _verify(args: argparse.Namespace) -> int:
     from safety_systems.files.documents import read_text
     from safety_systems.files.output_files import prepare_out
     from verification.report import disagreement_lines, vacuous_warnings, write_report
-    from verification.runner import check_scheduler
-    from verification.space import load_space
+    from verification.search.runner import check_scheduler
+    from verification.spaces.space import load_space
     from verification.verdicts import EXIT_REQUIREMENT, exit_code
     from verification.verify import verify
 
@@ -177,11 +177,11 @@ def _tune(args: argparse.Namespace) -> int:
     constraint; exit 1 when no candidate meets it."""
     from safety_systems.files.output_files import prepare_out
     from safety_systems.config.scenario import load_scenario
-    from verification.runner import check_scheduler
-    from verification.space import load_space
-    from verification.tune import TASKS, Tuner
-    from verification.tune_report import write_tune
-    from verification.tune_space import check_block, load_tunable
+    from verification.search.runner import check_scheduler
+    from verification.spaces.space import load_space
+    from verification.tune.tuner import TASKS, Tuner
+    from verification.tune.report import write_tune
+    from verification.tune.tunable import check_block, load_tunable
 
     config, block = load_tunable(args.config, args.tune)
     space = load_space(args.space)
@@ -289,7 +289,7 @@ def _export(args: argparse.Namespace) -> int:
 
     from safety_systems.files.output_files import prepare_out
     from safety_systems.config.scenario import load_controller_config
-    from verification.export import build, read_report, read_tune, write_export
+    from verification.deploy.export import build, read_report, read_tune, write_export
 
     config = load_controller_config(args.config)
     report = read_report(args.report)
@@ -320,7 +320,7 @@ def _loaders() -> dict:
     )
     from safety_systems.sensing.recording_mapping import load_mapping
     from safety_systems.planning.task_space import load_scene
-    from verification.space import load_space
+    from verification.spaces.space import load_space
 
     return {"scenario": load_scenario, "config": load_controller_config, "space": load_space,
             "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path),
@@ -346,7 +346,7 @@ def _check(args: argparse.Namespace) -> int:
                 print(f"{path}: ok")
         return 0
     from safety_systems.config.params_file import looks_like_params
-    from verification.certificate import check
+    from verification.deploy.certificate import check
 
     if args.certificate is not None and len(files) != 1:
         raise InputError("--certificate", args.certificate, "one params file to check with it")

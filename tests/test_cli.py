@@ -157,7 +157,7 @@ def test_compare_refuses_an_empty_controller_list(tmp_path, capsys, controllers)
 def test_unreachable_scheduler_fails_with_one_line(tmp_path, capsys, monkeypatch):
     import socket
 
-    from verification import runner
+    from verification.search import runner
 
     monkeypatch.setattr(runner, "SCHEDULER_TIMEOUT", 1.0)
     with socket.socket() as s:  # a port nobody listens on

@@ -23,8 +23,9 @@ from safety_systems.config.scenario import (
 )
 from safety_systems.config.params_file import Params
 from safety_systems.planning.task_space import TaskScene, load_scene
-from verification.space import ScenarioSpace, load_space
-from verification.tune_space import TunableConfig, TuneFile
+from verification.spaces.box import ScenarioSpace
+from verification.spaces.space import load_space
+from verification.tune.tunable import TunableConfig, TuneFile
 
 MODELS = Path(__file__).parents[1] / "models"
 INSPECTION = MODELS / "scenarios" / "inspection.yaml"

@@ -10,7 +10,7 @@ from safety_systems.config.scenario import scenario_from_text
 from safety_systems.diagrams.simulation import simulate
 from safety_systems.sensing.stops import STOP_SEPARATION
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_NONE
-from verification.evaluate_drake import robustness_of_run
+from verification.search.evaluate_drake import robustness_of_run
 
 # An operator 2.6 m out from the base (about 2 m from the arm, just outside S), beyond
 # the old rule's 2.5 m exit radius. At t = 3 s every one of its bodies goes out of view

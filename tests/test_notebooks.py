@@ -1,6 +1,5 @@
 """Each notebook runs top to bottom (shortened by SAFETY_SYSTEMS_NOTEBOOK_DURATION)."""
 
-import os
 from pathlib import Path
 
 import nbformat

@@ -16,8 +16,8 @@ from safety_systems.sensing.recording_mapping import load_mapping, rotation_matr
 from safety_systems.config.scenario import load_scenario
 from safety_systems.diagrams.simulation import simulate
 from safety_systems.diagrams.workcell import MakeWorkcell
-from verification.evaluate_batch import evaluate_batch, evaluate_many
-from verification.evaluate_drake import evaluate_drake
+from verification.search.evaluate_batch import evaluate_batch, evaluate_many
+from verification.search.evaluate_drake import evaluate_drake
 
 RECORDINGS = Path(__file__).parents[1] / "models" / "recordings"
 RATE = 100.0  # Hz: a sample every 5 control ticks

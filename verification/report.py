@@ -129,7 +129,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str,
         # every evaluation of a model of the loop in this run, by kind and in total
         # (simulations: closed-loop, evaluated here, not read from a resumed run's cache;
         # rankings: candidates scored by the falsifier's cheap models; drake: Drake
-        # replays), and the run's CPU and wall seconds (verification/counts.py)
+        # replays), and the run's CPU and wall seconds (verification/search/counts.py)
         "evaluations": o.evaluations.get("evaluations"),
         "cpu_seconds": o.evaluations.get("cpu_seconds"),
         "wall_seconds": o.evaluations.get("wall_seconds"),

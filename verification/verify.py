@@ -35,14 +35,14 @@ import numpy as np
 
 from safety_systems.files.output_files import write_text
 from safety_systems.config.scenario import ControllerConfig, dump_scenario
-from verification.counts import Tally
-from verification.evaluate_drake import cut_short, evaluate_drake
-from verification.proof import Proof, prove, prove_separation
+from verification.search.counts import Tally
+from verification.search.evaluate_drake import cut_short, evaluate_drake
+from verification.proof.theorems import Proof, prove, prove_separation
 from verification.properties import PROPERTIES
-from verification.runner import FIELDS, Runner
-from verification.search import SWEEPS, SearchLog, falsify, sweep
-from verification.space import (
-    ScenarioSpace,
+from verification.search.runner import FIELDS, Runner
+from verification.search.strategies import SWEEPS, SearchLog, falsify, sweep
+from verification.spaces.box import ScenarioSpace
+from verification.spaces.space import (
     assumptions,
     describe,
     free_parameters,
@@ -106,7 +106,7 @@ class Outcome:
     contact_geometry: str = "capsules"
     robot_mode: str = "kinematic"
     # every evaluation of a model of the loop, by kind and in total, and the CPU and
-    # wall seconds of the whole run (``verification.counts``)
+    # wall seconds of the whole run (``verification.search.counts``)
     evaluations: dict = dataclasses.field(default_factory=dict)
     stopped_at_first: str | None = None  # the property confirmed first (--stop-at-first)
     unchecked: list = dataclasses.field(default_factory=list)  # properties left unchecked

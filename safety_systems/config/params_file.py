@@ -25,7 +25,7 @@ valid YAML, no duplicate keys), then the ROS 2 form (the node key, ``ros__parame
 scalars and arrays of one type), then every key against the schema (an unknown key is
 an error naming it), then pydrake's typed load and the declared ranges, then the
 configuration's and the robot's own rules; any failure is one ``InputError`` line.
-Whether the file is what was certified is ``verification.certificate``'s question.
+Whether the file is what was certified is ``verification.deploy.certificate``'s question.
 
 This module must not use ``from __future__ import annotations`` (the YAML loader).
 """

@@ -38,7 +38,7 @@ def start_replay(file: str, options: dict, rate: float) -> tuple[subprocess.Pope
 def run(args: argparse.Namespace, origin: dict) -> int:
     from safety_systems.files.output_files import prepare_out, write_json
     from safety_systems.outputs.run_files import write_table
-    from safety_systems.sensing.recording import read_recording
+    from safety_systems.sensing.recording_files import read_recording
     from safety_systems.sensing.recording_mapping import (
         find_operator,
         load_mapping,

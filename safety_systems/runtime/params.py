@@ -33,7 +33,7 @@ class CertifiedParams:
 
 def load_certified_params(path: str | Path, *, unverified: bool = False) -> CertifiedParams:
     """The parameters at ``path`` if ``check`` certifies them (issue 14's
-    ``verification.certificate.check``: params.yaml against the certificate.json export
+    ``verification.deploy.certificate.check``: params.yaml against the certificate.json export
     wrote beside it; its safety checksum, both files' digests, a proved or passed
     verdict); the runtime refuses exactly what ``check`` refuses, by calling it.
 
@@ -44,7 +44,7 @@ def load_certified_params(path: str | Path, *, unverified: bool = False) -> Cert
     (``unverified`` or not) with check's line.
     """
     from safety_systems.config.params_file import robot_config
-    from verification.certificate import check
+    from verification.deploy.certificate import check
 
     path = Path(path)
     result = check(path)

@@ -31,7 +31,8 @@ import time
 
 import numpy as np
 
-from safety_systems.sensing.recording import Recording, fill_gaps, gaps, read_recording, span
+from safety_systems.sensing.recording import Recording, fill_gaps, gaps, span
+from safety_systems.sensing.recording_files import read_recording
 from safety_systems.sensing.recording import recorded_state_one
 from safety_systems.runtime.natnet_packets import (
     NAT_CONNECT,

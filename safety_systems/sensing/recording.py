@@ -2,7 +2,8 @@
 played back as true positions.
 
 A :class:`Recording` is what a reader gives (``safety_systems.sensing.motive_csv`` for
-OptiTrack Motive's CSV export, ``safety_systems.sensing.c3d_file`` for C3D): sample times,
+OptiTrack Motive's CSV export, ``safety_systems.sensing.c3d_file`` for C3D; the readers
+by file extension: ``safety_systems.sensing.recording_files``): sample times,
 body names and streaming ids, positions in the capture frame in metres (NaN where the
 body was not tracked) and orientations as unit quaternions (x, y, z, w; NaN where not
 tracked or not recorded, as for markers).
@@ -18,7 +19,6 @@ tracked sample to its last one.
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numba
 import numpy as np
@@ -131,19 +131,3 @@ def fill_gaps(times: np.ndarray, points: np.ndarray) -> np.ndarray:
         for k in range(3):
             out[:, b, k] = np.interp(times, times[ok], out[ok, b, k])
     return out
-
-
-def read_recording(path: str | Path) -> Recording:
-    """A recording by its file's extension: ``.csv`` (Motive's CSV export) or ``.c3d``;
-    raises InputError."""
-    suffix = Path(path).suffix.lower()
-    if suffix == ".csv":
-        from safety_systems.sensing.motive_csv import read_motive_csv
-
-        return read_motive_csv(path)
-    if suffix == ".c3d":
-        from safety_systems.sensing.c3d_file import read_c3d
-
-        return read_c3d(path)
-    raise InputError("path", str(path), "a recording: a Motive CSV export (.csv) or a C3D "
-                     "file (.c3d)")

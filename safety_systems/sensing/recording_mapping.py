@@ -38,7 +38,8 @@ from safety_systems.files.documents import load_document, read_input
 from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import number
-from safety_systems.sensing.recording import Recording, fill_gaps, gaps, read_recording, span
+from safety_systems.sensing.recording import Recording, fill_gaps, gaps, span
+from safety_systems.sensing.recording_files import read_recording
 
 UP_AXES = ("y", "z")
 MAX_STREAMING_ID = 2**31 - 1

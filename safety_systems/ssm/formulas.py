@@ -362,7 +362,7 @@ def level_at_or_above(rate, levels):
     g / levels counts as level g: the tolerance is in units of the rate, not of the
     level, so that with power-of-two level counts (the override's SPEED_LEVELS, S_true's
     TRUTH_RATES) a level-g rate maps exactly to a grid rate at or below g / levels
-    (``verification.proof.level_rate``)."""
+    (``verification.proof.margins.level_rate``)."""
     if not rate < 1.0:
         return levels
     return max(0, min(levels, math.ceil((rate - 1e-9) * levels)))

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from safety_systems.cli import main
-from safety_systems.sensing.recording import read_recording
+from safety_systems.sensing.recording_files import read_recording
 from safety_systems.sensing.recording_mapping import find_operator, load_mapping, recorded_bodies
 from safety_systems.runtime.live_run import LiveOptions, run_live
 from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource
@@ -414,7 +414,7 @@ def test_the_robot_disconnecting_gives_k_0_within_a_control_period(tmp_path, exp
 def test_parameters_certified_as_passed_are_run_with_checks_warning(exported_params, capsys,
                                                                     monkeypatch):
     """check accepts a passed verdict and says it is weaker; run says so too."""
-    import verification.certificate as certificate
+    import verification.deploy.certificate as certificate
     from safety_systems.runtime.params import load_certified_params, warn_unverified
 
     real = certificate.check(exported_params)

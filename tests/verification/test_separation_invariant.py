@@ -11,10 +11,11 @@ from safety_systems.outputs.metrics import command_signal, robot_stopping, summa
 from safety_systems.cell.robot_geometry import capsule_ends
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
-from verification.evaluate_drake import robustness_of_run
-from verification.proof import prove, prove_separation
+from verification.search.evaluate_drake import robustness_of_run
+from verification.proof.theorems import prove, prove_separation
 from verification.report import write_report
-from verification.space import Range, load_space
+from verification.spaces.box import Range
+from verification.spaces.space import load_space
 from verification.verify import verify
 
 INSPECTION = load_scenario("models/scenarios/inspection.yaml")

@@ -18,14 +18,15 @@ import numpy as np
 import pytest
 
 import safety_systems.ssm.separation as separation_module
-import verification.evaluate_batch as batch_module
+import verification.search.evaluate_batch as batch_module
 from safety_systems.outputs.metrics import true_pairs
 from safety_systems.cell.robot_geometry import CAPSULE_NAMES, segment_pair
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
-from verification.evaluate_drake import robustness_of_run
-from verification.proof import prove
-from verification.space import Range, load_space
+from verification.search.evaluate_drake import robustness_of_run
+from verification.proof.theorems import prove
+from verification.spaces.box import Range
+from verification.spaces.space import load_space
 from verification.verify import verify
 
 DEFAULT = load_space("models/spaces/default.yaml")
@@ -211,8 +212,8 @@ def _rebuilt(function, **names):
 def flipped_sign(monkeypatch):
     """Eqs. 6-7 with the wrong sign: closing in counts as moving away. The product's
     compiled monitor pair (``separation.pair_speeds`` and ``pair_separation``) is rebuilt
-    with the pair's speeds flipped, and so are the functions that inline it: ``body_separation``, the
-    diagram's SeparationMonitor (through ``separation.separation_rows``) and the batched
+    with the pair's speeds flipped, and so are the functions that inline it:
+    ``body_separation``, the diagram's SeparationMonitor (through ``separation.separation_rows``) and the batched
     evaluator's ticks (both its seams, ``monitor_body`` and ``monitor_pair``)."""
 
     @numba.njit(inline="always")

@@ -11,17 +11,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import verification.runner as runner_module
+import verification.search.runner as runner_module
 import verification.verify as verify_module
 from safety_systems.cli import main
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
-from verification.evaluate_batch import evaluate_batch, evaluate_many
-from verification.evaluate_drake import evaluate_drake, robustness_of_run
-from verification.proof import Proof
+from verification.search.evaluate_batch import evaluate_batch, evaluate_many
+from verification.search.evaluate_drake import evaluate_drake, robustness_of_run
+from verification.proof.theorems import Proof
 from verification.report import vacuous_warnings
-from verification.search import SearchLog
-from verification.space import free_parameters, load_space, make_scenario, to_point
+from verification.search.strategies import SearchLog
+from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
 from verification.verdicts import EXIT_TABLE, REQUIREMENTS, VERDICTS, exit_code
 from verification.verify import disagreements, replay_choice
 

@@ -9,7 +9,7 @@ import pytest
 from safety_systems.cli import main
 from safety_systems.config.scenario import load_scenario
 from safety_systems.diagrams.simulation import simulate
-from verification.evaluate_drake import robustness_of_run
+from verification.search.evaluate_drake import robustness_of_run
 
 MODELS = Path(__file__).parents[2] / "models"
 SPACE = str(MODELS / "spaces" / "default.yaml")

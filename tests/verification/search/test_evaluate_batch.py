@@ -1,0 +1,155 @@
+"""The batched evaluator agrees with the Drake diagram (the ground truth)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from safety_systems.config.scenario import SensorFault, load_controller_config
+from verification.search.evaluate_batch import evaluate_batch, evaluate_many
+from verification.search.evaluate_drake import evaluate_drake
+from verification.spaces.box import Range
+from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
+
+TOLERANCE = 1e-9  # m: the two evaluators run the same maths in the same order
+SPACE = load_space("models/spaces/default.yaml")
+# Everything the evaluators model, varying at once.
+WIDE = dataclasses.replace(SPACE, parameters=dataclasses.replace(
+    SPACE.parameters, latency=Range(0.0, 0.03), dropout=Range(0.0, 0.15),
+    occlusion=Range(0.0, 0.4), braking_time_scale=Range(1.0, 1.8),
+    noise_std=Range(0.0, 0.005)))
+
+
+def _assert_agree(drake, batch, i):
+    """Both properties' figures of scenario i: the Drake run's and the batch's."""
+    for name, field in (("stopped_before_contact", "robustness"),
+                        ("separation", "separation")):
+        ours, theirs = getattr(batch, field)[i], getattr(drake, name)
+        if np.isinf(theirs):  # never moving (permitted) near a body
+            assert ours == theirs, name
+        else:
+            assert abs(theirs - ours) <= TOLERANCE, name
+    assert drake.separation_violation_time == pytest.approx(
+        batch.separation_violation_time[i], abs=1e-9)
+
+
+def _config(name, **safety):
+    config = load_controller_config(f"models/configs/{name}.yaml")
+    return dataclasses.replace(config, safety=dataclasses.replace(config.safety, **safety))
+
+
+@pytest.mark.parametrize("config", [
+    _config("seed_estimated"),
+    _config("iso"),
+    _config("iso", human_speed="estimated_with_floor", human_uncertainty_sigmas=2.0),
+    _config("iso", stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
+            intrusion_distance=0.0, robot_uncertainty=0.2),
+    _config("seed_estimated", stopping="by_speed", delta_s=1.5),
+], ids=["estimated", "iso", "floor_with_sigmas", "by_speed", "by_speed_estimated"])
+def test_batch_agrees_with_drake_on_random_scenarios(config):
+    rng = np.random.default_rng(20261122)
+    d = len(free_parameters(WIDE))
+    points = [to_point(WIDE, rng.uniform(size=d)) for _ in range(2)]
+    scenarios = [make_scenario(WIDE, config, p, name=f"s{i}") for i, p in enumerate(points)]
+    batch = evaluate_many(scenarios)
+    assert np.isfinite(batch.robustness).any()  # the robot moved near someone
+    assert np.isfinite(batch.separation).any()  # motion permitted near someone
+    for i, scenario in enumerate(scenarios):
+        drake, _ = evaluate_drake(scenario)
+        _assert_agree(drake, batch, i)
+
+
+def _with_every_fault(scenario):
+    """The scenario with every kind of sensor fault, a few frames each, after the onset
+    and the occlusions (a fault on a body out of view changes nothing)."""
+    onset = max([scenario.operators[0].waypoints[1].time]
+                + [o.end for o in scenario.sensor.occlusions])
+    hand, other, head = (f"operator_0/{b.name}" for b in scenario.operators[0].bodies)
+    faults = [SensorFault("non_finite", hand, "", onset + 0.3, onset + 0.4),
+              SensorFault("unknown_id", other, "", onset + 0.5, onset + 0.6),
+              SensorFault("swap", hand, other, onset + 0.7, onset + 0.8),
+              SensorFault("time_duplicate", "", "", onset + 0.9, onset + 0.95),
+              SensorFault("time_backwards", "", "", onset + 1.0, onset + 1.1),
+              SensorFault("outlier", head, "", onset + 1.2, onset + 1.35, [0.0, 0.8, 0.0])]
+    sensor = dataclasses.replace(scenario.sensor, faults=scenario.sensor.faults + faults)
+    return dataclasses.replace(scenario, name=scenario.name + "_faults", sensor=sensor)
+
+
+WHOLE = dataclasses.replace(SPACE, parameters=dataclasses.replace(
+    SPACE.parameters, latency=Range(0.0, 0.03), noise_std=Range(0.0, 0.005),
+    braking_time_scale=Range(1.0, 1.8), occlusion=Range(0.0, 1.0)))
+
+
+def _tracker(config, **kw):
+    return dataclasses.replace(config, tracker=dataclasses.replace(config.tracker, **kw))
+
+
+@pytest.mark.parametrize("config", [
+    _config("seed_estimated"),
+    _config("iso"),
+    _config("iso_previous"),
+    _tracker(_config("iso", human_speed="estimated_with_floor", human_uncertainty_sigmas=2.0,
+                     tool_length=0.2), hidden_bodies="expire", gate=False),
+    _config("iso", robot_speed="fastest_point", robot_uncertainty=0.0),
+    _config("iso", stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
+            robot_uncertainty=0.1, delta_s=1.2),
+], ids=["seed", "iso", "previous", "expire_floor_sigmas_tool", "fastest_point", "by_speed"])
+def test_batch_agrees_with_drake_on_the_whole_cell_space(config):
+    # Capsules or the tool point, heads, long occlusions of several bodies, outlier frames,
+    # both tracker rules, the gate on and off, and every kind of sensor fault.
+    rng = np.random.default_rng(20261123)
+    d = len(free_parameters(WHOLE))
+    scenarios = [make_scenario(WHOLE, config, to_point(WHOLE, rng.uniform(size=d)),
+                               name=f"s{i}") for i in range(2)]
+    # A lunge from 2.4 m at the forearm, the sensor as configured, then every fault.
+    point = dict(to_point(WHOLE, np.full(d, 0.5)), start_distance=2.4, latency=0.0,
+                 occlusion=0.3, outlier_frames=0.0, target_link=2.0, peak_speed=1.8,
+                 braking_time_scale=1.0)
+    scenarios.append(_with_every_fault(make_scenario(WHOLE, config, point, name="faults")))
+    batch = evaluate_many(scenarios)
+    finite = 0
+    for i, scenario in enumerate(scenarios):
+        drake, run = evaluate_drake(scenario)
+        if scenario.name == "faults_faults":  # every cause exercised (the gate's if on)
+            counts = run["tracker.rejected_frames"][-1]
+            assert np.all(counts[:3] > 0) and (counts[3] > 0) == config.tracker.gate
+            assert np.isfinite(drake.stopped_before_contact)  # the robot moved near it
+        finite += np.isfinite(drake.stopped_before_contact) and np.isfinite(drake.separation)
+        _assert_agree(drake, batch, i)
+    assert finite >= 1  # the robot moved near someone: the comparison means something
+
+
+def test_batch_order_and_grouping_do_not_change_results():
+    config = _config("seed_estimated")
+    rng = np.random.default_rng(5)
+    d = len(free_parameters(SPACE))
+    scenarios = [make_scenario(SPACE, config, to_point(SPACE, rng.uniform(size=d)))
+                 for _ in range(16)]  # 1 or 2 operators: two shapes, two batches
+    together = np.stack(dataclasses.astuple(evaluate_many(scenarios)))
+    # Alone, a scenario shares its robot's state with no other (see _advance): the same
+    # figures bit for bit.
+    alone = np.stack([dataclasses.astuple(evaluate_many([s])) for s in scenarios], axis=1)
+    np.testing.assert_array_equal(together, alone[..., 0])
+    reversed_ = np.stack(dataclasses.astuple(evaluate_many(scenarios[::-1])))[:, ::-1]
+    np.testing.assert_array_equal(together, reversed_)
+
+
+def test_batch_rejects_mixed_shapes():
+    config = _config("seed_estimated")
+    one = make_scenario(SPACE, config, dict(to_point(SPACE, np.full(14, 0.5)), operators=1.0))
+    two = make_scenario(SPACE, config, dict(to_point(SPACE, np.full(14, 0.5)), operators=2.0))
+    with pytest.raises(ValueError, match="operator shape"):
+        evaluate_batch([one, two])
+
+
+def test_unit_noise_table_is_the_sensors_draws_kept_and_grown():
+    from safety_systems.sensing.delivery import unit_noise
+    from verification.search.evaluate_batch import unit_noise_table
+
+    short = unit_noise_table(12345, 3, 4).copy()
+    longer = unit_noise_table(12345, 3, 9)  # the kept table, grown
+    assert longer.shape == (9, 3, 3)
+    np.testing.assert_array_equal(longer[:4], short)
+    for k in (0, 3, 8):
+        np.testing.assert_array_equal(longer[k].ravel(), unit_noise(12345, k, 3))
+    assert unit_noise_table(12345, 3, 2).shape[0] >= 2  # a shorter need reuses it

@@ -1,0 +1,185 @@
+"""The premises both theorems share (``verification.proof.theorems``): each a statement
+that is *checked* (against this model, the configuration and the space) or *trusted*
+(taken from the files and the real cell), and the box the theorem is stated over."""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from safety_systems.cell.ur5e import DH_D
+from safety_systems.config.configuration import (
+    contact_capsules,
+    frame_timeout,
+    monitor_capsules,
+    placeholder_braking,
+)
+from safety_systems.config.scenario import ControllerConfig
+from safety_systems.ssm.formulas import SPEED_LEVELS
+from verification.proof.margins import (
+    least_level_separation,
+)
+from verification.proof.robot_bounds import (
+    REACH_BOUND,
+    braking_is_monotone,
+)
+from verification.proof.tracking_error import ERROR_HORIZON, estimate_error_coefficients
+from verification.spaces.box import ScenarioSpace
+from verification.spaces.recorded import recorded_reach
+from verification.spaces.space import HEAD_BACK, HEAD_UP, OTHER_HAND_OFFSET
+
+COVERED_MODE = "kinematic"  # the theorem's robot follows its braked reference exactly
+
+
+@dataclasses.dataclass(frozen=True)
+
+class Premise:
+    """One premise of the theorem: ``basis`` is ``checked`` (by ``prove``, against this
+    model, the configuration and the space) or ``trusted`` (taken from the files and the
+    real cell; ``holds`` is then what the files say, not a finding)."""
+
+    statement: str
+    holds: bool
+    basis: str
+
+
+def operators_reach(space: ScenarioSpace) -> float:
+    """A bound on how far from the robot base any body of the space's scenarios gets, m:
+    the farthest point of the robot, then the start distance, a retreat and the body's
+    offset from the hand (a recording space's: ``recorded.recorded_reach``)."""
+    if space.recording is not None:
+        return recorded_reach(space)
+    p = space.parameters
+    robot = REACH_BOUND + DH_D[0] + space.robot.tool_length
+    body = max(OTHER_HAND_OFFSET, math.hypot(HEAD_BACK, HEAD_UP))
+    return robot + p.start_distance.max + p.retreat_distance.max + p.overshoot.max + body
+
+
+def tracks_never_end(config: ControllerConfig, space: ScenarioSpace) -> bool:
+    """No body of the space comes into an exit region or beyond the cell's walls (where
+    its track would end): every region lies beyond ``operators_reach`` of the base."""
+    reach, t = operators_reach(space), config.tracker
+
+    def inside_ball(box) -> bool:  # the box meets the ball of radius reach about the base
+        nearest = np.clip(0.0, box.min, box.max)
+        return float(np.linalg.norm(nearest)) <= reach
+
+    walls_far = t.cell is None or (np.all(np.array(t.cell.min) <= -reach)
+                                   and np.all(np.array(t.cell.max) >= reach))
+    return bool(walls_far and not any(inside_ball(box) for box in t.exits))
+
+
+def monitor_covers_contact(config: ControllerConfig, space: ScenarioSpace) -> bool:
+    """The monitor's robot contains the property's: capsules against capsules (same axes,
+    radii and tool at least as large), capsules against the tool point (the flange lies on
+    the tool capsule's axis), or the tool point against the tool point."""
+    f, robot = config.safety, space.robot
+    if space.contact_geometry == "tool_point":
+        return True
+    if f.robot_geometry == "tool_point":
+        return False
+    mine = monitor_capsules(config)
+    real = contact_capsules(robot, space.contact_geometry)
+    return bool(np.all(mine.radius >= real.radius) and mine.tool_length >= real.tool_length)
+
+
+def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
+    """What both theorems share: the box's extremes, the tracker's error coefficients and
+    the premises, checked and trusted (``prop``: ``contact`` or ``separation``, which
+    needs no ordering of braking speeds and no contact distance)."""
+    f, t, p = config.safety, config.tracker, space.parameters
+    h = 1.0 / space.robot.control_rate_hz
+    period = 1.0 / config.sensor.rate_hz
+    scale = p.braking_time_scale.max
+    v_max, noise = p.peak_speed.max, space.noise_bound_sigmas * p.noise_std.max
+    alpha, beta, converged = estimate_error_coefficients(config)
+    e_worst = math.sqrt(3.0) * (alpha * noise + beta * v_max)  # m, Euclidean
+    outliers = p.outlier_frames.max >= 1
+    gate_widest = ((t.gate_speed + v_max) * p.outlier_frames.max * period + t.gate_width
+                   + f.human_uncertainty + e_worst + math.sqrt(3.0) * noise)
+    placeholder = placeholder_braking(config)
+    checked = model_premises(config, space) + [
+        (f"hidden bodies stay hazards: tracks end only where bodies leave "
+         f"(hidden_bodies: {t.hidden_bodies}) and a hidden body's ball grows at least as "
+         f"fast as a hand (occlusion_speed {f.occlusion_speed:g} >= v_max {v_max:g} m/s)",
+         t.hidden_bodies == "hazard" and f.occlusion_speed >= v_max),
+        ("no body of the space reaches an exit region or the cell's walls (where its track "
+         f"would end): all within {operators_reach(space):.2f} m of the base",
+         tracks_never_end(config, space)),
+        (f"frames within the noise bound pass the gate (gate_speed {t.gate_speed:g} >= "
+         f"v_max and gate_width {t.gate_width:g} m >= E + sqrt(3) noise "
+         f"{e_worst + math.sqrt(3.0) * noise:.4f} m)",
+         not t.gate or (t.gate_speed >= v_max
+                        and t.gate_width >= e_worst + math.sqrt(3.0) * noise)),
+        ((f"the space's outlier frames all fall outside the gate: offset "
+          f"{p.outlier_offset.min:g} m > the widest gate an outlier of a run of "
+          f"{int(p.outlier_frames.max)} frames can meet, {gate_widest:.3f} m")
+         if outliers else "the space has no outlier frames",
+         not outliers or (t.gate and p.outlier_offset.min > gate_widest)),
+        ("every body is seen before its onset (settle time > frame timeout)",
+         space.settle_time > frame_timeout(config)),
+    ]
+    by_speed = f.stopping == "by_speed"
+    if prop == "contact" or by_speed:
+        checked.append(("a braking step preserves the order of speeds"
+                        + (" (so a stop from a lower speed level takes no longer and travels "
+                           "no farther)" if by_speed else ""),
+                        braking_is_monotone(config, h, scale)))
+    if by_speed:
+        least = least_level_separation(config, space)
+        checked.append((f"d >= dS S_max(g) gives d >= S_max(g) at every speed level: dS = 1 "
+                        f"or the monitor's S is never negative (dS {f.delta_s:g}; the least S "
+                        f"at any level {least:.4f} m)", f.delta_s == 1.0 or least >= 0.0))
+    checked.append((f"the tracker's error recursion converged within {ERROR_HORIZON} frames",
+                    converged))
+    trusted = [
+        ("the stopping data describes the real robot's stops"
+         + (" from every speed (S by speed uses its rows below full speed)"
+            if by_speed else "") + ", times within "
+         f"{p.braking_time_scale.min:g} to {scale:g} of it"
+         + (" (THE BUILT-IN PLACEHOLDER DERIVED FROM UR5/CB3 DATA, NOT MEASURED ON THIS "
+            "CELL)" if placeholder else " (the configuration's braking table)")),
+        f"no hand or head moves faster than v_max = {v_max:g} m/s (ISO 13855: 2.0 m/s)",
+        f"sensor noise stays below {space.noise_bound_sigmas:g} sigma per axis "
+        f"({noise:g} m) in every frame the gate accepts: no marker swap or reflection "
+        "passes it",
+        "the real robot follows its braked reference as exactly as the kinematic model "
+        "does (its tracking error is not covered)",
+        "the UR5e model's capsules contain the real arm (they contain its collision "
+        "geometry: tests/test_robot_geometry.py), the tool fits its payload capsule and "
+        "every body fits its sphere",
+        "bodies come into the cell only through its exits and are tracked before they "
+        "come near the robot (the space's operators stand still for the settle time)",
+    ]
+    premises = ([Premise(x, bool(ok), "checked") for x, ok in checked]
+                + [Premise(x, True, "trusted") for x in trusted])
+    box = {"peak_speed": [p.peak_speed.min, p.peak_speed.max],
+           "noise_std": [p.noise_std.min, p.noise_std.max],
+           "braking_time_scale": [p.braking_time_scale.min, p.braking_time_scale.max],
+           "latency": [p.latency.min, p.latency.max], "dropout": [p.dropout.min, p.dropout.max],
+           "occlusion": [p.occlusion.min, p.occlusion.max],
+           "outlier_frames": [p.outlier_frames.min, p.outlier_frames.max],
+           "start_distance": [p.start_distance.min, p.start_distance.max],
+           "acceleration": [p.acceleration.min, p.acceleration.max]}
+    return premises, box, placeholder, (alpha, beta), scale
+
+
+def model_premises(config: ControllerConfig, space: ScenarioSpace) -> list[tuple]:
+    """The premises on the controller and the robot that both theorems share, as
+    (statement, holds) pairs."""
+    f = config.safety
+    return [
+        ("the controller is the SSM speed override (seed 000, Eq. 12)"
+         if f.stopping != "by_speed" else
+         f"the controller is the SSM speed override with S by speed (ssm.by_speed_command: "
+         f"{SPEED_LEVELS} levels, S from the stop at the level of the rate now and of the "
+         "command)", config.type == "ssm_override"),
+        (f"the space's robot is in {COVERED_MODE} mode, the one this theorem covers "
+         f"(robot.mode: {space.robot.mode}; a dynamic robot's tracking error is not in "
+         "the margin)", space.robot.mode == COVERED_MODE),
+        ("the human-speed term is a constant floor (iso or estimated_with_floor)",
+         f.human_speed in ("iso", "estimated_with_floor")),
+        ("the monitor's robot contains the one contact is measured against "
+         f"({f.robot_geometry} against {space.contact_geometry})",
+         monitor_covers_contact(config, space)),
+    ]

@@ -1,0 +1,344 @@
+"""Proofs that the robot is at rest whenever a body is within the contact distance of it,
+and that it never moves with a body inside the protective distance of the true speeds.
+
+Theorem 1 (what ``prove`` checks). Take the kinematic workcell (``robot.mode: kinematic``,
+a checked premise: the theorem covers no other mode, ``Proof.robot_mode`` says which)
+with the SSM speed override, a configuration whose human-speed term is a constant floor
+v (``iso`` or ``estimated_with_floor``), whose monitor measures capsules containing the
+property's (``configuration.monitor_capsules`` against ``contact_capsules``), whose
+tracker keeps hidden bodies as balls growing at ``occlusion_speed`` >= v_max until they
+are seen leaving (``hidden_bodies: hazard``, ``safety_systems.sensing.tracks``), and a space whose
+scenarios satisfy the premises ``prove`` lists (each marked *checked*, against this
+model, or *trusted*, taken from the files). Let
+
+    M = v (T_s + T_r) + r_low T_r + B + C + Z_d + Z_r        (the configured S, lower bound)
+        - E                                                  (tracker position error)
+        - v_max (tau + T_stop + h)                           (human travel)
+        - V_R h - D                                          (robot travel)
+        - c                                                  (contact distance)
+
+where T_s, T_r, B, C, Z_d, Z_r are the configuration's, tau its frame timeout, h the
+control period, V_R the largest speed of any point of the monitor's capsule axes on
+the path, r_low the least the monitor's robot speed term can be (-V_R for Eq. 7's
+directed speed, 0 for ``robot_speed: fastest_point``), T_stop the longest stop from full
+speed under the real brakes and D the longest travel of any capsule axis point in it
+(plus one tick), and E a bound on the distance between a tracked body and its estimate
+at the estimate's capture time. If
+M >= 0 over the whole box, no scenario in it has a body within c of any capsule of the
+moving robot, whatever the occlusions (of any length, of any bodies), dropped frames,
+and outlier or corrupted frames.
+
+Proof sketch. Suppose the robot moves at tick t_c with body i within c of capsule j.
+The path rate only rises after a command k > 0, so there is a last tick t' <= t_c with
+k(t') > 0; after it every command is 0, so the robot rests within T_stop of t' + h and
+t_c - t' <= T_stop + h. At t' there was no fault: the newest good frame was captured at
+t_f >= t' - tau, and it was clean (a rejected entry: a bad time, an unknown id, a
+non-finite position or one outside the gate, stops the robot until a clean frame). Body
+i had a usable track: it was seen before its onset and a track ends only where a body
+leaves the cell, which the space's bodies never do. So d_i(t') >= S_max >= S_ij(t'),
+with d_i the clearance from the estimate x (tracking) or the ball around it (hidden;
+radius occlusion_speed (t_f - t_seen)) to the monitor's capsule j. The true position at
+t_f lies within E + v_max (t_f - t_seen) of x: E bounds the error at the last accepted
+measurement (the filter restarts after every gap, so E is the error of a track seen in
+consecutive frames since its start, by the gain recursion, with every accepted frame
+within the noise bound: frames inside the gate are trusted to be, and the space's
+outliers are checked to fall outside it), and the ball covers the rest. Then
+    clearance_ij(t_c) >= d_i(t') - E - v_max (t_c - t_f) - (V_R h + D),
+the real capsules being inside the monitor's (a larger radius, a longer axis) and the
+robot's axis points moving at most V_R h in the tick after t' and D while braking, and
+S_ij >= v (T_s + T_r) + r_low T_r + B + C + Z_d + Z_r (Eq. 5's speed of any axis point
+towards the body is at least -V_R). Together clearance_ij(t_c) >= M + c >= c.
+
+Theorem 2 (what ``prove_separation`` checks): the separation invariant
+(``verification.properties``): at every tick t where the override's k > 0, every body
+i and every capsule j of the real robot have clearance_ij(t) >= S_true_ij(t), seed Eqs.
+9-11 on the true directed speeds with T_r and C, and the simulated robot's stopping
+time T* and distance B* (``safety_systems.cell.stopping``), without Z_d and Z_r. Under the
+premises of Theorem 1 but the ordering of braking speeds (S_true uses the full-speed
+stop), let
+
+    M_S = v_lo (T_s + T_r) - v_hi (T_stop + T_r)     (the human terms)
+          + g T_r                                   (the robot speed terms)
+          + B - D + Z_d + Z_r                       (stopping distance, allowances)
+          - E - v_max tau                           (what the monitor does not see)
+
+with v_lo the monitor's least human speed (the 1.6 m/s rule's lower speed, or the
+floor), v_hi the most S_true can use (the larger iso speed, or max(v_max, floor)), and
+g = -2 V_R for the directed robot speed (the monitor's capsule point may move away from
+the estimate at V_R while the true body's moves towards it at V_R) or -a h for
+``fastest_point`` (the monitor's speed is the capsule's fastest end by Eq. 5, its ends
+differenced over the last tick, at most a h short of the instant's speed of any of its
+axis points, a: ``robot_acceleration_bound``). If M_S >= 0 over the box, the invariant
+holds in every scenario of it. C cancels (it is in both S), so only Z_d + Z_r can buy
+the margin; ``Proof.needed_allowance`` says how much is missing.
+
+Proof sketch. At a tick t with k(t) > 0 there is no fault, the newest good frame is
+at most tau old, every body's track is usable, and the closest d_i exceeds S_max. The
+monitor's robot is the true robot at t (the same joint state). As in Theorem 1 the true
+position is within E + v_max (t - t_f) of the estimate beyond its ball, so
+clearance_ij(t) >= d_i(t) - E - v_max tau > S_max - E - v_max tau. S_max is at least
+v_lo (T_s + T_r) + r T_r + B + C + Z_d + Z_r with r the monitor's robot speed term, and
+S_true_ij at most v_hi (T* + T_r) + r* T_r + B* + C with T* <= T_stop, B* <= D and r*
+the true directed speed: r* - r <= -g. So clearance_ij(t) - S_true_ij(t) > M_S >= 0.
+
+Speed levels (``safety.stopping: by_speed``, ISO/TS 15066's S_s from the robot's
+current speed). The override commands one of the levels sigma_g = g / G (G =
+``ssm.SPEED_LEVELS``) by ``ssm.by_speed_command``; the monitor computes each body's S at
+every level with T_s(sigma_g) and B(sigma_g) (``configuration.level_stops``), and
+S_true takes T* and B* from the simulated robot's stop from its true rate at the tick
+(``cell.stopping.stops_by_rate``: the grid rate at or above it). Both theorems then
+hold with one margin per level g = 1..G, each checked over the box (one z3 query, the
+levels' conditions in a disjunction); the proof reports the least, and at which level
+(``Proof.terms``: ``speed_level``, ``level_margins``). Let rho_g (:func:`level_rate`)
+bound every rate the override counts as level g or below and the grid rate S_true
+takes for such a rate (g / G but for the rules' rounding), and rho'_g = min(1, rho_g +
+a_b h) every rate over the tick before (a_b: the table's fastest deceleration at the
+space's shortest braking time scale; the rate falls at most a_b h in a tick). Then
+
+    M_g = v (T_s(sigma_g) + T_r) + r_g T_r + B(sigma_g) + C + Z_d + Z_r
+          - E - v_max (tau + T_stop(rho_g) + h) - V_R rho_g h - D(rho_g) - c
+
+    M_S,g = v_lo (T_s(sigma_g) + T_r) - v_hi (T_stop(rho_g) + T_r) + g_g T_r
+            + B(sigma_g) - D(rho_g) + Z_d + Z_r - E - v_max tau
+
+with T_stop(rho) and D(rho) the stop commanded at path rate rho (D over a path
+window of that stop plus one tick at rho), r_g = -V_R rho'_g (directed) or 0
+(fastest_point), and g_g = -V_R (rho_g + rho'_g) (directed) or -a(rho'_g) h
+(fastest_point, a(rho) = |d2p/ds2| rho^2 + V_R |d sigma/dt|). At g = G every term is
+the full-speed one (rho = rho' = 1, T_s(1) = T_s, B(1) = B): M_G = M and M_S,G = M_S.
+Z_d + Z_r adds to every level's margin alike, so ``needed_allowance`` is the least
+level's shortfall.
+
+Proof sketch (what changes). Whenever k(t) > 0 the override found d(t) >= S_max(g_now)
+(g_now the level at or above the rate now) and d(t) >= dS S_max(g_k) with k = g_k / G,
+g_k >= 1 (the level 0 never permits motion, though g_now may be 0). So d(t) >=
+S_max(g') with g' = max(g_now, g_k) in 1..G (for dS > 1 this needs S_max(g_k) >= 0: a
+checked premise, the monitor's least S at any level is not negative). The rate now is
+at most rho_{g'}, and so is k; one tick moves the rate from the rate now towards k
+without passing it (``braking.rate_step_one``), so sigma(t + h) <= rho_{g'}.
+Theorem 1: at the last tick t' with k > 0 before t_c the rate left is at most
+rho_{g'}; every later command is 0, and a stop from a lower rate takes no longer and
+travels no farther (a braking step preserves the order of rates: checked), so t_c - t'
+<= T_stop(rho_{g'}) + h and the capsule axes travel at most V_R rho_{g'} h +
+D(rho_{g'}) after t'. The monitor's capsule velocities at t' are differenced over the
+tick before, at rates up to rho'_{g'}, so its directed robot term is at least -V_R
+rho'_{g'}. The rest is as above, with the level's terms: clearance_ij(t_c) >= M_{g'} +
+c. Theorem 2: at a tick t with k(t) > 0, S_true takes the stop from the grid rate at
+or above sigma(t), at most rho_{g'}: T* <= T_stop(rho_{g'}) and B* <= D(rho_{g'})
+(stops grow with the rate, checked there too); S_true's robot term is at most V_R
+sigma(t) <= V_R rho_{g'}, the monitor's at least -V_R rho'_{g'} (directed), or within
+a(rho'_{g'}) h of the instant's speed of any axis point (fastest_point). The rest is as
+above: clearance_ij(t) - S_true_ij(t) > M_S,{g'}. As g' is one of 1..G, every level's
+margin >= 0 proves the theorem.
+
+The bounds V_R, D, T_stop and E are computed here, soundly: V_R and D by a Lipschitz
+covering of the path (grid values of every capsule end's speed, whose maximum bounds
+every axis point's, plus the largest change between grid points, from a bound on a
+rigid point's acceleration); T_stop by running the braking model from full speed; E by
+running the filter's deterministic gain recursion from a new track until it converges
+and propagating worst-case error and velocity bounds (linear in noise and v_max). M is
+then checked over the continuous box of (v_max, noise) by z3 (unsatisfiability of
+M < 0, and of M_S < 0), with the robot bounds taken at the largest braking time scale
+(stopping time and distance grow with it).
+
+A space built around a recording (``verification.spaces.recorded``) is declined: the
+margins are checked over scripted approaches' parameters only (:func:`_declined` lists
+what a proof over recorded motion would need, measured from the recording).
+"""
+
+import dataclasses
+
+import numpy as np
+
+from safety_systems.config.configuration import (
+    frame_timeout,
+    placeholder_braking,
+)
+from safety_systems.config.scenario import ControllerConfig
+from safety_systems.ssm.formulas import SPEED_LEVELS
+from verification.proof.margins import (
+    Levels,
+    Margin,
+    margin_of_levels,
+    robot_speed_gap,
+    speed_levels,
+    unsat_below_zero,
+)
+from verification.proof.premises import (
+    COVERED_MODE,
+    Premise,
+    model_premises,
+    operators_reach,
+    setting,
+    tracks_never_end,
+)
+from verification.spaces.box import ScenarioSpace
+from verification.spaces.recorded import recorded_speed, tracked_from_start
+from verification.spaces.space import parameter_ranges
+
+
+@dataclasses.dataclass(frozen=True)
+
+class Proof:
+    """The outcome of ``prove``: ``proved`` only if every premise holds and z3 showed
+    M >= 0 over the box."""
+
+    proved: bool
+    method: str
+    box: dict
+    premises: list  # Premise records
+    margin_at_worst_corner: float | None
+    terms: dict
+    placeholder_braking: bool = False  # the built-in stopping data, not measured data
+    property: str = "contact"  # the theorem: "contact" or "separation"
+    # separation: how much larger Z_d + Z_r must be for M_S >= 0 over the box (0 when it
+    # is; None when a premise fails)
+    needed_allowance: float | None = None
+    robot_mode: str = COVERED_MODE  # the robot mode the theorem covers
+
+
+def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method: str
+              ) -> Proof:
+    """A recording space's proof, declined: the theorems' margins are checked over the
+    box of a scripted space's parameters, where the peak speed bounds every body's
+    speed and every body is seen standing still for the settle time before it moves.
+    Recorded motion has neither parameter. The premises a proof over it would need (the
+    speed bound, every body seen from the start, no exit reached) are measured from the
+    recording and listed, but no margin is checked over it, so the verdict over a
+    recording space is ``passed`` or ``falsified``, never ``proved``."""
+    f, t = config.safety, config.tracker
+    p = space.recording.parameters
+    v_max = recorded_speed(space.recording) * p.time_scale.max
+    checked = model_premises(config, space) + [
+        (f"hidden bodies stay hazards (hidden_bodies: {t.hidden_bodies}) and a hidden "
+         f"body's ball grows at least as fast as the recorded bodies move (occlusion_speed "
+         f"{f.occlusion_speed:g} >= {v_max:.3f} m/s: the recording's fastest segment at the "
+         f"largest time scale, {p.time_scale.max:g})",
+         t.hidden_bodies == "hazard" and f.occlusion_speed >= v_max),
+        (f"the gate admits the recorded bodies' speeds (gate_speed {t.gate_speed:g} >= "
+         f"{v_max:.3f} m/s)", not t.gate or t.gate_speed >= v_max),
+        ("every body is tracked from t = 0 at every point of the box (seen before the "
+         "robot first moves)", tracked_from_start(space)),
+        ("no body reaches an exit region or the cell's walls (where its track would end): "
+         f"all within {operators_reach(space):.2f} m of the base",
+         tracks_never_end(config, space)),
+        ("the operators are the scripted approaches the theorem's margin is checked over "
+         "(a speed bound from their peak speed, every body seen standing still before it "
+         "moves): a recording space's operators move as recorded, and no margin is "
+         "checked over recorded motion, so this space is searched, never proved", False),
+    ]
+    trusted = [
+        "the recording is the operators' true motion, linear between its samples, and "
+        "the mapping puts it in the cell frame",
+        "the stopping data describes the real robot's stops, times within "
+        f"{p.braking_time_scale.min:g} to {p.braking_time_scale.max:g} of it",
+    ]
+    premises = ([Premise(x, bool(ok), "checked") for x, ok in checked]
+                + [Premise(x, True, "trusted") for x in trusted])
+    box = {name: [r.min, r.max] for name, r in parameter_ranges(space).items()}
+    return Proof(False, method, box, premises, None, {}, placeholder_braking(config), prop)
+
+
+def _worst(m: Margin, space: ScenarioSpace) -> tuple[float, int]:
+    """The margin at the box's worst corner (the largest v_max and noise: every row falls
+    in both) and the row it is least in."""
+    p = space.parameters
+    rows = m.rows_at(p.peak_speed.max, p.noise_std.max)
+    i = int(np.argmin(rows))
+    return float(rows[i]), i
+
+
+def _z3_premise(name: str, lv: Levels, holds: bool, worst: float, i: int
+                ) -> Premise:
+    if not lv.by_speed:
+        return Premise(f"z3: {name} >= 0 for every (v_max, noise) in the box", holds, "checked")
+    return Premise(f"z3: {name}(g) >= 0 at every speed level g = 1..{SPEED_LEVELS} for every "
+                   f"(v_max, noise) in the box (least at level {int(lv.level[i])}, rate "
+                   f"{lv.rate[i]:.4f}: {worst:.4f} m at the worst corner)", holds, "checked")
+
+
+def _level_terms(lv: Levels, m: Margin, space: ScenarioSpace, i: int) -> dict:
+    """The terms that say which speed level the margin is least at (by_speed)."""
+    f = {"stopping": "by_speed" if lv.by_speed else "full_speed"}
+    if lv.by_speed:
+        p = space.parameters
+        rows = m.rows_at(p.peak_speed.max, p.noise_std.max)
+        f |= {"speed_level": int(lv.level[i]), "level_rate": float(lv.rate[i]),
+              "previous_rate": float(lv.previous_rate[i]),
+              "level_margins": {str(int(g)): float(x) for g, x in zip(lv.level, rows)}}
+    return f
+
+
+def _method(theorem: str, stopping: str) -> str:
+    """The ``method`` a proof of ``theorem`` (``stopping`` or ``separation``) states."""
+    return (f"SSM {theorem} theorem over the robot's capsules (verification.proof); "
+            "margin checked over the box by z3"
+            + (", at every speed level" if stopping == "by_speed" else "")
+            + "; robot bounds by Lipschitz covering; tracker error by gain recursion")
+
+
+def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
+    """Tries to prove "stopped before contact" for ``config`` over ``space`` (under
+    ``safety.stopping: by_speed`` at every speed level)."""
+    f = config.safety
+    h = 1.0 / space.robot.control_rate_hz
+    v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
+         "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
+    method = _method("stopping", f.stopping)
+    if space.recording is not None:
+        return _declined(config, space, "contact", method)
+    premises, box, placeholder, (alpha, beta), _ = setting(config, space, "contact")
+    if not all(x.holds for x in premises):
+        return Proof(False, method, box, premises, None, {}, placeholder)
+    lv = speed_levels(config, space)
+    tau = frame_timeout(config)
+    m = margin_of_levels(config, space, "contact", lv)
+    holds = unsat_below_zero(m, space)
+    worst, i = _worst(m, space)
+    terms = {"v": v, "T_s": float(lv.t_s[i]), "T_r": f.reaction_time, "B": float(lv.b[i]),
+             "tau": tau, "h": h, "V_R": lv.tool_speed, "robot_speed": f.robot_speed,
+             "T_stop": float(lv.stop_time[i]), "D": float(lv.stop_travel[i]),
+             "E_per_axis": {"alpha": alpha, "beta": beta},
+             "C+Z_d+Z_r": f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty,
+             "contact_distance": space.contact_distance} | _level_terms(lv, m, space, i)
+    premises = premises + [_z3_premise("M", lv, holds, worst, i)]
+    return Proof(holds, method, box, premises, worst, terms, placeholder)
+
+
+def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
+    """Tries to prove the separation invariant for ``config`` over ``space`` (the second
+    theorem of the module docstring; under ``safety.stopping: by_speed`` at every speed
+    level); when the margin falls short, says by how much Z_d + Z_r would have to grow
+    (``Proof.needed_allowance``: every level's margin gains what Z_d + Z_r gains)."""
+    f = config.safety
+    p = space.parameters
+    floor = f.human_speed == "estimated_with_floor"
+    v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
+    method = _method("separation", f.stopping)
+    if space.recording is not None:
+        return _declined(config, space, "separation", method)
+    premises, box, placeholder, (alpha, beta), _ = setting(config, space, "separation")
+    if not all(x.holds for x in premises):
+        return Proof(False, method, box, premises, None, {}, placeholder, "separation")
+    lv = speed_levels(config, space)
+    tau = frame_timeout(config)
+    m = margin_of_levels(config, space, "separation", lv)
+    holds = unsat_below_zero(m, space)
+    worst, i = _worst(m, space)
+    v_hi = float(m.human_speed(p.peak_speed.max))  # S_true's human speed, at most
+    t_s, t_true = float(lv.t_s[i]), float(m.t_true[i])  # T_stop + T_r of S_true
+    terms = {"v_lo": v_lo, "v_hi": v_hi, "T_s": t_s,
+             "T_r": f.reaction_time, "B": float(lv.b[i]), "tau": tau, "V_R": lv.tool_speed,
+             "T_stop": float(lv.stop_time[i]), "D": float(lv.stop_travel[i]),
+             "E_per_axis": {"alpha": alpha, "beta": beta},
+             "Z_d+Z_r": f.human_uncertainty + f.robot_uncertainty,
+             "human_speed_term": v_lo * (t_s + f.reaction_time) - v_hi * t_true,
+             "robot_speed": f.robot_speed,
+             "robot_speed_term": float(robot_speed_gap(config, space, lv)[i])
+             * f.reaction_time,
+             "stopping_distance_term": float(lv.b[i] - lv.stop_travel[i]),
+             "sensing_term": -float(m.k_noise * p.noise_std.max + m.k_speed[i]
+                                    * p.peak_speed.max)} | _level_terms(lv, m, space, i)
+    premises = premises + [_z3_premise("M_S", lv, holds, worst, i)]
+    return Proof(holds, method, box, premises, worst, terms, placeholder, "separation",
+                 0.0 if holds else max(-worst, 0.0))

@@ -1,0 +1,809 @@
+"""Breadth: step many scenarios at once, through the same maths as the diagram.
+
+:func:`evaluate_batch` reproduces the Drake workcell (kinematic mode) tick by tick for a
+batch of scenarios that share the robot, the controller configuration and the shape of
+their operators (number of operators, bodies and waypoints), as the scenarios of one
+space do. It runs the compiled functions the LeafSystems wrap, in compiled loops: at
+each tracker update, in one call (:func:`_update`), the frame each sensor delivers, the
+MocapSensor's capture (:func:`_capture`; the unit noise of each capture index drawn once
+by the sensor's rule, ``delivery.unit_noise``, and kept for a sweep's next batches)
+and the KalmanTracker's rows (``kalman_tracker._track_rows``, Eqs. 2-4), and
+between two updates every control tick of every scenario in :func:`_advance`: the
+joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_reusing_trig``), Eq. 5,
+the monitor and the override (``ssm``: Eqs. 6-12), the properties on the operators'
+truth (``operator_paths.path_point_one``) and the follower's braked step
+(``braking.path_follower_step``). Event order follows the diagram: a tracker update at time
+u is seen by the first control tick after u; outputs at a tick are computed from the
+state before that tick's updates, as Drake's loggers record them.
+``tests/verification`` checks the two agree. It refuses dynamic-mode scenarios (the
+plant and its inverse-dynamics controller, whose tracking error it does not model);
+:func:`evaluate_many` runs those in the diagram instead, and so it does scenarios whose
+operators are played from recordings (their truth is the recording's samples, which
+these compiled loops do not carry; ``RecordedMotion``).
+"""
+
+import dataclasses
+import math
+import threading
+
+import numba
+import numpy as np
+
+from safety_systems.sensing import stops
+from safety_systems.cell.braking import path_follower_step
+from safety_systems.config.configuration import (
+    contact_body_radii,
+    contact_capsules,
+    monitor_capsules,
+    monitored_body_radii,
+    tracker_regions,
+    tracker_rules,
+)
+from safety_systems.config.configuration import sensor_faults as scenario_faults
+from safety_systems.cell.joint_path import path_arrays, path_state_one
+from safety_systems.outputs.metrics import robot_stopping, robot_stops_by_rate
+from safety_systems.cell.operator_paths import (
+    check_bodies,
+    path_point_one,
+    stack_operator_paths,
+)
+from safety_systems.cell.robot_geometry import (
+    NUM_POINTS,
+    capsule_ends_one,
+    robot_points_one_memo,
+    segment_pair,
+)
+from safety_systems.config.scenario import Scenario, actual_sensor
+from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_faults
+from safety_systems.ssm.separation import (
+    body_levels,
+    body_separation,
+    capsule_axis,
+    pair_separation,
+)
+from safety_systems.ssm.formulas import (
+    ISO_REDUCED_SPEED_THRESHOLD,
+    by_speed_command,
+    hidden_ball_radius,
+    level_at_or_above,
+    override_command,
+)
+from safety_systems.ssm.true_measures import is_moving, is_permitted, true_margin
+from safety_systems.sensing.delivery import TIME_TOL, delivered_frame, unit_noise
+from safety_systems.sensing.tracks import (
+    TRACK_SLOT,
+    estimate_rows,
+    frame_step,
+    tracker_fault,
+    tracker_stop,
+    usable,
+)
+from safety_systems.cell.ur5e import tool0_reusing_trig
+from safety_systems.config.configuration import (
+    braking_table,
+    frame_timeout,
+    is_recorded,
+    joint_path,
+    level_terms,
+    monitor_terms,
+)
+
+_EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
+
+
+@dataclasses.dataclass(frozen=True)
+class BatchResult:
+    """Per-scenario figures, each of shape (B,) (see ``verification.properties``)."""
+
+    robustness: np.ndarray  # stopped before contact, m (>= 0 safe)
+    min_separation_while_moving: np.ndarray
+    separation: np.ndarray  # the separation invariant, m (>= 0 safe)
+    separation_violation_time: np.ndarray  # s permitted with some pair inside S_true
+
+
+def _common(scenarios: list[Scenario], get, what: str):
+    first = get(scenarios[0])
+    for s in scenarios[1:]:
+        if get(s) != first:
+            raise ValueError(f"evaluate_batch: scenarios differ in {what}; batch them apart")
+    return first
+
+
+def dropout_table(sensors: list) -> np.ndarray:
+    """(B, most dropouts, 2) start and end of each sensor's dropped intervals (inf pads)."""
+    drops = np.full((len(sensors), max((len(s.dropouts) for s in sensors), default=0), 2),
+                    np.inf)
+    for b, s in enumerate(sensors):
+        for j, iv in enumerate(s.dropouts):
+            drops[b, j] = (iv.start, iv.end)
+    return drops
+
+
+@numba.njit(cache=True)
+def _delivered_rows(u, latency, period, drops, out):
+    """:func:`delivered_frames` of every row, compiled (``delivery.delivered_frame``)."""
+    for b in range(latency.size):
+        out[b] = delivered_frame(u[b], latency[b], period, drops[b])
+
+
+def delivered_frames(u: float | np.ndarray, latency: np.ndarray, period: float,
+                     drops: np.ndarray) -> np.ndarray:
+    """Index of the frame each sensor (latency (B,), dropped intervals ``drops``, see
+    :func:`dropout_table`) shows at time(s) u, as MocapSensor delivers them: the newest
+    capture at least a latency old that was not dropped (-1: none yet); compiled."""
+    latency = np.ascontiguousarray(latency, dtype=float)
+    u = np.ascontiguousarray(np.broadcast_to(np.asarray(u, dtype=float), latency.shape))
+    out = np.empty(latency.size, dtype=np.int64)
+    _delivered_rows(u, latency, float(period), np.ascontiguousarray(drops, dtype=float), out)
+    return out
+
+
+class _Cells:
+    """The fixed data of a batch: truth, sensor conditions, configuration."""
+
+    def __init__(self, scenarios: list[Scenario]):
+        self.B = len(scenarios)
+        self.config = _common(scenarios, lambda s: s.controller, "controller configuration")
+        robot = _common(scenarios, lambda s: dataclasses.replace(
+            s.robot, cycles=1, braking_time_scale=1.0), "robot")
+        self.dt = 1.0 / robot.control_rate_hz
+        self.accel = robot.acceleration_limit
+        cycles = max(s.robot.cycles for s in scenarios)
+        self.path = joint_path(dataclasses.replace(robot, cycles=cycles))
+        self.end = np.array([self.path.cycle_time * s.robot.cycles for s in scenarios])
+        self.brake_scale = np.array([s.robot.braking_time_scale for s in scenarios])
+        self.table = braking_table(self.config)
+        self.ticks = np.array([math.floor(s.duration / self.dt + 1e-9) for s in scenarios])
+        sensors = [actual_sensor(s) for s in scenarios]
+        self.period = _common(scenarios, lambda s: 1.0 / actual_sensor(s).rate_hz, "sensor rate")
+        self.seed = _common(scenarios, lambda s: actual_sensor(s).seed, "sensor seed")
+        self.latency = np.array([s.latency for s in sensors])
+        self.noise = np.array([s.noise_std for s in sensors])
+        self.drops = dropout_table(sensors)
+        # Operators: same shape in every scenario.
+        _common(scenarios, lambda s: [(len(o.bodies), len(o.waypoints)) for o in s.operators],
+                "operator shape")
+        # Every operator's path at once, equal to stack_paths of their scripted_operators.
+        specs = [o for s in scenarios for o in s.operators]
+        self.K = len(scenarios[0].operators)
+        st = stack_operator_paths(
+            [[w.time for w in o.waypoints] for o in specs],
+            [[w.position for w in o.waypoints] for o in specs],
+            [o.max_speed for o in specs], [o.max_acceleration for o in specs])
+        self.stack_arrays = (st.departure_times, st.accel_durations, st.cruise_durations,
+                             st.peak_speeds, st.lengths, st.max_acceleration, st.directions,
+                             st.waypoint_positions)
+        self.op_index = np.repeat(np.arange(self.K),
+                                  [len(o.bodies) for o in scenarios[0].operators])
+        self.op_first = np.searchsorted(self.op_index, np.arange(self.K + 1))  # bodies by operator
+        self.N = self.op_index.size
+        for o in specs:  # as ScriptedOperator checks them
+            check_bodies(np.array([b.offset for b in o.bodies], dtype=float), o.enter_time,
+                         o.leave_time)
+        self.offsets = np.array([[b.offset for o in s.operators for b in o.bodies]
+                                 for s in scenarios], dtype=float).reshape(self.B, self.N, 3)
+        self.enter = np.array([[o.enter_time for o in s.operators] for s in scenarios],
+                              dtype=float).reshape(self.B, self.K)
+        self.leave = np.array([[o.leave_time for o in s.operators] for s in scenarios],
+                              dtype=float).reshape(self.B, self.K)
+        names = [f"{o.name}/{b.name}" for o in scenarios[0].operators for b in o.bodies]
+        # The unit noise of every capture up to the last tick (MocapSensor's rule).
+        frames = math.floor((self.ticks.max() + 1) * self.dt / self.period) + 2
+        self.units = unit_noise_table(self.seed, self.N, frames)
+        o = max((len(s.occlusions) for s in sensors), default=0)
+        self.occ = np.full((self.B, o, 3), np.inf)  # body index, start, end
+        for b, s in enumerate(sensors):
+            for j, oc in enumerate(s.occlusions):
+                self.occ[b, j] = (names.index(oc.body), oc.start, oc.end)
+        tables = [scenario_faults(s) for s in scenarios]
+        self.faults = np.zeros((self.B, max((len(t) for t in tables), default=0),
+                                FAULT_COLUMNS))
+        self.faults[:, :, 3:5] = np.inf  # padding rows never act
+        for b, table in enumerate(tables):
+            self.faults[b, :len(table)] = table
+
+    def update(self, u: float, frames, tracks, rules, regions, est_p, est_v, status, std,
+               unseen):
+        """The tracker update at time u of every scenario (see :func:`_update`)."""
+        _update(u, self.latency, self.period, self.drops, frames, self.stack_arrays,
+                self.op_index, self.offsets, self.enter, self.leave, self.occ, self.faults,
+                self.noise, self.units, tracks, rules, regions, est_p, est_v, status, std,
+                unseen)
+
+
+_UNIT_NOISE: dict[tuple[int, int], np.ndarray] = {}  # a few sensors' tables, newest last
+_UNIT_NOISE_LOCK = threading.Lock()  # (a Dask worker runs batches in threads)
+
+
+def unit_noise_table(seed: int, n: int, frames: int) -> np.ndarray:
+    """(frames, n, 3) unit noise of captures 0 .. frames - 1 of a sensor with ``seed``
+    and n bodies (``delivery.unit_noise``); kept for the next batches of a sweep
+    (never changed in place: a longer table is a new array)."""
+    with _UNIT_NOISE_LOCK:
+        table = _UNIT_NOISE.pop((seed, n), np.zeros((0, n, 3)))
+        if table.shape[0] < frames:
+            table = np.concatenate([table, [unit_noise(seed, k, n).reshape(n, 3)
+                                            for k in range(table.shape[0], frames)]])
+        _UNIT_NOISE[(seed, n)] = table
+        while len(_UNIT_NOISE) > 16:
+            _UNIT_NOISE.pop(next(iter(_UNIT_NOISE)))
+    return table
+
+
+# frames (B, 7): per scenario the tracker's frame state: the last frame number processed,
+# the newest good capture time, that frame's fault, and the rejected measurements by cause.
+_F_NUMBER, _F_GOOD, _F_FAULT, _F_COUNTS = 0, 1, 2, 3
+
+
+@numba.njit(cache=True)
+def _update(u, latency, period, drops, frames, stack, op_index, offsets, enter, leave, occ,
+            faults, noise, units, tracks, rules, regions, est_p, est_v, status, std, unseen):
+    """A tracker update at time u of every scenario, compiled: the frame each sensor
+    delivers (:func:`_delivered_rows`); where its frame number is new, its capture
+    (:func:`_capture`, with the sensor's faults), the KalmanTracker's step of its bodies'
+    tracks (``tracks.frame_step``: the rules of ids, finite positions, the gate, Eqs.
+    2-4, hidden bodies and exits, with ``rules`` and ``regions``) and their outputs
+    est_p, est_v, status, std, unseen (``tracks.estimate_rows``)."""
+    B, N = est_p.shape[0], est_p.shape[1]
+    index = np.empty(B, dtype=np.int64)
+    _delivered_rows(np.full(B, u), latency, period, drops, index)
+    rows = np.flatnonzero((index >= 0) & (index != frames[:, _F_NUMBER]))
+    R = rows.size
+    if R > 0:
+        frame = index[rows]
+        if frame.max() >= units.shape[0]:
+            raise ValueError("_update: a capture beyond the unit noise table")
+        z, valid = np.empty((R, N, 3)), np.empty((R, N))
+        ids, carried = np.empty((R, N)), np.empty(R)
+        _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, rows, frame,
+                 period, z, valid, ids, carried)
+        for r in range(R):
+            b = rows[r]
+            frames[b, _F_NUMBER] = frame[r]
+            frames[b, _F_FAULT] = frame_step(
+                tracks, b * N, N, carried[r], z[r], valid[r], ids[r],
+                frames[b, _F_GOOD:_F_GOOD + 1], frames[b, _F_COUNTS:], rules, regions)
+            estimate_rows(tracks, b * N, N, frames[b, _F_GOOD], est_p[b], est_v[b], status[b],
+                          std[b], unseen[b])
+
+
+@numba.njit(cache=True)
+def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, rows, index,
+             period, p, valid, ids, carried):
+    """The MocapSensor's frames ``index`` (R,) of the scenarios ``rows``: positions p
+    (R, N, 3), whether it sees the bodies (``valid``: present and not in an occlusion
+    interval of ``occ`` (B, ., 3): body, start, end), the ids the entries carry and the
+    capture time each frame carries (``sensor_faults.apply_faults`` of ``faults``
+    (B, ., 8)); compiled. The truth at the capture time by ``path_point_one`` of the
+    operator's path plus the body's offset, plus noise std ``noise[b]`` times the
+    frame's unit noise ``units[index]``; NaN where not seen."""
+    departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
+    K = enter.shape[1]
+    for r in range(rows.size):
+        b, k = rows[r], index[r]
+        t = k * period
+        for i in range(op_index.size):
+            o = op_index[i]
+            x0, x1, x2, _, _, _ = path_point_one(departures, ta, tc, vp, lengths, a_max,
+                                                 directions, waypoints, b * K + o, t)
+            p[r, i, 0], p[r, i, 1], p[r, i, 2] = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
+                                                  x2 + offsets[b, i, 2])
+            seen = t >= enter[b, o] and t < leave[b, o]
+            for j in range(occ.shape[1]):
+                if occ[b, j, 1] <= t < occ[b, j, 2] and occ[b, j, 0] == i:
+                    seen = False
+            valid[r, i] = 1.0 if seen else 0.0
+            ids[r, i] = i + 1.0
+            for j in range(3):
+                if noise[b] > 0.0:
+                    p[r, i, j] = p[r, i, j] + noise[b] * units[k, i, j]
+                if not seen:
+                    p[r, i, j] = np.nan
+        carried[r] = apply_faults(faults[b], k, period, TIME_TOL, p[r], valid[r], ids[r])
+
+
+
+
+_MARGIN = 1e-9  # m: the bounds below skip work only when rounding could not matter
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _bounding_sphere(ends, radius):
+    """(centre x, y, z, radius) of a sphere containing every capsule: about the ends'
+    mean, out to the farthest end (every axis point is nearer than the farthest end)
+    plus the largest capsule radius."""
+    c0, c1, c2, n = 0.0, 0.0, 0.0, 2.0 * radius.size
+    for j in range(radius.size):
+        for e in range(2):
+            c0, c1, c2 = c0 + ends[j, e, 0], c1 + ends[j, e, 1], c2 + ends[j, e, 2]
+    c0, c1, c2 = c0 / n, c1 / n, c2 / n
+    far, thick = 0.0, 0.0
+    for j in range(radius.size):
+        thick = max(thick, radius[j])
+        for e in range(2):
+            x0, x1, x2 = ends[j, e, 0] - c0, ends[j, e, 1] - c1, ends[j, e, 2] - c2
+            far = max(far, x0 * x0 + x1 * x1 + x2 * x2)
+    return c0, c1, c2, np.sqrt(far) + thick  # (the root of the largest square)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _beyond(sphere, p0, p1, p2, r_B):
+    """A lower bound on a body's clearance to the capsules inside ``sphere`` (m)."""
+    c0, c1, c2, R = sphere
+    x0, x1, x2 = p0 - c0, p1 - c1, p2 - c2
+    return np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) - R - r_B - _MARGIN
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor):
+    """The SeparationMonitor's d_i, S_i (and the nearest pair's speeds and index) of one
+    tracked body: the product's ``separation.body_separation`` (a seam for the
+    broken-variant test, which rebuilds :func:`_advance` with a variant here)."""
+    return body_separation(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def monitor_pair(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
+    """The SeparationMonitor's clearance and S (and speeds) of one body and capsule j: the
+    product's ``separation.pair_separation``, which ``body_separation`` runs over every
+    capsule (a seam for the broken-variant test, as :func:`monitor_body`)."""
+    return pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor)
+
+
+@numba.njit(cache=True)
+def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
+             status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_t,
+             truth_b, levels, truth_rates, monitor_caps, contact_caps, r_monitor, r_contact, end,
+             brake_scale,
+             brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time):
+    """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
+    tracker updates (the tracker's outputs est_p, est_v, status, std, unseen and its
+    ``frames`` state are fixed meanwhile); compiled, from the product's compiled
+    functions. At each tick:
+
+    - the robot from the PathFollower's state (s, sigma): q and dq/ds by
+      ``path_state_one`` (``path`` from ``joint_path.path_arrays``), the robot's points
+      and their velocities J(q) dq/ds sigma by ``robot_geometry.robot_points_one_memo``
+      (each scenario's trigonometry kept in ``trig``) and the capsule ends by
+      ``capsule_ends_one``: the monitor's capsules (``monitor_caps`` = (a, b, t0, t1,
+      radius, tool length)) and the real robot's for the properties (``contact_caps``),
+      once per distinct (s, sigma) at a tick (scenarios go in order of s; all start at
+      rest at s = 0 and share these until their monitors differ); the RobotCapsules'
+      Eq. 5 (ends - ends_prev) / dt;
+    - SeparationMonitor and SpeedOverride on the estimates: d_i and S_i of every usable
+      body (``separation.body_separation`` via :func:`monitor_body`: Eqs. 6-11 over the
+      capsules, bodies of radius ``r_monitor``, a hidden body's d less its ball,
+      ``monitor`` = ``workcell.monitor_terms`` (mode, T_s + T_r, T_r, B + C + Z_r, v_iso,
+      v_iso_reduced, robot speed term), Z_d =
+      ``z_d_terms`` (base, sigmas, occlusion speed) base + sigmas std per body), k,
+      S_max and the stop reason by ``ssm.override_command`` (Eq. 12 over the usable
+      tracks, a lost track, the tracker's fault, or its newest good frame older than
+      ``timeout``);
+    - the properties on the truth (``verification.properties``; bodies by
+      ``path_point_one`` of their operator's path in ``stack`` plus their offsets, of
+      radius ``r_contact``, present from ``enter`` to ``leave``; operator o's bodies are
+      op_first[o] to op_first[o + 1] - 1), while a scenario's ticks last (k <= ``last``):
+      the smallest clearance to the real robot's capsules while the robot moves (its
+      fastest capsule end); while the override's k is not 0, the smallest clearance
+      less S_true of any pair (``body_protective_distance`` with the monitor's mode and speeds,
+      T_r, the pair's true directed speeds and, per scenario, ``truth_t`` = T_stop +
+      T_r and ``truth_b`` = the robot's stopping distance + C: ``metrics.
+      true_protective_args``) and the time some pair is inside S_true;
+    - the PathFollower's update (``braking.path_follower_step``; ``brakes`` = speed
+      fractions, decelerations, acceleration limit).
+
+    Work that cannot change a figure is skipped, and each skip is exact (the tests hold
+    the figures to the diagram's and to a batch of one): the monitor's k is reused while
+    the robot rests and the tracker's outputs and fault are unchanged (its inputs are
+    then the same; ``memo`` (B, 3): k, s and the fault it was computed for, ``s_last``
+    the previous tick's s); it is 1 without the pairs when every body's clearance,
+    bounded below through a sphere around the capsules, lies beyond dS times an upper
+    bound of every S (the fastest end for v_R, the body's speed or the ISO speed for
+    v_H), and 0 when one pair per body (its capsule nearest at its last full evaluation,
+    ``hint`` (B, N)) already puts a clearance below d_min or below that pair's S (d_i is
+    at most, S_i at least, that pair's); a body's properties are skipped when the sphere
+    bound shows it can lower neither figure (nor come inside S_true), and so is a pair's
+    when the same holds through a sphere around its capsule (its axis' midpoint out to
+    its ends, plus its radius; S_true bounded by the body's speed in its mode and the
+    capsule's fastest end).
+    """
+    mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
+    h_iso = max(iso, iso_reduced)
+    # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
+    level_t_sr, level_const = levels
+    by_speed = level_t_sr.size > 0
+    truth_rt, truth_rb = truth_rates
+    s_levels = np.empty((max(level_t_sr.size, 1), est_p.shape[1]))
+    z_d_base, z_d_sigmas, occlusion_speed = z_d_terms
+    fractions, deceleration, acceleration = brakes
+    departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
+    ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
+    ca, cb, ct0, ct1, c_radius, c_tool = contact_caps
+    N, K = est_p.shape[1], enter.shape[1]
+    q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    points, point_v = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    m_ends, m_unused = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
+    m_velocities = np.empty((ma.size, 2, 3))
+    c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
+    d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
+    c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
+    speed = 0.0
+    m_sphere, c_sphere = (0.0, 0.0, 0.0, np.inf), (0.0, 0.0, 0.0, np.inf)
+    memo[:, 1] = np.nan  # the tracker's outputs may have changed: no k to reuse
+    # Both robots the tool point only: tool0 alone (P6, bit for bit), not all 8 points.
+    tool_only = True
+    for j in range(ma.size):
+        tool_only = tool_only and ma[j] == 6 and mb[j] == 6
+    for j in range(ca.size):
+        tool_only = tool_only and ca[j] == 6 and cb[j] == 6
+    # The monitor's capsules on the real robot's axes (only the radii differ): their ends
+    # are the same numbers, computed once.
+    same_axes = ma.size == ca.size and m_tool == c_tool
+    for j in range(ma.size if same_axes else 0):
+        same_axes = same_axes and ma[j] == ca[j] and mb[j] == cb[j] and mt0[j] == ct0[j] \
+            and mt1[j] == ct1[j]
+    # A scenario frozen from a tick on: at rest, held at k = 0 by the same inputs and
+    # fault to the interval's end: every later tick of the interval repeats it.
+    frozen = np.zeros(s.size, dtype=np.bool_)
+    t_end = (k1 - 1) * dt
+    # The bounds cost about one pair each: worth it only against several capsules.
+    bound_monitor, bound_contact = ma.size > 1, ca.size > 1
+    # The same axes and the same largest radius: the same bounding sphere.
+    same_sphere = same_axes and bound_contact and np.max(m_radius) == np.max(c_radius)
+    # Scenarios whose robot has not been slowed yet share its state (s, sigma) bit for bit:
+    # in order of s, each computes the robot only where it differs from the one before.
+    order = np.argsort(s, kind="mergesort")
+    for k in range(k0, k1):  # scenarios inside: independent work the CPU can overlap
+        t = k * dt
+        s_before, rate_before = np.nan, np.nan
+        for b in order:
+            if frozen[b]:
+                continue
+            if not (s[b] == s_before and rate[b] == rate_before):  # else the robot as before
+                path_state_one(s[b], path, q, dq, ddq)
+                for j in range(6):
+                    v_joint[j] = dq[j] * rate[b]
+                if tool_only:
+                    (points[6, 0], points[6, 1], points[6, 2], point_v[6, 0], point_v[6, 1],
+                     point_v[6, 2]) = tool0_reusing_trig(q, v_joint, trig[b])
+                else:
+                    robot_points_one_memo(q, v_joint, m_tool, trig[b], points, point_v)
+                if same_axes:
+                    capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
+                    for j in range(ma.size):
+                        for e in range(2):
+                            for i in range(3):
+                                m_ends[j, e, i] = c_ends[j, e, i]
+                else:
+                    capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_unused)
+                    if c_tool != m_tool and not tool_only:
+                        robot_points_one_memo(q, v_joint, c_tool, trig[b], points, point_v)
+                    capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
+                speed = 0.0  # the robot's: its fastest capsule end
+                for j in range(ca.size):
+                    # capsule j's fastest end (every axis point is slower); one root of
+                    # the larger square (the root is monotonic and correctly rounded:
+                    # the same number as the larger of the two roots)
+                    fast2 = 0.0
+                    for e in range(2):
+                        w0, w1, w2 = c_velocities[j, e, 0], c_velocities[j, e, 1], \
+                            c_velocities[j, e, 2]
+                        fast2 = max(fast2, w0 * w0 + w1 * w1 + w2 * w2)
+                    c_fast[j] = np.sqrt(fast2)
+                    speed = max(speed, c_fast[j])
+                    # A sphere around capsule j: its axis' midpoint, out to its ends.
+                    for i in range(3):
+                        c_mid[j, i] = 0.5 * (c_ends[j, 0, i] + c_ends[j, 1, i])
+                    x0 = c_ends[j, 1, 0] - c_mid[j, 0]
+                    x1 = c_ends[j, 1, 1] - c_mid[j, 1]
+                    x2 = c_ends[j, 1, 2] - c_mid[j, 2]
+                    c_reach[j] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + c_radius[j]
+                if bound_contact:
+                    c_sphere = _bounding_sphere(c_ends, c_radius)
+                if bound_monitor:
+                    m_sphere = c_sphere if same_sphere else _bounding_sphere(m_ends, m_radius)
+                s_before, rate_before = s[b], rate[b]
+            # SeparationMonitor and SpeedOverride on the tracker's estimates.
+            fault = tracker_fault(frames[b, _F_FAULT], t, frames[b, _F_GOOD], timeout)
+            resting = s[b] == s_last[b]  # the ends as at the last tick: Eq. 5 gives 0
+            if resting and memo[b, 1] == s[b] and memo[b, 2] == fault:
+                k_override = memo[b, 0]  # the same inputs as when it was computed
+                # Held at rest to the interval's end (the fault cannot change: stale for
+                # good, or fresh to the end): later ticks repeat this one.
+                frozen[b] = (k_override == 0.0 and rate[b] == 0.0 and speed == 0.0
+                             and (fault != 0.0 or t_end - frames[b, _F_GOOD] <= timeout))
+            else:
+                v_end = 0.0  # RobotCapsules' Eq. 5, and its fastest end (for the bounds)
+                for j in range(ma.size):
+                    for e in range(2):
+                        for i in range(3):
+                            m_velocities[j, e, i] = (m_ends[j, e, i]
+                                                     - ends_prev[b, j, e, i]) / dt
+                        if bound_monitor:
+                            w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
+                                m_velocities[j, e, 2]
+                            v_end = max(v_end, w0 * w0 + w1 * w1 + w2 * w2)
+                v_end = np.sqrt(v_end)  # (the root of the largest square, as above)
+                # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
+                far = bound_monitor and not by_speed and not math.isnan(v_end) \
+                    and tracker_stop(status[b], fault) == stops.STOP_NONE
+                if far:
+                    closest_lb, s_ub = np.inf, -np.inf
+                    for i in range(N):
+                        if usable(status[b, i]):
+                            v0, v1, v2 = est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]
+                            h = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+                            h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
+                            z = z_d_base + z_d_sigmas * std[b, i]
+                            ub = h * t_sr + v_end * t_r + const + z + _MARGIN
+                            if mode == 1:
+                                ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                            lb = _beyond(m_sphere, est_p[b, i, 0], est_p[b, i, 1],
+                                         est_p[b, i, 2], r_monitor[b, i]) \
+                                - hidden_ball_radius(unseen[b, i], occlusion_speed)
+                            closest_lb, s_ub = min(closest_lb, lb), max(s_ub, ub)
+                            far = far and not (math.isnan(lb) or math.isnan(ub))
+                    far = far and closest_lb >= d_min + _MARGIN and (
+                        closest_lb - s_ub >= max((delta_s - 1.0) * s_ub, 1e-12) + _MARGIN)
+                near = (bound_monitor and not by_speed and fault == 0.0 and not far
+                        and not math.isnan(v_end))  # k = 0 for sure?
+                if near:
+                    d_ub, s_lb = np.inf, -np.inf
+                    for i in range(N):
+                        if usable(status[b, i]):
+                            j = hint[b, i]
+                            c_j, s_j, _, _ = monitor_pair(
+                                (est_p[b, i, 0], est_p[b, i, 1], est_p[b, i, 2]),
+                                (est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]),
+                                r_monitor[b, i], z_d_base + z_d_sigmas * std[b, i], m_ends,
+                                m_velocities, m_radius, j, monitor)
+                            c_j -= hidden_ball_radius(unseen[b, i], occlusion_speed)
+                            if not (math.isnan(c_j) or math.isnan(s_j)):
+                                d_ub, s_lb = min(d_ub, c_j), max(s_lb, s_j)
+                    near = d_ub + _MARGIN < d_min or (s_lb > 0.0 and d_ub + _MARGIN < s_lb)
+                if far:
+                    k_override = 1.0  # Eq. 12's ramp is above 1 for every pair
+                elif near:
+                    k_override = 0.0  # a clearance below d_min, or below S_max
+                else:
+                    if fault == 0.0:  # else the robot stops whatever d and S are
+                        for i in range(N):
+                            if usable(status[b, i]):  # (the override reads only these)
+                                d[i], s_row[i], _, _, nearest = monitor_body(
+                                    est_p[b, i], est_v[b, i], r_monitor[b, i],
+                                    z_d_base + z_d_sigmas * std[b, i],
+                                    hidden_ball_radius(unseen[b, i], occlusion_speed), m_ends,
+                                    m_velocities, m_radius, monitor)
+                                if nearest >= 0:
+                                    hint[b, i] = nearest
+                                if by_speed:
+                                    body_levels(est_p[b, i], est_v[b, i], r_monitor[b, i],
+                                                z_d_base + z_d_sigmas * std[b, i], m_ends,
+                                                m_velocities, m_radius, monitor, level_t_sr,
+                                                level_const, s_levels, i)
+                    if by_speed:
+                        k_override = by_speed_command(d, s_levels, status[b], fault, rate[b],
+                                                      delta_s, d_min, included)[0]
+                    else:
+                        k_override = override_command(d, s_row, status[b], fault, delta_s,
+                                                      d_min, included)[0]
+                memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
+            # The properties, on the true state at this tick.
+            moving = is_moving(speed) and k <= last[b]
+            allowed = is_permitted(k_override) and k <= last[b]
+            if moving or allowed:  # (they count only then)
+                closest, margin = np.inf, np.inf
+                stop_t, stop_b = truth_t[b], truth_b[b]  # (full speed: the upper bounds')
+                if by_speed:  # the stop from the rate now (metrics.true_protective_distances)
+                    g = level_at_or_above(rate[b], truth_rt.shape[1] - 1)
+                    stop_t, stop_b = truth_rt[b, g], truth_rb[b, g]
+                for o in range(K):  # each operator's point once, then its bodies
+                    if not (t >= enter[b, o] and t < leave[b, o]):
+                        continue
+                    x0, x1, x2, w0, w1, w2 = path_point_one(
+                        departures, ta, tc, vp, lengths, a_max, directions, waypoints,
+                        b * K + o, t)
+                    v_H = (w0, w1, w2)
+                    h = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)  # S_true's upper bound
+                    h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
+                    s_human_ub = h * truth_t[b] + truth_b[b] + _MARGIN
+                    s_true_ub = s_human_ub + speed * t_r
+                    if mode == 1:
+                        s_true_ub = max(s_true_ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                    # Below these a pair could lower a figure (or come inside S_true).
+                    contact_floor = min_sep[b] if moving else -np.inf
+                    separation_floor = max(sep_min[b], 0.0) if allowed else -np.inf
+                    for i in range(op_first[o], op_first[o + 1]):
+                        p_H = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
+                               x2 + offsets[b, i, 2])
+                        if bound_contact:
+                            lb = _beyond(c_sphere, p_H[0], p_H[1], p_H[2], r_contact[b, i])
+                            if lb > contact_floor and lb - s_true_ub > separation_floor:
+                                continue  # can lower neither figure
+                        for j in range(ca.size):
+                            if bound_contact:  # the pair, through the sphere around capsule j
+                                g0 = p_H[0] - c_mid[j, 0]
+                                g1 = p_H[1] - c_mid[j, 1]
+                                g2 = p_H[2] - c_mid[j, 2]
+                                lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_reach[j]
+                                      - r_contact[b, i] - _MARGIN)
+                                ub = s_human_ub + c_fast[j] * t_r
+                                if mode == 1:
+                                    ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                                if lb > contact_floor and lb - ub > separation_floor:
+                                    continue  # this pair can lower neither figure
+                            end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
+                            axis, vh_true, vr_true = segment_pair(p_H, v_H, end_a, end_b,
+                                                                  vel_a, vel_b)
+                            sep = axis - c_radius[j] - r_contact[b, i]
+                            closest = min(closest, sep)
+                            margin = min(margin, true_margin(
+                                sep, vh_true, vr_true, mode, stop_t, t_r, stop_b, iso,
+                                iso_reduced))
+                if moving:
+                    min_sep[b] = min(min_sep[b], closest)
+                if allowed:
+                    sep_min[b] = min(sep_min[b], margin)
+                    if margin < 0.0:
+                        sep_time[b] += dt
+            # Updates at this tick: the follower (PathFollower._step), Eq. 5's memory.
+            if not resting:  # (at rest the ends are the ones kept)
+                for j in range(ma.size):
+                    for e in range(2):
+                        for i in range(3):
+                            ends_prev[b, j, e, i] = m_ends[j, e, i]
+            s_last[b] = s[b]
+            s[b], rate[b] = path_follower_step(s[b], rate[b], k_override, end[b], brake_scale[b],
+                                               dt, fractions, deceleration, acceleration, 1.0)
+
+
+def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
+    """Closed-loop figures of every scenario (kinematic robot only: the dynamic mode's
+    plant and its tracking error are not modelled here)."""
+    if any(s.controller.type != "ssm_override" for s in scenarios):
+        raise ValueError("evaluate_batch models the ssm_override controller only; "
+                         "use evaluate_many")
+    if any(s.robot.mode != "kinematic" for s in scenarios):
+        raise ValueError("evaluate_batch models the kinematic robot only; use evaluate_many "
+                         "(it runs dynamic-mode scenarios in the Drake diagram)")
+    if any(is_recorded(s) for s in scenarios):
+        raise ValueError("evaluate_batch models scripted operators only; use evaluate_many "
+                         "(it runs recorded operators in the Drake diagram)")
+    c = _Cells(scenarios)
+    B, N, dt = c.B, c.N, c.dt
+    cfg = c.config
+    f, tr = cfg.safety, cfg.tracker
+    monitor = monitor_terms(cfg)
+    timeout = frame_timeout(cfg)
+    update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
+    truth_t, truth_b = true_stopping_terms(scenarios, f)
+    by_speed = f.stopping == "by_speed"
+    levels = level_terms(cfg) if by_speed else (np.empty(0), np.empty(0))
+    truth_rates = true_stopping_by_rate(scenarios, f) if by_speed else (np.empty((B, 1)),
+                                                                          np.empty((B, 1)))
+    brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
+    path = path_arrays(c.path)
+    z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas),
+                 float(f.occlusion_speed))
+    rules, regions = tracker_rules(cfg), tracker_regions(cfg)
+
+    caps = monitor_capsules(cfg)
+    contact = _common(scenarios, lambda s: (s.contact_geometry, s.robot.payload_radius,
+                                            s.robot.tool_length), "contact geometry")
+    truth_caps = contact_capsules(scenarios[0].robot, contact[0])
+    monitor_caps = (caps.a, caps.b, caps.t0, caps.t1, caps.radius, caps.tool_length)
+    contact_caps = (truth_caps.a, truth_caps.b, truth_caps.t0, truth_caps.t1, truth_caps.radius,
+                    truth_caps.tool_length)
+    r_monitor = np.array([monitored_body_radii(sc) for sc in scenarios]).reshape(B, N)
+    r_contact = np.array([contact_body_radii(sc) for sc in scenarios]).reshape(B, N)
+    s = np.zeros(B)
+    rate = np.zeros(B)
+    ends_prev = np.full((B, caps.radius.size, 2, 3), np.nan)
+    s_last, memo = np.full(B, np.nan), np.full((B, 3), np.nan)
+    hint = np.zeros((B, N), dtype=np.int64)  # each body's capsule nearest at its last look
+    trig = np.full((B, 15), np.nan)  # robot_points_one_memo's memory
+    tracks = np.zeros((B * N, TRACK_SLOT))
+    frames = np.zeros((B, 7))  # _F_*: no frame yet, none good
+    frames[:, _F_NUMBER], frames[:, _F_GOOD] = -1.0, -np.inf
+    est_p = np.full((B, N, 3), np.nan)
+    est_v = np.full((B, N, 3), np.nan)
+    status = np.zeros((B, N))
+    std = np.zeros((B, N))
+    unseen = np.zeros((B, N))
+    min_sep = np.full(B, np.inf)
+    sep_min = np.full(B, np.inf)
+    sep_time = np.zeros(B)
+    last = int(c.ticks.max())
+    k, j = 0, 0
+    while k <= last:
+        # The ticks before tracker update j: those not later than it (within the tolerance).
+        u = update_offset + j * update_period
+        stop = k
+        while stop <= last and not u < stop * dt - _EVENT_TOL:
+            stop += 1
+        _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter,
+                 c.leave, est_p, est_v, status, std, unseen, frames, timeout, monitor, z_d_terms,
+                 f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates, monitor_caps,
+                 contact_caps, r_monitor,
+                 r_contact, c.end, c.brake_scale, brakes, s, rate, ends_prev, s_last, memo,
+                 hint, trig, min_sep, sep_min, sep_time)
+        k = stop
+        if k > last:
+            break
+        c.update(u, frames, tracks, rules, regions, est_p, est_v, status, std, unseen)
+        j += 1
+    return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
+                       sep_min, sep_time)
+
+
+def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
+    """Scenarios with equal keys can share one batch: the same controller configuration,
+    robot (but its cycles and braking time scale), contact geometry, sensor rate and
+    seed, and operator shapes. ``memo`` keeps the configurations' texts by object across calls (the
+    scenarios of one space share them; writing them out is most of the cost)."""
+    memo = {} if memo is None else memo
+
+    def text(obj) -> str:
+        seen = memo.get(id(obj))
+        if seen is None or seen[0] is not obj:
+            seen = memo[id(obj)] = (obj, repr(obj))
+        return seen[1]
+
+    sensor = actual_sensor(s)
+    robot = tuple(text(getattr(s.robot, f.name)) for f in dataclasses.fields(s.robot)
+                  if f.name not in ("cycles", "braking_time_scale"))
+    return (text(s.controller), robot, s.contact_geometry, sensor.rate_hz, sensor.seed,
+            tuple((len(o.bodies), len(o.waypoints)) for o in s.operators))
+
+
+def true_stopping_terms(scenarios: list[Scenario], safety) -> tuple[np.ndarray, np.ndarray]:
+    """S_true's time and distance terms of each scenario (the separation invariant's):
+    the simulated robot's own stop from full speed (``metrics.robot_stopping``, once per
+    braking time scale: the scenarios of a batch differ in their brakes' scale only)
+    plus T_r, and its distance plus C."""
+    return _true_terms(scenarios, safety, robot_stopping)
+
+
+def true_stopping_by_rate(scenarios: list[Scenario], safety) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`true_stopping_terms` from every grid rate j / TRUTH_RATES ((B, TRUTH_RATES +
+    1) each; ``metrics.robot_stops_by_rate``), for S_true by speed."""
+    return _true_terms(scenarios, safety, robot_stops_by_rate)
+
+
+def _true_terms(scenarios: list[Scenario], safety, stops_of) -> tuple[np.ndarray, np.ndarray]:
+    """``stops_of(scenario)``'s time plus T_r and distance plus C for each scenario, taken
+    once per braking time scale."""
+    by_scale: dict = {}
+    for sc in scenarios:
+        if sc.robot.braking_time_scale not in by_scale:
+            by_scale[sc.robot.braking_time_scale] = stops_of(sc)
+    stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
+    return (np.array([x.time for x in stops_true]) + safety.reaction_time,
+            np.array([x.distance for x in stops_true]) + safety.intrusion_distance)
+
+
+def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> BatchResult:
+    """``evaluate_batch`` over scenarios of any shapes: grouped by ``batch_key`` and cut
+    into batches of at most ``batch_size``; results in the input order. Scenarios the
+    batched evaluator does not model (the seed-004 speed alteration controllers, and
+    every scenario whose robot is in ``dynamic`` mode, and every scenario whose operators
+    are played from recordings) run one by one in the Drake diagram, so each is
+    evaluated in the robot mode it asks for and with the motion it gives."""
+    from verification.search.evaluate_drake import evaluate_drake
+
+    out = np.zeros((4, len(scenarios)))
+    groups: dict[tuple, list[int]] = {}
+    memo: dict = {}
+    for i, s in enumerate(scenarios):
+        if s.controller.type != "ssm_override" or s.robot.mode != "kinematic" \
+                or is_recorded(s):
+            r, _ = evaluate_drake(s)
+            out[:, i] = dataclasses.astuple(r)
+            continue
+        groups.setdefault(batch_key(s, memo), []).append(i)
+    for members in groups.values():
+        for start in range(0, len(members), batch_size):
+            rows = members[start:start + batch_size]
+            r = evaluate_batch([scenarios[i] for i in rows])
+            out[:, rows] = np.stack(dataclasses.astuple(r))
+    return BatchResult(*out)

@@ -1,0 +1,230 @@
+"""Where scenarios are evaluated: in this process, on local cores, or on a Dask cluster.
+
+Drake objects never cross process boundaries: workers receive scenario dataclasses and
+build what they need. Every evaluation goes through an :class:`EvaluationCache` kept in
+a JSON-lines file, so an interrupted run, started again with the same output folder,
+does not repeat finished work: a run killed at any point leaves at worst its last line
+cut short, which the next run drops (and evaluates again).
+"""
+
+import dataclasses
+import gc
+import hashlib
+import json
+import multiprocessing
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from safety_systems.files.input_error import InputError
+from safety_systems.config.scenario import Scenario
+from verification.search.counts import Tally
+from verification.search.evaluate_batch import evaluate_many
+
+FIELDS = ("robustness", "min_separation_while_moving", "separation",
+          "separation_violation_time")
+# Changes whenever FIELDS or what they measure change, so that a resumed run never
+# reads figures of another kind from an older evaluations.jsonl.
+FIGURES_VERSION = "2: contact, min separation, separation invariant, its violation time"
+SCHEDULER_TIMEOUT = 5.0  # s to reach a Dask scheduler before giving up
+
+
+def _evaluate_chunk(scenarios: list[Scenario]) -> np.ndarray:
+    """(4, B) figures of a chunk (runs in a worker)."""
+    r = evaluate_many(scenarios)
+    return np.stack([getattr(r, f) for f in FIELDS])
+
+
+def _apply(job: tuple) -> object:
+    """fn(*args) of a job (fn, args) (runs in a worker)."""
+    fn, args = job
+    return fn(*args)
+
+
+def _timed(job: tuple) -> tuple:
+    """(fn(item), the CPU seconds it took) of a job (fn, item), in a worker process."""
+    fn, item = job
+    start = time.process_time()
+    result = fn(item)
+    return result, time.process_time() - start
+
+
+def scenario_key(scenario: Scenario) -> str:
+    """A stable key of a scenario's content (its dataclasses' ``repr``, without its name:
+    every float written in full, as ``repr`` does; a YAML dump would say the same at some
+    hundred times the cost) and of the figures kept for it (``FIGURES_VERSION``)."""
+    text = FIGURES_VERSION + "\n" + repr(dataclasses.replace(scenario, name=""))
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+class EvaluationCache:
+    """Figures by scenario key, appended to ``path`` (JSON lines) as they arrive.
+
+    Opening drops what an interrupted run may have left at the end of the file: a
+    line cut short (the file is cut back to its last complete line, so the next line
+    appended starts on a line of its own); any line that is not a complete row is
+    skipped."""
+
+    def __init__(self, path: Path | None):
+        self.path = path
+        self.values: dict[str, list[float]] = {}
+        if path is None or not path.exists():
+            return
+        data = path.read_bytes()
+        end = data.rfind(b"\n") + 1
+        if end < len(data):
+            with open(path, "r+b") as f:
+                f.truncate(end)
+        for line in data[:end].decode("utf-8", errors="replace").splitlines():
+            try:
+                row = json.loads(line)
+                key, figures = row["key"], [float(x) for x in row["figures"]]
+            except (ValueError, TypeError, KeyError):
+                continue
+            if isinstance(key, str) and len(figures) == len(FIELDS):
+                self.values[key] = figures
+
+    def add(self, key: str, figures: np.ndarray) -> None:
+        self.values[key] = [float(x) for x in figures]
+        if self.path is not None:
+            with open(self.path, "a") as f:
+                f.write(json.dumps({"key": key, "figures": self.values[key]}) + "\n")
+
+
+class Runner:
+    """Evaluates lists of scenarios with the batched evaluator.
+
+    Args:
+        workers: local processes (None: all cores; 1: in this process).
+        scheduler: address of a Dask scheduler (``tcp://host:port``); overrides workers.
+        cache_path: JSON-lines file of finished evaluations (None: memory only).
+        chunk: scenarios per task.
+        progress: show one progress bar over all evaluations (``total`` expected).
+        tally: counts the simulations evaluated (not those read from the cache) and
+            the CPU time of the workers (``verification.search.counts``); a new one if None.
+    """
+
+    def __init__(self, *, workers: int | None = None, scheduler: str | None = None,
+                 cache_path: Path | None = None, chunk: int = 64, progress: bool = False,
+                 total: int | None = None, tally: Tally | None = None):
+        self.tally = Tally() if tally is None else tally
+        self.workers = workers if workers is not None else (os.cpu_count() or 1)
+        self.scheduler = scheduler
+        self.cache = EvaluationCache(cache_path)
+        self.chunk = chunk
+        self._bar = tqdm(total=total, unit="sim", disable=not progress, delay=1.0)
+        self._pool = None
+        self._client = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        self._bar.close()
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+
+    def evaluate(self, scenarios: list[Scenario]) -> np.ndarray:
+        """(len(scenarios), 4) figures (see ``FIELDS``) in input order."""
+        keys = [scenario_key(s) for s in scenarios]
+        todo, queued = [], set()
+        for i, k in enumerate(keys):  # each new scenario once
+            if k not in self.cache.values and k not in queued:
+                queued.add(k)
+                todo.append(i)
+        # Split the work evenly over the workers, in chunks of at most ``chunk``.
+        size = max(1, min(self.chunk, -(-len(todo) // max(1, self.workers))))
+        chunks = [todo[i:i + size] for i in range(0, len(todo), size)]
+        self.tally.add("simulations", len(todo))
+        for rows, figures in zip(chunks, self._map([[scenarios[i] for i in c] for c in chunks])):
+            for i, column in zip(rows, figures.T):
+                if keys[i] not in self.cache.values:
+                    self.cache.add(keys[i], column)
+        self._bar.update(len(scenarios))
+        return np.array([self.cache.values[k] for k in keys]).reshape(len(scenarios), -1)
+
+    def map(self, fn, arguments: list[tuple]) -> list:
+        """[fn(*a) for a in arguments], on the runner's workers; ``fn`` a module-level
+        function, its arguments picklable (no Drake objects)."""
+        return list(self._run(_apply, [(fn, a) for a in arguments]))
+
+    def _map(self, chunks):
+        return self._run(_evaluate_chunk, chunks)
+
+    def _run(self, fn, items):
+        """fn of every item, in order; elsewhere than in this process, timed there (the
+        CPU seconds go to the tally)."""
+        if not items:
+            return iter(())
+        if self.scheduler is None and (self.workers <= 1 or len(items) == 1):
+            return (fn(c) for c in items)  # (this process's CPU time counts them)
+        if self.scheduler is not None:
+            if self._client is None:
+                from dask.distributed import Client
+
+                self._client = Client(self.scheduler, timeout=2 * SCHEDULER_TIMEOUT)
+            futures = self._client.map(_timed, [(fn, c) for c in items], pure=False)
+            timed = (f.result() for f in futures)
+        else:
+            if self._pool is None:
+                # on this thread, not the pool's feeder thread: a Drake diagram's
+                # cycles freed there abort (evaluate_drake.collect_diagram_garbage)
+                gc.collect()
+                self._pool = ProcessPoolExecutor(max_workers=self.workers,
+                                                 mp_context=_worker_context())
+            timed = self._pool.map(_timed, [(fn, c) for c in items])
+        return self._collect(timed)
+
+    def _collect(self, timed):
+        for result, cpu in timed:
+            self.tally.worker_cpu += cpu
+            yield result
+
+
+def _worker_context():
+    """Local workers start from a fork server that imported this module once: forking
+    this process instead (Linux's default) copies a process whose threads (Drake's,
+    numba's, a test runner's) may hold locks, and a child can then abort or hang."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload([__name__])
+    return context
+
+
+def check_scheduler(address: str, timeout: float | None = None) -> None:
+    """Raises InputError (``--scheduler``) unless a Dask scheduler answers at
+    ``address`` within ``timeout`` seconds (default ``SCHEDULER_TIMEOUT``)."""
+    import asyncio
+
+    from distributed.core import rpc
+
+    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+
+    async def identity():
+        async with rpc(address, timeout=timeout) as scheduler:
+            return await scheduler.identity()
+
+    allowed = "the address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786"
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), timeout))
+    except asyncio.TimeoutError:
+        raise InputError("--scheduler", address,
+                         f"{allowed} (no answer within {timeout:g} s)") from None
+    except MemoryError:  # what Dask makes of bytes that are not its protocol
+        raise InputError("--scheduler", address,
+                         f"{allowed} (something that is not Dask answered)") from None
+    except Exception as e:  # noqa: BLE001 - anything here means: not a scheduler
+        reason = " ".join(str(e).split()) or type(e).__name__
+        raise InputError("--scheduler", address, f"{allowed} ({reason})") from None
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        raise InputError("--scheduler", address, f"{allowed} (something else answered)")

@@ -1,0 +1,292 @@
+"""Scenario spaces: boxes of worst-case operator approaches, and their assumptions.
+
+A space file (typed YAML, loaded strictly) gives a [min, max] range for each parameter
+of an approach; a range with min == max fixes it. A point of the space (one value per
+parameter) becomes a full :class:`safety_systems.config.scenario.Scenario`:
+
+- The robot runs its path from t = 0. Every operator stands still at its start point
+  until the onset, ``settle_time + onset_phase * cycle_time`` (the robot is then at that
+  fraction of its cycle), so the tracker has settled.
+- The hand heads for the *target*: a point of the robot at ``target_phase`` of its
+  cycle, on the link ``target_link`` (an index into ``robot_geometry.CAPSULE_NAMES``:
+  shoulder, upper arm, forearm, the three wrist links, the tool) at the fraction
+  ``target_along`` from the link's inner joint to its outer one (for the tool: from the
+  flange to the tool tip). The start point lies ``start_distance`` from the target in
+  the direction (``azimuth_deg``, ``elevation_deg``); extra operators come from azimuths
+  turned by 360 / n degrees.
+- At the onset the hand either goes straight for the target or, when
+  ``retreat_distance`` > 0, first walks that far away and then reverses, with peak
+  speed ``peak_speed`` and acceleration ``acceleration``. It reaches on through the
+  target by ``overshoot`` along the same line and stays there.
+- Each operator has two tracked gloves: the approaching hand at the reference point and
+  the other hand 0.35 m to its side, spheres of ``hand_radius``; with ``heads`` = 1 also
+  a tracked head, ``HEAD_BACK`` behind the hand (towards where it came from) and
+  ``HEAD_UP`` above it, a sphere of ``head_radius``.
+- Sensor conditions: noise, latency, and from the onset a run of dropped frames
+  (``dropout``, s) and an occlusion (``occlusion``, s) of ``occluded_bodies`` bodies of
+  every operator: 1 the approaching hand, 2 both hands, 3 both hands and the head.
+- Outlier frames (marker swaps): ``outlier_frames`` consecutive frames in which every
+  body of every operator is reported ``outlier_offset`` m farther back along its
+  approach line (the operator's markers taken for another set's, farther out), starting
+  ``outlier_delay`` s after the later of the occlusion's and the dropout's ends (so every
+  body has been seen again before them). A displaced hand beside its correctly seen
+  glove and head would change nothing: the monitor still sees the operator there.
+- ``braking_time_scale`` > 1 makes the real brakes slower than the stopping data says.
+
+Or, with a ``recording:`` block instead of ``parameters``, a box around a recording of
+real operators (``verification.spaces.recorded`` explains its parameters and how a point
+becomes a scenario). The functions below serve both kinds; the space file's types are
+``verification.spaces.box``.
+"""
+
+import dataclasses as dc
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+
+from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.cell.operator_paths import segment_profile
+from safety_systems.cell.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
+from safety_systems.config.configuration import joint_path
+from safety_systems.config.scenario import (
+    ROBOT_GEOMETRIES,
+    Body,
+    ControllerConfig,
+    Interval,
+    Occlusion,
+    OperatorConfig,
+    Scenario,
+    ScenarioError,
+    SensorFault,
+    Waypoint,
+    read_task_path,
+    validate_scenario,
+)
+from safety_systems.files.documents import load_document
+from safety_systems.files.ranges import check_limits
+from verification.spaces.box import (
+    LIMITS,
+    MIN_GAP,
+    WHOLE,
+    Range,
+    ScenarioSpace,
+    check_ranges,
+)
+from verification.spaces.recorded import (
+    read_recording_block,
+    recorded_scenario,
+    recording_assumptions,
+    validate_recording,
+)
+
+OTHER_HAND_OFFSET = 0.35  # m, sideways from the approaching hand
+HEAD_BACK = 0.30  # m behind the approaching hand, horizontally
+HEAD_UP = 0.45  # m above it
+TARGET_SEGMENTS = LINK_SEGMENTS + ((6, 7),)  # each capsule's points, the tool's last
+
+
+def validate_space(space: ScenarioSpace) -> None:
+    """Range checks; raises ScenarioError naming the field."""
+    check_limits(space)
+    check_ranges(space.parameters, LIMITS, WHOLE, "parameters")
+    if space.robot.mode not in ("kinematic", "dynamic"):  # checked before any search
+        raise ScenarioError("robot.mode", space.robot.mode, "kinematic | dynamic")
+    if space.contact_geometry not in ROBOT_GEOMETRIES:
+        raise ScenarioError("contact_geometry", space.contact_geometry,
+                            " | ".join(ROBOT_GEOMETRIES))
+    if space.recording is not None:
+        validate_recording(space)
+
+
+def load_space(path: str | Path) -> ScenarioSpace:
+    """Load and validate a space file (its task path's ``file``, and a recording block's
+    files, relative to it)."""
+    def validate(space: ScenarioSpace) -> None:
+        read_task_path(space.robot, Path(path).parent)
+        if space.recording is not None:
+            read_recording_block(space.recording, Path(path).parent)
+        validate_space(space)
+
+    return load_document(path, ScenarioSpace, validate)
+
+
+def parameter_ranges(space: ScenarioSpace) -> dict[str, Range]:
+    """The space's parameters and their ranges, in order: ``NAMES`` of ``parameters``,
+    or a recording block's (``recorded.RECORDING_NAMES``)."""
+    block = space.parameters if space.recording is None else space.recording.parameters
+    return {f.name: getattr(block, f.name) for f in dc.fields(block)}
+
+
+def lower_upper(space: ScenarioSpace) -> tuple[np.ndarray, np.ndarray]:
+    """The box's corners as two vectors in the order of :func:`parameter_ranges`."""
+    ranges = parameter_ranges(space).values()
+    return np.array([r.min for r in ranges]), np.array([r.max for r in ranges])
+
+
+def free_parameters(space: ScenarioSpace) -> list[str]:
+    """Names of the parameters whose range is not a single value."""
+    return [n for n, r in parameter_ranges(space).items() if r.max > r.min]
+
+
+def to_point(space: ScenarioSpace, unit: np.ndarray) -> dict[str, float]:
+    """Maps a point of the unit cube over the free parameters to parameter values."""
+    ranges = parameter_ranges(space)
+    values = {n: float(r.min) for n, r in ranges.items()}
+    for name, u in zip(free_parameters(space), np.asarray(unit, dtype=float)):
+        r = ranges[name]
+        values[name] = float(r.min + min(max(u, 0.0), 1.0) * (r.max - r.min))
+    for name in WHOLE:
+        if name in values:
+            values[name] = float(round(values[name]))
+    return values
+
+
+def contact_assumption(space: ScenarioSpace) -> str:
+    """What contact means in the space's scenarios, in words."""
+    if space.contact_geometry == "capsules":
+        return (f"contact means a body's sphere within {space.contact_distance:g} m of a "
+                f"robot capsule (the tool of {space.robot.payload_radius:g} m radius"
+                f"{f', {space.robot.tool_length:g} m long' if space.robot.tool_length else ''})")
+    return (f"contact means a body within {space.contact_distance:g} m of the tool flange "
+            "(the seed's tool point; the other links are not checked)")
+
+
+def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
+    """The assumptions under which a verdict over ``space`` holds, in words."""
+    if space.recording is not None:
+        return recording_assumptions(space, config) + [contact_assumption(space)] \
+            + list(space.notes)
+    p = space.parameters
+    heads = " and a head" if p.heads.max >= 1 else ""
+    links = sorted({CAPSULE_NAMES[int(i)] for i in range(int(p.target_link.min),
+                                                          int(p.target_link.max) + 1)})
+    occluded = {1: "the approaching hand", 2: "both hands",
+                3: "both hands and the head"}[int(p.occluded_bodies.max)]
+    lines = [
+        f"{int(p.operators.min)} to {int(p.operators.max)} operator(s), each tracked by two "
+        f"gloves{heads} (spheres of {space.hand_radius:g} m{', ' if heads else ''}"
+        f"{f'{space.head_radius:g} m' if heads else ''}); no other body enters the cell",
+        f"every operator starts {p.start_distance.min:g} to {p.start_distance.max:g} m from "
+        f"the point it approaches and stands still for at least {space.settle_time:g} s",
+        f"hand speed never exceeds {p.peak_speed.max:g} m/s (ISO 13855: 2.0 m/s) and "
+        f"acceleration never exceeds {p.acceleration.max:g} m/s^2",
+        f"approaches aim at points of the {', '.join(links)} (capsule axes), from azimuth "
+        f"{p.azimuth_deg.min:g} to {p.azimuth_deg.max:g} deg, elevation "
+        f"{p.elevation_deg.min:g} to {p.elevation_deg.max:g} deg; straight lines "
+        + ("with a retreat of up to "f"{p.retreat_distance.max:g} m before reversing"
+           if p.retreat_distance.max > 0 else "without retreat")
+        + f", reaching up to {p.overshoot.max:g} m past the target",
+        f"sensor: {config.sensor.rate_hz:g} Hz, noise std {p.noise_std.min:g} to "
+        f"{p.noise_std.max:g} m (bounded at {space.noise_bound_sigmas:g} sigma for proofs), "
+        f"latency {p.latency.min:g} to {p.latency.max:g} s, dropped frames up to "
+        f"{p.dropout.max:g} s, occlusion of up to {occluded} of every operator for up to "
+        f"{p.occlusion.max:g} s",
+        (f"up to {int(p.outlier_frames.max)} outlier frames of every operator's bodies, "
+         f"{p.outlier_offset.min:g} to {p.outlier_offset.max:g} m from their true positions"
+         if p.outlier_frames.max >= 1 else "no outlier frames"),
+        f"the robot stops as its stopping data says, times scaled by "
+        f"{p.braking_time_scale.min:g} to {p.braking_time_scale.max:g}",
+        contact_assumption(space),
+    ]
+    return lines + list(space.notes)
+
+
+def approach_times(peak_speed: float, acceleration: float, length: float) -> float:
+    """Duration of a rest-to-rest straight move, s."""
+    ta, tc, _ = segment_profile(np.array([length]), peak_speed, acceleration)
+    return float(2.0 * ta[0] + tc[0])
+
+
+def target_point(space: ScenarioSpace, values: dict[str, float], path) -> np.ndarray:
+    """The point a space's approaches aim at (see the module docstring), m."""
+    q = joint_path_state(path, values["target_phase"] * path.cycle_time)[0]
+    points = robot_points(q, tool_length=space.robot.tool_length)[0]
+    a, b = TARGET_SEGMENTS[int(round(values["target_link"]))]
+    return points[a] + values["target_along"] * (points[b] - points[a])
+
+
+def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[str, float],
+                  *, name: str = "sample", path=None, validate: bool = True) -> Scenario:
+    """The scenario of one point of the space (``values`` by parameter name).
+
+    ``path``: the space robot's joint path, if the caller has it already (building it is
+    most of the cost for many points). ``validate=False`` skips the range checks, for
+    candidates that are only ranked, never simulated (simulated ones are made again
+    with the checks). A recording space's points: ``recorded.recorded_scenario``."""
+    v = values
+    path = joint_path(space.robot) if path is None else path
+    if space.recording is not None:
+        return recorded_scenario(space, config, values, name=name, path=path,
+                                 validate=validate)
+    onset = space.settle_time + v["onset_phase"] * path.cycle_time
+    target = target_point(space, v, path)
+    n_ops = int(round(v["operators"]))
+    heads = int(round(v["heads"])) >= 1
+    operators, end, directions = [], onset, []
+    for j in range(n_ops):
+        az = math.radians(v["azimuth_deg"] + 360.0 * j / n_ops)
+        el = math.radians(v["elevation_deg"])
+        u = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+        directions.append(u)
+        start = target + v["start_distance"] * u
+        waypoints = [Waypoint(0.0, start.tolist())]
+        t = onset
+        if v["retreat_distance"] > 0.0:
+            away = start + v["retreat_distance"] * u
+            waypoints.append(Waypoint(t, away.tolist()))
+            t += approach_times(v["peak_speed"], v["acceleration"], v["retreat_distance"])
+            t += 1e-6
+        end_point = target - v["overshoot"] * u  # reaching on through the target
+        waypoints.append(Waypoint(t, end_point.tolist()))
+        length = float(np.linalg.norm(end_point - np.array(waypoints[-2].position)))
+        end = max(end, t + approach_times(v["peak_speed"], v["acceleration"], length))
+        side = np.array([-math.sin(az), math.cos(az), 0.0]) * OTHER_HAND_OFFSET
+        bodies = [Body("hand", [0.0, 0.0, 0.0], space.hand_radius),
+                  Body("other_hand", side.tolist(), space.hand_radius)]
+        if heads:  # behind the hand (where it came from) and above it
+            back = np.array([math.cos(az), math.sin(az), 0.0]) * HEAD_BACK
+            bodies.append(Body("head", (back + [0.0, 0.0, HEAD_UP]).tolist(),
+                               space.head_radius))
+        operators.append(OperatorConfig(
+            name=f"operator_{j}", max_speed=v["peak_speed"], max_acceleration=v["acceleration"],
+            bodies=bodies, waypoints=waypoints))
+    duration = end + space.tail_time
+    sensor = dc.replace(config.sensor, noise_std=v["noise_std"], latency=v["latency"],
+                        dropouts=[], occlusions=[], faults=[])
+    if v["dropout"] > MIN_GAP:
+        sensor.dropouts = [Interval(onset, onset + v["dropout"])]
+    hidden = ("hand", "other_hand", "head")[:int(round(v["occluded_bodies"]))]
+    if v["occlusion"] > MIN_GAP:
+        sensor.occlusions = [Occlusion(f"{o.name}/{b.name}", onset, onset + v["occlusion"])
+                             for o in operators for b in o.bodies if b.name in hidden]
+    frames = int(round(v["outlier_frames"]))
+    if frames >= 1:  # from the first capture after the delay, exactly ``frames`` captures
+        period = 1.0 / sensor.rate_hz
+        after = onset + max(v["occlusion"], v["dropout"]) + v["outlier_delay"]
+        first = math.ceil(after / period - 1e-9) * period
+        sensor.faults = [SensorFault("outlier", f"{o.name}/{b.name}", "", first,
+                                     first + (frames - 0.5) * period,
+                                     (v["outlier_offset"] * u).tolist())
+                         for o, u in zip(operators, directions) for b in o.bodies]
+        duration = max(duration, first + frames * period + space.tail_time)
+    robot = dc.replace(space.robot, braking_time_scale=v["braking_time_scale"],
+                       cycles=int(math.ceil(duration / path.cycle_time)) + 1)
+    scenario = Scenario(name=name, duration=duration, contact_geometry=space.contact_geometry,
+                        contact_distance=space.contact_distance, robot=robot, controller=config,
+                        sensor=sensor, operators=operators)
+    if validate:
+        validate_scenario(scenario)
+    return scenario
+
+
+def corners(space: ScenarioSpace) -> np.ndarray:
+    """Every vertex of the unit cube over the free parameters, (2^d, d)."""
+    d = len(free_parameters(space))
+    return np.array(list(itertools.product((0.0, 1.0), repeat=d)), dtype=float).reshape(2**d, d)
+
+
+def describe(values: dict[str, float]) -> dict[str, float]:
+    """Parameter values rounded for reports."""
+    return {k: float(np.round(x, 6)) for k, x in values.items()}
