@@ -274,6 +274,107 @@ def segment_pair(p_B, v_B, A, B, vA, vB):
     return separation_pair((x0, x1, x2), (w0, w1, w2), p_B, v_B)
 
 
+_PARALLEL = 1e-12  # relative size of |d1 x d2|^2 below which two axes count as parallel
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _point_on_segment(p, A, e, ee):
+    """The parameter in [0, 1] of the point of segment A + t e (|e|^2 = ee > 0) nearest
+    to p."""
+    t = ((p[0] - A[0]) * e[0] + (p[1] - A[1]) * e[1] + (p[2] - A[2]) * e[2]) / ee
+    return min(max(t, 0.0), 1.0)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _gap2(P, d1, s, A, d2, t):
+    """|(A + t d2) - (P + s d1)|^2."""
+    x0 = A[0] + t * d2[0] - P[0] - s * d1[0]
+    x1 = A[1] + t * d2[1] - P[1] - s * d1[1]
+    x2 = A[2] + t * d2[2] - P[2] - s * d1[2]
+    return x0 * x0 + x1 * x1 + x2 * x2
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def nearest_parameters(P, Q, A, B):
+    """(s, t): the points P + s (Q - P) and A + t (B - A) (s, t in [0, 1]) nearest to each
+    other on the two segments.
+
+    Minimising |A + t d2 - P - s d1|^2 over the unit square, a convex quadratic: where
+    the axes are not parallel, the unconstrained minimum's s clamped to [0, 1], the t
+    best for it clamped, and s made best for a clamped t (the minimum over the square
+    lies on the boundary the clamping reaches). Where they are parallel (|d1 x d2|^2 at
+    most ``_PARALLEL`` |d1|^2 |d2|^2, where that formula's division loses its digits) the
+    nearest pair always includes an end of one segment, so the four end-to-segment pairs
+    are compared and the nearest kept. A point segment (Q = P or B = A) takes the
+    point-to-segment rule."""
+    d1 = (Q[0] - P[0], Q[1] - P[1], Q[2] - P[2])
+    d2 = (B[0] - A[0], B[1] - A[1], B[2] - A[2])
+    a = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
+    e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]
+    if a == 0.0:
+        return 0.0, (_point_on_segment(P, A, d2, e) if e != 0.0 else 0.0)
+    if e == 0.0:
+        return _point_on_segment(A, P, d1, a), 0.0
+    r = (P[0] - A[0], P[1] - A[1], P[2] - A[2])
+    b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
+    c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2]
+    f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2]
+    denom = a * e - b * b  # |d1 x d2|^2 >= 0
+    if denom > _PARALLEL * a * e:
+        s = min(max((b * f - c * e) / denom, 0.0), 1.0)
+        t = (b * s + f) / e
+        if t < 0.0:
+            t, s = 0.0, min(max(-c / a, 0.0), 1.0)
+        elif t > 1.0:
+            t, s = 1.0, min(max((b - c) / a, 0.0), 1.0)
+        return s, t
+    # Parallel: an end of one segment against the other segment, the nearest of four.
+    best_s, best_t = 0.0, _point_on_segment(P, A, d2, e)
+    best = _gap2(P, d1, best_s, A, d2, best_t)
+    t1 = _point_on_segment(Q, A, d2, e)
+    g = _gap2(P, d1, 1.0, A, d2, t1)
+    if g < best:
+        best, best_s, best_t = g, 1.0, t1
+    s0 = _point_on_segment(A, P, d1, a)
+    g = _gap2(P, d1, s0, A, d2, 0.0)
+    if g < best:
+        best, best_s, best_t = g, s0, 0.0
+    s1 = _point_on_segment(B, P, d1, a)
+    g = _gap2(P, d1, s1, A, d2, 1.0)
+    if g < best:
+        best_s, best_t = s1, 1.0
+    return best_s, best_t
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def segments_pair(P, Q, vP, vQ, A, B, vA, vB):
+    """(axis_distance, v_human_directed, v_robot_directed) of a human capsule's axis PQ
+    (its ends moving at vP, vQ) and a robot capsule's axis AB moving rigidly (vA, vB):
+    seed Eqs. 6-8 between the two axes' nearest points (:func:`nearest_parameters`),
+    x_h = P + s (Q - P) and x_r = A + t (B - A). Eq. 8's distance is |x_r - x_h|; Eq. 7's
+    robot speed is that of x_r, moving at (1 - t) vA + t vB, towards x_h; Eq. 6's human
+    speed towards x_r is the larger of the two ends' (vP and vQ projected on the
+    direction from x_h to x_r). Coincident points take the full magnitudes (the faster
+    end's), as ``separation_pair`` does; a NaN input gives NaN.
+
+    Interpretation: the seed's body is a point; a body segment's points move at the
+    ends' weighted mean where the segment is rigid, so none moves towards the robot
+    faster than its faster end, and for an envelope of untracked segments
+    (``cell.human_body``) that is the rule the monitor takes. A point (P = Q, vP = vQ)
+    is :func:`segment_pair` of P, bit for bit."""
+    if (P[0] == Q[0] and P[1] == Q[1] and P[2] == Q[2] and vP[0] == vQ[0]
+            and vP[1] == vQ[1] and vP[2] == vQ[2]):
+        return segment_pair(P, vP, A, B, vA, vB)
+    s, t = nearest_parameters(P, Q, A, B)
+    u = 1.0 - t
+    x0, x1, x2 = u * A[0] + t * B[0], u * A[1] + t * B[1], u * A[2] + t * B[2]
+    w0, w1, w2 = u * vA[0] + t * vB[0], u * vA[1] + t * vB[1], u * vA[2] + t * vB[2]
+    y0, y1, y2 = P[0] + s * (Q[0] - P[0]), P[1] + s * (Q[1] - P[1]), P[2] + s * (Q[2] - P[2])
+    dist, h_P, v_r = separation_pair((x0, x1, x2), (w0, w1, w2), (y0, y1, y2), vP)
+    h_Q = separation_pair((x0, x1, x2), (w0, w1, w2), (y0, y1, y2), vQ)[1]
+    return dist, (h_P if h_P >= h_Q or math.isnan(h_P) else h_Q), v_r
+
+
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def nearest_capsule_one(p_B, v_B, r_B, ends, end_velocities, radius):
     """(clearance, v_human_directed, v_robot_directed, index) of a body (radius r_B

@@ -1,0 +1,453 @@
+"""The operator as capsules: body points, the segments between them, their dimensions, and
+the envelopes the monitor puts around the segments it does not see.
+
+**Body points** (:data:`POINTS`, joint centres unless said): the head's centre, the neck's
+base (between the shoulders, at the top of the sternum), the chest (mid-sternum, on the
+trunk's axis), the pelvis (midway between the hip joints), each shoulder joint, each
+elbow joint and the centre of each hand (where a glove's rigid body sits). They form a
+tree (:data:`EDGES`): head - neck - chest - pelvis, and neck - shoulder - elbow - hand on
+each side.
+
+**Segments** (:data:`SEGMENTS`): every edge is a capsule (its axis the edge, grown by the
+segment's radius): the neck, the upper and lower trunk, each shoulder girdle, upper arm
+and forearm; the head and each hand are balls about their points. Twelve per operator.
+
+**Dimensions** (:data:`DEFAULT_DIMENSIONS`, metres): each length is the largest distance
+between its two points an adult takes, each radius the largest distance of the segment's
+surface from its axis, from the 95th percentiles of British adult men aged 19-65
+(Pheasant and Haslegrave, *Bodyspace*, 3rd ed., 2006; as reproduced by A. Chan's online
+anthropometry pages, City University of Hong Kong, Ch. 2), rounded up:
+
+- ``upper_arm`` 0.40: shoulder-elbow length 395 mm (acromion to the underside of the
+  elbow; both joint centres lie inside those landmarks);
+- ``forearm`` 0.41, elbow to hand centre: elbow-fingertip length 510 mm less the hand
+  centre's distance from the fingertip (at least 0.10 m);
+- ``hand_radius`` 0.12: the hand centre to the fingertip and the hand's half breadth
+  (hand breadth 95 mm) in any direction;
+- ``shoulder`` 0.22, neck base to shoulder joint: half the biacromial breadth, 430 mm;
+  ``shoulder_radius`` 0.07: the deltoid, bideltoid breadth 510 mm;
+- ``neck`` 0.20, head centre to neck base: sitting height 965 mm less sitting shoulder
+  height 645 mm (vertex to acromion) less the head's half length (head length 205 mm);
+  ``head_radius`` 0.12: half the head length with the nose;
+- ``upper_trunk`` 0.22 and ``lower_trunk`` 0.38, neck base to chest to hip centre:
+  sitting shoulder height 645 mm less the hip joints' height above the seat;
+  ``trunk_radius`` 0.20: half the hip breadth (405 mm), more than half the chest depth
+  (285 mm);
+- ``head_shoulder`` 0.32: the head centre's largest distance from a shoulder joint
+  (0.20 m below and 0.22 m beside it, the head tilted), a bound tighter than the path
+  through the neck (0.42 m);
+- ``upper_arm_radius`` 0.06, ``forearm_radius`` 0.05, ``neck_radius`` 0.07 (the limbs'
+  half depths, our estimates).
+
+Interpretation: the table's landmarks are surface points (acromion, the back of the
+elbow, the vertex); the distances between joint centres are shorter, so the table's
+figures bound them. Summing segment lengths gives a longer arm than a real one reaches:
+the envelope is larger than the body, never smaller. A person larger than the table
+(the 5% of men beyond the 95th percentile) breaks the premise; a configuration can give
+its own figures (``SafetyConfig.body``).
+
+**Posture limits** (our assumptions, premises a proof lists as trusted): the trunk
+(neck base to chest to pelvis) leans at most ``trunk_lean_deg`` (45) from the vertical,
+the neck base lies at most ``neck_lean_deg`` (60) from straight below the head centre
+(head tilt and trunk lean together), and the cell's z axis points up.
+
+**Envelopes.** The monitor sees some points (those tracked: a glove, a head, an elbow
+marker, a suit's bones) and must bound every segment. Each point gets a *region*, a ball
+certain to hold it: a tracked point's is its estimate grown by the tracking allowance
+(``tracking_allowance``, which the proof checks covers the tracker's error) and, while
+hidden, by ``occlusion_speed`` times the time unseen; an untracked point's is derived
+from a tracked one along the tree (:func:`envelope_recipe`): one edge of length l moves
+a region's centre by nothing and grows its radius by l, or, under a lean limit of angle
+a about the vertical, moves the centre l cos(a) along it and grows the radius by
+l sin(a) (the smallest ball about the axis holding that cap of the sphere of radius l);
+the shoulders can also be derived from the head through ``head_shoulder``. The tightest
+derivation is kept.
+
+A segment on the tree path between two points A and B (regions of centre c and radius
+u, path length L) lies in the ellipsoid {x : |x - c_A| + |x - c_B| <= L + u_A + u_B}:
+every point x of the path is reached from the true A and the true B along the path, so
+|x - A| + |x - B| <= L, and the true points are within u of the centres. That is why an
+elbow away from the line between hand and shoulder is covered: the ellipsoid's width
+is what the segment lengths allow, not the line. Its semi-axes are a = (L + u_A + u_B) /
+2 along the foci and b = sqrt(a^2 - c^2) across (c half the foci's distance); it lies in
+the capsule of radius b about the foci's axis, of half length a - b about their midpoint
+(a point at t along the axis and rho from it with t^2 / a^2 + rho^2 / b^2 <= 1 has
+(|t| - a + b)^2 + rho^2 <= b^2 when |t| > a - b, as |t| <= a). A segment with both points
+tracked is the capsule between their estimates, grown by the larger uncertainty. The
+segment's envelope is its smallest candidate capsule at each frame (every candidate
+holds it) grown by the segment's radius. Foci farther apart than L + u_A + u_B (a posture
+the dimensions do not allow: a larger person, a marker that is not where the mapping says)
+give the capsule between the foci.
+
+Every envelope carries its foci's velocities at its ends (the nearer focus' at each end),
+so that the monitor's speeds of a segment are those of its tracked points
+(``robot_geometry.segments_pair``).
+"""
+
+import dataclasses
+import math
+
+import numba
+import numpy as np
+
+POINTS = ("head", "neck", "chest", "pelvis", "shoulder_left", "shoulder_right",
+          "elbow_left", "elbow_right", "hand_left", "hand_right")
+NUM_POINTS = len(POINTS)
+_P = {name: i for i, name in enumerate(POINTS)}
+# The tree: (point, point, its length's name, lean limit's name or "" (none)); the lean
+# limit bounds the direction from the first point to the second about straight down.
+EDGES = (("head", "neck", "neck", "neck_lean_deg"),
+         ("neck", "chest", "upper_trunk", "trunk_lean_deg"),
+         ("chest", "pelvis", "lower_trunk", "trunk_lean_deg"),
+         ("neck", "shoulder_left", "shoulder", ""),
+         ("neck", "shoulder_right", "shoulder", ""),
+         ("shoulder_left", "elbow_left", "upper_arm", ""),
+         ("shoulder_right", "elbow_right", "upper_arm", ""),
+         ("elbow_left", "hand_left", "forearm", ""),
+         ("elbow_right", "hand_right", "forearm", ""))
+# Shortcuts that bound a distance better than the tree path: (point, point, length name).
+SHORTCUTS = (("head", "shoulder_left", "head_shoulder"),
+             ("head", "shoulder_right", "head_shoulder"))
+# Segments: (name, point, point, radius name); a ball where the two points are one.
+SEGMENTS = (("head", "head", "head", "head_radius"),
+            ("neck", "head", "neck", "neck_radius"),
+            ("upper_trunk", "neck", "chest", "trunk_radius"),
+            ("lower_trunk", "chest", "pelvis", "trunk_radius"),
+            ("shoulder_left", "neck", "shoulder_left", "shoulder_radius"),
+            ("shoulder_right", "neck", "shoulder_right", "shoulder_radius"),
+            ("upper_arm_left", "shoulder_left", "elbow_left", "upper_arm_radius"),
+            ("upper_arm_right", "shoulder_right", "elbow_right", "upper_arm_radius"),
+            ("forearm_left", "elbow_left", "hand_left", "forearm_radius"),
+            ("forearm_right", "elbow_right", "hand_right", "forearm_radius"),
+            ("hand_left", "hand_left", "hand_left", "hand_radius"),
+            ("hand_right", "hand_right", "hand_right", "hand_radius"))
+SEGMENT_NAMES = tuple(s[0] for s in SEGMENTS)
+NUM_SEGMENTS = len(SEGMENTS)
+# ISO/TS 15066 Annex A's body regions each segment belongs to (for reports).
+DEFAULT_DIMENSIONS = {
+    "neck": 0.20, "upper_trunk": 0.22, "lower_trunk": 0.38, "shoulder": 0.22,
+    "upper_arm": 0.40, "forearm": 0.41, "head_shoulder": 0.32,
+    "head_radius": 0.12, "neck_radius": 0.07, "trunk_radius": 0.20, "shoulder_radius": 0.07,
+    "upper_arm_radius": 0.06, "forearm_radius": 0.05, "hand_radius": 0.12,
+    "trunk_lean_deg": 45.0, "neck_lean_deg": 60.0,
+}
+DIMENSION_NAMES = tuple(DEFAULT_DIMENSIONS)
+LENGTHS = ("neck", "upper_trunk", "lower_trunk", "shoulder", "upper_arm", "forearm",
+           "head_shoulder")
+# Legacy body names (the three-ball operator: two gloves and a head) and the points they
+# mark, for files that name no point.
+LEGACY_POINTS = {"head": "head", "hand": "hand_right", "other_hand": "hand_left",
+                 "right_glove": "hand_right", "left_glove": "hand_left"}
+
+# Region rows: (tracked body slot, centre offset x, y, z from its estimate, extra radius).
+REGION_COLUMNS = 5
+# Candidate rows: (segment, region A, region B, static term, kind, dz); kind 0: the
+# ellipsoid |x - c_A| + |x - c_B| <= term + u_A + u_B; kind 1: the capsule between two
+# tracked points; kind 2: the cone of a lean-limited edge from A's region, the capsule from
+# c_A to c_A + dz z of radius term + u_A.
+CANDIDATE_COLUMNS = 6
+KIND_ELLIPSOID, KIND_DIRECT, KIND_CONE = 0, 1, 2
+
+
+def point_index(name: str) -> int:
+    """The index of a body point by name; raises ValueError naming the allowed ones."""
+    if name not in _P:
+        raise ValueError(f"point: got {name!r}; allowed: {' | '.join(POINTS)}")
+    return _P[name]
+
+
+def dimensions(overrides: dict | None = None) -> dict:
+    """The table with ``overrides`` (name -> value) replacing its figures; raises
+    ValueError on an unknown name or a value outside its range (lengths and radii
+    0 < x <= 2 m, angles 0 <= x <= 90 deg)."""
+    out = dict(DEFAULT_DIMENSIONS)
+    for name, value in (overrides or {}).items():
+        if name not in out:
+            raise ValueError(f"{name}: not a body dimension; allowed: "
+                             f"{' | '.join(DIMENSION_NAMES)}")
+        value = float(value)
+        ok = (0.0 <= value <= 90.0) if name.endswith("_deg") else (0.0 < value <= 2.0)
+        if not (math.isfinite(value) and ok):
+            raise ValueError(f"{name}: got {value!r}; allowed: "
+                             + ("0 <= x <= 90 deg" if name.endswith("_deg")
+                                else "0 < x <= 2 m"))
+        out[name] = value
+    return out
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Recipe:
+    """How to bound every segment of a cell's operators from their tracked bodies (see the
+    module docstring): R regions, C candidates and M = 12 x operators segments, all
+    static for a run. ``regions`` (R, 5) and ``candidates`` (C, 5) as the module's
+    column constants say; ``radius`` (M,) each segment's radius, ``operator`` (M,) its
+    operator, ``slots`` (operators, most bodies) each operator's body slots (-1 pads)."""
+
+    regions: np.ndarray
+    candidates: np.ndarray
+    radius: np.ndarray
+    operator: np.ndarray
+    slots: np.ndarray
+    names: tuple[str, ...]  # "operator/segment"
+
+
+def _tree():
+    """(adjacency: point -> [(point, length name, lean name, sign)], shortcuts)."""
+    adj = {i: [] for i in range(NUM_POINTS)}
+    for a, b, length, lean in EDGES:
+        adj[_P[a]].append((_P[b], length, lean, -1.0))  # b lies below a
+        adj[_P[b]].append((_P[a], length, lean, 1.0))  # a lies above b
+    return adj
+
+
+def _path(a: int, b: int, adj) -> list[int]:
+    """The tree path from point a to point b (both included)."""
+    prev, todo = {a: None}, [a]
+    while todo:
+        x = todo.pop()
+        for y, *_ in adj[x]:
+            if y not in prev:
+                prev[y] = x
+                todo.append(y)
+    out = [b]
+    while out[-1] != a:
+        out.append(prev[out[-1]])
+    return out[::-1]
+
+
+def _regions(tracked: dict[int, int], dims: dict, adj) -> dict[int, tuple]:
+    """Each point's best region (slot, offset (3,), extra radius) from the tracked points
+    (point -> body slot), by Dijkstra on the extra radius (every step adds to it)."""
+    best = {p: (slot, np.zeros(3), 0.0) for p, slot in tracked.items()}
+    todo = sorted(best, key=lambda p: best[p][2])
+    done = set()
+    while todo:
+        todo.sort(key=lambda p: best[p][2])
+        x = todo.pop(0)
+        if x in done:
+            continue
+        done.add(x)
+        slot, offset, extra = best[x]
+        steps = [(y, dims[length], dims[lean] if lean else 90.0, sign)
+                 for y, length, lean, sign in adj[x]]
+        steps += [(_P[b] if _P[a] == x else _P[a], dims[length], 90.0, 0.0)
+                  for a, b, length in SHORTCUTS if x in (_P[a], _P[b])]
+        for y, length, lean, sign in steps:
+            if lean < 90.0:
+                angle = math.radians(lean)
+                cand = (slot, offset + np.array([0.0, 0.0, sign * length * math.cos(angle)]),
+                        extra + length * math.sin(angle))
+            else:
+                cand = (slot, offset.copy(), extra + length)
+            if y not in best or cand[2] < best[y][2] - 1e-12:
+                best[y] = cand
+                todo.append(y)
+    return best
+
+
+def _path_length(path: list[int], dims: dict, adj) -> float:
+    total = 0.0
+    for x, y in zip(path, path[1:]):
+        total += next(dims[length] for z, length, _, _ in adj[x] if z == y)
+    return total
+
+
+def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
+                    names: list[str] | None = None) -> Recipe:
+    """The :class:`Recipe` of operators whose tracked bodies mark the points ``operators``
+    (per operator, the point of each body slot in slot order; slots numbered across the
+    operators in order), under the dimensions ``dims`` (:func:`dimensions`; None: the
+    table). ``names``: the operators' names (for the segments' names). Raises ValueError
+    when an operator has no body or two bodies mark one point."""
+    dims = dimensions() if dims is None else dims
+    adj = _tree()
+    regions, candidates, radius, operator, segment_names = [], [], [], [], []
+    slots = np.full((len(operators), max((len(o) for o in operators), default=0)), -1)
+    first_slot = 0
+    for k, points in enumerate(operators):
+        if not points:
+            raise ValueError(f"operators[{k}]: no body; allowed: one or more tracked bodies")
+        tracked = {}
+        for j, name in enumerate(points):
+            p = point_index(name)
+            if p in tracked:
+                raise ValueError(f"operators[{k}]: two bodies mark the point {name!r}")
+            tracked[p] = first_slot + j
+            slots[k, j] = first_slot + j
+        best = _regions(tracked, dims, adj)
+        base = len(regions)
+        for p in range(NUM_POINTS):
+            slot, offset, extra = best[p]
+            regions.append((slot, *offset, extra))
+        for name, a, b, r in SEGMENTS:
+            m = len(radius)
+            radius.append(dims[r])
+            operator.append(k)
+            segment_names.append(f"{names[k] if names else k}/{name}")
+            pa, pb = _P[a], _P[b]
+            if pa != pb and pa in tracked and pb in tracked:
+                candidates.append((m, base + pa, base + pb, 0.0, KIND_DIRECT, 0.0))
+                continue
+            for x, y, length, lean, sign in _cones(pa, pb, dims, adj):
+                # the edge from x's region within the lean limit: a cone, in a capsule
+                angle = math.radians(lean)
+                candidates.append((m, base + x, base + x, best[x][2] + length * math.sin(angle),
+                                   KIND_CONE, sign * length * math.cos(angle)))
+            # Every pair of points whose tree path holds the segment's axis; skipped where
+            # a tracked point lies strictly inside the path (the shorter chain is inside).
+            if pa == pb:
+                sides = ([pa], [pa])
+            else:
+                cut = {i: [] for i in adj}
+                for x in adj:
+                    cut[x] = [e for e in adj[x] if {x, e[0]} != {pa, pb}]
+                sides = (_component(pa, cut), _component(pb, cut))
+            seen = set()
+            for A in sides[0]:
+                for B in sides[1]:
+                    path = _path(A, B, adj)
+                    if any(x in tracked for x in path[1:-1]):
+                        continue
+                    key = (best[A][0], *np.round(best[A][1], 12), best[B][0],
+                           *np.round(best[B][1], 12),
+                           round(_path_length(path, dims, adj) + best[A][2] + best[B][2], 12))
+                    if key in seen:
+                        continue
+                    seen.add(key)
+                    total = _path_length(path, dims, adj) + best[A][2] + best[B][2]
+                    candidates.append((m, base + A, base + B, total, KIND_ELLIPSOID, 0.0))
+        first_slot += len(points)
+    return Recipe(np.array(regions, dtype=float).reshape(-1, REGION_COLUMNS),
+                  np.array(candidates, dtype=float).reshape(-1, CANDIDATE_COLUMNS),
+                  np.array(radius, dtype=float), np.array(operator, dtype=np.int64),
+                  slots, tuple(segment_names))
+
+
+def _cones(pa: int, pb: int, dims: dict, adj) -> list[tuple]:
+    """The edge pa-pb seen from either end if it has a lean limit below 90 degrees:
+    (from, to, length, lean, sign of the direction's z)."""
+    out = []
+    for x, y in ((pa, pb), (pb, pa)):
+        for z, length, lean, sign in adj[x]:
+            if z == y and lean and dims[lean] < 90.0:
+                out.append((x, y, dims[length], dims[lean], sign))
+    return out
+
+
+def _component(start: int, adj) -> list[int]:
+    out, todo = [start], [start]
+    while todo:
+        x = todo.pop()
+        for y, *_ in adj[x]:
+            if y not in out:
+                out.append(y)
+                todo.append(y)
+    return out
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def ellipsoid_capsule(c_A, c_B, total):
+    """(end A, end B, radius) of the capsule holding the ellipsoid {x : |x - c_A| +
+    |x - c_B| <= total} (see the module docstring): its axis on the foci's line about
+    their midpoint, half length a - b, radius b; the end nearer c_A first. Foci farther
+    apart than ``total``: the segment between them, radius 0."""
+    d0, d1, d2 = c_B[0] - c_A[0], c_B[1] - c_A[1], c_B[2] - c_A[2]
+    dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    a = 0.5 * total
+    c = 0.5 * dist
+    if c >= a:
+        return (c_A[0], c_A[1], c_A[2]), (c_B[0], c_B[1], c_B[2]), 0.0
+    b = math.sqrt((a - c) * (a + c))
+    m0, m1, m2 = 0.5 * (c_A[0] + c_B[0]), 0.5 * (c_A[1] + c_B[1]), 0.5 * (c_A[2] + c_B[2])
+    if dist == 0.0:
+        return (m0, m1, m2), (m0, m1, m2), b
+    h = (a - b) / dist  # the half length a - b along the unit axis d / dist
+    return ((m0 - h * d0, m1 - h * d1, m2 - h * d2), (m0 + h * d0, m1 + h * d1, m2 + h * d2),
+            b)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _size(A, B, r):
+    """A capsule's size for choosing among candidates: r^2 (2 |AB| + 4 r / 3), its volume
+    over pi."""
+    x0, x1, x2 = B[0] - A[0], B[1] - A[1], B[2] - A[2]
+    return r * r * (2.0 * math.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + 4.0 * r / 3.0)
+
+
+@numba.njit(cache=True)
+def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, std, unseen,
+                  allowance, occlusion_speed, usable_status, ends, end_velocities, out_radius,
+                  out_status, out_std):
+    """Every segment's envelope (see the module docstring) from the tracked bodies'
+    estimates p, v (N, 3), status (N,), std (N,) and time unseen (N,): capsule ends and
+    their velocities (M, 2, 3), radius (M,), the operator's status (M,) and the largest
+    std of the bodies the envelope was taken from (M,); compiled.
+
+    A body's region radius is ``allowance`` plus ``occlusion_speed`` times its time
+    unseen. An operator's status, which all its segments take: ``usable_status[1]``
+    (tracking) when every body is tracked, ``[2]`` (hidden) when some are hidden and the
+    rest tracked, ``[0]`` (none) when no body was ever seen or all have left, and
+    ``[3]`` (lost) otherwise: a lost body, or some bodies seen and others not (an
+    operator is seen whole before the robot may move, and a body is never forgotten
+    while its companions are here). Unusable operators' segments are NaN. A NaN in the
+    used estimates gives NaN ends."""
+    none, tracking, hidden, lost = (usable_status[0], usable_status[1], usable_status[2],
+                                    usable_status[3])
+    K = slots.shape[0]
+    op_status = np.empty(K)
+    for k in range(K):
+        n_none, n_lost, n_hidden, n = 0, 0, 0, 0
+        for j in range(slots.shape[1]):
+            i = slots[k, j]
+            if i < 0:
+                continue
+            n += 1
+            if status[i] == none:
+                n_none += 1
+            elif status[i] == hidden:
+                n_hidden += 1
+            elif status[i] != tracking:
+                n_lost += 1
+        if n_none == n:
+            op_status[k] = none
+        elif n_lost > 0 or n_none > 0:
+            op_status[k] = lost
+        elif n_hidden > 0:
+            op_status[k] = hidden
+        else:
+            op_status[k] = tracking
+    best = np.full(radius.size, np.inf)
+    for m in range(radius.size):
+        out_status[m] = op_status[operator[m]]
+        out_std[m] = np.nan
+        out_radius[m] = np.nan
+        for e in range(2):
+            for x in range(3):
+                ends[m, e, x] = np.nan
+                end_velocities[m, e, x] = np.nan
+    for c in range(candidates.shape[0]):
+        m = int(candidates[c, 0])
+        if not (out_status[m] == tracking or out_status[m] == hidden):
+            continue
+        ra, rb = int(candidates[c, 1]), int(candidates[c, 2])
+        ia, ib = int(regions[ra, 0]), int(regions[rb, 0])
+        u_a = allowance + occlusion_speed * unseen[ia] if status[ia] == hidden else allowance
+        u_b = allowance + occlusion_speed * unseen[ib] if status[ib] == hidden else allowance
+        c_a = (p[ia, 0] + regions[ra, 1], p[ia, 1] + regions[ra, 2], p[ia, 2] + regions[ra, 3])
+        c_b = (p[ib, 0] + regions[rb, 1], p[ib, 1] + regions[rb, 2], p[ib, 2] + regions[rb, 3])
+        if candidates[c, 4] == KIND_DIRECT:
+            end_a, end_b, r = c_a, c_b, max(u_a, u_b)
+        elif candidates[c, 4] == KIND_CONE:
+            end_a, end_b, r = c_a, (c_a[0], c_a[1], c_a[2] + candidates[c, 5]), \
+                candidates[c, 3] + u_a
+        else:
+            end_a, end_b, r = ellipsoid_capsule(c_a, c_b, candidates[c, 3] + u_a + u_b)
+        r += radius[m]
+        size = _size(end_a, end_b, r)
+        if size < best[m] or (math.isnan(size) and not math.isnan(best[m])):
+            best[m] = size
+            out_radius[m] = r
+            out_std[m] = max(std[ia], std[ib])
+            for x in range(3):
+                ends[m, 0, x], ends[m, 1, x] = end_a[x], end_b[x]
+                end_velocities[m, 0, x], end_velocities[m, 1, x] = v[ia, x], v[ib, x]
