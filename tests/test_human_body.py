@@ -19,7 +19,6 @@ from safety_systems.cell.robot_geometry import (
 )
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_NONE, TRACK_TRACKING
 
-STATUS = np.array([TRACK_NONE, TRACK_TRACKING, TRACK_HIDDEN, TRACK_LOST], dtype=float)
 coord = st.floats(-2.0, 2.0, allow_nan=False)
 point = st.tuples(coord, coord, coord)
 
@@ -159,7 +158,7 @@ def envelopes(recipe, p, v=None, status=None, unseen=None, allowance=0.01,
     out = (np.empty((m, 2, 3)), np.empty((m, 2, 3)), np.empty(m), np.empty(m), np.empty(m))
     hb.envelope_rows(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
                      recipe.slots, np.ascontiguousarray(p, dtype=float), v, status,
-                     np.zeros(n), unseen, allowance, occlusion_speed, STATUS, *out)
+                     np.zeros(n), unseen, allowance, occlusion_speed, *out)
     return out
 
 

@@ -90,6 +90,9 @@ import math
 import numba
 import numpy as np
 
+from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_NONE, TRACK_TRACKING
+from safety_systems.ssm.formulas import hidden_ball_radius
+
 POINTS = ("head", "neck", "chest", "pelvis", "shoulder_left", "shoulder_right",
           "elbow_left", "elbow_right", "hand_left", "hand_right")
 NUM_POINTS = len(POINTS)
@@ -253,16 +256,18 @@ def _path_length(path: list[int], dims: dict, adj) -> float:
 
 
 def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
-                    names: list[str] | None = None) -> Recipe:
+                    names: list[str] | None = None,
+                    slots: list[list[int]] | None = None) -> Recipe:
     """The :class:`Recipe` of operators whose tracked bodies mark the points ``operators``
-    (per operator, the point of each body slot in slot order; slots numbered across the
-    operators in order), under the dimensions ``dims`` (:func:`dimensions`; None: the
-    table). ``names``: the operators' names (for the segments' names). Raises ValueError
-    when an operator has no body or two bodies mark one point."""
+    (per operator, the point of each body slot in slot order), under the dimensions
+    ``dims`` (:func:`dimensions`; None: the table). ``slots``: each body's slot in the
+    arrays ``envelope_rows`` reads (None: numbered across the operators in order).
+    ``names``: the operators' names (for the segments' names). Raises ValueError when an
+    operator has no body or two bodies mark one point."""
     dims = dimensions() if dims is None else dims
     adj = _tree()
     regions, candidates, radius, operator, segment_names = [], [], [], [], []
-    slots = np.full((len(operators), max((len(o) for o in operators), default=0)), -1)
+    slot_table = np.full((len(operators), max((len(o) for o in operators), default=0)), -1)
     first_slot = 0
     for k, points in enumerate(operators):
         if not points:
@@ -272,8 +277,8 @@ def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
             p = point_index(name)
             if p in tracked:
                 raise ValueError(f"operators[{k}]: two bodies mark the point {name!r}")
-            tracked[p] = first_slot + j
-            slots[k, j] = first_slot + j
+            tracked[p] = first_slot + j if slots is None else int(slots[k][j])
+            slot_table[k, j] = tracked[p]
         best = _regions(tracked, dims, adj)
         base = len(regions)
         for p in range(NUM_POINTS):
@@ -320,7 +325,7 @@ def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
     return Recipe(np.array(regions, dtype=float).reshape(-1, REGION_COLUMNS),
                   np.array(candidates, dtype=float).reshape(-1, CANDIDATE_COLUMNS),
                   np.array(radius, dtype=float), np.array(operator, dtype=np.int64),
-                  slots, tuple(segment_names))
+                  slot_table, tuple(segment_names))
 
 
 def _cones(pa: int, pb: int, dims: dict, adj) -> list[tuple]:
@@ -376,23 +381,22 @@ def _size(A, B, r):
 
 @numba.njit(cache=True)
 def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, std, unseen,
-                  allowance, occlusion_speed, usable_status, ends, end_velocities, out_radius,
-                  out_status, out_std):
+                  allowance, occlusion_speed, ends, end_velocities, out_radius, out_status,
+                  out_std):
     """Every segment's envelope (see the module docstring) from the tracked bodies'
     estimates p, v (N, 3), status (N,), std (N,) and time unseen (N,): capsule ends and
     their velocities (M, 2, 3), radius (M,), the operator's status (M,) and the largest
     std of the bodies the envelope was taken from (M,); compiled.
 
-    A body's region radius is ``allowance`` plus ``occlusion_speed`` times its time
-    unseen. An operator's status, which all its segments take: ``usable_status[1]``
-    (tracking) when every body is tracked, ``[2]`` (hidden) when some are hidden and the
-    rest tracked, ``[0]`` (none) when no body was ever seen or all have left, and
-    ``[3]`` (lost) otherwise: a lost body, or some bodies seen and others not (an
-    operator is seen whole before the robot may move, and a body is never forgotten
-    while its companions are here). Unusable operators' segments are NaN. A NaN in the
-    used estimates gives NaN ends."""
-    none, tracking, hidden, lost = (usable_status[0], usable_status[1], usable_status[2],
-                                    usable_status[3])
+    A body's region radius is ``allowance``, plus, while hidden, its ball's radius
+    (``formulas.hidden_ball_radius``: ``occlusion_speed`` times its time unseen). An
+    operator's status (``sensing.tracks``), which all its segments take: tracking when
+    every body is tracked, hidden when some are hidden and the rest tracked, none when no
+    body was ever seen or all have left, and lost otherwise: a lost body, or some bodies
+    seen and others not (an operator is seen whole before the robot may move, and a body
+    is never forgotten while its companions are here). Unusable operators' segments are
+    NaN. A NaN in the used estimates gives NaN ends."""
+    none, tracking, hidden, lost = TRACK_NONE, TRACK_TRACKING, TRACK_HIDDEN, TRACK_LOST
     K = slots.shape[0]
     op_status = np.empty(K)
     for k in range(K):
@@ -431,8 +435,11 @@ def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, st
             continue
         ra, rb = int(candidates[c, 1]), int(candidates[c, 2])
         ia, ib = int(regions[ra, 0]), int(regions[rb, 0])
-        u_a = allowance + occlusion_speed * unseen[ia] if status[ia] == hidden else allowance
-        u_b = allowance + occlusion_speed * unseen[ib] if status[ib] == hidden else allowance
+        u_a, u_b = allowance, allowance
+        if status[ia] == hidden:
+            u_a += hidden_ball_radius(unseen[ia], occlusion_speed)
+        if status[ib] == hidden:
+            u_b += hidden_ball_radius(unseen[ib], occlusion_speed)
         c_a = (p[ia, 0] + regions[ra, 1], p[ia, 1] + regions[ra, 2], p[ia, 2] + regions[ra, 3])
         c_b = (p[ib, 0] + regions[rb, 1], p[ib, 1] + regions[rb, 2], p[ib, 2] + regions[rb, 3])
         if candidates[c, 4] == KIND_DIRECT:
@@ -451,3 +458,85 @@ def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, st
             for x in range(3):
                 ends[m, 0, x], ends[m, 1, x] = end_a[x], end_b[x]
                 end_velocities[m, 0, x], end_velocities[m, 1, x] = v[ia, x], v[ib, x]
+
+
+# An upright operator relative to its head, in its facing frame (forward f, left l, up z),
+# m: the shape ``complete_posture`` gives the points a scenario leaves out. Every edge is
+# shorter than the table's, so the posture is one the dimensions allow.
+_UPRIGHT = {"head": (0.0, 0.0, 0.0), "neck": (0.0, 0.0, -0.18), "chest": (0.0, 0.0, -0.38),
+            "pelvis": (0.0, 0.0, -0.73), "shoulder_left": (0.0, 0.19, -0.20),
+            "shoulder_right": (0.0, -0.19, -0.20), "elbow_left": (0.08, 0.22, -0.48),
+            "elbow_right": (0.08, -0.22, -0.48), "hand_left": (0.42, 0.20, -0.50),
+            "hand_right": (0.42, -0.20, -0.50)}
+_UPPER_ARM, _FOREARM = 0.36, 0.37  # m, the arm ``complete_posture`` bends to reach a hand
+_HANDS_TO_HEAD = (-0.30, 0.45)  # m back and up from the hands to the head
+
+
+def complete_posture(given: dict[str, np.ndarray], facing: np.ndarray) -> dict[str, np.ndarray]:
+    """Every body point's offset, from those ``given`` (point -> offset, m) and the
+    horizontal direction the operator faces (``facing``, any length): the points not
+    given stand upright (:data:`_UPRIGHT`) about the head, which, if not given, stands
+    0.30 m behind and 0.45 m above the hands (their mean) or above the trunk's given
+    point; a given hand's elbow bends down between its shoulder and the hand
+    (:data:`_UPPER_ARM`, :data:`_FOREARM`). Raises ValueError when a given hand is
+    farther from its shoulder than that arm reaches."""
+    f = np.array([facing[0], facing[1], 0.0], dtype=float)
+    f = f / np.linalg.norm(f) if np.linalg.norm(f) > 1e-9 else np.array([1.0, 0.0, 0.0])
+    left = np.cross([0.0, 0.0, 1.0], f)
+    frame = np.array([f, left, [0.0, 0.0, 1.0]])  # rows: forward, left, up
+
+    def template(name):
+        return np.array(_UPRIGHT[name]) @ frame
+
+    given = {k: np.asarray(v, dtype=float) for k, v in given.items()}
+    for name in given:
+        point_index(name)
+    if "head" in given:
+        head = given["head"]
+    else:
+        hands = [given[h] for h in ("hand_left", "hand_right") if h in given]
+        trunk = [k for k in ("neck", "chest", "pelvis", "shoulder_left", "shoulder_right",
+                             "elbow_left", "elbow_right") if k in given]
+        if hands:
+            head = np.mean(hands, axis=0) + _HANDS_TO_HEAD[0] * f + [0.0, 0.0,
+                                                                    _HANDS_TO_HEAD[1]]
+        elif trunk:
+            head = given[trunk[0]] - template(trunk[0])
+        else:
+            head = np.zeros(3)
+    out = {k: given.get(k, head + template(k)) for k in POINTS}
+    if "hand_left" in given and "hand_right" in given and \
+            (given["hand_left"] - given["hand_right"]) @ left < 0.0:
+        # the hands are crossed in the facing frame (the file's sides are its own): the
+        # arms' points not given are mirrored, each shoulder on its hand's side
+        for k in ("shoulder_left", "shoulder_right", "elbow_left", "elbow_right"):
+            if k not in given:
+                x = np.array(_UPRIGHT[k]) * [1.0, -1.0, 1.0]
+                out[k] = head + x @ frame
+    for side in ("left", "right"):
+        hand, elbow = f"hand_{side}", f"elbow_{side}"
+        if hand in given and elbow not in given:
+            shoulder = out[f"shoulder_{side}"]
+            outward = shoulder - out["neck"]
+            out[elbow] = _elbow(shoulder, out[hand], outward / max(np.linalg.norm(outward),
+                                                                   1e-9), side)
+    return out
+
+
+def _elbow(shoulder: np.ndarray, hand: np.ndarray, outward: np.ndarray, side: str) -> np.ndarray:
+    """The elbow of an arm of :data:`_UPPER_ARM` and :data:`_FOREARM` reaching from
+    ``shoulder`` to ``hand``, bent downwards (or outwards where the arm points down)."""
+    d = hand - shoulder
+    dist = float(np.linalg.norm(d))
+    if dist > _UPPER_ARM + _FOREARM - 1e-9:
+        raise ValueError(f"hand_{side}: {dist:.3f} m from its shoulder; allowed: at most "
+                         f"{_UPPER_ARM + _FOREARM:.2f} m (the arm the posture bends)")
+    if dist < abs(_UPPER_ARM - _FOREARM) + 1e-9:
+        return shoulder + _UPPER_ARM * outward
+    u = d / dist
+    along = (dist * dist + _UPPER_ARM**2 - _FOREARM**2) / (2.0 * dist)
+    across = math.sqrt(max(_UPPER_ARM**2 - along * along, 0.0))
+    down = np.array([0.0, 0.0, -1.0]) - u * (-u[2])
+    if np.linalg.norm(down) < 1e-6:
+        down = outward - u * (outward @ u)
+    return shoulder + along * u + across * down / np.linalg.norm(down)

@@ -21,7 +21,8 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-MAX_BODIES_PER_OPERATOR = 3
+from safety_systems.cell.human_body import NUM_POINTS as NUM_BODY_POINTS
+from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
@@ -323,21 +324,30 @@ class ScriptedOperator:
 
     Args:
         path: motion of the operator's reference point.
-        body_offsets: (m, 3) offsets of the m tracked bodies (1 to 3: gloves, head) from
-            the reference point, metres, world frame.
+        body_offsets: (m, 3) offsets of the m tracked bodies (1 to 10) from the reference
+            point, metres, world frame.
         enter_time: seconds; the operator is present for enter_time <= t < leave_time.
         leave_time: seconds, may be +inf.
+        point_offsets: (10, 3) offsets of every body point (``human_body.POINTS``), the
+            whole posture moving with the reference point; None: not given (NaN).
     """
 
     path: OperatorPath
     body_offsets: np.ndarray
     enter_time: float = 0.0
     leave_time: float = math.inf
+    point_offsets: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         offsets = np.asarray(self.body_offsets, dtype=float)
         check_bodies(offsets, self.enter_time, self.leave_time)
         object.__setattr__(self, "body_offsets", _frozen(offsets))
+        points = np.full((NUM_BODY_POINTS, 3), np.nan) if self.point_offsets is None \
+            else np.asarray(self.point_offsets, dtype=float)
+        if points.shape != (NUM_BODY_POINTS, 3):
+            raise ValueError(f"point_offsets has shape {points.shape}: need "
+                             f"({NUM_BODY_POINTS}, 3) metres")
+        object.__setattr__(self, "point_offsets", _frozen(points))
 
     @property
     def num_bodies(self) -> int:
@@ -355,13 +365,17 @@ class BodyLayout:
     paths: "PathStack | None" = None  # the K operators' paths, stacked
 
 
-def body_layout(operators: Sequence[ScriptedOperator]) -> BodyLayout:
-    """Precomputes the body-slot layout used by ``operators_bodies_state``."""
-    index = np.concatenate([np.full(op.num_bodies, k) for k, op in enumerate(operators)])
+def body_layout(operators: Sequence[ScriptedOperator], *, points: bool = False) -> BodyLayout:
+    """Precomputes the body-slot layout used by ``operators_bodies_state``: of the tracked
+    bodies, or with ``points`` of every body point (10 per operator, operator k's point
+    p in slot 10 k + p)."""
+    counts = [NUM_BODY_POINTS if points else op.num_bodies for op in operators]
+    index = np.concatenate([np.full(n, k) for k, n in enumerate(counts)])
     index.setflags(write=False)
     return BodyLayout(
         operator_index=index,
-        offsets=_frozen(np.concatenate([op.body_offsets for op in operators])),
+        offsets=_frozen(np.concatenate([op.point_offsets if points else op.body_offsets
+                                        for op in operators])),
         enter_times=_frozen([op.enter_time for op in operators]),
         leave_times=_frozen([op.leave_time for op in operators]),
         paths=stack_paths([op.path for op in operators]),

@@ -5,6 +5,6 @@ operators' Drake systems."""
 import re
 
 MAX_OPERATORS = 5
-MAX_BODIES_PER_OPERATOR = 3  # both gloves, optionally the head
+MAX_BODIES_PER_OPERATOR = 10  # one per body point (cell.human_body.POINTS)
 NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")  # operator and body names (they name files,
 #                                             Meshcat paths and trace columns)

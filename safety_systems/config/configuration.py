@@ -5,6 +5,7 @@ import dataclasses
 
 import numpy as np
 
+from safety_systems.cell import human_body
 from safety_systems.cell.braking import BrakingTable, default_braking_table, stopping_distance
 from safety_systems.cell.braking import stopping_time as table_stopping_time
 from safety_systems.cell.cartesian_path import line_path, polyline_path
@@ -18,11 +19,14 @@ from safety_systems.cell.operator_paths import ScriptedOperator, make_operator_p
 from safety_systems.cell.recorded_operator import RecordedOperator
 from safety_systems.cell.robot_geometry import Capsules, robot_capsules, tool_point
 from safety_systems.config.scenario import (
+    BodyConfig,
     ControllerConfig,
     RobotConfig,
     Scenario,
     actual_sensor,
     body_names,
+    operator_points,
+    operator_posture,
 )
 from safety_systems.sensing.sensor_faults import fault_table
 from safety_systems.sensing.tracks import make_regions, make_rules
@@ -57,11 +61,6 @@ def sensor_faults(scenario: Scenario) -> np.ndarray:
         for f in actual_sensor(scenario).faults])
 
 
-def body_radii(scenario: Scenario) -> np.ndarray:
-    """(N,) the radius of every body slot's sphere, m."""
-    return np.array([b.radius for o in scenario.operators for b in o.bodies], dtype=float)
-
-
 def monitor_capsules(config: ControllerConfig) -> Capsules:
     """The robot as the SeparationMonitor measures it: the UR5e's capsules with the
     configured link radii (if any) and tool, or the seed's tool point."""
@@ -72,17 +71,60 @@ def monitor_capsules(config: ControllerConfig) -> Capsules:
                           tool_length=f.tool_length)
 
 
-def monitored_body_radii(scenario: Scenario) -> np.ndarray:
-    """(N,) body radii the monitor uses: the scenario's, or 0 on the tool point (Eq. 8
-    measures points)."""
-    return monitored_radii(scenario.controller, body_radii(scenario))
+def body_dimensions(body: BodyConfig) -> dict:
+    """The monitor's body dimensions (``human_body.dimensions``) of a configuration's
+    ``body`` block."""
+    return human_body.dimensions({name: getattr(body, name)
+                                  for name in human_body.DIMENSION_NAMES})
 
 
-def monitored_radii(config: ControllerConfig, radii: np.ndarray) -> np.ndarray:
-    """The radii (N,) the monitor uses for bodies of these ``radii``: as given, or 0 on
-    the tool point (Eq. 8 measures points)."""
-    radii = np.asarray(radii, dtype=float)
-    return np.zeros_like(radii) if config.safety.robot_geometry == "tool_point" else radii
+def tracked_points(scenario: Scenario) -> list[list[str]]:
+    """The body point each tracked body slot marks, operator by operator."""
+    return [operator_points(o) for o in scenario.operators]
+
+
+def monitor_recipe(config: ControllerConfig, points: list[list[str]],
+                   names: list[str] | None = None) -> human_body.Recipe:
+    """How the monitor bounds every segment of operators whose tracked bodies mark
+    ``points`` (``human_body.envelope_recipe``) under the configuration's body model; on
+    the seed's tool point (Eq. 8 measures points) the segments' own radii are 0 (the
+    envelopes' widths stay: they are where the segments may be)."""
+    recipe = human_body.envelope_recipe(points, body_dimensions(config.body), names)
+    if config.safety.robot_geometry == "tool_point":
+        recipe = dataclasses.replace(recipe, radius=np.zeros_like(recipe.radius))
+    return recipe
+
+
+def scenario_monitor_recipe(scenario: Scenario) -> human_body.Recipe:
+    """:func:`monitor_recipe` of a scenario's operators and controller."""
+    return monitor_recipe(scenario.controller, tracked_points(scenario),
+                          [o.name for o in scenario.operators])
+
+
+def truth_recipe(scenario: Scenario) -> human_body.Recipe:
+    """How the properties take every segment of the scenario's operators from their true
+    points (``human_body.envelope_recipe`` with the table's dimensions; true point p of
+    operator k in slot 10 k + p): a scripted operator's every point is known (its
+    posture), so each segment is the capsule between its true points; a recorded
+    operator's known points are those its mapping names, and a segment between unknown
+    points is the envelope of the known ones (where the recording allows it to be). On
+    the tool point (``contact_geometry``) the segments' radii are 0."""
+    n = human_body.NUM_POINTS
+    points = [list(human_body.POINTS) if not o.recording else operator_points(o)
+              for o in scenario.operators]
+    slots = [[n * k + human_body.point_index(p) for p in pts] for k, pts in enumerate(points)]
+    recipe = human_body.envelope_recipe(points, None, [o.name for o in scenario.operators],
+                                        slots)
+    if scenario.contact_geometry == "tool_point":
+        recipe = dataclasses.replace(recipe, radius=np.zeros_like(recipe.radius))
+    return recipe
+
+
+def operator_postures(scenario: Scenario) -> np.ndarray:
+    """(K, 10, 3) every body point's offset from each scripted operator
+    (``scenario.operator_posture``)."""
+    return np.array([operator_posture(o) for o in scenario.operators], dtype=float).reshape(
+        len(scenario.operators), human_body.NUM_POINTS, 3)
 
 
 def contact_capsules(robot: RobotConfig, contact_geometry: str) -> Capsules:
@@ -91,13 +133,6 @@ def contact_capsules(robot: RobotConfig, contact_geometry: str) -> Capsules:
     if contact_geometry == "tool_point":
         return tool_point()
     return robot_capsules(payload_radius=robot.payload_radius, tool_length=robot.tool_length)
-
-
-def contact_body_radii(scenario: Scenario) -> np.ndarray:
-    """(N,) body radii for the safety properties: the scenario's, or 0 on the tool point."""
-    if scenario.contact_geometry == "tool_point":
-        return np.zeros(sum(len(o.bodies) for o in scenario.operators))
-    return body_radii(scenario)
 
 
 def placeholder_braking(config: ControllerConfig) -> bool:
@@ -207,6 +242,7 @@ def scripted_operators(scenario: Scenario) -> list[ScriptedOperator]:
                                     o.max_speed, o.max_acceleration),
             body_offsets=np.array([b.offset for b in o.bodies]),
             enter_time=o.enter_time, leave_time=o.leave_time,
+            point_offsets=operator_posture(o),
         )
         for o in scenario.operators
     ]

@@ -21,6 +21,7 @@ from pydrake.common.yaml import yaml_dump_typed
 from safety_systems.files.documents import load_document
 from safety_systems.files.documents import parse_typed as _parse_typed
 from safety_systems.files.input_error import InputError
+from safety_systems.cell import human_body
 from safety_systems.cell.joint_path import make_joint_path
 from safety_systems.cell.operator_paths import make_operator_path
 from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
@@ -204,6 +205,41 @@ class SafetyConfig:
     d_min: float = number(0.30, ge=0.0, le=5.0, unit="m")
 
 
+def _dimension(name: str) -> typing.Any:
+    default = human_body.DEFAULT_DIMENSIONS[name]
+    if name.endswith("_deg"):
+        return number(default, ge=0.0, le=89.0, unit="deg")
+    return number(default, gt=0.0, le=2.0, unit="m")
+
+
+@dc.dataclass
+class BodyConfig:
+    """The SeparationMonitor's model of an operator (``safety_systems.cell.human_body``):
+    the largest segment lengths and radii of the people in the cell and their posture
+    limits (defaults: the 95th percentiles of adult men, ``human_body`` says whence),
+    and ``tracking_allowance``, how far a tracked point's estimate may be from the point
+    (the proof checks it covers the tracker's error). Premises about people: ``tune``
+    does not change them."""
+
+    neck: float = _dimension("neck")
+    upper_trunk: float = _dimension("upper_trunk")
+    lower_trunk: float = _dimension("lower_trunk")
+    shoulder: float = _dimension("shoulder")
+    upper_arm: float = _dimension("upper_arm")
+    forearm: float = _dimension("forearm")
+    head_shoulder: float = _dimension("head_shoulder")
+    head_radius: float = _dimension("head_radius")
+    neck_radius: float = _dimension("neck_radius")
+    trunk_radius: float = _dimension("trunk_radius")
+    shoulder_radius: float = _dimension("shoulder_radius")
+    upper_arm_radius: float = _dimension("upper_arm_radius")
+    forearm_radius: float = _dimension("forearm_radius")
+    hand_radius: float = _dimension("hand_radius")
+    trunk_lean_deg: float = _dimension("trunk_lean_deg")
+    neck_lean_deg: float = _dimension("neck_lean_deg")
+    tracking_allowance: float = number(0.01, ge=0.0, le=0.5, unit="m")
+
+
 @dc.dataclass
 class BrakingConfig:
     """Stopping data by speed fraction; empty lists: the defaults for the category.
@@ -367,7 +403,7 @@ class ControllerConfig:
     """Everything the safety controller is configured with (a CONFIG file).
 
     ``type`` chooses the controller: ``ssm_override`` (seed 000, Eq. 12; uses
-    ``safety``), a speed alteration controller of seed 004 (``erga``, ``hwang``,
+    ``safety`` and ``body``, its model of an operator), a speed alteration controller of seed 004 (``erga``, ``hwang``,
     ``bimodal``; ``none`` keeps the pre-programmed speed) configured by ``alteration``,
     or seed 001's safety ``zones``.
     """
@@ -376,6 +412,7 @@ class ControllerConfig:
     sensor: SensorConfig = dc.field(default_factory=SensorConfig)
     tracker: TrackerConfig = dc.field(default_factory=TrackerConfig)
     safety: SafetyConfig = dc.field(default_factory=SafetyConfig)
+    body: BodyConfig = dc.field(default_factory=BodyConfig)
     braking: BrakingConfig = dc.field(default_factory=BrakingConfig)
     alteration: SpeedAlterationConfig = dc.field(default_factory=SpeedAlterationConfig)
     zones: ZonesConfig = dc.field(default_factory=ZonesConfig)
@@ -383,12 +420,24 @@ class ControllerConfig:
 
 @dc.dataclass
 class Body:
-    """A tracked rigid body (glove, head) at a fixed offset from its operator, monitored
-    as a sphere of ``radius`` m (default 0.05 m, a hand; give a head about 0.12 m)."""
+    """A tracked rigid body (a glove, a helmet, a band on the elbow, a vest's chest plate)
+    at a fixed offset from its operator: ``point`` is the body point it marks
+    (``safety_systems.cell.human_body.POINTS``: head, neck, chest, pelvis,
+    shoulder_left|right, elbow_left|right, hand_left|right; empty: by its name, ``head``,
+    ``hand`` (hand_right), ``other_hand`` (hand_left), ``right_glove``, ``left_glove``)."""
 
     name: str = ""
+    point: str = ""
     offset: list[float] = number([0.0, 0.0, 0.0], ge=-2.0, le=2.0, unit="m")
-    radius: float = number(0.05, ge=0.0, le=0.5, unit="m")
+
+
+@dc.dataclass
+class PosturePoint:
+    """Where an untracked body point of a scripted operator is, at a fixed offset from the
+    operator (the truth the properties measure; the sensor does not see it)."""
+
+    point: str = ""
+    offset: list[float] = number([0.0, 0.0, 0.0], ge=-2.0, le=2.0, unit="m")
 
 
 @dc.dataclass
@@ -402,6 +451,12 @@ class Waypoint:
 @dc.dataclass
 class OperatorConfig:
     """A scripted operator: bodies, timed waypoints, limits and presence window.
+
+    The operator is a whole body (``safety_systems.cell.human_body``): its tracked
+    ``bodies`` mark some body points, ``posture`` places others, and the rest stand
+    upright about the head, facing the robot base (``human_body.complete_posture``;
+    an elbow bends down between its shoulder and a given hand). The whole posture moves
+    rigidly along the waypoints.
 
     Or a recorded one (``recording`` given): the mapping file ``mapping``'s operator
     ``name`` (empty: the mapping's only one, whose name it takes) played from the
@@ -422,6 +477,7 @@ class OperatorConfig:
     enter_time: float = _time()
     leave_time: float = number(math.inf, gt=0.0, le=MAX_DURATION, unit="s", infinite=True)
     bodies: list[Body] = dc.field(default_factory=list)
+    posture: list[PosturePoint] = dc.field(default_factory=list)
     waypoints: list[Waypoint] = dc.field(default_factory=list)
     recording: str = ""
     mapping: str = ""
@@ -616,18 +672,33 @@ def _validate_operator(o: OperatorConfig, f: str) -> None:
     operator's mapping or a scripted one's waypoints (:func:`_validate_waypoints`)."""
     _check(o.leave_time > o.enter_time, f"{f}.leave_time", o.leave_time,
            f"later than enter_time ({o.enter_time})")
-    _check(2 <= len(o.bodies) <= MAX_BODIES_PER_OPERATOR, f"{f}.bodies", len(o.bodies),
-           f"2 to {MAX_BODIES_PER_OPERATOR} bodies (both gloves, optionally the head)")
+    _check(1 <= len(o.bodies) <= MAX_BODIES_PER_OPERATOR, f"{f}.bodies", len(o.bodies),
+           f"1 to {MAX_BODIES_PER_OPERATOR} bodies (one per body point)")
+    marked = set()
     for j, b in enumerate(o.bodies):
         _check(NAME.fullmatch(b.name) is not None, f"{f}.bodies[{j}].name", b.name,
                "a name of 1 to 64 letters, digits, '_', '-' or '.'")
+        point = body_point(b)
+        _check(point in human_body.POINTS and point not in marked, f"{f}.bodies[{j}].point",
+               b.point, "a body point no other body of the operator marks: "
+               + " | ".join(human_body.POINTS) + " (empty only for the names "
+               + ", ".join(human_body.LEGACY_POINTS) + ")")
+        marked.add(point)
         _points(f"{f}.bodies[{j}].offset", b.offset, 3, "3 numbers in m")
+    for j, q in enumerate(o.posture):
+        _check(q.point in human_body.POINTS and q.point not in marked,
+               f"{f}.posture[{j}].point", q.point, "a body point no body of the operator "
+               "marks and the posture places once: " + " | ".join(human_body.POINTS))
+        marked.add(q.point)
+        _points(f"{f}.posture[{j}].offset", q.offset, 3, "3 numbers in m")
     _points(f"{f}.shift", o.shift, 3, "3 numbers in m")
     if o.recording:
         _check(not o.waypoints, f"{f}.waypoints", o.waypoints,
                "none for a recorded operator (it moves as recorded)")
         _check(bool(o.mapping), f"{f}.mapping", o.mapping,
                "the recording's mapping file (a recorded operator needs one)")
+        _check(not o.posture, f"{f}.posture", len(o.posture),
+               "none for a recorded operator (its mapping names its points)")
         return
     _check(not o.mapping, f"{f}.mapping", o.mapping, "empty without a recording")
     for name, unset in (("start", 0.0), ("time_scale", 1.0), ("yaw_deg", 0.0),
@@ -635,6 +706,35 @@ def _validate_operator(o: OperatorConfig, f: str) -> None:
         _check(getattr(o, name) == unset, f"{f}.{name}", getattr(o, name),
                f"{unset} for a scripted operator (it moves along its waypoints)")
     _validate_waypoints(o, f)
+    try:
+        operator_posture(o)
+    except ValueError as e:
+        raise ScenarioError(f"{f}.bodies", [b.offset for b in o.bodies],
+                            f"a posture the operator can take ({e}; give its posture)") \
+            from None
+
+
+def body_point(body: Body) -> str:
+    """The body point a tracked body marks: its ``point``, or its legacy name's."""
+    return body.point or human_body.LEGACY_POINTS.get(body.name, "")
+
+
+def operator_points(o: OperatorConfig) -> list[str]:
+    """The body point of each of the operator's tracked bodies, in their order."""
+    return [body_point(b) for b in o.bodies]
+
+
+def operator_posture(o: OperatorConfig) -> np.ndarray:
+    """(10, 3) every body point's offset from a scripted operator (``human_body.POINTS``
+    order): its bodies', its posture's, the rest completed facing the robot base from
+    its first waypoint (``human_body.complete_posture``); raises ValueError when a given
+    hand is out of its completed shoulder's reach."""
+    given = {body_point(b): np.array(b.offset, dtype=float) for b in o.bodies}
+    given.update({q.point: np.array(q.offset, dtype=float) for q in o.posture})
+    start = np.array(o.waypoints[0].position, dtype=float) if o.waypoints else np.zeros(3)
+    anchor = start + np.mean(list(given.values()), axis=0)
+    points = human_body.complete_posture(given, -anchor)
+    return np.array([points[k] for k in human_body.POINTS])
 
 
 def _validate_waypoints(o: OperatorConfig, f: str) -> None:
@@ -745,7 +845,7 @@ def load_scenario(path: str | Path) -> Scenario:
 def read_recordings(scenario: Scenario, folder: Path) -> None:
     """Reads every recorded operator's recording and mapping (relative to ``folder``;
     the paths are replaced by the files' full paths) and fills in its bodies (names and
-    radii from the mapping) and, if empty, its name (the mapping's operator's); an
+    points from the mapping) and, if empty, its name (the mapping's operator's); an
     error in either file is reported at the field that names it, with the file's own
     error."""
     from safety_systems.sensing.recording_mapping import load_recorded_operator
@@ -767,12 +867,14 @@ def read_recordings(scenario: Scenario, folder: Path) -> None:
 
             o.name = load_mapping(o.mapping).operators[0].name
         if not o.bodies:
-            o.bodies = [Body(name, [0.0, 0.0, 0.0], radius)
-                        for name, radius in zip(recorded.names, recorded.radii)]
+            o.bodies = [Body(name, point, [0.0, 0.0, 0.0])
+                        for name, point in zip(recorded.names, recorded.points_marked)]
         _check([b.name for b in o.bodies] == list(recorded.names)
+               and [body_point(b) for b in o.bodies] == list(recorded.points_marked)
                and all(b.offset == [0.0, 0.0, 0.0] for b in o.bodies), f"{where}.bodies",
                [b.name for b in o.bodies], f"none (they come from the mapping), or the "
-               f"mapping's {list(recorded.names)} in its order, without offsets")
+               f"mapping's {list(recorded.names)} in its order, with its points, without "
+               "offsets")
 
 
 def read_task_path(robot: RobotConfig, folder: Path, prefix: str = "robot") -> None:

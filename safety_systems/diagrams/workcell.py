@@ -29,7 +29,8 @@ from safety_systems.config.configuration import (
     is_recorded,
     joint_path,
     monitor_capsules,
-    monitored_body_radii,
+    monitor_recipe,
+    tracked_points,
     recorded_operators,
     scripted_operators,
     sensor_faults,
@@ -43,6 +44,7 @@ from safety_systems.config.scenario import (
     Scenario,
     actual_sensor,
     body_names,
+    body_point,
 )
 from safety_systems.systems.bimodal_speed_controller import BimodalSpeedController
 from safety_systems.systems.erga_speed_controller import ErgaSpeedController
@@ -55,6 +57,7 @@ from safety_systems.systems.path_follower import PathFollower
 from safety_systems.systems.recorded_motion import RecordedMotion
 from safety_systems.systems.preprogrammed_speed_controller import PreprogrammedSpeedController
 from safety_systems.systems.robot_capsules import RobotCapsules
+from safety_systems.systems.operator_envelopes import OperatorEnvelopes
 from safety_systems.systems.separation_monitor import SeparationMonitor
 from safety_systems.systems.speed_override import SpeedOverride
 from safety_systems.systems.zones_controller import ZonesController
@@ -98,21 +101,23 @@ SPEED_CONTROLLERS = {"erga": ErgaSpeedController, "hwang": HwangSpeedController,
 
 
 def body_roles(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
-    """(operator index, is-a-hand) of every body slot; bodies named ``head`` are heads."""
+    """(operator index, is-a-hand) of every body slot: a body marking a hand point is a
+    hand (``scenario.body_point``); seed 004's controllers take the others as heads."""
     operator_of = [k for k, o in enumerate(scenario.operators) for _ in o.bodies]
-    is_hand = [b.name.lower() != "head" for o in scenario.operators for b in o.bodies]
+    is_hand = [body_point(b).startswith("hand") for o in scenario.operators for b in o.bodies]
     return np.array(operator_of), np.array(is_hand)
 
 
 def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, num_bodies: int,
                         control_period: float, path=None, operator_of=None,
-                        is_hand=None, body_radii=None) -> SafetyController:
+                        is_hand=None, points=None, operator_names=None) -> SafetyController:
     """Adds the tracker and the controller ``config.type`` names.
 
     ``ssm_override`` (seed 000): RobotCapsules (the robot as
-    ``configuration.monitor_capsules`` gives it), SeparationMonitor (bodies of
-    ``body_radii`` m; None: points) and SpeedOverride; left to connect: the
-    RobotCapsules' ``joint_positions``. The
+    ``configuration.monitor_capsules`` gives it), OperatorEnvelopes (every operator's
+    segments from its tracked bodies, which mark the body points ``points``, per
+    operator in slot order: ``configuration.monitor_recipe``), SeparationMonitor and
+    SpeedOverride; left to connect: the RobotCapsules' ``joint_positions``. The
     seed-004 controllers (``erga``, ``hwang``, ``bimodal``, ``none``) need ``path`` and
     the body roles (``body_roles``); left to connect: their ``path_state``. ``zones``
     (seed 001) needs ``path``; left to connect: its ``path_state`` and ``gesture``.
@@ -146,30 +151,41 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
     capsules = monitor_capsules(config)
     robot = builder.AddNamedSystem("robot_capsules", RobotCapsules(
         capsules=capsules, period_sec=control_period))
+    if points is None:
+        raise ValueError("points: the body point of every tracked body, per operator "
+                         "(the SSM monitor bounds the operators' segments from them)")
+    recipe = monitor_recipe(config, points, operator_names)
+    envelopes = builder.AddNamedSystem("envelopes", OperatorEnvelopes(
+        num_bodies=num_bodies, recipe=recipe, tracking_allowance=config.body.tracking_allowance,
+        occlusion_speed=f.occlusion_speed))
+    m = envelopes.num_segments
     monitor = builder.AddNamedSystem("monitor", SeparationMonitor(
-        num_bodies=num_bodies, capsule_radii=capsules.radius, body_radii=body_radii,
+        num_segments=m, capsule_radii=capsules.radius,
         human_speed=f.human_speed, reaction_time=f.reaction_time,
         stopping_time=t_s, stopping_distance=b, intrusion_distance=f.intrusion_distance,
         human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
-        human_uncertainty_sigmas=f.human_uncertainty_sigmas, occlusion_speed=f.occlusion_speed,
-        iso_speed=f.iso_human_speed,
+        human_uncertainty_sigmas=f.human_uncertainty_sigmas, iso_speed=f.iso_human_speed,
         iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed,
         level_terms=level_terms(config) if by_speed else None))
     override = builder.AddNamedSystem("override", SpeedOverride(
-        num_bodies=num_bodies, delta_s=f.delta_s, d_min=f.d_min,
+        num_bodies=m, delta_s=f.delta_s, d_min=f.d_min,
         levels=SPEED_LEVELS if by_speed else None))
     for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std",
                  "unseen_time"):
-        builder.Connect(tracker.GetOutputPort(name), monitor.GetInputPort(name))
+        builder.Connect(tracker.GetOutputPort(name), envelopes.GetInputPort(name))
+    for name in ("segment_ends", "segment_velocities", "segment_radii", "segment_status",
+                 "segment_std"):
+        builder.Connect(envelopes.GetOutputPort(name), monitor.GetInputPort(name))
     for name in ("capsule_ends", "capsule_velocities"):
         builder.Connect(robot.GetOutputPort(name), monitor.GetInputPort(name))
     builder.Connect(monitor.GetOutputPort("distances"), override.GetInputPort("distances"))
     name = "level_protective_distances" if by_speed else "protective_distances"
     builder.Connect(monitor.GetOutputPort(name), override.GetInputPort(name))
-    builder.Connect(tracker.GetOutputPort("track_status"), override.GetInputPort("track_status"))
+    builder.Connect(envelopes.GetOutputPort("segment_status"),
+                    override.GetInputPort("track_status"))
     builder.Connect(tracker.GetOutputPort("fault"), override.GetInputPort("fault"))
-    return SafetyController(tracker, {"robot_capsules": robot, "monitor": monitor,
-                                      "override": override},
+    return SafetyController(tracker, {"robot_capsules": robot, "envelopes": envelopes,
+                                      "monitor": monitor, "override": override},
                             override.GetOutputPort("path_speed_commanded"))
 
 
@@ -249,7 +265,8 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     operator_of, is_hand = body_roles(scenario)
     safety = AddSafetyController(builder, config=config, num_bodies=len(names),
                                  control_period=dt, path=path, operator_of=operator_of,
-                                 is_hand=is_hand, body_radii=monitored_body_radii(scenario))
+                                 is_hand=is_hand, points=tracked_points(scenario),
+                                 operator_names=[o.name for o in scenario.operators])
     for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")

@@ -1,9 +1,12 @@
 """Outcome measures of a run: true separations, motion, task time, stops (plain functions).
 
-True separations are clearances between the real robot and the bodies present in the
-cell, as the scenario's ``contact_geometry`` defines contact
-(``configuration.contact_capsules``): the UR5e's capsules with the cell's real tool and
-each body's sphere, or the seed's tool flange and body centres (``tool_point``). The
+True separations are clearances between the real robot and the operators present in the
+cell, every segment of each (``safety_systems.cell.human_body``: head, neck, trunk,
+shoulders, arms and hands as capsules between its true body points; a recorded
+operator's segments between points its recording does not hold are the envelopes of
+those it does, ``configuration.truth_recipe``), as the scenario's ``contact_geometry``
+defines contact (``configuration.contact_capsules``): the UR5e's capsules with the cell's
+real tool, or the seed's tool flange and the segments' axes (``tool_point``). The
 robot is where forward kinematics of the actual joint positions puts it. "Moving" means
 the robot's speed, the fastest of its capsules' axis ends (the tool flange on the tool
 point), exceeds ``ssm.true_measures.MOVING_SPEED`` (1 mm/s); motion is permitted and
@@ -13,7 +16,7 @@ calls too.
 **Separation margin** (the separation invariant's measure, ``verification.properties``):
 at each control tick where the safety controller permits motion (its commanded path
 speed is not 0; every protective stop commands 0), the smallest d_true - S_true over
-every body present and every capsule of the real robot, where d_true is the pair's true
+every segment present and every capsule of the real robot, where d_true is the pair's true
 clearance and S_true is seed 000's Eqs. 9-11 (ISO/TS 15066 Eq. 1) evaluated on the truth:
 the pair's true directed speeds (Eqs. 6-7; the human speed by the configuration's mode:
 ``iso`` its constant speeds, ``estimated`` the true directed speed,
@@ -32,7 +35,7 @@ import math
 
 import numpy as np
 
-from safety_systems.config.configuration import contact_body_radii, contact_capsules
+from safety_systems.config.configuration import contact_capsules, truth_recipe
 from safety_systems.cell.robot_geometry import capsule_ends
 from safety_systems.config.scenario import Scenario
 from safety_systems.ssm.separation import pair_figures
@@ -48,7 +51,7 @@ from safety_systems.cell.stopping import (
 from safety_systems.sensing.stops import REJECT_CAUSES, SIMULATED, STOP_REASONS
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.cell.ur5e import tool0_position_and_velocity
-from safety_systems.ssm.true_measures import moving, permitted
+from safety_systems.ssm.true_measures import moving, permitted, true_segments
 
 
 
@@ -70,22 +73,32 @@ def robot_speed(end_velocities: np.ndarray) -> np.ndarray:
     return np.linalg.norm(end_velocities, axis=-1).reshape(len(end_velocities), -1).max(axis=1)
 
 
+def run_true_segments(run: Run) -> tuple[np.ndarray, ...]:
+    """The operators' true segments at every logged tick (``true_measures.true_segments``
+    of ``configuration.truth_recipe``): ends and their velocities (T, M, 2, 3), radius
+    (T, M), present (T, M)."""
+    return true_segments(truth_recipe(run.scenario), run["operators.points_true"],
+                         run["operators.point_velocities_true"],
+                         run["operators.operators_present"])
+
+
 def true_pairs(run: Run) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(clearance, v_human_directed, v_robot_directed) of every body and contact capsule,
-    each (T, N, K), from the true positions and velocities; NaN where a body is absent."""
+    """(clearance, v_human_directed, v_robot_directed) of every segment and contact
+    capsule, each (T, M, K), from the true positions and velocities; NaN where a
+    segment's operator is absent."""
     scenario = run.scenario
     ends, end_velocities = robot_contact_state(run)
     capsules = contact_capsules(scenario.robot, scenario.contact_geometry)
-    figures = pair_figures(ends, end_velocities, capsules.radius,
-                           run.bodies("operators.positions_true"),
-                           run.bodies("operators.velocities_true"), contact_body_radii(scenario))
-    absent = (run["operators.present"] < 0.5)[:, :, None]
+    h_ends, h_velocities, h_radius, present = run_true_segments(run)
+    figures = pair_figures(ends, end_velocities, capsules.radius, h_ends, h_velocities,
+                           h_radius)
+    absent = ~present[:, :, None]
     return tuple(np.where(absent, np.nan, x) for x in figures)
 
 
 def true_separations(run: Run) -> np.ndarray:
-    """(T, N) true clearance of each body to the robot (the nearest contact capsule); NaN
-    where a body is absent."""
+    """(T, M) true clearance of each segment to the robot (the nearest contact capsule);
+    NaN where its operator is absent."""
     return true_pairs(run)[0].min(axis=-1)
 
 
@@ -174,9 +187,9 @@ def true_rate(run: Run) -> np.ndarray:
 
 def separation_margins(clearance: np.ndarray, s_true: np.ndarray,
                        allowed: np.ndarray) -> np.ndarray:
-    """(T,) the smallest d_true - S_true over the pairs (T, N, K) (NaN where a body is
+    """(T,) the smallest d_true - S_true over the pairs (T, M, K) (NaN where a segment is
     absent) at ticks where motion is ``allowed`` (T,); +inf at the others and where no
-    body is present."""
+    operator is present."""
     gap = np.where(np.isnan(clearance) | np.isnan(s_true), np.inf, clearance - s_true)
     smallest = gap.reshape(gap.shape[0], math.prod(gap.shape[1:])).min(axis=1, initial=np.inf)
     return np.where(allowed, smallest, np.inf)
@@ -190,8 +203,8 @@ def run_separation_margins(run: Run) -> np.ndarray:
 
 
 def separation_while_moving(run: Run) -> tuple[np.ndarray, float]:
-    """True separations (T, N) (``true_separations``) and their smallest value while the
-    robot moves (inf if it never does with a body present)."""
+    """True separations (T, M) (``true_separations``) and their smallest value while the
+    robot moves (inf if it never does with an operator present)."""
     sep = true_separations(run)
     return sep, min_separation_while_moving(sep, robot_speed(robot_contact_state(run)[1]))
 

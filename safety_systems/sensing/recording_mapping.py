@@ -1,5 +1,5 @@
 """The mapping of a recording (or a live stream) onto the cell: which recorded rigid body
-is which operator's glove or head, and where the capture frame lies in the cell.
+marks which body point of which operator, and where the capture frame lies in the cell.
 
 A mapping YAML file::
 
@@ -10,9 +10,10 @@ A mapping YAML file::
     operators:
     - name: technician
       bodies:
-      - {recorded: RightGlove, name: right_glove, streaming_id: 1, radius: 0.05}
-      - {recorded: LeftGlove, name: left_glove, streaming_id: 2}
-      - {recorded: Helmet, name: head, streaming_id: 3, radius: 0.12}
+      - {recorded: RightGlove, name: right_glove, point: hand_right, streaming_id: 1}
+      - {recorded: LeftGlove, name: left_glove, point: hand_left, streaming_id: 2}
+      - {recorded: Helmet, name: head, point: head, streaming_id: 3}
+      - {recorded: ElbowBandR, name: right_elbow, point: elbow_right, streaming_id: 4}
 
 ``recorded`` names the body in the recording (Motive's rigid body name, a C3D point
 label); ``streaming_id`` is its NatNet rigid-body id (Motive's "Streaming ID"), which
@@ -20,8 +21,11 @@ the live runtime needs (frames carry ids, not names; 0: not given) and which, wh
 recording gives ids too, must agree with it. ``up_axis: y`` turns the capture frame's
 Y-up axes into the cell's Z-up ones (a rotation of +90 deg about x: (x, y, z) ->
 (x, -z, y)); ``rpy_deg`` is applied after it (R = Rz(yaw) Ry(pitch) Rx(roll)).
-The body named ``head`` of an operator is its head, the others are hands (as in
-scenarios). Read under the rules of ``safety_systems.files.documents``.
+``point`` is the body point the recorded body marks (``safety_systems.cell.human_body
+.POINTS``: head, neck, chest, pelvis, shoulders, elbows, hands; empty: by its name, as
+in scenarios: ``head``, ``hand``, ``other_hand``, ``right_glove``, ``left_glove``); the
+monitor bounds the operator's other segments from them, the more points the tighter.
+Read under the rules of ``safety_systems.files.documents``.
 
 This module must not use ``from __future__ import annotations`` (the YAML loader).
 """
@@ -34,6 +38,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from safety_systems.cell.human_body import LEGACY_POINTS, POINTS
 from safety_systems.files.documents import load_document, read_input
 from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
 from safety_systems.files.input_error import InputError
@@ -57,12 +62,18 @@ class CaptureToCell:
 
 @dc.dataclass
 class MappedBody:
-    """One recorded rigid body as an operator's tracked body (a sphere of ``radius`` m)."""
+    """One recorded rigid body as an operator's tracked body, marking the body point
+    ``point`` (see the module docstring)."""
 
     recorded: str = ""
     name: str = ""
+    point: str = ""
     streaming_id: int = number(0, ge=0, le=MAX_STREAMING_ID)
-    radius: float = number(0.05, ge=0.0, le=0.5, unit="m")
+
+
+def mapped_point(b: MappedBody) -> str:
+    """The body point a mapped body marks: its ``point``, or its legacy name's."""
+    return b.point or LEGACY_POINTS.get(b.name, "")
 
 
 @dc.dataclass
@@ -100,14 +111,20 @@ def validate_mapping(m: RecordingMapping) -> None:
         names.add(o.name)
         if not 1 <= len(o.bodies) <= MAX_BODIES_PER_OPERATOR:
             raise InputError(f"operators[{i}].bodies", len(o.bodies),
-                             f"1 to {MAX_BODIES_PER_OPERATOR} bodies (gloves, head)")
-        slots = set()
+                             f"1 to {MAX_BODIES_PER_OPERATOR} bodies (one per body point)")
+        slots, marked = set(), set()
         for j, b in enumerate(o.bodies):
             where = f"operators[{i}].bodies[{j}]"
             if NAME.fullmatch(b.name) is None or b.name in slots:
                 raise InputError(f"{where}.name", b.name, "a name unique in its operator, 1 "
                                  "to 64 letters, digits, '_', '-' or '.'")
             slots.add(b.name)
+            point = mapped_point(b)
+            if point not in POINTS or point in marked:
+                raise InputError(f"{where}.point", b.point, "a body point no other body of "
+                                 "the operator marks: " + " | ".join(POINTS) + " (empty only "
+                                 "for the names " + ", ".join(LEGACY_POINTS) + ")")
+            marked.add(point)
             if not b.recorded or b.recorded in recorded:
                 raise InputError(f"{where}.recorded", b.recorded,
                                  "the name of a recorded body, each mapped once")
@@ -161,14 +178,14 @@ class RecordedBodies:
     """One mapped operator's bodies from a recording, in the cell frame: the samples
     (``times`` (T,), ``points`` (T, n, 3) with untracked samples filled,
     ``recording.fill_gaps``), when each body is tracked (``tracked_times`` (n, 2), first
-    and last) and the gaps in between (recording time), names, radii and ids."""
+    and last) and the gaps in between (recording time), names, body points and ids."""
 
     times: np.ndarray
     points: np.ndarray
     tracked_times: np.ndarray
     gaps: tuple
     names: tuple
-    radii: tuple
+    points_marked: tuple  # the body point each body marks (``human_body.POINTS``)
     ids: tuple
     raw: np.ndarray  # (T, n, 3) the cell-frame samples, NaN where untracked
 
@@ -195,7 +212,7 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
         tracked_times=np.array([span(rec.times, tracked[:, i]) for i in range(len(index))]),
         gaps=tuple(tuple(gaps(rec.times, tracked[:, i])) for i in range(len(index))),
         names=tuple(b.name for b in operator.bodies),
-        radii=tuple(b.radius for b in operator.bodies),
+        points_marked=tuple(mapped_point(b) for b in operator.bodies),
         ids=tuple(rec.ids[k] for k in index), raw=raw)
 
 

@@ -1,6 +1,7 @@
-"""The rules of the properties' measures on the truth, written once and compiled: when
-the robot counts as moving, when the controller permits motion, and a body-capsule
-pair's margin d_true - S_true (``outputs.metrics`` states the measures in full).
+"""The rules of the properties' measures on the truth, written once and compiled: the
+operators' true segments, when the robot counts as moving, when the controller permits
+motion, and a segment-capsule pair's margin d_true - S_true (``outputs.metrics`` states
+the measures in full).
 
 ``outputs.metrics`` measures a Drake run with them, and the batched evaluator calls them
 inside its compiled loop, so the two can differ in nothing but the arithmetic's order
@@ -12,6 +13,9 @@ import math
 import numba
 import numpy as np
 
+from safety_systems.cell.human_body import NUM_POINTS as NUM_BODY_POINTS
+from safety_systems.cell.human_body import envelope_rows
+from safety_systems.sensing.tracks import TRACK_NONE, TRACK_TRACKING
 from safety_systems.ssm.formulas import body_protective_distance
 
 MOVING_SPEED = 1e-3  # m/s: the robot moves when its fastest capsule end is faster
@@ -66,4 +70,44 @@ def permitted(command: np.ndarray) -> np.ndarray:
     command = np.ascontiguousarray(command, dtype=float)
     out = np.empty(command.shape, dtype=bool)
     permitted_rows(command.reshape(-1), out.reshape(-1))
+    return out
+
+
+@numba.njit(cache=True)
+def true_segment_rows(regions, candidates, radius, operator, slots, points, velocities,
+                      operator_present, ends, end_velocities, out_radius, present):
+    """The operators' true segments at T instants: for each row of true body points
+    (T, 10 K, 3; operator k's point p in slot 10 k + p, NaN where unknown) and their
+    velocities, and operator presence (T, K), every segment's capsule (ends and their
+    velocities (T, M, 2, 3), radius (T, M)) and whether its operator is present
+    (T, M); compiled. A segment is ``human_body.envelope_rows`` of the recipe
+    ``configuration.truth_recipe`` on the true points, with no allowance: the capsule
+    between its true points where both are known, else the envelope of the known ones."""
+    P, M = points.shape[1], radius.size
+    status, zeros, std = np.empty(P), np.zeros(P), np.empty(M)
+    seg_status = np.empty(M)
+    for row in range(points.shape[0]):
+        for i in range(P):
+            status[i] = TRACK_TRACKING if operator_present[row, i // NUM_BODY_POINTS] > 0.5 \
+                else TRACK_NONE
+        envelope_rows(regions, candidates, radius, operator, slots, points[row],
+                      velocities[row], status, zeros, zeros, 0.0, 0.0, ends[row],
+                      end_velocities[row], out_radius[row], seg_status, std)
+        for m in range(M):
+            present[row, m] = seg_status[m] == TRACK_TRACKING
+
+
+def true_segments(recipe, points: np.ndarray, velocities: np.ndarray,
+                  operator_present: np.ndarray) -> tuple[np.ndarray, ...]:
+    """:func:`true_segment_rows` of rows of points (T, 30 K) or (T, 10 K, 3): (ends,
+    end_velocities (T, M, 2, 3), radius (T, M), present (T, M) bool)."""
+    T = points.shape[0]
+    points = np.ascontiguousarray(points, dtype=float).reshape(T, -1, 3)
+    velocities = np.ascontiguousarray(velocities, dtype=float).reshape(T, -1, 3)
+    M = recipe.radius.size
+    out = (np.empty((T, M, 2, 3)), np.empty((T, M, 2, 3)), np.empty((T, M)),
+           np.empty((T, M), dtype=np.bool_))
+    true_segment_rows(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
+                      recipe.slots, points, velocities,
+                      np.ascontiguousarray(operator_present, dtype=float).reshape(T, -1), *out)
     return out

@@ -13,6 +13,7 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
+from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS
 from safety_systems.sensing.delivery import TIME_TOL, captured, delivered_frame, unit_noise
 from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_to_frame
 
@@ -25,6 +26,9 @@ def _intervals(name: str, rows: Sequence, width: int) -> np.ndarray:
     if np.any(np.isnan(array)) or np.any(array[:, -1] < array[:, -2]):
         raise ValueError(f"{name}={list(rows)!r}: each needs t_start <= t_end, no NaN")
     return array
+
+
+MAX_BODY_SLOTS = MAX_OPERATORS * MAX_BODIES_PER_OPERATOR
 
 
 class MocapSensor(LeafSystem):
@@ -64,7 +68,8 @@ class MocapSensor(LeafSystem):
         - body_ids
 
     Args:
-        num_bodies: number of body slots N (1 to 15).
+        num_bodies: number of body slots N (1 to ``MAX_BODY_SLOTS``, 50: five operators
+            of ten tracked body points).
         period_sec: capture period, seconds (1/1000 to 1/20).
         noise_std: standard deviation of the position noise per axis, metres (>= 0;
             OptiTrack accuracy 0.2 mm, seed Sec. 4.1).
@@ -88,8 +93,9 @@ class MocapSensor(LeafSystem):
         seed: int = 0,
     ) -> None:
         super().__init__()
-        if not (isinstance(num_bodies, int) and 1 <= num_bodies <= 15):
-            raise ValueError(f"num_bodies={num_bodies!r}: must be an integer in 1..15")
+        if not (isinstance(num_bodies, int) and 1 <= num_bodies <= MAX_BODY_SLOTS):
+            raise ValueError(f"num_bodies={num_bodies!r}: must be an integer in "
+                             f"1..{MAX_BODY_SLOTS}")
         if not MIN_PERIOD_SEC - 1e-15 <= period_sec <= MAX_PERIOD_SEC + 1e-15:
             raise ValueError(
                 f"period_sec={period_sec}: allowed {MIN_PERIOD_SEC} to {MAX_PERIOD_SEC} s"

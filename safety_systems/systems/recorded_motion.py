@@ -7,6 +7,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
+from safety_systems.cell.human_body import NUM_POINTS, point_index
 from safety_systems.cell.recorded_operator import RecordedOperator
 from safety_systems.cell.operators import MAX_OPERATORS
 
@@ -20,7 +21,11 @@ class RecordedMotion(LeafSystem):
     body follows ``safety_systems.sensing.recording.recorded_state_one`` (linear between the
     recording's samples, the segment's slope as velocity, scaled by the operator's
     time scale); a body is present while its recording tracks it (from its first to its
-    last tracked sample) and the operator is in the cell.
+    last tracked sample) and the operator is in the cell. ``points_true`` and
+    ``point_velocities_true`` (as ``OperatorMotion``'s: 10 points per operator) hold the
+    body points the recorded bodies mark, NaN at the others (the properties bound those
+    from the known ones); an operator is present (``operators_present``) while any of
+    its bodies is.
 
     .. pydrake_system::
 
@@ -29,6 +34,9 @@ class RecordedMotion(LeafSystem):
         - positions_true
         - velocities_true
         - present
+        - points_true
+        - point_velocities_true
+        - operators_present
 
     Args:
         operators: the recorded operators (1 to 5); positions in metres, velocities in
@@ -51,13 +59,24 @@ class RecordedMotion(LeafSystem):
         self._cache = self.DeclareCacheEntry(
             description="bodies_state",
             value_producer=ValueProducer(
-                allocate=AbstractValue.Make((np.zeros(3 * n), np.zeros(3 * n),
-                                             np.zeros(n))).Clone,
+                allocate=AbstractValue.Make(
+                    (np.zeros(3 * n), np.zeros(3 * n), np.zeros(n),
+                     np.zeros(3 * NUM_POINTS * len(operators)),
+                     np.zeros(3 * NUM_POINTS * len(operators)),
+                     np.zeros(len(operators)))).Clone,
                 calc=self._calc_state),
             prerequisites_of_calc={self.time_ticket()})
         ticket = {self._cache.ticket()}
-        for which, (name, size) in enumerate((("positions_true", 3 * n),
-                                              ("velocities_true", 3 * n), ("present", n))):
+        k = len(operators)
+        # the point slot of each body: 10 k + the body point it marks
+        self._point_slots = np.concatenate([
+            [NUM_POINTS * j + point_index(p) for p in op.bodies.points_marked]
+            for j, op in enumerate(operators)]).astype(np.int64)
+        self._first = np.cumsum([0] + [op.num_bodies for op in operators])
+        for which, (name, size) in enumerate((
+                ("positions_true", 3 * n), ("velocities_true", 3 * n), ("present", n),
+                ("points_true", 3 * NUM_POINTS * k),
+                ("point_velocities_true", 3 * NUM_POINTS * k), ("operators_present", k))):
             self.DeclareVectorOutputPort(
                 name, BasicVector(size),
                 lambda c, o, w=which: o.SetFromVector(self._cache.Eval(c)[w]), ticket)
@@ -68,6 +87,14 @@ class RecordedMotion(LeafSystem):
 
     def _calc_state(self, context: Context, value: AbstractValue) -> None:
         states = [op.state(context.get_time()) for op in self._operators]
-        value.set_value((np.concatenate([s[0] for s in states]).ravel(),
-                         np.concatenate([s[1] for s in states]).ravel(),
-                         np.concatenate([s[2] for s in states])))
+        p = np.concatenate([s[0] for s in states])
+        v = np.concatenate([s[1] for s in states])
+        present = np.concatenate([s[2] for s in states])
+        k = len(self._operators)
+        points, velocities = np.full((NUM_POINTS * k, 3), np.nan), np.full((NUM_POINTS * k, 3),
+                                                                            np.nan)
+        points[self._point_slots], velocities[self._point_slots] = p, v
+        operators = np.array([float(present[a:b].max(initial=0.0))
+                              for a, b in zip(self._first[:-1], self._first[1:])])
+        value.set_value((p.ravel(), v.ravel(), present, points.ravel(), velocities.ravel(),
+                         operators))

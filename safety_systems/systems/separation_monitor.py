@@ -1,4 +1,4 @@
-"""SeparationMonitor: d_i, directed speeds and S_i for every tracked body."""
+"""SeparationMonitor: d_i, directed speeds and S_i for every operator segment."""
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -15,7 +15,7 @@ from safety_systems.ssm.formulas import (
 
 class SeparationMonitor(LeafSystem):
     """Separation distances and protective separation distances, seed Eqs. 6-11, between
-    every tracked body (a sphere) and the robot's capsules.
+    every operator segment (a capsule: ``OperatorEnvelopes``) and the robot's capsules.
 
     .. pydrake_system::
 
@@ -23,11 +23,11 @@ class SeparationMonitor(LeafSystem):
         input_ports:
         - capsule_ends
         - capsule_velocities
-        - positions_estimated
-        - velocities_estimated
-        - track_status
-        - position_std
-        - unseen_time
+        - segment_ends
+        - segment_velocities
+        - segment_radii
+        - segment_status
+        - segment_std
         output_ports:
         - distances
         - protective_distances
@@ -35,21 +35,19 @@ class SeparationMonitor(LeafSystem):
         - robot_directed_speeds
         - nearest_capsule
 
-    ``safety_systems.ssm.separation`` holds the maths: d_i is a body's smallest clearance to
-    the capsules, S_i its largest S over them (Eqs. 9-11 from each pair's directed
-    speeds), the directed speeds and ``nearest_capsule`` (an index into the capsules)
-    the nearest pair's. Bodies without a usable track (status none or lost) have NaN on
-    every output and index -1; the SpeedOverride decides what a lost track means. A
-    hidden body is a ball around its last accepted estimate whose radius grows at
-    ``occlusion_speed`` (:func:`safety_systems.ssm.formulas.hidden_ball_radius`): its d_i is the
-    clearance to that ball. Outputs are computed on demand from the inputs (one shared
-    cache entry), so they follow the robot at its control rate.
+    ``safety_systems.ssm.separation`` holds the maths: d_i is a segment's smallest
+    clearance to the capsules, S_i its largest S over them (Eqs. 9-11 from each pair's
+    directed speeds), the directed speeds and ``nearest_capsule`` (an index into the
+    capsules) the nearest pair's. Segments without a usable status (none or lost) have
+    NaN on every output and index -1; the SpeedOverride decides what a lost track means.
+    A hidden body's growing ball is inside its segments' envelopes. Outputs are computed
+    on demand from the inputs (one shared cache entry), so they follow the robot at its
+    control rate.
 
     Args:
-        num_bodies: registered body slots N.
+        num_segments: the operators' segments M (12 per operator).
         capsule_radii: the radius of each of the robot's K capsules, metres (the seed's
             tool point: one capsule of radius 0).
-        body_radii: the radius of each body's sphere, metres (N; zeros on the tool point).
         human_speed: ``estimated`` | ``iso`` | ``estimated_with_floor`` (see
             :func:`safety_systems.ssm.formulas.human_speed_term`).
         reaction_time: T_r in seconds.
@@ -59,24 +57,21 @@ class SeparationMonitor(LeafSystem):
         human_uncertainty: Z_d in metres.
         robot_uncertainty: Z_r in metres.
         human_uncertainty_sigmas: adds this many position standard deviations of each
-            track to Z_d (0: the seed's constant Z_d).
-        occlusion_speed: metres per second at which a hidden body's ball grows (0: a
-            hidden body stays where it was last seen, as in the seed).
+            segment's bodies to Z_d (0: the seed's constant Z_d).
         iso_speed, iso_reduced_speed: ISO/TS 15066 human speeds in metres per second.
         robot_speed: the robot's speed in S: ``directed`` (Eq. 7) or ``fastest_point``
             (``separation.pair_separation``).
         level_terms: None, or (T_s + T_r, B + C + Z_r) at each speed level
             (``configuration.level_terms``, ``safety.stopping: by_speed``): then the
-            output ``level_protective_distances`` holds every body's S at each level
-            ((G + 1) x N, level-major; ``separation.level_rows``).
+            output ``level_protective_distances`` holds every segment's S at each level
+            ((G + 1) x M, level-major; ``separation.level_rows``).
     """
 
     def __init__(
         self,
         *,
-        num_bodies: int,
+        num_segments: int,
         capsule_radii=(0.0,),
-        body_radii=None,
         human_speed: str = "estimated",
         reaction_time: float,
         stopping_time: float,
@@ -85,15 +80,14 @@ class SeparationMonitor(LeafSystem):
         human_uncertainty: float = 0.0,
         robot_uncertainty: float = 0.0,
         human_uncertainty_sigmas: float = 0.0,
-        occlusion_speed: float = 0.0,
         iso_speed: float = ISO_HUMAN_SPEED,
         iso_reduced_speed: float = ISO_REDUCED_HUMAN_SPEED,
         robot_speed: str = "directed",
         level_terms=None,
     ):
         super().__init__()
-        if num_bodies < 0:
-            raise ValueError(f"num_bodies: got {num_bodies}; allowed: an integer >= 0")
+        if num_segments < 0:
+            raise ValueError(f"num_segments: got {num_segments}; allowed: an integer >= 0")
         if human_speed not in HUMAN_SPEED_MODES:
             raise ValueError(f"human_speed: got {human_speed!r}; allowed: {HUMAN_SPEED_MODES}")
         if robot_speed not in ROBOT_SPEED_TERMS:
@@ -101,38 +95,33 @@ class SeparationMonitor(LeafSystem):
         for name, value in dict(
             reaction_time=reaction_time, stopping_time=stopping_time,
             stopping_distance=stopping_distance, human_uncertainty_sigmas=human_uncertainty_sigmas,
-            occlusion_speed=occlusion_speed,
         ).items():
             if not np.isfinite(value) or value < 0:
                 raise ValueError(f"{name}: got {value}; allowed: a finite number >= 0")
         self._radius = np.array(capsule_radii, dtype=float).reshape(-1)
-        body_radii = np.zeros(num_bodies) if body_radii is None else body_radii
-        self._r_B = np.array(body_radii, dtype=float).reshape(-1)
-        for name, values, size in (("capsule_radii", self._radius, None),
-                                   ("body_radii", self._r_B, num_bodies)):
-            if (size is not None and values.size != size) or values.size == 0 and size is None \
-                    or not np.all(np.isfinite(values) & (values >= 0.0)):
-                raise ValueError(f"{name}: got {values.tolist()}; allowed: "
-                                 f"{size or 'one or more'} finite radii >= 0 (m)")
-        self._n, k = num_bodies, self._radius.size
-        self._z_d_terms = (float(human_uncertainty), float(human_uncertainty_sigmas),
-                           float(occlusion_speed))
+        if self._radius.size == 0 or not np.all(np.isfinite(self._radius)
+                                                & (self._radius >= 0.0)):
+            raise ValueError(f"capsule_radii: got {self._radius.tolist()}; allowed: one or "
+                             "more finite radii >= 0 (m)")
+        self._n, k = num_segments, self._radius.size
+        self._z_d_terms = (float(human_uncertainty), float(human_uncertainty_sigmas))
         self._monitor = (HUMAN_SPEED_MODES.index(human_speed),
                          float(stopping_time + reaction_time), float(reaction_time),
                          float(stopping_distance + intrusion_distance + robot_uncertainty),
                          float(iso_speed), float(iso_reduced_speed),
                          ROBOT_SPEED_TERMS.index(robot_speed))
+        m = num_segments
         self._ends = self.DeclareVectorInputPort("capsule_ends", 6 * k)
         self._end_v = self.DeclareVectorInputPort("capsule_velocities", 6 * k)
-        self._p_B = self.DeclareVectorInputPort("positions_estimated", 3 * num_bodies)
-        self._v_B = self.DeclareVectorInputPort("velocities_estimated", 3 * num_bodies)
-        self._status = self.DeclareVectorInputPort("track_status", num_bodies)
-        self._std = self.DeclareVectorInputPort("position_std", num_bodies)
-        self._unseen = self.DeclareVectorInputPort("unseen_time", num_bodies)
+        self._h_ends = self.DeclareVectorInputPort("segment_ends", 6 * m)
+        self._h_v = self.DeclareVectorInputPort("segment_velocities", 6 * m)
+        self._h_radius = self.DeclareVectorInputPort("segment_radii", m)
+        self._status = self.DeclareVectorInputPort("segment_status", m)
+        self._std = self.DeclareVectorInputPort("segment_std", m)
         self._cache = self.DeclareCacheEntry(
             description="separation",
             value_producer=ValueProducer(
-                allocate=AbstractValue.Make(np.zeros((5, num_bodies))).Clone,
+                allocate=AbstractValue.Make(np.zeros((5, m))).Clone,
                 calc=self._calc_all,
             ),
             prerequisites_of_calc={self.all_input_ports_ticket()},
@@ -142,7 +131,7 @@ class SeparationMonitor(LeafSystem):
              "robot_directed_speeds", "nearest_capsule")
         ):
             self.DeclareVectorOutputPort(
-                name, num_bodies, lambda c, o, r=row: o.SetFromVector(self._cache.Eval(c)[r]),
+                name, m, lambda c, o, r=row: o.SetFromVector(self._cache.Eval(c)[r]),
                 prerequisites_of_calc={self._cache.ticket()},
             )
 
@@ -157,26 +146,32 @@ class SeparationMonitor(LeafSystem):
             self._level_cache = self.DeclareCacheEntry(
                 description="levels",
                 value_producer=ValueProducer(
-                    allocate=AbstractValue.Make(np.zeros((g, num_bodies))).Clone,
+                    allocate=AbstractValue.Make(np.zeros((g, m))).Clone,
                     calc=self._calc_levels),
                 prerequisites_of_calc={self.all_input_ports_ticket()})
             self.DeclareVectorOutputPort(
-                "level_protective_distances", g * num_bodies,
+                "level_protective_distances", g * m,
                 lambda c, o: o.SetFromVector(self._level_cache.Eval(c).reshape(-1)),
                 prerequisites_of_calc={self._level_cache.ticket()})
 
+    def _segments(self, context):
+        """The segments' inputs as ``separation.separation_rows`` takes them."""
+        m = self._n
+        return (np.asarray(self._h_ends.Eval(context)).reshape(m, 2, 3),
+                np.asarray(self._h_v.Eval(context)).reshape(m, 2, 3),
+                np.asarray(self._h_radius.Eval(context)), np.asarray(self._status.Eval(context)),
+                np.asarray(self._std.Eval(context)))
+
+    def _robot(self, context):
+        return (np.asarray(self._ends.Eval(context)).reshape(-1, 2, 3),
+                np.asarray(self._end_v.Eval(context)).reshape(-1, 2, 3), self._radius)
+
     def _calc_levels(self, context, value):
-        n = self._n
-        if n == 0:
+        if self._n == 0:
             return
-        separation.level_rows(
-            np.asarray(self._ends.Eval(context)).reshape(-1, 2, 3),
-            np.asarray(self._end_v.Eval(context)).reshape(-1, 2, 3), self._radius,
-            np.asarray(self._p_B.Eval(context)).reshape(n, 3),
-            np.asarray(self._v_B.Eval(context)).reshape(n, 3), self._r_B,
-            np.asarray(self._status.Eval(context)), np.asarray(self._std.Eval(context)),
-            self._z_d_terms, self._monitor, self._levels[0], self._levels[1],
-            value.get_mutable_value())
+        separation.level_rows(*self._robot(context), *self._segments(context), self._z_d_terms,
+                              self._monitor, self._levels[0], self._levels[1],
+                              value.get_mutable_value())
 
     def _calc_all(self, context, value):
         n = self._n
@@ -184,12 +179,6 @@ class SeparationMonitor(LeafSystem):
         if n == 0:
             return
         nearest = np.empty(n, dtype=np.int64)
-        separation.separation_rows(
-            np.asarray(self._ends.Eval(context)).reshape(-1, 2, 3),
-            np.asarray(self._end_v.Eval(context)).reshape(-1, 2, 3), self._radius,
-            np.asarray(self._p_B.Eval(context)).reshape(n, 3),
-            np.asarray(self._v_B.Eval(context)).reshape(n, 3), self._r_B,
-            np.asarray(self._status.Eval(context)), np.asarray(self._std.Eval(context)),
-            np.asarray(self._unseen.Eval(context)), self._z_d_terms, self._monitor, out[:4],
-            nearest)
+        separation.separation_rows(*self._robot(context), *self._segments(context),
+                                   self._z_d_terms, self._monitor, out[:4], nearest)
         out[4] = nearest
