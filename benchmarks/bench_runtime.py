@@ -4,10 +4,12 @@
 
 The loop runs at the UR5e's control rate (500 Hz) under models/configs/iso.yaml, with
 ``--robot none`` (the model robot) and N rigid bodies (default 10: five operators with
-two gloves each) streamed as real NatNet packets over 127.0.0.1 by ``replay_server``
-(in a process of its own, as ``replay://`` runs it) at the frame rate (default 120 Hz,
-Motive's usual). The bodies walk to and fro between 1.5 and 4 m from the robot base,
-so the monitor works on every tick. It prints, beside the goals of issue 17:
+two gloves each, marking their hands; the monitor bounds each operator's twelve
+segments from them, 60 segments in all) streamed as real NatNet packets over 127.0.0.1
+by ``replay_server`` (in a process of its own, as ``replay://`` runs it) at the frame
+rate (default 120 Hz, Motive's usual). The operators walk to and fro between 1.5 and
+4 m from the robot base, their gloves 0.4 m apart, so the monitor works on every tick.
+It prints, beside the goals of issue 17:
 
 - the loop's period error: how late each tick starts against its due time
   (``tick_late`` in trace.csv), p50, p99 and the largest; goal p99 <= 0.5 ms;
@@ -35,7 +37,8 @@ GOAL_FRAME_TO_K_P99 = 1e-3  # s
 
 def write_inputs(folder: Path, bodies: int, duration: float) -> tuple[Path, Path]:
     """A Motive CSV of ``bodies`` rigid bodies at 100 Hz (metres, quaternions, Z up) and
-    its mapping (identity transform)."""
+    its mapping (identity transform): operator j's gloves are bodies 2 j and 2 j + 1
+    (right and left hand), 0.2 m either side of the operator's path."""
     times = np.arange(0.0, duration + 1.0, 0.01)
     lines = ["Format Version,1.23,Take Name,bench,Capture Frame Rate,100.000000,"
              "Export Frame Rate,100.000000,Rotation Type,Quaternion,Length Units,Meters,"
@@ -50,24 +53,28 @@ def write_inputs(folder: Path, bodies: int, duration: float) -> tuple[Path, Path
                                               for a in ("X", "Y", "Z", "W", "X", "Y", "Z")]
     for row in (row_type, row_name, row_id, row_kind, row_axis):
         lines.append(",".join(row))
+    count = bodies // 2 + bodies % 2  # operators
     for f, t in enumerate(times):
         cells = [str(f), f"{t:.6f}"]
         for i in range(bodies):
-            angle = 2.0 * np.pi * i / bodies
-            r = 2.75 + 1.25 * np.sin(0.8 * t + i)
-            p = (r * np.cos(angle), r * np.sin(angle), 1.0 + 0.1 * (i % 2))
+            j, side = divmod(i, 2)
+            angle = 2.0 * np.pi * j / count
+            r = 2.75 + 1.25 * np.sin(0.8 * t + j)
+            across = 0.2 if side else -0.2  # the left glove on the operator's left
+            p = (r * np.cos(angle) + across * np.sin(angle),
+                 r * np.sin(angle) - across * np.cos(angle), 1.0 + 0.1 * side)
             cells += ["0", "0", "0", "1"] + [f"{x:.6f}" for x in p]
         lines.append(",".join(cells))
     recording = folder / "bench.csv"
     recording.write_text("\n".join(lines) + "\n")
     mapping = folder / "bench_mapping.yaml"
     operators = []
-    for j in range(bodies // 2 + bodies % 2):
+    for j in range(count):
         members = [k for k in (2 * j, 2 * j + 1) if k < bodies]
         operators.append(
             f"- name: op{j}\n  bodies:\n" + "".join(
                 f"  - {{recorded: {names[k]}, name: glove{k - 2 * j}, streaming_id: {k + 1},"
-                f" radius: 0.05}}\n" for k in members))
+                f" point: {('hand_right', 'hand_left')[k - 2 * j]}}}\n" for k in members))
     mapping.write_text("capture_to_cell:\n  up_axis: z\noperators:\n" + "".join(operators))
     return recording, mapping
 
@@ -96,6 +103,8 @@ def main() -> int:
     print(f"run: exit {code}, {summary['end']}, {summary['ticks']} ticks at "
           f"{1.0 / timing['control_period']:.0f} Hz, {summary['frames']} frames of "
           f"{args.bodies} bodies at {args.frame_rate:g} Hz, {summary['bad_packets']} bad")
+    print(f"monitored: {(args.bodies + 1) // 2} operators, {12 * ((args.bodies + 1) // 2)} "
+          "segments")
     late = [timing[f"tick_late_{q}"] for q in ("p50", "p99", "max")]
     print("loop period error (tick late): p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms"
           .format(*(1e3 * x for x in late))

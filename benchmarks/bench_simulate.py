@@ -7,10 +7,12 @@ Prints the real-time factor of the inspection scenario in kinematic and dynamic 
 timed), and of its first ten seconds in kinematic mode, the length of a scenario the
 verifier confirms in the diagram (goal 25x, about half of Drake's floor below, so that a
 confirmation takes well under a second), with its ratio to that floor, and the cost of
-one control tick's monitor + override for 10 tracked bodies against the iso
-configuration's 7 robot capsules, through the compiled functions the SeparationMonitor
-and SpeedOverride call (``separation.separation_rows``, ``ssm.speed_override_command``;
-the tool point's one capsule beside it), each beside its goal. Beside the real-time
+one control tick's envelopes + monitor + override for 10 tracked bodies (five operators
+with two gloves each: 60 segments) against the iso configuration's 7 robot capsules,
+through the compiled functions the OperatorEnvelopes, SeparationMonitor and
+SpeedOverride call (``human_body.envelope_rows``, ``separation.separation_rows``,
+``ssm.speed_override_command``; the tool point's one capsule beside it), each beside its
+goal (the envelopes change only with a frame; a tick that follows no frame costs less). Beside the real-time
 factors it prints Drake's own floor on this machine: the same 500 Hz clock driving one,
 two and four chained Python LeafSystems that do nothing (one periodic update and one
 output each), which bounds what any diagram of Python systems at 500 Hz can reach (the
@@ -33,8 +35,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
+from safety_systems.cell.human_body import envelope_rows
 from safety_systems.ssm import separation
-from safety_systems.config.configuration import monitor_capsules
+from safety_systems.config.configuration import monitor_capsules, monitor_recipe
 from safety_systems.cell.joint_path import default_joint_path, joint_path_state
 from safety_systems.cell.robot_geometry import Capsules, capsule_ends, tool_point
 from safety_systems.config.scenario import load_controller_config, load_scenario
@@ -121,25 +124,37 @@ def plant_floor(duration: float, repeats: int, systems: int = 0) -> float:
     return _best_factor(builder.Build(), duration, repeats)
 
 
-def monitor_and_override_us(capsules: Capsules, n: int = 10, number: int = 20000) -> float:
-    """Microseconds of one tick's separation (Eqs. 5-11 over every body and capsule) and
-    override (Eq. 12 and the stop rules) for ``n`` tracked bodies, best of 5 x ``number``."""
+def monitor_and_override_us(capsules: Capsules, config, operators: int = 5,
+                            number: int = 5000) -> float:
+    """Microseconds of one tick's envelopes (every segment from the tracked bodies),
+    separation (Eqs. 5-11 over every segment and capsule) and override (Eq. 12 and the
+    stop rules) for ``operators`` operators of two tracked gloves each (12 segments each,
+    the body model of ``config``), best of 5 x ``number``."""
     rng = np.random.default_rng(0)
     q = joint_path_state(default_joint_path(), 0.3)[0]
     ends, end_v = capsule_ends(q, capsules, rng.normal(size=6) * 0.5)
-    p_B, v_B = rng.normal(size=(n, 3)) + [0.0, 0.0, 1.0], rng.normal(size=(n, 3))
-    r_B = np.full(n, 0.05)
+    recipe = monitor_recipe(config, [["hand_right", "hand_left"]] * operators)
+    n, m = 2 * operators, recipe.radius.size
+    centre = rng.normal(size=(operators, 3)) + [0.0, 0.0, 1.0]
+    p_B = np.repeat(centre, 2, axis=0) + np.tile([[0.0, -0.2, 0.0], [0.0, 0.2, 0.0]],
+                                                 (operators, 1))
+    v_B = rng.normal(size=(n, 3))
     status = np.full(n, float(TRACK_TRACKING))
     std, unseen = np.full(n, 0.01), np.zeros(n)
-    z_d_terms = (0.1, 2.0, 1.6)
+    z_d_terms = (0.1, 2.0)
     monitor = (HUMAN_SPEED_MODES.index("estimated"), 0.53 + 0.1, 0.1, 0.26 + 0.1 + 0.02,
                1.6, 0.0, 0)  # (the seed's directed robot speed)
-    out, nearest = np.empty((4, n)), np.empty(n, dtype=np.int64)
+    h_ends, h_v = np.empty((m, 2, 3)), np.empty((m, 2, 3))
+    h_radius, h_status, h_std = np.empty(m), np.empty(m), np.empty(m)
+    out, nearest = np.empty((4, m)), np.empty(m, dtype=np.int64)
 
     def once():
-        separation.separation_rows(ends, end_v, capsules.radius, p_B, v_B, r_B, status, std,
-                                   unseen, z_d_terms, monitor, out, nearest)
-        return speed_override_command(out[0], out[1], status, 0.0)
+        envelope_rows(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
+                      recipe.slots, p_B, v_B, status, std, unseen, 0.01, 1.6, h_ends, h_v,
+                      h_radius, h_status, h_std)
+        separation.separation_rows(ends, end_v, capsules.radius, h_ends, h_v, h_radius,
+                                   h_status, h_std, z_d_terms, monitor, out, nearest)
+        return speed_override_command(out[0], out[1], h_status, 0.0)
 
     once()  # compiled code loaded (not timed)
     return min(timeit.repeat(once, number=number, repeat=5)) / number * 1e6
@@ -172,8 +187,8 @@ def main() -> None:
               f"{'':>10s} {rtf / GOALS['dynamic']:12.2f}")
     config = load_controller_config(ISO)
     for name, capsules in (("7 capsules", monitor_capsules(config)), ("tool point", tool_point())):
-        us = monitor_and_override_us(capsules)
-        what = f"monitor + override, 10 bodies x {name}"
+        us = monitor_and_override_us(capsules, config)
+        what = f"env. + monitor + override, 60 segm. x {name}"
         print(f"{what:44s} {us:8.1f}us {MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")
 
 if __name__ == "__main__":

@@ -128,7 +128,7 @@ SEGMENT_NAMES = tuple(s[0] for s in SEGMENTS)
 NUM_SEGMENTS = len(SEGMENTS)
 # ISO/TS 15066 Annex A's body regions each segment belongs to (for reports).
 DEFAULT_DIMENSIONS = {
-    "neck": 0.20, "upper_trunk": 0.22, "lower_trunk": 0.38, "shoulder": 0.22,
+    "neck": 0.20, "upper_trunk": 0.25, "lower_trunk": 0.38, "shoulder": 0.22,
     "upper_arm": 0.40, "forearm": 0.41, "head_shoulder": 0.32,
     "head_radius": 0.12, "neck_radius": 0.07, "trunk_radius": 0.20, "shoulder_radius": 0.07,
     "upper_arm_radius": 0.06, "forearm_radius": 0.05, "hand_radius": 0.12,
@@ -290,7 +290,7 @@ def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
             operator.append(k)
             segment_names.append(f"{names[k] if names else k}/{name}")
             pa, pb = _P[a], _P[b]
-            if pa != pb and pa in tracked and pb in tracked:
+            if pa in tracked and pb in tracked:  # (a ball about a tracked point too)
                 candidates.append((m, base + pa, base + pb, 0.0, KIND_DIRECT, 0.0))
                 continue
             for x, y, length, lean, sign in _cones(pa, pb, dims, adj):
@@ -540,3 +540,26 @@ def _elbow(shoulder: np.ndarray, hand: np.ndarray, outward: np.ndarray, side: st
     if np.linalg.norm(down) < 1e-6:
         down = outward - u * (outward @ u)
     return shoulder + along * u + across * down / np.linalg.norm(down)
+
+
+def posture_violations(points: np.ndarray, dims: dict, tolerance: float = 1e-9) -> list[str]:
+    """What of a posture (10, 3) the dimensions ``dims`` do not allow, in words (empty when
+    it is a posture the model allows, the premise under which every envelope holds its
+    segment): an edge longer than its length, the head farther from a shoulder than
+    ``head_shoulder``, a lean-limited edge farther from straight down than its limit."""
+    out = []
+    for a, b, length, lean in EDGES:
+        d = points[_P[b]] - points[_P[a]]
+        dist = float(np.linalg.norm(d))
+        if dist > dims[length] + tolerance:
+            out.append(f"{a}-{b} {dist:.3f} m > {length} {dims[length]:g} m")
+        if lean and dist > 0.0:
+            angle = math.degrees(math.acos(max(-1.0, min(1.0, -d[2] / dist))))
+            if angle > dims[lean] + tolerance:
+                out.append(f"{a}-{b} {angle:.1f} deg from straight down > {lean} "
+                           f"{dims[lean]:g} deg")
+    for a, b, length in SHORTCUTS:
+        dist = float(np.linalg.norm(points[_P[b]] - points[_P[a]]))
+        if dist > dims[length] + tolerance:
+            out.append(f"{a}-{b} {dist:.3f} m > {length} {dims[length]:g} m")
+    return out

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from safety_systems.cell.braking import PLACEHOLDER_WARNING
+from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.outputs.metrics import (
     hidden,
     robot_contact_state,
@@ -19,12 +20,18 @@ from safety_systems.outputs.metrics import (
 from safety_systems.files.output_files import atomic_path, save_figure, write_json
 from safety_systems.outputs.provenance import provenance, scenario_seeds
 from safety_systems.diagrams.simulation import Run
-from safety_systems.ssm.formulas import separation_distances
+from safety_systems.ssm.formulas import level_at_or_above, separation_distances
 from safety_systems.sensing.stops import REJECT_CAUSES, STOP_REASONS, STOP_SEPARATION
-from safety_systems.config.configuration import placeholder_braking
+from safety_systems.config.configuration import (
+    placeholder_braking,
+    scenario_monitor_recipe,
+    truth_recipe,
+)
 from safety_systems.planning.zones import ZONE_NAMES
 
-WORDS = {"stop_reason": STOP_REASONS, "zone": ZONE_NAMES}  # trace.csv columns written as words
+# trace.csv columns written as words, by the column's name after its last ":"
+WORDS = {"stop_reason": STOP_REASONS, "zone": ZONE_NAMES, "nearest_true": SEGMENT_NAMES,
+         "nearest_measured": SEGMENT_NAMES}
 
 
 def commanded_speed(run: Run) -> np.ndarray:
@@ -34,12 +41,113 @@ def commanded_speed(run: Run) -> np.ndarray:
     return run[f"{key}.path_speed_commanded"][:, 0]
 
 
-def measured_distances(run: Run) -> np.ndarray:
-    """(T, N) distances the controller saw: the monitor's d_i, or, for the seed-004
-    controllers, the tool's distance to each tracked estimate."""
-    if "monitor.distances" in run.signals:
-        return run["monitor.distances"]
+def body_measured_distances(run: Run) -> np.ndarray:
+    """(T, N) the tool's distance to each tracked estimate (the distance the seed-004
+    controllers and the zones see; NaN without a track)."""
     return separation_distances(tool_state(run)[0], run.bodies("tracker.positions_estimated"))
+
+
+def operator_bodies(run: Run) -> list[tuple[str, list[int]]]:
+    """(operator name, its body slots' indices into ``run.body_names``), operator by
+    operator (``scenario.body_names``' order)."""
+    out, first = [], 0
+    for o in run.scenario.operators:
+        out.append((o.name, list(range(first, first + len(o.bodies)))))
+        first += len(o.bodies)
+    if first != len(run.body_names):
+        raise ValueError(f"body slots: the scenario's operators have {first}, the run "
+                         f"{len(run.body_names)}")
+    return out
+
+
+def operator_segments(operator: np.ndarray, count: int) -> list[np.ndarray]:
+    """Per operator (0 .. ``count`` - 1): the columns of its segments, of a recipe whose
+    segments belong to ``operator`` (M,) (``human_body.Recipe.operator``)."""
+    return [np.flatnonzero(np.asarray(operator) == k) for k in range(count)]
+
+
+def segment_words(column: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+    """(T,) the index into ``human_body.SEGMENT_NAMES`` of the segments at ``column``
+    (T,) of a recipe named ``names`` ("operator/segment"); NaN where the column is -1."""
+    which = np.array([SEGMENT_NAMES.index(n.rsplit("/", 1)[1]) for n in names] + [-1],
+                     dtype=float)
+    return np.where(column >= 0, which[column], np.nan)
+
+
+def nearest_segment(d: np.ndarray, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(least d (T,), its column (T,)) over ``columns`` of ``d`` (T, M), NaN ignored; NaN
+    and -1 where every one is NaN."""
+    if columns.size == 0:
+        return np.full(d.shape[0], np.nan), np.full(d.shape[0], -1)
+    part = d[:, columns]
+    none = np.all(np.isnan(part), axis=1)
+    j = np.argmin(np.where(np.isnan(part), np.inf, part), axis=1)
+    least = part[np.arange(d.shape[0]), j]
+    return np.where(none, np.nan, least), np.where(none, -1, columns[j])
+
+
+def override_levels(run: Run) -> np.ndarray:
+    """(T,) under ``safety.stopping: by_speed``, the speed level g (of G + 1, S at
+    g / G: ``monitor.level_protective_distances``) whose S the override held the
+    distances to at each tick (``ssm.formulas.by_speed_command``): the larger of the
+    level at or above the path rate then (``level_at_or_above``, the logged
+    ``follower.path_state``'s rate, the override's input) and the level it commanded
+    (k = g / G). Where a fault of the sensing chain held the robot (stop reasons after
+    ``separation``) k is 0 whatever level the distances allowed: the rate's level then."""
+    m = run["monitor.distances"].shape[1]
+    levels = run["monitor.level_protective_distances"].shape[1] // max(m, 1) - 1
+    rate = run["follower.path_state"][:, 1]
+    now = np.array([level_at_or_above(float(r), levels) for r in rate], dtype=int)
+    commanded = np.rint(commanded_speed(run) * levels).astype(int)
+    return np.maximum(now, np.clip(commanded, 0, levels))
+
+
+def monitor_protective_distances(run: Run) -> np.ndarray:
+    """(T, M) the monitor's S of every segment as the override used it: its
+    ``protective_distances``, or under ``by_speed`` the S at :func:`override_levels`."""
+    if "monitor.level_protective_distances" not in run.signals:
+        return run["monitor.protective_distances"]
+    t, m = run["monitor.distances"].shape
+    s = run["monitor.level_protective_distances"].reshape(t, -1, m)
+    return s[np.arange(t), override_levels(run)]
+
+
+def operator_figures(run: Run) -> list[dict]:
+    """Per operator (the scenario's order): ``name``, ``bodies`` (its body slots),
+    ``d_true`` (T,) its least true clearance over its segments (NaN while absent) and
+    ``nearest_true`` that segment (its index into ``SEGMENT_NAMES``, NaN while absent);
+    with the SSM monitor ``d_measured`` (the least monitored d over its segments, NaN
+    with none monitored), ``nearest_measured`` and ``S`` (the S the override used of that
+    segment, :func:`monitor_protective_distances`); else ``d_measured_bodies`` (T, its
+    bodies) the tool's distance to each body's estimate."""
+    scenario = run.scenario
+    bodies = operator_bodies(run)
+    truth = truth_recipe(scenario)
+    d_true = true_separations(run)
+    true_parts = operator_segments(truth.operator, len(bodies))
+    ssm = "monitor.distances" in run.signals
+    if ssm:
+        recipe = scenario_monitor_recipe(scenario)
+        parts = operator_segments(recipe.operator, len(bodies))
+        d = run["monitor.distances"]
+        s = monitor_protective_distances(run)
+    else:
+        measured = body_measured_distances(run)
+    out = []
+    for k, (name, slots) in enumerate(bodies):
+        least, column = nearest_segment(d_true, true_parts[k])
+        figures = {"name": name, "bodies": slots, "d_true": least,
+                   "nearest_true": segment_words(column, truth.names)}
+        if ssm:
+            least, column = nearest_segment(d, parts[k])
+            figures |= {"d_measured": least,
+                        "nearest_measured": segment_words(column, recipe.names),
+                        "S": np.where(column >= 0, s[np.arange(len(column)),
+                                                     np.maximum(column, 0)], np.nan)}
+        else:
+            figures["d_measured_bodies"] = measured[:, slots]
+        out.append(figures)
+    return out
 
 
 def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
@@ -53,15 +161,22 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
     their names, ``STOP_REASONS``) and S_max (m), for the seed-004 controllers
     danger_index (the controller's predicted DI), for the zones zone (0 green, 1 yellow,
     2 red; written as names) and closest_distance (m, Eq. 6b); ``rejected_<cause>``:
-    measurements the tracker has rejected so far, by cause; then for each body
-    ``<body>:d_true`` (true clearance to the robot as the scenario's
-    ``contact_geometry`` measures it, empty when absent), ``<body>:d_measured`` (the
-    distance the controller saw, empty without a track), ``<body>:hidden`` (1 while its
-    track is a hidden ball, or lost) and, for the SSM override, ``<body>:S`` (the
-    monitor's S_i).
+    measurements the tracker has rejected so far, by cause.
+
+    Then for each operator (``safety_systems.cell.human_body``: twelve segments each):
+    ``<op>:d_true``, the least true clearance to the robot over its segments (as the
+    scenario's ``contact_geometry`` measures it; empty while it is absent), and
+    ``<op>:nearest_true``, the segment that has it (written as its name,
+    ``human_body.SEGMENT_NAMES``); for the SSM override ``<op>:d_measured``, the least
+    of the monitor's d over its segments (empty while none is monitored),
+    ``<op>:nearest_measured``, that segment, and ``<op>:S``, the monitor's S of that
+    segment (under ``safety.stopping: by_speed`` at the speed level the override held
+    it to, :func:`override_levels`); and for each of its body slots (tracked bodies)
+    ``<op>/<body>:d_measured`` (seed-004 controllers and zones only: the distance they
+    saw, the tool's to the body's estimate, empty without a track) and
+    ``<op>/<body>:hidden`` (1 while its track is a hidden ball, or lost).
     """
     speed = robot_speed(robot_contact_state(run)[1])
-    d_true = true_separations(run)
     ssm = "override.stop_reason" in run.signals
     header = ["time", "k", "path_rate", "robot_speed"]
     columns = [run.time, commanded_speed(run), run["follower.path_state"][:, 1], speed]
@@ -77,29 +192,38 @@ def trace_table(run: Run) -> tuple[list[str], np.ndarray]:
         columns.append(run["speed.danger_index"][:, 0])
     header += [f"rejected_{cause}" for cause in REJECT_CAUSES]
     columns += list(run["tracker.rejected_frames"].T)
-    measured = measured_distances(run)
     is_hidden = hidden(run)
-    for i, name in enumerate(run.body_names):
-        header += [f"{name}:d_true", f"{name}:d_measured", f"{name}:hidden"]
-        columns += [d_true[:, i], measured[:, i], is_hidden[:, i].astype(float)]
-        if ssm:
-            header.append(f"{name}:S")
-            columns.append(run["monitor.protective_distances"][:, i])
+    for op in operator_figures(run):
+        name = op["name"]
+        header += [f"{name}:d_true", f"{name}:nearest_true"]
+        columns += [op["d_true"], op["nearest_true"]]
+        if "d_measured" in op:
+            header += [f"{name}:d_measured", f"{name}:nearest_measured", f"{name}:S"]
+            columns += [op["d_measured"], op["nearest_measured"], op["S"]]
+        for j, i in enumerate(op["bodies"]):
+            body = run.body_names[i]
+            if "d_measured_bodies" in op:
+                header.append(f"{body}:d_measured")
+                columns.append(op["d_measured_bodies"][:, j])
+            header.append(f"{body}:hidden")
+            columns.append(is_hidden[:, i].astype(float))
     return header, np.column_stack(columns)
 
 
 def write_trace(run: Run, path: Path) -> None:
     """trace.csv: :func:`trace_table`, numbers to 6 significant digits (empty where not
-    finite), stop reasons and zones by name (``WORDS``)."""
+    finite), stop reasons, zones and segments by name (``WORDS``)."""
     write_table(*trace_table(run), path)
 
 
 def write_table(header: list[str], rows: np.ndarray, path: Path, *,
                 digits: dict[str, int] | None = None) -> None:
     """A trace table as CSV (atomically): numbers to 6 significant digits (the columns
-    of ``digits`` to as many as it says; empty where not finite), the columns of
-    ``WORDS`` by name. Shared by ``simulate`` and ``run``."""
-    words = {header.index(name): names for name, names in WORDS.items() if name in header}
+    of ``digits`` to as many as it says; empty where not finite), the columns named in
+    ``WORDS`` (by their name after its last ":") by name. Shared by ``simulate`` and
+    ``run``."""
+    words = {j: WORDS[name.rsplit(":", 1)[-1]] for j, name in enumerate(header)
+             if name.rsplit(":", 1)[-1] in WORDS}
     formats = [f"{{:.{(digits or {}).get(name, 6)}g}}" for name in header]
 
     def cell(j: int, x: float) -> str:
@@ -129,8 +253,12 @@ def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
     return summary
 
 
-S_NOTE = ("S < 0 where a body moves away from the robot: the estimated directed speeds "
+S_NOTE = ("S < 0 where a segment moves away from the robot: the estimated directed speeds "
           "(seed Eqs. 10-11) are then negative; drawn as computed, not clipped.")
+# Hatches that tell an operator's body slots apart where their hidden intervals are shaded
+HATCHES = ("//", "\\\\", "..", "xx", "++", "--", "||", "oo")
+# Line styles of an operator's body slots (speeds; tool-to-estimate distances)
+BODY_STYLES = ("-", "-.", (0, (5, 1)), (0, (1, 1)), (0, (3, 1, 1, 1, 1, 1)))
 
 
 def plot_run(run: Run, path: Path, summary: dict | None = None) -> None:
@@ -143,13 +271,17 @@ def plot_run(run: Run, path: Path, summary: dict | None = None) -> None:
 
 
 def run_figure(run: Run, summary: dict | None = None):
-    """Two panels in the manner of the seed's Figs. 7 and 9: speeds above; d_i, S_i,
-    d_min and k below. Shaded: the intervals a body was hidden (in its colour, below) and
-    the protective stops for a fault of the sensing chain (grey, both panels). Marked
-    (with ``summary``): the tick of the smallest separation margin d_true - S_true while
-    the robot was let move (red where it is below 0: the separation invariant broken).
-    Legends stand beside the panels, off the data; a note under the figure explains S < 0
-    when it occurs."""
+    """Three panels in the manner of the seed's Figs. 7 and 9, one colour per operator:
+    the bodies' estimated speeds and the tool's (top); per operator its true clearance
+    d_true (a wide pale line) and, with the SSM monitor, the monitor's d of its nearest segment and that
+    segment's S (``operator_figures``), else the tool's distance to each of its bodies'
+    estimates, and d_min (middle); k (and the danger index or the zone) on its own axis
+    (bottom). Shaded: the intervals a body slot was hidden (middle, in its operator's
+    colour, hatched by slot) and the protective stops for a fault of the sensing chain
+    (grey, every panel). Marked (with ``summary``): the tick of the smallest separation
+    margin d_true - S_true while the robot was let move (red where it is below 0: the
+    separation invariant broken). Legends stand beside the panels, off the data; a note
+    under the figure explains S < 0 when it occurs."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -158,50 +290,64 @@ def run_figure(run: Run, summary: dict | None = None):
     t = run.time
     _, speed = tool_state(run)
     v_est = np.linalg.norm(run.bodies("tracker.velocities_estimated"), axis=-1)
-    d = measured_distances(run)
-    s = run.signals.get("monitor.protective_distances")
-    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(13, 7.5),
-                                      layout="constrained")
-    for i, name in enumerate(run.body_names):
-        top.plot(t, v_est[:, i], label=f"v {name} (estimated)")
+    operators = operator_figures(run)
+    ssm = "monitor.distances" in run.signals
+    fig, (top, middle, bottom) = plt.subplots(
+        3, 1, sharex=True, figsize=(13, 9.5), layout="constrained",
+        gridspec_kw={"height_ratios": (1.0, 1.6, 0.8)})
+    colors = [f"C{k % 10}" for k in range(len(operators))]
+    for op, color in zip(operators, colors):
+        for j, i in enumerate(op["bodies"]):
+            top.plot(t, v_est[:, i], color=color, ls=BODY_STYLES[j % len(BODY_STYLES)],
+                     lw=1.0, label=f"v {run.body_names[i]} (estimated)")
     top.plot(t, speed, color="goldenrod", label="v_R (tool)")
     top.set_ylabel("speed [m/s]")
-    top.legend(loc="upper left", bbox_to_anchor=(1.07, 1.0), fontsize="small")
     top.grid(alpha=0.3)
-    colors = []
-    for i, name in enumerate(run.body_names):
-        (line,) = bottom.plot(t, d[:, i], label=f"d {name}")
-        colors.append(line.get_color())
-        if s is not None:
-            bottom.plot(t, s[:, i], linestyle="--", color=line.get_color(), label=f"S {name}")
-    if s is not None:
-        bottom.axhline(run.scenario.controller.safety.d_min, color="red", label="d_min")
-    _shade(top, bottom, run, colors)
+    s_low, low = 0.0, 0.0
+    for op, color in zip(operators, colors):
+        name = op["name"]
+        middle.plot(t, op["d_true"], color=color, lw=4.0, alpha=0.3, solid_capstyle="butt",
+                    label=f"d_true {name} (nearest segment)")
+        low = min(low, float(np.nanmin(op["d_true"], initial=0.0)))
+        if ssm:
+            middle.plot(t, op["d_measured"], color=color, lw=1.1,
+                        label=f"d {name} (monitored, nearest segment)")
+            middle.plot(t, op["S"], color=color, ls="--", lw=1.1,
+                        label=f"S {name} (of that segment)")
+            s_low = min(s_low, float(np.nanmin(op["S"], initial=0.0)))
+            low = min(low, s_low, float(np.nanmin(op["d_measured"], initial=0.0)))
+        else:
+            for j, i in enumerate(op["bodies"]):
+                middle.plot(t, op["d_measured_bodies"][:, j], color=color, lw=1.0,
+                            ls=BODY_STYLES[j % len(BODY_STYLES)],
+                            label=f"d {run.body_names[i]} (tool to estimate)")
+    if ssm:
+        middle.axhline(run.scenario.controller.safety.d_min, color="red", lw=1.0,
+                       label="d_min")
+    _shade((top, middle, bottom), middle, run, operators, colors)
     margin = None if summary is None else summary.get("min_separation_margin")
     if margin is not None:
         when = summary["min_separation_margin_time"]
-        bottom.axvline(when, color="red" if margin < 0.0 else "green", lw=1.2, ls=":",
+        middle.axvline(when, color="red" if margin < 0.0 else "green", lw=1.2, ls=":",
                        label=f"smallest d_true - S_true while let move: {margin:+.3f} m "
                              f"at {when:.2f} s")
-    bottom.set_ylabel("distance [m]")
-    bottom.set_xlabel("time [s]")
-    bottom.set_ylim(bottom=min(0.0, float(np.nanmin(s, initial=0.0))) if s is not None else 0.0)
-    k_axis = bottom.twinx()
+    middle.set_ylabel("distance [m]")
+    middle.set_ylim(bottom=low - 0.05 if low < 0.0 else 0.0)
+    middle.grid(alpha=0.3)
     k = commanded_speed(run)
-    k_axis.plot(t, k, color="black", label="k (commanded speed / nominal)")
+    bottom.plot(t, k, color="black", label="k (commanded speed / nominal)")
     if "speed.danger_index" in run.signals:
-        k_axis.plot(t, run["speed.danger_index"][:, 0], color="purple", label="danger index")
+        bottom.plot(t, run["speed.danger_index"][:, 0], color="purple", label="danger index")
     if "zones.zone" in run.signals:
-        k_axis.plot(t, run["zones.zone"][:, 0] / 2.0, color="tab:red", lw=0.8,
+        bottom.plot(t, run["zones.zone"][:, 0] / 2.0, color="tab:red", lw=0.8,
                     label="zone (0 green, 0.5 yellow, 1 red)")
-    k_axis.set_ylim(min(-0.05, float(k.min()) - 0.05), max(1.05, float(k.max()) + 0.05))
-    k_axis.set_ylabel("commanded speed k" + ("" if s is not None else ", DI / zone"))
-    lines = bottom.get_legend_handles_labels()
-    k_lines = k_axis.get_legend_handles_labels()
-    bottom.legend(lines[0] + k_lines[0], lines[1] + k_lines[1], loc="upper left",
-                  bbox_to_anchor=(1.07, 1.0), fontsize="small")
+    bottom.set_ylim(min(-0.05, float(k.min()) - 0.05), max(1.05, float(k.max()) + 0.05))
+    bottom.set_ylabel("k" + ("" if ssm else ", DI / zone"))
+    bottom.set_xlabel("time [s]")
     bottom.grid(alpha=0.3)
-    if s is not None and np.nanmin(s, initial=0.0) < 0.0:
+    for axis in (top, middle, bottom):
+        axis.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    if s_low < 0.0:
         fig.supxlabel(S_NOTE, fontsize="small")
     c = run.scenario.controller
     fig.suptitle(f"{run.scenario.name}: SSM speed override (human speed: {c.safety.human_speed})"
@@ -217,18 +363,30 @@ def _intervals(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
     return [(t[a], t[b - 1] + dt) for a, b in zip(starts, ends)]
 
 
-def _shade(top, bottom, run: Run, colors: list) -> None:
-    """Hidden intervals per body (in the body's line colour) and fault stops (grey)."""
-    reasons = stop_reasons(run)
-    faults = reasons > STOP_SEPARATION
+def _shade(axes, distance_axis, run: Run, operators: list[dict], colors: list) -> None:
+    """Fault stops (grey, on every one of ``axes``) and the hidden intervals of each body
+    slot (on ``distance_axis``, in its operator's colour, hatched by slot)."""
+    faults = stop_reasons(run) > STOP_SEPARATION
     for k, (a, b) in enumerate(_intervals(run.time, faults)):
-        for axis in (top, bottom):
+        for axis in axes:
             axis.axvspan(a, b, color="0.5", alpha=0.25, lw=0,
-                         label="fault stop" if k == 0 and axis is bottom else None)
-    for i, name in enumerate(run.body_names):
-        for k, (a, b) in enumerate(_intervals(run.time, hidden(run)[:, i])):
-            bottom.axvspan(a, b, color=colors[i], alpha=0.12, lw=0,
-                           label=f"{name} hidden" if k == 0 else None)
+                         label="fault stop" if k == 0 else None)
+    is_hidden = hidden(run)
+    for op, color in zip(operators, colors):
+        for j, i in enumerate(op["bodies"]):
+            for k, (a, b) in enumerate(_intervals(run.time, is_hidden[:, i])):
+                distance_axis.axvspan(a, b, facecolor=matplotlib_rgba(color, 0.10),
+                                      edgecolor=matplotlib_rgba(color, 0.45), lw=0,
+                                      hatch=HATCHES[j % len(HATCHES)],
+                                      label=f"{run.body_names[i]} hidden" if k == 0 else None)
+
+
+def matplotlib_rgba(color: str, alpha: float) -> tuple:
+    """``color`` with ``alpha`` as an RGBA tuple (a face and an edge of different
+    opacity in one patch)."""
+    from matplotlib.colors import to_rgba
+
+    return to_rgba(color, alpha)
 
 
 def write_outputs(run: Run, out_dir: Path, *, html: bool = False,

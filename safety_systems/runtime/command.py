@@ -42,6 +42,7 @@ def run(args: argparse.Namespace, origin: dict) -> int:
     from safety_systems.sensing.recording_mapping import (
         find_operator,
         load_mapping,
+        mapped_point,
         recorded_bodies,
     )
     from safety_systems.runtime.live_run import LiveOptions, run_live
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace, origin: dict) -> int:
                          "ssm_override (the runtime runs the SSM speed override)",
                          file=args.params)
     names = [f"{o.name}/{b.name}" for o in mapping.operators for b in o.bodies]
-    radii = [b.radius for o in mapping.operators for b in o.bodies]
+    points = [[mapped_point(b) for b in o.bodies] for o in mapping.operators]
     rate = params.controller.sensor.rate_hz
     duration = args.duration
     if duration is not None and not 0.0 < duration <= 1e7:
@@ -95,7 +96,7 @@ def run(args: argparse.Namespace, origin: dict) -> int:
             length = float(options.get("duration", recording.times[-1] - start))
             duration = max(length, 0.0) + REPLAY_TAIL + 0.1
     out = prepare_out(args.log)
-    loop = SafetyLoop(params.controller, radii)
+    loop = SafetyLoop(params.controller, points, [o.name for o in mapping.operators])
     server = None
     robot = None
     try:
@@ -163,8 +164,8 @@ def add_parser(commands) -> None:
                         "(required; no default)")
     p.add_argument("--mapping", required=True,
                    help="mapping YAML: which streamed rigid body (streaming_id) is which "
-                        "operator's glove or head, and the capture-to-cell transform "
-                        "(required; no default)")
+                        "operator's body point (a glove, the head, an elbow...), and the "
+                        "capture-to-cell transform (required; no default)")
     p.add_argument("--log", required=True,
                    help="output folder for trace.csv and summary.json, created if missing "
                         "(required; no default)")

@@ -18,14 +18,21 @@ and, by the tracker's own rules, when no valid frame is newer than the frame tim
 robot link's protective stop is asked for (``robot_link``). On every exit, normal or
 not, the last command is k = 0: the slider is never left where it was.
 
-**Log.** ``trace.csv`` has simulate's columns (``outputs.trace_table``: time, k,
-path_rate, robot_speed, stop_reason, S_max, rejected_<cause>, and per body d_true
-(empty: the truth is not known live), d_measured, hidden and S) and then the runtime's:
-``frame_time`` (the newest good frame's capture time on this clock), ``frames`` and
-``bad_packets`` (counts so far) and ``tick_late`` (s the tick started after its due
-time). ``time`` is seconds since the loop started; k is what was commanded (with
-``--robot none``, what would have been). ``summary.json`` holds the run's counts, stops
-by cause, timing figures and provenance.
+**Log.** ``trace.csv`` has simulate's columns for the SSM override
+(``outputs.run_files.trace_table``): time, k, path_rate, robot_speed, stop_reason,
+S_max, rejected_<cause>, and per operator ``<op>:d_true`` and ``<op>:nearest_true``
+(empty: the truth is not known live), ``<op>:d_measured`` (the least of the monitor's d
+over the operator's twelve segments, empty while none is monitored),
+``<op>:nearest_measured`` (that segment, by name) and ``<op>:S`` (its S; under
+``safety.stopping: by_speed`` at the level the override held it to: the larger of the
+level at or above the rate bound and the commanded k's), then per tracked body of the
+operator ``<op>/<body>:hidden`` (1 while its track is a hidden ball, or lost); and then
+the runtime's: ``frame_time`` (the newest good frame's capture time on this clock),
+``frames`` and ``bad_packets`` (counts so far) and ``tick_late`` (s the tick started
+after its due time). ``time`` is seconds since the loop started; k is what was
+commanded (with ``--robot none``, what would have been). ``summary.json`` holds the
+run's counts, stops by cause, the time each tracked body spent hidden or lost
+(``hidden_time``), timing figures and provenance.
 """
 
 import dataclasses
@@ -36,6 +43,7 @@ import time
 
 import numpy as np
 
+from safety_systems.cell.human_body import NUM_SEGMENTS, SEGMENT_NAMES
 from safety_systems.sensing import stops
 from safety_systems.outputs.metrics import stops_by_cause
 from safety_systems.runtime.mocap import BodyMap, FrameClock, NatNetSource
@@ -43,6 +51,7 @@ from safety_systems.runtime.robot_link import RobotLost
 from safety_systems.runtime.safety_loop import SafetyLoop
 from safety_systems.sensing.stops import REJECT_CAUSES
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
+from safety_systems.ssm.formulas import level_at_or_above
 
 MAX_OVERRUN = 0.005  # s: a tick may start this late before the watchdog stops the robot
 OVERRUN_HOLD = 0.2  # s k stays 0 after an overrun
@@ -82,32 +91,83 @@ class _Log:
         return self.data[:self.n].copy()
 
 
-def trace_header(names: list[str]) -> list[str]:
-    """trace.csv's columns (see the module docstring)."""
+OPERATOR_COLUMNS = ("d_true", "nearest_true", "d_measured", "nearest_measured", "S")
+
+
+def trace_header(operators: list[tuple[str, list[str]]]) -> list[str]:
+    """trace.csv's columns (see the module docstring) of ``operators``: (name, its
+    tracked bodies' names) each."""
     header = ["time", "k", "path_rate", "robot_speed", "stop_reason", "S_max"]
     header += [f"rejected_{c}" for c in REJECT_CAUSES]
-    for name in names:
-        header += [f"{name}:d_true", f"{name}:d_measured", f"{name}:hidden", f"{name}:S"]
+    for name, bodies in operators:
+        header += [f"{name}:{c}" for c in OPERATOR_COLUMNS]
+        header += [f"{body}:hidden" for body in bodies]
     return header + list(EXTRA)
+
+
+class _OperatorColumns:
+    """The per-operator columns of a trace row from the loop's state (as simulate's
+    ``run_files.operator_figures`` takes them from the logged signals)."""
+
+    def __init__(self, loop: SafetyLoop, names: list[str]):
+        slots = loop.recipe.slots
+        K = self.K = slots.shape[0]
+        if not np.array_equal(loop.recipe.operator, np.repeat(np.arange(K), NUM_SEGMENTS)):
+            raise ValueError("the recipe's segments: 12 per operator, operator by operator")
+        self.operators = [(loop.operator_names[k], [names[i] for i in slots[k] if i >= 0])
+                          for k in range(K)]
+        self.header = trace_header(self.operators)
+        at = {name: j for j, name in enumerate(self.header)}
+        self.at = {c: np.array([at[f"{o}:{c}"] for o, _ in self.operators], dtype=int)
+                   for c in OPERATOR_COLUMNS}
+        self.hidden_at = np.array([at[f"{names[i]}:hidden"] for i in range(loop.n)],
+                                  dtype=int)
+        self.which = np.array([SEGMENT_NAMES.index(n.rsplit("/", 1)[1])
+                               for n in loop.segment_names], dtype=float).reshape(K, -1)
+        self.rows = np.arange(K)
+        self.levels = None if loop.levels is None else loop.levels[0].size - 1
+
+    def fill(self, row: np.ndarray, loop: SafetyLoop, k: float, rate: float) -> None:
+        """Writes the operators' columns of ``row`` at a tick that commanded k under the
+        rate bound ``rate``."""
+        d = loop.out[0].reshape(self.K, -1)
+        none = np.isnan(d).all(axis=1)
+        j = np.where(np.isnan(d), np.inf, d).argmin(axis=1)
+        if self.levels is None:
+            s = loop.out[1]
+        else:
+            g = max(level_at_or_above(rate if math.isfinite(rate) else 1.0, self.levels),
+                    min(max(round(k * self.levels), 0), self.levels))
+            s = loop.level_out[g]
+        row[self.at["d_true"]] = math.nan
+        row[self.at["nearest_true"]] = math.nan
+        row[self.at["d_measured"]] = np.where(none, np.nan, d[self.rows, j])
+        row[self.at["nearest_measured"]] = np.where(none, np.nan, self.which[self.rows, j])
+        row[self.at["S"]] = np.where(none, np.nan, s.reshape(self.K, -1)[self.rows, j])
+        row[self.hidden_at] = _hidden(loop.status)
 
 
 def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetSource,
              robot, *, latency: float, period: float, options: LiveOptions,
              now=time.monotonic) -> LiveResult:
     """Runs the control loop until ``options.duration`` has passed, an interrupt or an
-    error (see the module docstring); returns the log."""
-    header = trace_header(names)
+    error (see the module docstring); returns the log. ``names``: the tracked bodies'
+    (``operator/body``), in slot order."""
+    columns = _OperatorColumns(loop, names)
+    header = columns.header
+    width = len(header) - len(EXTRA)
     log = _Log(len(header))
     clock = FrameClock(latency)
     sockets = mocap.sockets()
-    n = loop.n
+    hidden_ticks = np.zeros(loop.n)  # ticks each body spent hidden or lost
     state = dict(bad=False, overrun_until=-math.inf, lost="", frames=0, good_frame=math.nan,
-                 stop_asked=None)
+                 stop_asked=None, rate=math.nan)
     latencies, lateness = [], []
     status_due = 0.0
 
     def command(t: float) -> tuple[float, float, int]:
-        k, s_max, reason = loop.decide(t, robot.rate_bound())
+        state["rate"] = robot.rate_bound()
+        k, s_max, reason = loop.decide(t, state["rate"])
         cause = (stops.STOP_ROBOT_LOST if state["lost"] else stops.STOP_BAD_PACKET
                  if state["bad"] else stops.STOP_OVERRUN if t < state["overrun_until"]
                  else None)
@@ -173,17 +233,14 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
                         float(np.nanmax(np.linalg.norm(loop.end_velocities, axis=-1),
                                         initial=0.0)),
                         reason, s_max, *loop.rejected)
-            per = row[10:10 + 4 * n].reshape(n, 4)
-            per[:, 0] = math.nan
-            per[:, 1] = loop.out[0]
-            per[:, 2] = (loop.status == TRACK_HIDDEN) | (loop.status == TRACK_LOST)
-            per[:, 3] = loop.out[1]
-            row[10 + 4 * n:] = (state["good_frame"] - t_start, state["frames"],
-                                mocap.bad_packets, late)
+            columns.fill(row, loop, k, state["rate"])
+            row[width:] = (state["good_frame"] - t_start, state["frames"],
+                           mocap.bad_packets, late)
             log.add(row)
+            hidden_ticks += _hidden(loop.status)
             if options.status and t >= status_due:
                 status_due = t + STATUS_PERIOD
-                _status(t - t_start, k, reason, loop, names, state["frames"])
+                _status(t - t_start, k, reason, loop, state["frames"])
             next_tick += period
             if next_tick < t - period:  # fell more than a period behind: skip, and say so
                 next_tick += period * math.floor((t - next_tick) / period + 1.0)
@@ -206,18 +263,23 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
     if options.status:
         print(file=sys.stderr)
     rows = log.rows()
-    summary = _summary(rows, header, names, latencies, lateness, period, state, end, mocap)
+    hidden = {name: float(ticks * period) for name, ticks in zip(names, hidden_ticks)}
+    summary = _summary(rows, header, hidden, latencies, lateness, period, state, end, mocap)
     summary["clock_start"] = t_start  # the monotonic clock's reading at time 0
     return LiveResult(header, rows, summary, end)
 
 
-def _status(t: float, k: float, reason: int, loop: SafetyLoop, names: list, frames: int
-            ) -> None:
+def _hidden(status: np.ndarray) -> np.ndarray:
+    """Whether each status is hidden or lost."""
+    return (status == TRACK_HIDDEN) | (status == TRACK_LOST)
+
+
+def _status(t: float, k: float, reason: int, loop: SafetyLoop, frames: int) -> None:
     d = loop.out[0]
     near = ""
     if np.any(np.isfinite(d)):
         i = int(np.nanargmin(d))
-        near = f"  closest {names[i]} {d[i]:.2f} m (S {loop.out[1][i]:.2f} m)"
+        near = f"  closest {loop.segment_names[i]} {d[i]:.2f} m (S {loop.out[1][i]:.2f} m)"
     print(f"\r{t:8.1f} s  k={k:4.2f}{near}  stop: {stops.STOP_REASONS[int(reason)]:<11}"
           f" frames {frames}   ", end="", file=sys.stderr, flush=True)
 
@@ -226,11 +288,9 @@ def _percentile(values: list, q: float) -> float | None:
     return float(np.percentile(values, q)) if values else None
 
 
-def _summary(rows, header, names, latencies, lateness, period, state, end, mocap) -> dict:
+def _summary(rows, header, hidden, latencies, lateness, period, state, end, mocap) -> dict:
     time_ = rows[:, 0]
     reasons = rows[:, header.index("stop_reason")]
-    hidden = {name: float(np.sum(rows[:, header.index(f"{name}:hidden")] > 0.5) * period)
-              for name in names}
     last = np.nanmax(rows, axis=0, initial=0.0) if len(rows) else np.zeros(len(header))
     return {
         "end": end,

@@ -2,15 +2,21 @@
 the order the Drake diagram calls them (no copy of any rule lives here).
 
 - a frame: ``tracks.frame_step`` (the KalmanTracker's rules: ids, finite positions, the
-  gate, Eqs. 2-4, hidden bodies, exits) and ``tracks.estimate_rows``;
+  gate, Eqs. 2-4, hidden bodies, exits), ``tracks.estimate_rows`` and
+  ``human_body.envelope_rows`` (OperatorEnvelopes: every operator's twelve segments
+  bounded from its tracked bodies' estimates, a hidden body's region grown at
+  ``safety.occlusion_speed``; a function of the tracker's outputs, which change only
+  with a frame);
 - the robot: ``robot_capsules.capsule_ends_at`` (RobotCapsules' forward kinematics) and
   Eq. 5, (ends - previous ends) / dt over the robot's own sample times;
 - a decision at time t: ``tracks.tracker_fault`` (the frame's fault, else stale after
-  the frame timeout), ``separation.separation_rows`` (SeparationMonitor, Eqs. 6-11)
-  and ``ssm.speed_override_command`` (SpeedOverride, Eq. 12 and its fail-safe stops);
-  under ``safety.stopping: by_speed`` also ``separation.level_rows`` (S at every speed
-  level) and ``ssm.by_speed_override_command``, given a bound on the robot's path rate
-  now (the robot link's ``rate_bound``).
+  the frame timeout), ``separation.separation_rows`` over the segments
+  (SeparationMonitor, Eqs. 6-11) and ``ssm.speed_override_command`` over the segments'
+  statuses (SpeedOverride, Eq. 12 and its fail-safe stops: a lost or partly seen
+  operator's segments are lost, a NaN stops); under ``safety.stopping: by_speed`` also
+  ``separation.level_rows`` (S at every speed level) and
+  ``ssm.by_speed_override_command``, given a bound on the robot's path rate now (the
+  robot link's ``rate_bound``).
 
 Times are the runtime's monotonic clock (capture times from ``mocap.FrameClock``).
 """
@@ -19,54 +25,76 @@ import math
 
 import numpy as np
 
+from safety_systems.cell.human_body import envelope_rows
+from safety_systems.cell.robot_geometry import capsule_ends_at
 from safety_systems.config.configuration import (
+    frame_timeout,
     level_terms,
     monitor_capsules,
-    monitored_radii,
+    monitor_recipe,
+    monitor_terms,
     tracker_regions,
     tracker_rules,
 )
 from safety_systems.config.scenario import ControllerConfig
-from safety_systems.ssm.separation import level_rows, separation_rows
-from safety_systems.ssm.formulas import by_speed_override_command, speed_override_command
-from safety_systems.cell.robot_geometry import capsule_ends_at
 from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
-from safety_systems.config.configuration import frame_timeout, monitor_terms
+from safety_systems.ssm.formulas import by_speed_override_command, speed_override_command
+from safety_systems.ssm.separation import level_rows, separation_rows
 
 
 class SafetyLoop:
-    """Tracker, robot capsules, monitor and override state of one live cell: N body
-    slots (ids 1..N) of ``radii`` m, under ``config`` (``type: ssm_override``)."""
+    """Tracker, operator envelopes, robot capsules, monitor and override state of one
+    live cell under ``config`` (``type: ssm_override``): operators whose tracked bodies
+    mark the body points ``points`` (per operator, the point of each body in slot order,
+    ``recording_mapping.mapped_point``), N body slots in all (ids 1..N, the operators'
+    bodies in order), M = 12 segments per operator (``segment_names``:
+    ``operator/segment``, by ``names``, the operators' names; None: their indices).
 
-    def __init__(self, config: ControllerConfig, radii: np.ndarray):
+    State after a frame: the tracker's estimates per body (``p``, ``v``, ``status``,
+    ``std``, ``unseen``, N) and the envelopes per segment (``segment_ends``,
+    ``segment_velocities`` (M, 2, 3), ``segment_radius``, ``segment_status``,
+    ``segment_std`` (M,)); after a decision, ``out`` (4, M: d, S, v_human, v_robot) and
+    ``nearest`` (M,)."""
+
+    def __init__(self, config: ControllerConfig, points: list[list[str]],
+                 names: list[str] | None = None):
         if config.type != "ssm_override":
             raise ValueError(f"controller.type: got {config.type!r}; the runtime runs "
                              "ssm_override only")
         f = config.safety
-        n = self.n = len(radii)
+        n = self.n = sum(len(o) for o in points)
         self.rules, self.regions = tracker_rules(config), tracker_regions(config)
         self.timeout = frame_timeout(config)
         self.capsules = monitor_capsules(config)
+        self.recipe = monitor_recipe(config, [list(o) for o in points], names)
+        self.operator_names = [str(x) for x in (names or range(len(points)))]
+        self.segment_names = list(self.recipe.names)
+        self.envelope_terms = (float(config.body.tracking_allowance),
+                               float(f.occlusion_speed))
         self.monitor = monitor_terms(config)
-        self.z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas),
-                          float(f.occlusion_speed))
+        self.z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas))
         self.delta_s, self.d_min = f.delta_s, f.d_min
-        self.radii = monitored_radii(config, radii)
         self.tracks = np.zeros((n, TRACK_SLOT))
         self.t_good = np.array([-np.inf])
         self.rejected = np.zeros(4)
         self.frame_fault = 0.0
         self.p, self.v = np.full((n, 3), np.nan), np.full((n, 3), np.nan)
         self.status, self.std, self.unseen = np.zeros(n), np.zeros(n), np.zeros(n)
+        m = self.m = self.recipe.radius.size
+        self.segment_ends = np.full((m, 2, 3), np.nan)
+        self.segment_velocities = np.full((m, 2, 3), np.nan)
+        self.segment_radius = np.full(m, np.nan)
+        self.segment_status = np.zeros(m)
+        self.segment_std = np.full(m, np.nan)
         K = self.capsules.radius.size
         self.ends = np.full((K, 2, 3), np.nan)
         self.end_velocities = np.full((K, 2, 3), np.nan)  # NaN until two samples: stop
         self._robot_time = math.nan
-        self.out = np.full((4, n), np.nan)  # d, S, v_human, v_robot
-        self.nearest = np.full(n, -1, dtype=np.int64)
+        self.out = np.full((4, m), np.nan)  # d, S, v_human, v_robot per segment
+        self.nearest = np.full(m, -1, dtype=np.int64)
         self.levels = level_terms(config) if f.stopping == "by_speed" else None
-        if self.levels is not None:  # S at each level, (G + 1, N)
-            self.level_out = np.full((self.levels[0].size, n), np.nan)
+        if self.levels is not None:  # S at each level, (G + 1, M)
+            self.level_out = np.full((self.levels[0].size, m), np.nan)
         self._warm_up()
 
     def _warm_up(self) -> None:
@@ -81,8 +109,19 @@ class SafetyLoop:
         (self.tracks, self.t_good, self.rejected, self.frame_fault, self.ends,
          self.end_velocities, self._robot_time) = saved
         self.out[:] = np.nan
+        self.nearest[:] = -1
+        self._estimates()
+
+    def _estimates(self) -> None:
+        """The tracker's estimates (``tracks.estimate_rows``) and the segments'
+        envelopes from them (``human_body.envelope_rows``)."""
         estimate_rows(self.tracks, 0, self.n, self.t_good[0], self.p, self.v, self.status,
                       self.std, self.unseen)
+        r = self.recipe
+        envelope_rows(r.regions, r.candidates, r.radius, r.operator, r.slots, self.p, self.v,
+                      self.status, self.std, self.unseen, *self.envelope_terms,
+                      self.segment_ends, self.segment_velocities, self.segment_radius,
+                      self.segment_status, self.segment_std)
 
     def frame(self, t_capture: float, z: np.ndarray, valid: np.ndarray,
               ids: np.ndarray) -> float:
@@ -92,8 +131,7 @@ class SafetyLoop:
             self.tracks, 0, self.n, float(t_capture), np.ascontiguousarray(z, dtype=float),
             np.ascontiguousarray(valid, dtype=float), np.ascontiguousarray(ids, dtype=float),
             self.t_good, self.rejected, self.rules, self.regions))
-        estimate_rows(self.tracks, 0, self.n, self.t_good[0], self.p, self.v, self.status,
-                      self.std, self.unseen)
+        self._estimates()
         return self.frame_fault
 
     def robot(self, q: np.ndarray, t: float) -> None:
@@ -112,21 +150,24 @@ class SafetyLoop:
         return float(tracker_fault(self.frame_fault, now, self.t_good[0], self.timeout))
 
     def decide(self, now: float, rate: float = 1.0) -> tuple[float, float, int]:
-        """(k, S_max, stop reason) at ``now``: the monitor and the override. ``rate``:
-        a bound on the robot's path rate now (used under ``by_speed`` only; a NaN or
-        a missing bound counts as full speed)."""
-        if self.n:
-            separation_rows(self.ends, self.end_velocities, self.capsules.radius, self.p,
-                            self.v, self.radii, self.status, self.std, self.unseen,
-                            self.z_d_terms, self.monitor, self.out, self.nearest)
+        """(k, S_max, stop reason) at ``now``: the monitor over every segment and the
+        override over the segments' statuses. ``rate``: a bound on the robot's path rate
+        now (used under ``by_speed`` only; a NaN or a missing bound counts as full
+        speed)."""
+        if self.m:
+            separation_rows(self.ends, self.end_velocities, self.capsules.radius,
+                            self.segment_ends, self.segment_velocities, self.segment_radius,
+                            self.segment_status, self.segment_std, self.z_d_terms,
+                            self.monitor, self.out, self.nearest)
         if self.levels is None:
-            return speed_override_command(self.out[0], self.out[1], self.status,
+            return speed_override_command(self.out[0], self.out[1], self.segment_status,
                                           self.fault(now), delta_s=self.delta_s,
                                           d_min=self.d_min)
-        if self.n:
-            level_rows(self.ends, self.end_velocities, self.capsules.radius, self.p, self.v,
-                       self.radii, self.status, self.std, self.z_d_terms, self.monitor,
+        if self.m:
+            level_rows(self.ends, self.end_velocities, self.capsules.radius,
+                       self.segment_ends, self.segment_velocities, self.segment_radius,
+                       self.segment_status, self.segment_std, self.z_d_terms, self.monitor,
                        self.levels[0], self.levels[1], self.level_out)
-        return by_speed_override_command(self.out[0], self.level_out, self.status,
+        return by_speed_override_command(self.out[0], self.level_out, self.segment_status,
                                          self.fault(now), rate if math.isfinite(rate)
                                          else 1.0, delta_s=self.delta_s, d_min=self.d_min)

@@ -1,5 +1,12 @@
 """The live runtime on one machine: real NatNet packets over 127.0.0.1, the same k as
-simulate for a recorded approach, and speed 0 within a control period on every fault."""
+simulate for a recorded approach, and speed 0 within a control period on every fault.
+
+The runs that need the robot to move stream the recording through :func:`_far_mapping`:
+the technician 1 m farther from the robot than recorded. The monitor bounds the whole
+operator (``safety_systems.cell.human_body``): from the gloves and the head it puts the
+trunk, lean allowed, within 1.96 m of the robot's capsules while the technician stands at
+3 m, and iso.yaml's S is 2.41 m at every speed, so the recorded approach would hold the
+robot still throughout (k = 0 on every tick, nothing to compare or to see stop)."""
 
 import csv
 import dataclasses
@@ -15,9 +22,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.cli import main
 from safety_systems.sensing.recording_files import read_recording
-from safety_systems.sensing.recording_mapping import find_operator, load_mapping, recorded_bodies
+from safety_systems.sensing.recording_mapping import (
+    find_operator,
+    load_mapping,
+    mapped_point,
+    recorded_bodies,
+)
 from safety_systems.runtime.live_run import LiveOptions, run_live
 from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource
 from safety_systems.runtime.replay_server import serve, stream_frames
@@ -32,6 +45,8 @@ MODELS = Path(__file__).parents[2] / "models"
 CSV = MODELS / "recordings" / "approach.csv"
 MAPPING = MODELS / "recordings" / "approach_mapping.yaml"
 SCENARIO = MODELS / "recordings" / "approach.yaml"
+TRANSLATION = "translation: [0.6, -0.8, 0.0]"  # the mapping's, m
+FAR = 1.0  # m farther along the cell's x (away from the robot) in :func:`_far_mapping`
 PERIOD = 0.002  # s: the UR5e's control period
 SLACK = 0.5  # s a tick may be late before the overrun watchdog acts, where it is not tested
 
@@ -40,16 +55,40 @@ def _trace(folder: Path) -> dict[str, np.ndarray]:
     rows = list(csv.DictReader(open(folder / "trace.csv")))
     out = {}
     for key in rows[0]:
-        if key == "stop_reason":
+        if key == "stop_reason" or key.endswith((":nearest_true", ":nearest_measured")):
             out[key] = np.array([r[key] for r in rows])
         else:
             out[key] = np.array([float(r[key]) if r[key] else math.nan for r in rows])
     return out
 
 
+def _far_mapping(folder: Path) -> Path:
+    """approach_mapping.yaml with the capture frame ``FAR`` m farther from the robot (see
+    the module docstring), written into ``folder``."""
+    text = MAPPING.read_text()
+    assert TRANSLATION in text
+    path = folder / "far_mapping.yaml"
+    path.write_text(text.replace(TRANSLATION, f"translation: [{0.6 + FAR}, -0.8, 0.0]"))
+    return path
+
+
+def _far_scenario(folder: Path) -> Path:
+    """approach.yaml on :func:`_far_mapping`, written into ``folder``."""
+    text = SCENARIO.read_text()
+    for name, path in (("recording: approach.csv", f"recording: {CSV}"),
+                       ("mapping: approach_mapping.yaml",
+                        f"mapping: {_far_mapping(folder)}")):
+        assert name in text
+        text = text.replace(name, path)
+    path = folder / "far_approach.yaml"
+    path.write_text(text)
+    return path
+
+
 def _run(tmp_path, params, mocap, *extra, robot="none", name="log"):
     code = main(["run", str(params), "--mocap", mocap, "--robot", robot, "--mapping",
-                 str(MAPPING), "--log", str(tmp_path / name), "--quiet", *extra])
+                 str(_far_mapping(tmp_path)), "--log", str(tmp_path / name), "--quiet",
+                 *extra])
     summary = json.loads((tmp_path / name / "summary.json").read_text())
     return code, _trace(tmp_path / name), summary
 
@@ -120,7 +159,9 @@ def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, 
     """iso.yaml as exported (certified), the seed's configuration as a plain file run with
     --unverified (its verification falsifies it: check refuses it), and iso.yaml with S
     by speed (the model robot's rate into the override, as the simulator's path
-    follower gives it)."""
+    follower gives it); the technician 1 m farther away in both (:func:`_far_mapping`).
+    The trace has simulate's columns: per operator the nearest segment's d and S, per
+    body whether it was hidden (the left glove's gap)."""
     from safety_systems.runtime.params import load_certified_params
 
     if config == "iso export":
@@ -135,7 +176,7 @@ def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, 
     loaded = load_certified_params(params, unverified=True)
     controller = loaded.controller
     start, length = 2.0, 6.0
-    scenario = load_scenario(SCENARIO)
+    scenario = load_scenario(_far_scenario(tmp_path))
     scenario.operators[0].start = start
     scenario = dataclasses.replace(
         scenario, duration=length, controller=controller,
@@ -170,6 +211,18 @@ def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, 
     stopped_sim = np.mean(k_sim == 0.0)
     stopped_run = np.mean(trace["k"][inside] == 0.0)
     assert abs(stopped_sim - stopped_run) < 0.05
+    # Measured over the whole operator: the nearest segment named, its d and S given
+    # where the technician is tracked; the glove's gap is its own body's, hidden.
+    nearest = set(trace["technician:nearest_measured"][inside])
+    assert nearest - {""} <= set(SEGMENT_NAMES) and len(nearest - {""}) >= 2
+    seen = trace["technician:nearest_measured"] != ""
+    assert np.isfinite(trace["technician:d_measured"][seen]).all()
+    assert np.isfinite(trace["technician:S"][seen]).all()
+    assert np.isnan(trace["technician:d_true"]).all()  # not known live
+    gap = trace["technician/left_glove:hidden"] > 0.5
+    assert gap[inside].any() and not (trace["technician/right_glove:hidden"] > 0.5).any()
+    assert summary["hidden_time"]["technician/left_glove"] == pytest.approx(
+        gap.sum() * PERIOD)
 
 
 def _iso_timeout() -> float:
@@ -262,7 +315,8 @@ def _live(robot_kw, duration=1.5):
 
     robot = _Faulty(RobotConfig(), config, **robot_kw)
     names = [f"{o.name}/{b.name}" for o in mapping.operators for b in o.bodies]
-    loop = SafetyLoop(config, np.array([b.radius for o in mapping.operators for b in o.bodies]))
+    loop = SafetyLoop(config, [[mapped_point(b) for b in o.bodies] for o in mapping.operators],
+                      [o.name for o in mapping.operators])
     result = run_live(loop, BodyMap(mapping), names, source, robot, latency=0.02, period=PERIOD,
                       options=LiveOptions(duration=duration, status=False, max_overrun=0.01))
     thread.join(timeout=5.0)

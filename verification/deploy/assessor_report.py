@@ -46,13 +46,18 @@ code { font-size: 0.95em; }
 """
 
 
-def _spheres(bodies: dict) -> str:
-    """The certificate's bodies in words: the space's hand and head spheres, or each
-    recorded body's from the recording's mapping."""
-    if "radii" in bodies:
-        return "spheres (from the recording's mapping): " + ", ".join(
-            f"{name} {r:g} m" for name, r in bodies["radii"].items())
-    return f"spheres: hands {bodies['hand_radius']:g} m, head {bodies['head_radius']:g} m"
+def _bodies(bodies: dict) -> str:
+    """The certificate's operators in words: the body model's dimensions, the tracking
+    allowance, and the points tracked (a recording's, from its mapping)."""
+    d = bodies["dimensions"]
+    tracked = bodies["tracked"]
+    points = ", ".join(f"{k} ({v})" for k, v in tracked.items()) \
+        if isinstance(tracked, dict) else ", ".join(tracked)
+    return (f"whole bodies as capsules (upper arm {d['upper_arm']:g} m, forearm "
+            f"{d['forearm']:g} m, hand radius {d['hand_radius']:g} m, trunk radius "
+            f"{d['trunk_radius']:g} m, head radius {d['head_radius']:g} m, trunk lean up to "
+            f"{d['trunk_lean_deg']:g} deg), tracked at: {points}; tracking allowance "
+            f"{bodies['tracking_allowance']:g} m")
 
 
 def _e(x) -> str:
@@ -145,7 +150,7 @@ def _whole_cell(cell: dict) -> list[list[str]]:
         ["robot as contact is measured", _e(
             f"{c['geometry']}: radii {_g(c['radii'])} m, tool length {c['tool_length']:g} m")],
         ["robot's speed in S", _e(speed)],
-        ["bodies", _e(_spheres(cell["bodies"]))],
+        ["operators", _e(_bodies(cell["bodies"]))],
         ["hidden bodies", _e(
             f"{h['rule']}: " + ("a hidden body stays a hazard, a ball growing at "
                                 f"{h['occlusion_speed']:g} m/s, until seen leaving through "

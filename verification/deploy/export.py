@@ -44,9 +44,10 @@ from verification.deploy.certificate import (
     safety_checksum,
     short,
 )
+from safety_systems.cell.human_body import DIMENSION_NAMES
 from verification.properties import PROPERTIES
 from verification.spaces.box import ScenarioSpace
-from verification.spaces.space import load_space
+from verification.spaces.space import TRACKED, load_space
 
 DEPENDENCIES = ("drake", "numpy", "scipy", "numba", "z3-solver", "cma", "filterpy")
 VERDICT_MEANING = {
@@ -152,7 +153,7 @@ def premises(report: dict) -> list[dict]:
 def whole_cell(params: Params, space: ScenarioSpace) -> dict:
     """The whole-cell settings the premises speak of, as figures: the robot as the
     monitor measures it (its capsules' radii) against the real robot the properties
-    measure, the robot's speed in S, the bodies' spheres, how hidden bodies are kept and
+    measure, the robot's speed in S, the operators' body model, how hidden bodies are kept and
     how frames are gated (the proofs' premises say whether each suffices)."""
     c, f, t = params.controller, params.controller.safety, params.controller.tracker
     mine, real = monitor_capsules(c), contact_capsules(space.robot, space.contact_geometry)
@@ -164,7 +165,7 @@ def whole_cell(params: Params, space: ScenarioSpace) -> dict:
                     "radii": [float(r) for r in real.radius],
                     "tool_length": float(real.tool_length),
                     "contact_distance": float(space.contact_distance)},
-        "bodies": _bodies(space),
+        "bodies": _bodies(params.controller, space),
         "hidden_bodies": {"rule": t.hidden_bodies, "occlusion_speed": float(f.occlusion_speed),
                           "exits": len(t.exits), "walls": t.cell is not None},
         "frames": {"gate": bool(t.gate), "gate_speed": float(t.gate_speed),
@@ -172,17 +173,24 @@ def whole_cell(params: Params, space: ScenarioSpace) -> dict:
     }
 
 
-def _bodies(space: ScenarioSpace) -> dict:
-    """The operators' spheres: the space's hand and head radii, or, for a space built
-    around a recording, each recorded body's radius as its mapping gives it."""
+def _bodies(config, space: ScenarioSpace) -> dict:
+    """The operators as the monitor models them (``safety_systems.cell.human_body``): the
+    configuration's body dimensions, its tracking allowance, and the body points the
+    space's operators are tracked by (a recording space's: each recorded body's point as
+    its mapping gives it)."""
+    dims = {name: float(getattr(config.body, name)) for name in DIMENSION_NAMES}
+    out = {"dimensions": dims, "tracking_allowance": float(config.body.tracking_allowance)}
     if space.recording is None:
-        return {"hand_radius": float(space.hand_radius),
-                "head_radius": float(space.head_radius)}
-    from safety_systems.sensing.recording_mapping import load_mapping
+        heads = space.parameters.heads.max >= 1
+        out["tracked"] = [q for _, q in TRACKED if heads or q != "head"]
+        return out
+    from safety_systems.sensing.recording_mapping import load_mapping, mapped_point
 
     mapping = load_mapping(space.recording.mapping)
-    return {"radii": {f"{o.name}/{b.name}": float(b.radius) for o in mapping.operators
-                      for b in o.bodies}, "mapping": str(space.recording.mapping)}
+    out["tracked"] = {f"{o.name}/{b.name}": mapped_point(b) for o in mapping.operators
+                      for b in o.bodies}
+    out["mapping"] = str(space.recording.mapping)
+    return out
 
 
 def counterexamples(report: dict, tune: dict | None) -> list[dict]:

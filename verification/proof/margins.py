@@ -4,7 +4,6 @@ level under ``by_speed``), each level's margin as a function of the hand speed b
 the noise, and z3's check that no row is below zero anywhere in the box."""
 
 import dataclasses
-import math
 
 import numpy as np
 import z3
@@ -23,7 +22,6 @@ from verification.proof.robot_bounds import (
     robot_acceleration_bound,
     robot_bounds_by_rate,
 )
-from verification.proof.tracking_error import estimate_error_coefficients
 from verification.spaces.box import ScenarioSpace
 
 
@@ -41,23 +39,20 @@ def least_level_separation(config: ControllerConfig, space: ScenarioSpace) -> fl
 
 
 def unsat_below_zero(m: "Margin", space: ScenarioSpace) -> bool:
-    """z3: some row of ``m`` (a speed level) is below 0 somewhere in the space's
-    (v_max, noise) box has no solution: one query, the rows' conditions in a
-    disjunction (:class:`Margin`: fixed - k_noise noise - k_speed v_max - v_true(v_max)
-    t_true per row)."""
+    """z3: some row of ``m`` (a speed level) is below 0 somewhere in the space's v_max
+    range has no solution: one query, the rows' conditions in a disjunction
+    (:class:`Margin`: fixed - k_speed v_max - v_true(v_max) t_true per row)."""
     p = space.parameters
-    vm, nz = z3.Reals("v_max noise")
+    vm = z3.Real("v_max")
     solver = z3.Solver()
-    solver.add(vm >= p.peak_speed.min, vm <= p.peak_speed.max,
-               nz >= p.noise_std.min, nz <= p.noise_std.max)
+    solver.add(vm >= p.peak_speed.min, vm <= p.peak_speed.max)
     if m.floor:
         top = z3.If(vm > z3.RealVal(repr(m.v_true)), vm, z3.RealVal(repr(m.v_true)))
     else:
         top = z3.RealVal(repr(float(m.v_true)))
     below = []
     for fixed, k_speed, t_true in zip(m.fixed, m.k_speed, m.t_true):
-        row = (z3.RealVal(repr(float(fixed))) - z3.RealVal(repr(float(m.k_noise))) * nz
-               - z3.RealVal(repr(float(k_speed))) * vm)
+        row = z3.RealVal(repr(float(fixed))) - z3.RealVal(repr(float(k_speed))) * vm
         if t_true != 0.0:
             row = row - top * z3.RealVal(repr(float(t_true)))
         below.append(row < 0)
@@ -140,17 +135,18 @@ def speed_levels(config: ControllerConfig, space: ScenarioSpace) -> Levels:
 @dataclasses.dataclass(frozen=True)
 
 class Margin:
-    """A theorem's margin as a function of the hand speed bound v_max and the noise, one
-    row per speed level (:class:`Levels`; one row under ``full_speed``):
-    M_g(v_max, noise) = fixed_g - k_noise noise - k_speed_g v_max - v_true(v_max) t_true_g,
-    with v_true(v_max) the human speed of S_true (separation only: max(v_max, floor)
-    under ``estimated_with_floor``, the constant ``v_true`` otherwise; 0 for contact).
-    The margin is the least row. ``prove`` and ``prove_separation`` check every row over
-    the box; the falsifier's cheapest ranking evaluates it pointwise
-    (``verification.search.ranking.bound_scores``)."""
+    """A theorem's margin as a function of the body speed bound v_max, one row per speed
+    level (:class:`Levels`; one row under ``full_speed``):
+    M_g(v_max) = fixed_g - k_speed_g v_max - v_true(v_max) t_true_g, with v_true(v_max)
+    the human speed of S_true (separation only: max(v_max, floor) under
+    ``estimated_with_floor``, the constant ``v_true`` otherwise; 0 for contact). The
+    margin is the least row. ``prove`` and ``prove_separation`` check every row over the
+    box; the falsifier's cheapest ranking evaluates it pointwise
+    (``verification.search.ranking.bound_scores``). The tracker's position error is not
+    a term: the envelopes' tracking allowance covers it (a premise), as the sensor noise
+    enters only there and through the gate."""
 
     fixed: np.ndarray
-    k_noise: float
     k_speed: np.ndarray
     t_true: np.ndarray
     v_true: float = 0.0
@@ -160,24 +156,21 @@ class Margin:
     def human_speed(self, v_max):
         return np.maximum(v_max, self.v_true) if self.floor else self.v_true
 
-    def rows_at(self, v_max, noise) -> np.ndarray:
-        """M_g at (v_max, noise) (numbers or arrays of one shape), each row (level) along
-        a new last axis."""
+    def rows_at(self, v_max) -> np.ndarray:
+        """M_g at v_max (a number or an array), each row (level) along a new last axis."""
         v = np.asarray(v_max, dtype=float)[..., None]
-        n = np.asarray(noise, dtype=float)[..., None]
-        return (self.fixed - self.k_noise * n - self.k_speed * v
-                - self.human_speed(v) * self.t_true)
+        return self.fixed - self.k_speed * v - self.human_speed(v) * self.t_true
 
-    def at(self, v_max, noise):
-        """M at (v_max, noise) (numbers or arrays of one shape): the least row's."""
-        return self.rows_at(v_max, noise).min(axis=-1)
+    def at(self, v_max):
+        """M at v_max (a number or an array): the least row's."""
+        return self.rows_at(v_max).min(axis=-1)
 
 
 def margin(config: ControllerConfig, space: ScenarioSpace, prop: str = "contact") -> Margin:
     """The margin of the ``prop`` theorem (``contact`` or ``separation``, see the
     module docstring) for ``config`` on ``space``'s robot and sensor bounds, whether or
     not its premises hold (without them it bounds nothing; it still orders scenarios by
-    how close their hand speed and noise come to breaking it)."""
+    how close their body speed comes to breaking it)."""
     return margin_of_levels(config, space, prop, speed_levels(config, space))
 
 
@@ -185,17 +178,15 @@ def margin_of_levels(config: ControllerConfig, space: ScenarioSpace, prop: str, 
                      ) -> Margin:
     f = config.safety
     h = 1.0 / space.robot.control_rate_hz
-    alpha, beta, _ = estimate_error_coefficients(config)
     tau = frame_timeout(config)
-    k_noise = math.sqrt(3.0) * alpha * space.noise_bound_sigmas
     if prop == "contact":
         v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
              "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
         fixed = (v * (lv.t_s + f.reaction_time) + robot_speed_low(config, lv) * f.reaction_time
                  + lv.b + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty
                  - lv.tool_speed * lv.rate * h - lv.stop_travel - space.contact_distance)
-        return Margin(fixed, k_noise, math.sqrt(3.0) * beta + tau + lv.stop_time + h,
-                      np.zeros(lv.level.size), level=lv.level)
+        return Margin(fixed, tau + lv.stop_time + h, np.zeros(lv.level.size),
+                      level=lv.level)
     if prop != "separation":
         raise ValueError(f"prop: got {prop!r}; allowed: contact | separation")
     floor = f.human_speed == "estimated_with_floor"
@@ -204,8 +195,8 @@ def margin_of_levels(config: ControllerConfig, space: ScenarioSpace, prop: str, 
              + robot_speed_gap(config, space, lv) * f.reaction_time
              + lv.b - lv.stop_travel + f.human_uncertainty + f.robot_uncertainty)
     v_true = f.iso_human_speed if floor else max(f.iso_human_speed, f.iso_reduced_human_speed)
-    return Margin(fixed, k_noise, np.full(lv.level.size, math.sqrt(3.0) * beta + tau),
-                  lv.stop_time + f.reaction_time, v_true, floor, lv.level)
+    return Margin(fixed, np.full(lv.level.size, tau), lv.stop_time + f.reaction_time, v_true,
+                  floor, lv.level)
 
 
 def robot_speed_low(config: ControllerConfig, lv: Levels) -> np.ndarray:

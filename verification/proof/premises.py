@@ -7,8 +7,10 @@ import math
 
 import numpy as np
 
+from safety_systems.cell import human_body
 from safety_systems.cell.ur5e import DH_D
 from safety_systems.config.configuration import (
+    body_dimensions,
     contact_capsules,
     frame_timeout,
     monitor_capsules,
@@ -26,7 +28,7 @@ from verification.proof.robot_bounds import (
 from verification.proof.tracking_error import ERROR_HORIZON, estimate_error_coefficients
 from verification.spaces.box import ScenarioSpace
 from verification.spaces.recorded import recorded_reach
-from verification.spaces.space import HEAD_BACK, HEAD_UP, OTHER_HAND_OFFSET
+from verification.spaces.space import posture_reach, space_postures
 
 COVERED_MODE = "kinematic"  # the theorem's robot follows its braked reference exactly
 
@@ -44,15 +46,29 @@ class Premise:
 
 
 def operators_reach(space: ScenarioSpace) -> float:
-    """A bound on how far from the robot base any body of the space's scenarios gets, m:
-    the farthest point of the robot, then the start distance, a retreat and the body's
-    offset from the hand (a recording space's: ``recorded.recorded_reach``)."""
+    """A bound on how far from the robot base any body point of the space's scenarios
+    gets, m: the farthest point of the robot, then the start distance, a retreat, the
+    overshoot and the farthest body point of a posture from its operator's reference
+    (``spaces.space.posture_reach``; a recording space's: ``recorded.recorded_reach``)."""
     if space.recording is not None:
         return recorded_reach(space)
     p = space.parameters
     robot = REACH_BOUND + DH_D[0] + space.robot.tool_length
-    body = max(OTHER_HAND_OFFSET, math.hypot(HEAD_BACK, HEAD_UP))
-    return robot + p.start_distance.max + p.retreat_distance.max + p.overshoot.max + body
+    return (robot + p.start_distance.max + p.retreat_distance.max + p.overshoot.max
+            + posture_reach(space))
+
+
+def body_model_holds(config: ControllerConfig, space: ScenarioSpace) -> list[str]:
+    """Why the space's operators are not bodies the monitor's model allows (empty when
+    they are): each posture's edges, head-shoulder distance and leans against the
+    configuration's dimensions (``human_body.posture_violations``), and the segments'
+    radii the properties measure (the table's) against the monitor's."""
+    dims, table = body_dimensions(config.body), human_body.DEFAULT_DIMENSIONS
+    out = [f"posture {k}: {x}" for k, points in enumerate(space_postures(space))
+           for x in human_body.posture_violations(points, dims)]
+    out += [f"{name} {dims[name]:g} m < {table[name]:g} m (the segments measured)"
+            for _, _, _, name in human_body.SEGMENTS if dims[name] < table[name]]
+    return sorted(set(out))
 
 
 def tracks_never_end(config: ControllerConfig, space: ScenarioSpace) -> bool:
@@ -94,17 +110,26 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     v_max, noise = p.peak_speed.max, space.noise_bound_sigmas * p.noise_std.max
     alpha, beta, converged = estimate_error_coefficients(config)
     e_worst = math.sqrt(3.0) * (alpha * noise + beta * v_max)  # m, Euclidean
+    allowance = config.body.tracking_allowance
+    misfits = body_model_holds(config, space)
     outliers = p.outlier_frames.max >= 1
     gate_widest = ((t.gate_speed + v_max) * p.outlier_frames.max * period + t.gate_width
                    + f.human_uncertainty + e_worst + math.sqrt(3.0) * noise)
     placeholder = placeholder_braking(config)
     checked = model_premises(config, space) + [
+        ("the space's operators are bodies the monitor's model allows (every posture's "
+         "segments within the configuration's body dimensions and lean limits, the "
+         "measured segments' radii within the monitor's)"
+         + (": " + "; ".join(misfits[:3]) if misfits else ""), not misfits),
+        (f"the envelopes' tracking allowance covers the tracker's error: tracking_allowance "
+         f"{allowance:g} m >= E {e_worst:.4f} m (the error of an estimate at its capture "
+         "time, at the box's largest noise and speed)", allowance >= e_worst),
         (f"hidden bodies stay hazards: tracks end only where bodies leave "
-         f"(hidden_bodies: {t.hidden_bodies}) and a hidden body's ball grows at least as "
-         f"fast as a hand (occlusion_speed {f.occlusion_speed:g} >= v_max {v_max:g} m/s)",
-         t.hidden_bodies == "hazard" and f.occlusion_speed >= v_max),
-        ("no body of the space reaches an exit region or the cell's walls (where its track "
-         f"would end): all within {operators_reach(space):.2f} m of the base",
+         f"(hidden_bodies: {t.hidden_bodies}) and a hidden body's region grows at least as "
+         f"fast as any body point (occlusion_speed {f.occlusion_speed:g} >= v_max "
+         f"{v_max:g} m/s)", t.hidden_bodies == "hazard" and f.occlusion_speed >= v_max),
+        ("no body point of the space reaches an exit region or the cell's walls (where a "
+         f"track would end): all within {operators_reach(space):.2f} m of the base",
          tracks_never_end(config, space)),
         (f"frames within the noise bound pass the gate (gate_speed {t.gate_speed:g} >= "
          f"v_max and gate_width {t.gate_width:g} m >= E + sqrt(3) noise "
@@ -139,15 +164,21 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
          f"{p.braking_time_scale.min:g} to {scale:g} of it"
          + (" (THE BUILT-IN PLACEHOLDER DERIVED FROM UR5/CB3 DATA, NOT MEASURED ON THIS "
             "CELL)" if placeholder else " (the configuration's braking table)")),
-        f"no hand or head moves faster than v_max = {v_max:g} m/s (ISO 13855: 2.0 m/s)",
+        f"no point of any operator's body moves faster than v_max = {v_max:g} m/s (ISO "
+        "13855: 2.0 m/s for hands and arms)",
+        "every operator's body is within the monitor's model (cell/human_body.py): segment "
+        "lengths and radii at most the configuration's body dimensions (defaults: 95th "
+        f"percentiles of adult men), the trunk within {config.body.trunk_lean_deg:g} deg "
+        f"and the neck within {config.body.neck_lean_deg:g} deg of the vertical, each "
+        "shoulder within head_shoulder of the head, the cell's z axis up, and every "
+        "tracked body where its mapping says (a glove on the hand, a helmet on the head)",
         f"sensor noise stays below {space.noise_bound_sigmas:g} sigma per axis "
         f"({noise:g} m) in every frame the gate accepts: no marker swap or reflection "
         "passes it",
         "the real robot follows its braked reference as exactly as the kinematic model "
         "does (its tracking error is not covered)",
         "the UR5e model's capsules contain the real arm (they contain its collision "
-        "geometry: tests/test_robot_geometry.py), the tool fits its payload capsule and "
-        "every body fits its sphere",
+        "geometry: tests/test_robot_geometry.py) and the tool fits its payload capsule",
         "bodies come into the cell only through its exits and are tracked before they "
         "come near the robot (the space's operators stand still for the settle time)",
     ]

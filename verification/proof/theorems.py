@@ -1,5 +1,6 @@
-"""Proofs that the robot is at rest whenever a body is within the contact distance of it,
-and that it never moves with a body inside the protective distance of the true speeds.
+"""Proofs that the robot is at rest whenever any segment of an operator's body is within the
+contact distance of it, and that it never moves with a segment inside the protective
+distance of the true speeds.
 
 Theorem 1 (what ``prove`` checks). Take the kinematic workcell (``robot.mode: kinematic``,
 a checked premise: the theorem covers no other mode, ``Proof.robot_mode`` says which)
@@ -7,12 +8,15 @@ with the SSM speed override, a configuration whose human-speed term is a constan
 v (``iso`` or ``estimated_with_floor``), whose monitor measures capsules containing the
 property's (``configuration.monitor_capsules`` against ``contact_capsules``), whose
 tracker keeps hidden bodies as balls growing at ``occlusion_speed`` >= v_max until they
-are seen leaving (``hidden_bodies: hazard``, ``safety_systems.sensing.tracks``), and a space whose
-scenarios satisfy the premises ``prove`` lists (each marked *checked*, against this
-model, or *trusted*, taken from the files). Let
+are seen leaving (``hidden_bodies: hazard``, ``safety_systems.sensing.tracks``), whose
+monitor measures every segment of every operator by its envelope
+(``safety_systems.cell.human_body``: capsules certain to hold the segment while the
+operator's body is within the configuration's body model and every tracked point within
+the tracking allowance sigma of its estimate, or, hidden, within sigma + occlusion_speed
+times the time unseen), and a space whose scenarios satisfy the premises ``prove`` lists
+(each marked *checked*, against this model, or *trusted*, taken from the files). Let
 
     M = v (T_s + T_r) + r_low T_r + B + C + Z_d + Z_r        (the configured S, lower bound)
-        - E                                                  (tracker position error)
         - v_max (tau + T_stop + h)                           (human travel)
         - V_R h - D                                          (robot travel)
         - c                                                  (contact distance)
@@ -22,36 +26,41 @@ control period, V_R the largest speed of any point of the monitor's capsule axes
 the path, r_low the least the monitor's robot speed term can be (-V_R for Eq. 7's
 directed speed, 0 for ``robot_speed: fastest_point``), T_stop the longest stop from full
 speed under the real brakes and D the longest travel of any capsule axis point in it
-(plus one tick), and E a bound on the distance between a tracked body and its estimate
-at the estimate's capture time. If
-M >= 0 over the whole box, no scenario in it has a body within c of any capsule of the
-moving robot, whatever the occlusions (of any length, of any bodies), dropped frames,
-and outlier or corrupted frames.
+(plus one tick); v_max bounds the speed of every point of every operator's body. A
+premise (checked) takes the place of the tracker's error: sigma >= E, with E a bound on
+the distance between a tracked point and its estimate at the estimate's capture time.
+If M >= 0 over the whole box, no scenario in it has any segment of an operator within c
+of any capsule of the moving robot, whatever the occlusions (of any length, of any
+bodies), dropped frames, and outlier or corrupted frames.
 
-Proof sketch. Suppose the robot moves at tick t_c with body i within c of capsule j.
+Proof sketch. Suppose the robot moves at tick t_c with segment i within c of capsule j.
 The path rate only rises after a command k > 0, so there is a last tick t' <= t_c with
 k(t') > 0; after it every command is 0, so the robot rests within T_stop of t' + h and
 t_c - t' <= T_stop + h. At t' there was no fault: the newest good frame was captured at
 t_f >= t' - tau, and it was clean (a rejected entry: a bad time, an unknown id, a
-non-finite position or one outside the gate, stops the robot until a clean frame). Body
-i had a usable track: it was seen before its onset and a track ends only where a body
-leaves the cell, which the space's bodies never do. So d_i(t') >= S_max >= S_ij(t'),
-with d_i the clearance from the estimate x (tracking) or the ball around it (hidden;
-radius occlusion_speed (t_f - t_seen)) to the monitor's capsule j. The true position at
-t_f lies within E + v_max (t_f - t_seen) of x: E bounds the error at the last accepted
-measurement (the filter restarts after every gap, so E is the error of a track seen in
-consecutive frames since its start, by the gain recursion, with every accepted frame
-within the noise bound: frames inside the gate are trusted to be, and the space's
-outliers are checked to fall outside it), and the ball covers the rest. Then
-    clearance_ij(t_c) >= d_i(t') - E - v_max (t_c - t_f) - (V_R h + D),
+non-finite position or one outside the gate, stops the robot until a clean frame). Every
+body of segment i's operator had a usable track: it was seen before its onset and a
+track ends only where a body leaves the cell, which the space's bodies never do (an
+operator seen in part stops the robot). So d_i(t') >= S_max >= S_ij(t'), with d_i the
+clearance from segment i's envelope to the monitor's capsule j. Each tracked point's
+true position at t_f lies within E + v_max (t_f - t_seen) of its estimate x: E bounds
+the error at the last accepted measurement (the filter restarts after every gap, so E
+is the error of a track seen in consecutive frames since its start, by the gain
+recursion, with every accepted frame within the noise bound: frames inside the gate
+are trusted to be, and the space's outliers are checked to fall outside it), and the
+hidden region covers the rest; so, with sigma >= E, every tracked point's region holds
+it, and the envelope holds the true segment at t_f (the body within the model: trusted
+of real people, checked of the space's postures). Its points move at most v_max. Then
+    clearance_ij(t_c) >= d_i(t') - v_max (t_c - t_f) - (V_R h + D),
 the real capsules being inside the monitor's (a larger radius, a longer axis) and the
 robot's axis points moving at most V_R h in the tick after t' and D while braking, and
 S_ij >= v (T_s + T_r) + r_low T_r + B + C + Z_d + Z_r (Eq. 5's speed of any axis point
 towards the body is at least -V_R). Together clearance_ij(t_c) >= M + c >= c.
 
 Theorem 2 (what ``prove_separation`` checks): the separation invariant
-(``verification.properties``): at every tick t where the override's k > 0, every body
-i and every capsule j of the real robot have clearance_ij(t) >= S_true_ij(t), seed Eqs.
+(``verification.properties``): at every tick t where the override's k > 0, every
+segment i of every operator and every capsule j of the real robot have clearance_ij(t) >=
+S_true_ij(t), seed Eqs.
 9-11 on the true directed speeds with T_r and C, and the simulated robot's stopping
 time T* and distance B* (``safety_systems.cell.stopping``), without Z_d and Z_r. Under the
 premises of Theorem 1 but the ordering of braking speeds (S_true uses the full-speed
@@ -60,12 +69,12 @@ stop), let
     M_S = v_lo (T_s + T_r) - v_hi (T_stop + T_r)     (the human terms)
           + g T_r                                   (the robot speed terms)
           + B - D + Z_d + Z_r                       (stopping distance, allowances)
-          - E - v_max tau                           (what the monitor does not see)
+          - v_max tau                               (what the monitor does not see)
 
 with v_lo the monitor's least human speed (the 1.6 m/s rule's lower speed, or the
 floor), v_hi the most S_true can use (the larger iso speed, or max(v_max, floor)), and
 g = -2 V_R for the directed robot speed (the monitor's capsule point may move away from
-the estimate at V_R while the true body's moves towards it at V_R) or -a h for
+the envelope at V_R while the true segment's moves towards it at V_R) or -a h for
 ``fastest_point`` (the monitor's speed is the capsule's fastest end by Eq. 5, its ends
 differenced over the last tick, at most a h short of the instant's speed of any of its
 axis points, a: ``robot_acceleration_bound``). If M_S >= 0 over the box, the invariant
@@ -75,8 +84,8 @@ the margin; ``Proof.needed_allowance`` says how much is missing.
 Proof sketch. At a tick t with k(t) > 0 there is no fault, the newest good frame is
 at most tau old, every body's track is usable, and the closest d_i exceeds S_max. The
 monitor's robot is the true robot at t (the same joint state). As in Theorem 1 the true
-position is within E + v_max (t - t_f) of the estimate beyond its ball, so
-clearance_ij(t) >= d_i(t) - E - v_max tau > S_max - E - v_max tau. S_max is at least
+segment lies in its envelope at t_f and moves at most v_max (t - t_f) since, so
+clearance_ij(t) >= d_i(t) - v_max tau > S_max - v_max tau. S_max is at least
 v_lo (T_s + T_r) + r T_r + B + C + Z_d + Z_r with r the monitor's robot speed term, and
 S_true_ij at most v_hi (T* + T_r) + r* T_r + B* + C with T* <= T_stop, B* <= D and r*
 the true directed speed: r* - r <= -g. So clearance_ij(t) - S_true_ij(t) > M_S >= 0.
@@ -96,10 +105,10 @@ a_b h) every rate over the tick before (a_b: the table's fastest deceleration at
 space's shortest braking time scale; the rate falls at most a_b h in a tick). Then
 
     M_g = v (T_s(sigma_g) + T_r) + r_g T_r + B(sigma_g) + C + Z_d + Z_r
-          - E - v_max (tau + T_stop(rho_g) + h) - V_R rho_g h - D(rho_g) - c
+          - v_max (tau + T_stop(rho_g) + h) - V_R rho_g h - D(rho_g) - c
 
     M_S,g = v_lo (T_s(sigma_g) + T_r) - v_hi (T_stop(rho_g) + T_r) + g_g T_r
-            + B(sigma_g) - D(rho_g) + Z_d + Z_r - E - v_max tau
+            + B(sigma_g) - D(rho_g) + Z_d + Z_r - v_max tau
 
 with T_stop(rho) and D(rho) the stop commanded at path rate rho (D over a path
 window of that stop plus one tick at rho), r_g = -V_R rho'_g (directed) or 0
@@ -131,15 +140,20 @@ a(rho'_{g'}) h of the instant's speed of any axis point (fastest_point). The res
 above: clearance_ij(t) - S_true_ij(t) > M_S,{g'}. As g' is one of 1..G, every level's
 margin >= 0 proves the theorem.
 
-The bounds V_R, D, T_stop and E are computed here, soundly: V_R and D by a Lipschitz
-covering of the path (grid values of every capsule end's speed, whose maximum bounds
-every axis point's, plus the largest change between grid points, from a bound on a
-rigid point's acceleration); T_stop by running the braking model from full speed; E by
-running the filter's deterministic gain recursion from a new track until it converges
-and propagating worst-case error and velocity bounds (linear in noise and v_max). M is
-then checked over the continuous box of (v_max, noise) by z3 (unsatisfiability of
-M < 0, and of M_S < 0), with the robot bounds taken at the largest braking time scale
-(stopping time and distance grow with it).
+The bounds V_R, D, T_stop and E are computed soundly (``robot_bounds``,
+``tracking_error``): V_R and D by a Lipschitz covering of the path (grid values of every
+capsule end's speed, whose maximum bounds every axis point's, plus the largest change
+between grid points, from a bound on a rigid point's acceleration); T_stop by running
+the braking model from full speed; E by running the filter's deterministic gain
+recursion from a new track until it converges and propagating worst-case error and
+velocity bounds (linear in noise and v_max), at the box's largest noise (its bound in
+sigmas) and speed, for the allowance premise. M is then checked over the box's
+continuous range of v_max by z3 (unsatisfiability of M < 0, and of M_S < 0), with the
+robot bounds taken at the largest braking time scale (stopping time and distance grow
+with it). Interpretation: the three-ball model subtracted E from the margin; the
+envelopes take it in their allowance instead (an ellipsoid's width is not Lipschitz in
+its foci, so only an allowance on the foci, not a margin on the distance, makes an
+envelope of the estimates hold the true segment), so M no longer depends on the noise.
 
 A space built around a recording (``verification.spaces.recorded``) is declined: the
 margins are checked over scripted approaches' parameters only (:func:`_declined` lists
@@ -240,10 +254,10 @@ def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method:
 
 
 def _worst(m: Margin, space: ScenarioSpace) -> tuple[float, int]:
-    """The margin at the box's worst corner (the largest v_max and noise: every row falls
-    in both) and the row it is least in."""
+    """The margin at the box's worst corner (the largest v_max: every row falls with it)
+    and the row it is least in."""
     p = space.parameters
-    rows = m.rows_at(p.peak_speed.max, p.noise_std.max)
+    rows = m.rows_at(p.peak_speed.max)
     i = int(np.argmin(rows))
     return float(rows[i]), i
 
@@ -251,9 +265,9 @@ def _worst(m: Margin, space: ScenarioSpace) -> tuple[float, int]:
 def _z3_premise(name: str, lv: Levels, holds: bool, worst: float, i: int
                 ) -> Premise:
     if not lv.by_speed:
-        return Premise(f"z3: {name} >= 0 for every (v_max, noise) in the box", holds, "checked")
+        return Premise(f"z3: {name} >= 0 for every v_max in the box", holds, "checked")
     return Premise(f"z3: {name}(g) >= 0 at every speed level g = 1..{SPEED_LEVELS} for every "
-                   f"(v_max, noise) in the box (least at level {int(lv.level[i])}, rate "
+                   f"v_max in the box (least at level {int(lv.level[i])}, rate "
                    f"{lv.rate[i]:.4f}: {worst:.4f} m at the worst corner)", holds, "checked")
 
 
@@ -262,7 +276,7 @@ def _level_terms(lv: Levels, m: Margin, space: ScenarioSpace, i: int) -> dict:
     f = {"stopping": "by_speed" if lv.by_speed else "full_speed"}
     if lv.by_speed:
         p = space.parameters
-        rows = m.rows_at(p.peak_speed.max, p.noise_std.max)
+        rows = m.rows_at(p.peak_speed.max)
         f |= {"speed_level": int(lv.level[i]), "level_rate": float(lv.rate[i]),
               "previous_rate": float(lv.previous_rate[i]),
               "level_margins": {str(int(g)): float(x) for g, x in zip(lv.level, rows)}}
@@ -299,6 +313,7 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
              "tau": tau, "h": h, "V_R": lv.tool_speed, "robot_speed": f.robot_speed,
              "T_stop": float(lv.stop_time[i]), "D": float(lv.stop_travel[i]),
              "E_per_axis": {"alpha": alpha, "beta": beta},
+             "tracking_allowance": config.body.tracking_allowance,
              "C+Z_d+Z_r": f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty,
              "contact_distance": space.contact_distance} | _level_terms(lv, m, space, i)
     premises = premises + [_z3_premise("M", lv, holds, worst, i)]
@@ -337,8 +352,9 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
              "robot_speed_term": float(robot_speed_gap(config, space, lv)[i])
              * f.reaction_time,
              "stopping_distance_term": float(lv.b[i] - lv.stop_travel[i]),
-             "sensing_term": -float(m.k_noise * p.noise_std.max + m.k_speed[i]
-                                    * p.peak_speed.max)} | _level_terms(lv, m, space, i)
+             "sensing_term": -float(m.k_speed[i] * p.peak_speed.max),
+             "tracking_allowance": config.body.tracking_allowance} \
+        | _level_terms(lv, m, space, i)
     premises = premises + [_z3_premise("M_S", lv, holds, worst, i)]
     return Proof(holds, method, box, premises, worst, terms, placeholder, "separation",
                  0.0 if holds else max(-worst, 0.0))

@@ -31,13 +31,15 @@ import numpy as np
 
 from safety_systems.sensing import stops
 from safety_systems.cell.braking import path_follower_step
+from safety_systems.cell.human_body import KIND_DIRECT, NUM_POINTS, envelope_rows
 from safety_systems.config.configuration import (
-    contact_body_radii,
     contact_capsules,
     monitor_capsules,
-    monitored_body_radii,
+    operator_postures,
+    scenario_monitor_recipe,
     tracker_regions,
     tracker_rules,
+    truth_recipe,
 )
 from safety_systems.config.configuration import sensor_faults as scenario_faults
 from safety_systems.cell.joint_path import path_arrays, path_state_one
@@ -47,24 +49,25 @@ from safety_systems.cell.operator_paths import (
     path_point_one,
     stack_operator_paths,
 )
+from safety_systems.cell.robot_geometry import NUM_POINTS as ROBOT_POINTS
 from safety_systems.cell.robot_geometry import (
-    NUM_POINTS,
     capsule_ends_one,
+    nearest_parameters,
     robot_points_one_memo,
-    segment_pair,
+    segments_pair,
 )
-from safety_systems.config.scenario import Scenario, actual_sensor
+from safety_systems.config.scenario import Scenario, actual_sensor, operator_points
 from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_faults
 from safety_systems.ssm.separation import (
-    body_levels,
-    body_separation,
     capsule_axis,
     pair_separation,
+    segment_levels,
+    segment_of,
+    segment_separation,
 )
 from safety_systems.ssm.formulas import (
     ISO_REDUCED_SPEED_THRESHOLD,
     by_speed_command,
-    hidden_ball_radius,
     level_at_or_above,
     override_command,
 )
@@ -101,12 +104,29 @@ class BatchResult:
     separation_violation_time: np.ndarray  # s permitted with some pair inside S_true
 
 
-def _common(scenarios: list[Scenario], get, what: str):
+def _common(scenarios: list[Scenario], get, what: str, key=None):
+    """``get`` of the first scenario, checked equal (by ``key`` of it, if given) in all."""
     first = get(scenarios[0])
+    key = (lambda x: x) if key is None else key
     for s in scenarios[1:]:
-        if get(s) != first:
+        if key(get(s)) != key(first):
             raise ValueError(f"evaluate_batch: scenarios differ in {what}; batch them apart")
     return first
+
+
+def _truth_segments(scenarios: list[Scenario]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(first point, second point, radius) of each of an operator's 12 true segments, as
+    ``configuration.truth_recipe`` takes them for scripted operators (every segment the
+    capsule between two known points, the same for every operator and scenario)."""
+    recipe = truth_recipe(scenarios[0])
+    if not np.all(recipe.candidates[:, 4] == KIND_DIRECT) or \
+            recipe.candidates.shape[0] != recipe.radius.size:
+        raise ValueError("evaluate_batch: a true segment is not between two known points")
+    per = recipe.radius.size // len(scenarios[0].operators)
+    rows = recipe.candidates[:per]
+    point = recipe.regions[:, 0].astype(np.int64) % NUM_POINTS
+    return (point[rows[:, 1].astype(np.int64)], point[rows[:, 2].astype(np.int64)],
+            np.ascontiguousarray(recipe.radius[:per]))
 
 
 def dropout_table(sensors: list) -> np.ndarray:
@@ -327,38 +347,62 @@ def _bounding_sphere(ends, radius):
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def _beyond(sphere, p0, p1, p2, r_B):
-    """A lower bound on a body's clearance to the capsules inside ``sphere`` (m)."""
+def _to_segment(c0, c1, c2, P, Q):
+    """The distance from the point c to the segment PQ (m)."""
+    s, _ = nearest_parameters(P, Q, (c0, c1, c2), (c0, c1, c2))
+    x0 = P[0] + s * (Q[0] - P[0]) - c0
+    x1 = P[1] + s * (Q[1] - P[1]) - c1
+    x2 = P[2] + s * (Q[2] - P[2]) - c2
+    return np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _beyond(sphere, P, Q, r_H):
+    """A lower bound on a segment's (axis PQ, radius r_H) clearance to the capsules
+    inside ``sphere`` (m)."""
     c0, c1, c2, R = sphere
-    x0, x1, x2 = p0 - c0, p1 - c1, p2 - c2
-    return np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) - R - r_B - _MARGIN
+    return _to_segment(c0, c1, c2, P, Q) - R - r_H - _MARGIN
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def monitor_body(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor):
+def monitor_segment(segment, r_H, z_d, ends, end_velocities, radius, monitor):
     """The SeparationMonitor's d_i, S_i (and the nearest pair's speeds and index) of one
-    tracked body: the product's ``separation.body_separation`` (a seam for the
+    segment: the product's ``separation.segment_separation`` (a seam for the
     broken-variant test, which rebuilds :func:`_advance` with a variant here)."""
-    return body_separation(p_B, v_B, r_B, z_d, ball, ends, end_velocities, radius, monitor)
+    return segment_separation(segment, r_H, z_d, ends, end_velocities, radius, monitor)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def monitor_pair(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor):
-    """The SeparationMonitor's clearance and S (and speeds) of one body and capsule j: the
-    product's ``separation.pair_separation``, which ``body_separation`` runs over every
-    capsule (a seam for the broken-variant test, as :func:`monitor_body`)."""
-    return pair_separation(p, w, r_B, z_d, ends, end_velocities, radius, j, monitor)
+def monitor_pair(segment, r_H, z_d, ends, end_velocities, radius, j, monitor):
+    """The SeparationMonitor's clearance and S (and speeds) of one segment and capsule j:
+    the product's ``separation.pair_separation``, which ``segment_separation`` runs over
+    every capsule (a seam for the broken-variant test, as :func:`monitor_segment`)."""
+    return pair_separation(segment, r_H, z_d, ends, end_velocities, radius, j, monitor)
 
 
 @numba.njit(cache=True)
-def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est_p, est_v,
-             status, std, unseen, frames, timeout, monitor, z_d_terms, delta_s, d_min, truth_t,
-             truth_b, levels, truth_rates, monitor_caps, contact_caps, r_monitor, r_contact, end,
-             brake_scale,
-             brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time):
+def _envelope_batch(regions, candidates, radius, operator, slots, est_p, est_v, status, std,
+                    unseen, allowance, occlusion_speed, h_ends, h_velocities, h_radius,
+                    h_status, h_std):
+    """The OperatorEnvelopes' outputs of every scenario (``human_body.envelope_rows``)
+    from its tracker's outputs; compiled."""
+    for b in range(est_p.shape[0]):
+        envelope_rows(regions, candidates, radius, operator, slots, est_p[b], est_v[b],
+                      status[b], std[b], unseen[b], allowance, occlusion_speed, h_ends[b],
+                      h_velocities[b], h_radius[b], h_status[b], h_std[b])
+
+
+@numba.njit(cache=True)
+def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_velocities,
+             h_radius, h_status, h_std, frames, timeout, monitor, z_d_terms, delta_s, d_min,
+             truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps, truth_segments,
+             end, brake_scale, brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep,
+             sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
-    tracker updates (the tracker's outputs est_p, est_v, status, std, unseen and its
-    ``frames`` state are fixed meanwhile); compiled, from the product's compiled
+    tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
+    ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (:func:`_envelope_batch` of the
+    tracker's outputs), and the tracker's ``frames`` state are fixed meanwhile); compiled,
+    from the product's compiled
     functions. At each tick:
 
     - the robot from the PathFollower's state (s, sigma): q and dq/ds by
@@ -370,19 +414,20 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
       once per distinct (s, sigma) at a tick (scenarios go in order of s; all start at
       rest at s = 0 and share these until their monitors differ); the RobotCapsules'
       Eq. 5 (ends - ends_prev) / dt;
-    - SeparationMonitor and SpeedOverride on the estimates: d_i and S_i of every usable
-      body (``separation.body_separation`` via :func:`monitor_body`: Eqs. 6-11 over the
-      capsules, bodies of radius ``r_monitor``, a hidden body's d less its ball,
-      ``monitor`` = ``workcell.monitor_terms`` (mode, T_s + T_r, T_r, B + C + Z_r, v_iso,
-      v_iso_reduced, robot speed term), Z_d =
-      ``z_d_terms`` (base, sigmas, occlusion speed) base + sigmas std per body), k,
-      S_max and the stop reason by ``ssm.override_command`` (Eq. 12 over the usable
-      tracks, a lost track, the tracker's fault, or its newest good frame older than
+    - SeparationMonitor and SpeedOverride on the segments: d_i and S_i of every usable
+      segment (``separation.segment_separation`` via :func:`monitor_segment`: Eqs. 6-11
+      over the capsules, ``monitor`` = ``workcell.monitor_terms`` (mode, T_s + T_r, T_r,
+      B + C + Z_r, v_iso, v_iso_reduced, robot speed term), Z_d = ``z_d_terms`` (base,
+      sigmas) base + sigmas std per segment), k, S_max and the stop reason by
+      ``ssm.override_command`` (Eq. 12 over the usable segments, a lost track or an
+      operator seen in part, the tracker's fault, or its newest good frame older than
       ``timeout``);
-    - the properties on the truth (``verification.properties``; bodies by
-      ``path_point_one`` of their operator's path in ``stack`` plus their offsets, of
-      radius ``r_contact``, present from ``enter`` to ``leave``; operator o's bodies are
-      op_first[o] to op_first[o + 1] - 1), while a scenario's ticks last (k <= ``last``):
+    - the properties on the truth (``verification.properties``; each operator's true
+      segments (``configuration.truth_recipe``: a scripted operator's are the capsules
+      between its true body points) from ``path_point_one`` of its path in ``stack`` plus
+      its posture's offsets ``postures`` (B, K, 10, 3), ``truth_segments`` = (first
+      point, second point, radius) of each of the 12 segments, present from ``enter`` to
+      ``leave``), while a scenario's ticks last (k <= ``last``):
       the smallest clearance to the real robot's capsules while the robot moves (its
       fastest capsule end); while the override's k is not 0, the smallest clearance
       less S_true of any pair (``body_protective_distance`` with the monitor's mode and speeds,
@@ -396,16 +441,16 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     the figures to the diagram's and to a batch of one): the monitor's k is reused while
     the robot rests and the tracker's outputs and fault are unchanged (its inputs are
     then the same; ``memo`` (B, 3): k, s and the fault it was computed for, ``s_last``
-    the previous tick's s); it is 1 without the pairs when every body's clearance,
+    the previous tick's s); it is 1 without the pairs when every segment's clearance,
     bounded below through a sphere around the capsules, lies beyond dS times an upper
-    bound of every S (the fastest end for v_R, the body's speed or the ISO speed for
-    v_H), and 0 when one pair per body (its capsule nearest at its last full evaluation,
-    ``hint`` (B, N)) already puts a clearance below d_min or below that pair's S (d_i is
-    at most, S_i at least, that pair's); a body's properties are skipped when the sphere
-    bound shows it can lower neither figure (nor come inside S_true), and so is a pair's
-    when the same holds through a sphere around its capsule (its axis' midpoint out to
-    its ends, plus its radius; S_true bounded by the body's speed in its mode and the
-    capsule's fastest end).
+    bound of every S (the fastest end for v_R, the segment's faster end or the ISO speed
+    for v_H), and 0 when one pair per segment (its capsule nearest at its last full
+    evaluation, ``hint`` (B, M)) already puts a clearance below d_min or below that
+    pair's S (d_i is at most, S_i at least, that pair's); a true segment's properties
+    are skipped when the sphere bound shows it can lower neither figure (nor come inside
+    S_true), and so is a pair's when the same holds through a sphere around its capsule
+    (its axis' midpoint out to its ends, plus its radius; S_true bounded by the
+    operator's speed in its mode and the capsule's fastest end).
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     h_iso = max(iso, iso_reduced)
@@ -413,15 +458,16 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
     level_t_sr, level_const = levels
     by_speed = level_t_sr.size > 0
     truth_rt, truth_rb = truth_rates
-    s_levels = np.empty((max(level_t_sr.size, 1), est_p.shape[1]))
-    z_d_base, z_d_sigmas, occlusion_speed = z_d_terms
+    s_levels = np.empty((max(level_t_sr.size, 1), h_radius.shape[1]))
+    z_d_base, z_d_sigmas = z_d_terms
+    seg_a, seg_b, seg_r = truth_segments
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
     ca, cb, ct0, ct1, c_radius, c_tool = contact_caps
-    N, K = est_p.shape[1], enter.shape[1]
+    N, K = h_radius.shape[1], enter.shape[1]
     q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-    points, point_v = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    points, point_v = np.empty((ROBOT_POINTS, 3)), np.empty((ROBOT_POINTS, 3))
     m_ends, m_unused = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
     m_velocities = np.empty((ma.size, 2, 3))
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
@@ -526,21 +572,20 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                 v_end = np.sqrt(v_end)  # (the root of the largest square, as above)
                 # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
                 far = bound_monitor and not by_speed and not math.isnan(v_end) \
-                    and tracker_stop(status[b], fault) == stops.STOP_NONE
+                    and tracker_stop(h_status[b], fault) == stops.STOP_NONE
                 if far:
                     closest_lb, s_ub = np.inf, -np.inf
                     for i in range(N):
-                        if usable(status[b, i]):
-                            v0, v1, v2 = est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]
-                            h = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+                        if usable(h_status[b, i]):
+                            P, Q, vP, vQ = segment_of(h_ends[b], h_velocities[b], i)
+                            h = max(np.sqrt(vP[0] * vP[0] + vP[1] * vP[1] + vP[2] * vP[2]),
+                                    np.sqrt(vQ[0] * vQ[0] + vQ[1] * vQ[1] + vQ[2] * vQ[2]))
                             h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
-                            z = z_d_base + z_d_sigmas * std[b, i]
+                            z = z_d_base + z_d_sigmas * h_std[b, i]
                             ub = h * t_sr + v_end * t_r + const + z + _MARGIN
                             if mode == 1:
                                 ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
-                            lb = _beyond(m_sphere, est_p[b, i, 0], est_p[b, i, 1],
-                                         est_p[b, i, 2], r_monitor[b, i]) \
-                                - hidden_ball_radius(unseen[b, i], occlusion_speed)
+                            lb = _beyond(m_sphere, P, Q, h_radius[b, i])
                             closest_lb, s_ub = min(closest_lb, lb), max(s_ub, ub)
                             far = far and not (math.isnan(lb) or math.isnan(ub))
                     far = far and closest_lb >= d_min + _MARGIN and (
@@ -550,14 +595,12 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                 if near:
                     d_ub, s_lb = np.inf, -np.inf
                     for i in range(N):
-                        if usable(status[b, i]):
+                        if usable(h_status[b, i]):
                             j = hint[b, i]
                             c_j, s_j, _, _ = monitor_pair(
-                                (est_p[b, i, 0], est_p[b, i, 1], est_p[b, i, 2]),
-                                (est_v[b, i, 0], est_v[b, i, 1], est_v[b, i, 2]),
-                                r_monitor[b, i], z_d_base + z_d_sigmas * std[b, i], m_ends,
-                                m_velocities, m_radius, j, monitor)
-                            c_j -= hidden_ball_radius(unseen[b, i], occlusion_speed)
+                                segment_of(h_ends[b], h_velocities[b], i), h_radius[b, i],
+                                z_d_base + z_d_sigmas * h_std[b, i], m_ends, m_velocities,
+                                m_radius, j, monitor)
                             if not (math.isnan(c_j) or math.isnan(s_j)):
                                 d_ub, s_lb = min(d_ub, c_j), max(s_lb, s_j)
                     near = d_ub + _MARGIN < d_min or (s_lb > 0.0 and d_ub + _MARGIN < s_lb)
@@ -568,24 +611,23 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                 else:
                     if fault == 0.0:  # else the robot stops whatever d and S are
                         for i in range(N):
-                            if usable(status[b, i]):  # (the override reads only these)
-                                d[i], s_row[i], _, _, nearest = monitor_body(
-                                    est_p[b, i], est_v[b, i], r_monitor[b, i],
-                                    z_d_base + z_d_sigmas * std[b, i],
-                                    hidden_ball_radius(unseen[b, i], occlusion_speed), m_ends,
-                                    m_velocities, m_radius, monitor)
+                            if usable(h_status[b, i]):  # (the override reads only these)
+                                segment = segment_of(h_ends[b], h_velocities[b], i)
+                                z = z_d_base + z_d_sigmas * h_std[b, i]
+                                d[i], s_row[i], _, _, nearest = monitor_segment(
+                                    segment, h_radius[b, i], z, m_ends, m_velocities, m_radius,
+                                    monitor)
                                 if nearest >= 0:
                                     hint[b, i] = nearest
                                 if by_speed:
-                                    body_levels(est_p[b, i], est_v[b, i], r_monitor[b, i],
-                                                z_d_base + z_d_sigmas * std[b, i], m_ends,
-                                                m_velocities, m_radius, monitor, level_t_sr,
-                                                level_const, s_levels, i)
+                                    segment_levels(segment, h_radius[b, i], z, m_ends,
+                                                   m_velocities, m_radius, monitor, level_t_sr,
+                                                   level_const, s_levels, i)
                     if by_speed:
-                        k_override = by_speed_command(d, s_levels, status[b], fault, rate[b],
+                        k_override = by_speed_command(d, s_levels, h_status[b], fault, rate[b],
                                                       delta_s, d_min, included)[0]
                     else:
-                        k_override = override_command(d, s_row, status[b], fault, delta_s,
+                        k_override = override_command(d, s_row, h_status[b], fault, delta_s,
                                                       d_min, included)[0]
                 memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
             # The properties, on the true state at this tick.
@@ -597,7 +639,7 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                 if by_speed:  # the stop from the rate now (metrics.true_protective_distances)
                     g = level_at_or_above(rate[b], truth_rt.shape[1] - 1)
                     stop_t, stop_b = truth_rt[b, g], truth_rb[b, g]
-                for o in range(K):  # each operator's point once, then its bodies
+                for o in range(K):  # each operator's point once, then its segments
                     if not (t >= enter[b, o] and t < leave[b, o]):
                         continue
                     x0, x1, x2, w0, w1, w2 = path_point_one(
@@ -613,29 +655,29 @@ def _advance(k0, k1, dt, last, path, stack, op_first, offsets, enter, leave, est
                     # Below these a pair could lower a figure (or come inside S_true).
                     contact_floor = min_sep[b] if moving else -np.inf
                     separation_floor = max(sep_min[b], 0.0) if allowed else -np.inf
-                    for i in range(op_first[o], op_first[o + 1]):
-                        p_H = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
-                               x2 + offsets[b, i, 2])
+                    for i in range(seg_r.size):
+                        pa, pb, r_H = seg_a[i], seg_b[i], seg_r[i]
+                        P = (x0 + postures[b, o, pa, 0], x1 + postures[b, o, pa, 1],
+                             x2 + postures[b, o, pa, 2])
+                        Q = (x0 + postures[b, o, pb, 0], x1 + postures[b, o, pb, 1],
+                             x2 + postures[b, o, pb, 2])
                         if bound_contact:
-                            lb = _beyond(c_sphere, p_H[0], p_H[1], p_H[2], r_contact[b, i])
+                            lb = _beyond(c_sphere, P, Q, r_H)
                             if lb > contact_floor and lb - s_true_ub > separation_floor:
                                 continue  # can lower neither figure
                         for j in range(ca.size):
                             if bound_contact:  # the pair, through the sphere around capsule j
-                                g0 = p_H[0] - c_mid[j, 0]
-                                g1 = p_H[1] - c_mid[j, 1]
-                                g2 = p_H[2] - c_mid[j, 2]
-                                lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_reach[j]
-                                      - r_contact[b, i] - _MARGIN)
+                                lb = (_to_segment(c_mid[j, 0], c_mid[j, 1], c_mid[j, 2], P, Q)
+                                      - c_reach[j] - r_H - _MARGIN)
                                 ub = s_human_ub + c_fast[j] * t_r
                                 if mode == 1:
                                     ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
                                 if lb > contact_floor and lb - ub > separation_floor:
                                     continue  # this pair can lower neither figure
                             end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
-                            axis, vh_true, vr_true = segment_pair(p_H, v_H, end_a, end_b,
-                                                                  vel_a, vel_b)
-                            sep = axis - c_radius[j] - r_contact[b, i]
+                            axis, vh_true, vr_true = segments_pair(P, Q, v_H, v_H, end_a, end_b,
+                                                                   vel_a, vel_b)
+                            sep = axis - c_radius[j] - r_H
                             closest = min(closest, sep)
                             margin = min(margin, true_margin(
                                 sep, vh_true, vr_true, mode, stop_t, t_r, stop_b, iso,
@@ -683,8 +725,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                                                                           np.empty((B, 1)))
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     path = path_arrays(c.path)
-    z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas),
-                 float(f.occlusion_speed))
+    z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas))
     rules, regions = tracker_rules(cfg), tracker_regions(cfg)
 
     caps = monitor_capsules(cfg)
@@ -694,13 +735,21 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     monitor_caps = (caps.a, caps.b, caps.t0, caps.t1, caps.radius, caps.tool_length)
     contact_caps = (truth_caps.a, truth_caps.b, truth_caps.t0, truth_caps.t1, truth_caps.radius,
                     truth_caps.tool_length)
-    r_monitor = np.array([monitored_body_radii(sc) for sc in scenarios]).reshape(B, N)
-    r_contact = np.array([contact_body_radii(sc) for sc in scenarios]).reshape(B, N)
+    # The monitor's envelopes (one recipe: the scenarios share their operators' tracked
+    # points, batch_key) and the true segments (a scripted operator's: each the capsule
+    # between two of its true points).
+    recipe = _common(scenarios, lambda s: (scenario_monitor_recipe(s),), "tracked points",
+                     key=lambda r: (r[0].regions.tobytes(), r[0].candidates.tobytes(),
+                                    r[0].radius.tobytes()))[0]
+    truth_segments = _truth_segments(scenarios)
+    postures = np.array([operator_postures(sc) for sc in scenarios], dtype=float).reshape(
+        B, c.K, NUM_POINTS, 3)
+    M = recipe.radius.size
     s = np.zeros(B)
     rate = np.zeros(B)
     ends_prev = np.full((B, caps.radius.size, 2, 3), np.nan)
     s_last, memo = np.full(B, np.nan), np.full((B, 3), np.nan)
-    hint = np.zeros((B, N), dtype=np.int64)  # each body's capsule nearest at its last look
+    hint = np.zeros((B, M), dtype=np.int64)  # each segment's capsule nearest at its last look
     trig = np.full((B, 15), np.nan)  # robot_points_one_memo's memory
     tracks = np.zeros((B * N, TRACK_SLOT))
     frames = np.zeros((B, 7))  # _F_*: no frame yet, none good
@@ -710,6 +759,10 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     status = np.zeros((B, N))
     std = np.zeros((B, N))
     unseen = np.zeros((B, N))
+    h_ends, h_velocities = np.full((B, M, 2, 3), np.nan), np.full((B, M, 2, 3), np.nan)
+    h_radius, h_std = np.full((B, M), np.nan), np.full((B, M), np.nan)
+    h_status = np.zeros((B, M))  # no track yet: every segment none, as the tracker's
+    allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
     min_sep = np.full(B, np.inf)
     sep_min = np.full(B, np.inf)
     sep_time = np.zeros(B)
@@ -721,16 +774,18 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         stop = k
         while stop <= last and not u < stop * dt - _EVENT_TOL:
             stop += 1
-        _advance(k, stop, dt, c.ticks, path, c.stack_arrays, c.op_first, c.offsets, c.enter,
-                 c.leave, est_p, est_v, status, std, unseen, frames, timeout, monitor, z_d_terms,
-                 f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates, monitor_caps,
-                 contact_caps, r_monitor,
-                 r_contact, c.end, c.brake_scale, brakes, s, rate, ends_prev, s_last, memo,
-                 hint, trig, min_sep, sep_min, sep_time)
+        _advance(k, stop, dt, c.ticks, path, c.stack_arrays, postures, c.enter, c.leave,
+                 h_ends, h_velocities, h_radius, h_status, h_std, frames, timeout, monitor,
+                 z_d_terms, f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates,
+                 monitor_caps, contact_caps, truth_segments, c.end, c.brake_scale, brakes, s,
+                 rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time)
         k = stop
         if k > last:
             break
         c.update(u, frames, tracks, rules, regions, est_p, est_v, status, std, unseen)
+        _envelope_batch(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
+                        recipe.slots, est_p, est_v, status, std, unseen, allowance,
+                        occlusion_speed, h_ends, h_velocities, h_radius, h_status, h_std)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        sep_min, sep_time)
@@ -739,7 +794,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
 def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
     """Scenarios with equal keys can share one batch: the same controller configuration,
     robot (but its cycles and braking time scale), contact geometry, sensor rate and
-    seed, and operator shapes. ``memo`` keeps the configurations' texts by object across calls (the
+    seed, and operator shapes (the body points their tracked bodies mark, in order, and
+    the number of waypoints). ``memo`` keeps the configurations' texts by object across calls (the
     scenarios of one space share them; writing them out is most of the cost)."""
     memo = {} if memo is None else memo
 
@@ -753,7 +809,7 @@ def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
     robot = tuple(text(getattr(s.robot, f.name)) for f in dataclasses.fields(s.robot)
                   if f.name not in ("cycles", "braking_time_scale"))
     return (text(s.controller), robot, s.contact_geometry, sensor.rate_hz, sensor.seed,
-            tuple((len(o.bodies), len(o.waypoints)) for o in s.operators))
+            tuple((tuple(operator_points(o)), len(o.waypoints)) for o in s.operators))
 
 
 def true_stopping_terms(scenarios: list[Scenario], safety) -> tuple[np.ndarray, np.ndarray]:

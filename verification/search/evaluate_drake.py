@@ -24,8 +24,8 @@ from verification.properties import (
     stopped_before_contact,
 )
 
-LOGGED = ("q", "v", "operators.positions_true", "operators.velocities_true",
-          "operators.present", "follower.path_state", "tracker.rejected_frames")
+LOGGED = ("q", "v", "operators.points_true", "operators.point_velocities_true",
+          "operators.operators_present", "follower.path_state", "tracker.rejected_frames")
 
 
 def robustness_of_run(run: Run) -> Robustness:

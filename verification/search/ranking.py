@@ -33,11 +33,13 @@ import numba
 import numpy as np
 
 from safety_systems.cell.braking import path_follower_step
+from safety_systems.cell.human_body import NUM_POINTS as BODY_POINTS
 from safety_systems.config.configuration import (
-    contact_body_radii,
     contact_capsules,
     monitor_capsules,
-    monitored_body_radii,
+    monitor_recipe,
+    operator_postures,
+    tracked_points,
 )
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.cell.operator_paths import stack_paths, stacked_position_velocity
@@ -45,11 +47,16 @@ from safety_systems.cell.robot_geometry import (
     NUM_POINTS,
     capsule_ends_one,
     robot_points_one,
-    segment_pair,
+    segments_pair,
 )
 from safety_systems.config.scenario import ControllerConfig, actual_sensor
-from safety_systems.sensing.tracks import TRACK_NONE, TRACK_TRACKING
-from safety_systems.ssm.separation import body_levels, body_separation, capsule_axis
+from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_NONE, TRACK_TRACKING, usable
+from safety_systems.ssm.separation import (
+    capsule_axis,
+    segment_levels,
+    segment_of,
+    segment_separation,
+)
 from safety_systems.ssm.formulas import _speed_scale_eq12, by_speed_command, level_at_or_above
 from safety_systems.config.configuration import (
     braking_table,
@@ -61,6 +68,8 @@ from safety_systems.config.configuration import (
 )
 from verification.search.counts import Tally
 from verification.search.evaluate_batch import (
+    _envelope_batch,
+    _truth_segments,
     delivered_frames,
     dropout_table,
     true_stopping_by_rate,
@@ -179,21 +188,22 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
 
 
 @numba.njit(cache=True)
-def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, truth_v,
+def _score_rows(q, v_joint, mine, real, h_ends, h_vel, h_radius, h_status, truth, truth_v,
                 present, r_real, monitor, truth_t, truth_b, z_d, delta_s, d_min, free,
                 levels, rate, truth_rates, k_out, gap_out, margin_out, moving_out):
     """The reduced model's monitor and measure at one time for every candidate c,
     compiled, through the product's compiled functions: the robot's capsules
     (``robot_geometry``; ``mine`` the monitor's, ``real`` the contact geometry's, each
     (a, b, t0, t1, radius, tool length)) at q, v_joint (n, 6); k (Eq. 12 by
-    ``ssm._speed_scale_eq12`` over the ``tracked`` bodies p_m, v_m (n, N, 3), radii r_mine,
-    Z_d ``z_d``, hidden balls ``ball``, d and S of each by ``separation.body_separation``;
-    1 with no tracked body, 0 on a NaN); the smallest clearance of the ``present`` true
-    bodies ``truth`` to the real capsules; the smallest d_true - S_true over them
-    (S_true: Eqs. 9-11 by ``true_measures.true_margin`` on the true directed speeds
-    (``truth_v`` the bodies' velocities), no Z_d or Z_r, the robot's own stopping time
-    ``truth_t`` and distance ``truth_b`` (n,) with T_r and C folded in, as
-    ``evaluate_batch`` measures it);
+    ``ssm._speed_scale_eq12`` over the usable segments (``h_status``), the monitor's
+    envelopes h_ends, h_vel (n, M, 2, 3), radii h_radius, Z_d ``z_d``, d and S of each by
+    ``separation.segment_separation``; 1 with no usable segment, 0 on a NaN or a lost
+    operator); the smallest clearance of the ``present`` true segments ``truth`` (ends
+    (n, T, 2, 3), radii r_real (T,)) to the real capsules; the smallest d_true - S_true
+    over them (S_true: Eqs. 9-11 by ``true_measures.true_margin`` on the true directed
+    speeds (``truth_v`` (n, T, 3) each segment's velocity), no Z_d or Z_r, the robot's
+    own stopping time ``truth_t`` and distance ``truth_b`` (n,) with T_r and C folded in,
+    as ``evaluate_batch`` measures it);
     whether the robot moves (its fastest capsule end). The two figures are computed
     only where they count: the clearance while the robot moves, the margin where
     ``free`` (no fault, no lost track, within the candidate's time; the row's k, if it
@@ -201,7 +211,7 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
 
     ``safety.stopping: by_speed`` (``levels`` = ``configuration.level_terms``, empty
     otherwise): k by ``ssm.by_speed_command`` from every tracked body's S at each level
-    (``separation.body_levels``) and the path rate now ``rate`` (n,), and S_true's stop
+    (``separation.segment_levels``) and the path rate now ``rate`` (n,), and S_true's stop
     from the grid rate at or above it, ``truth_rates`` ((n, G_true + 1) times and
     distances, T_r and C folded in), as the batched evaluator runs them."""
     mode, iso, iso_reduced, t_r = monitor[0], monitor[4], monitor[5], monitor[2]
@@ -210,9 +220,9 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
     level_t_sr, level_const = levels
     by_speed = level_t_sr.size > 0
     truth_rt, truth_rb = truth_rates
-    n_bodies = p_m.shape[1]
+    n_bodies = h_radius.shape[1]
     s_levels = np.empty((max(level_t_sr.size, 1), n_bodies))
-    d_row, status_row = np.empty(n_bodies), np.empty(n_bodies)
+    d_row = np.empty(n_bodies)
     included = np.empty(n_bodies, np.bool_)
     points, point_v = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
     m_ends, m_vel = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
@@ -222,23 +232,24 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
         capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_vel)
         d, top, any_tracked, faulty = np.inf, -np.inf, False, False
         for i in range(n_bodies):
-            status_row[i] = TRACK_TRACKING if tracked[c, i] else TRACK_NONE
-            if tracked[c, i]:
+            if usable(h_status[c, i]):
                 any_tracked = True
-                d_i, s_i, _, _, _ = body_separation(p_m[c, i], v_m[c, i], r_mine[c, i], z_d,
-                                                    ball[c, i], m_ends, m_vel, m_radius,
-                                                    monitor)
+                segment = segment_of(h_ends[c], h_vel[c], i)
+                d_i, s_i, _, _, _ = segment_separation(segment, h_radius[c, i], z_d, m_ends,
+                                                       m_vel, m_radius, monitor)
                 d_row[i] = d_i
                 if by_speed:
-                    body_levels(p_m[c, i], v_m[c, i], r_mine[c, i], z_d, m_ends, m_vel,
-                                m_radius, monitor, level_t_sr, level_const, s_levels, i)
+                    segment_levels(segment, h_radius[c, i], z_d, m_ends, m_vel, m_radius,
+                                   monitor, level_t_sr, level_const, s_levels, i)
                 if math.isnan(d_i) or math.isnan(s_i):
                     faulty = True
                 else:
                     d, top = min(d, d_i), max(top, s_i)
+            elif h_status[c, i] != TRACK_NONE:  # a lost operator (or one seen in part)
+                faulty = True
         k = 1.0
         if by_speed:
-            k = by_speed_command(d_row, s_levels, status_row, 0.0, rate[c], delta_s, d_min,
+            k = by_speed_command(d_row, s_levels, h_status[c], 0.0, rate[c], delta_s, d_min,
                                  included)[0]
         elif faulty:
             k = 0.0
@@ -260,12 +271,13 @@ def _score_rows(q, v_joint, mine, real, p_m, v_m, tracked, ball, r_mine, truth, 
         allowed = free[c] == 1 or (free[c] == 2 and k > 0.0)
         for i in range(truth.shape[1]):
             if present[c, i] and (moving or allowed):
-                p = (truth[c, i, 0], truth[c, i, 1], truth[c, i, 2])
+                P = (truth[c, i, 0, 0], truth[c, i, 0, 1], truth[c, i, 0, 2])
+                Q = (truth[c, i, 1, 0], truth[c, i, 1, 1], truth[c, i, 1, 2])
                 v = (truth_v[c, i, 0], truth_v[c, i, 1], truth_v[c, i, 2])
                 for j in range(ca.size):
                     end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_vel, j)
-                    axis, vh, vr = segment_pair(p, v, end_a, end_b, vel_a, vel_b)
-                    clearance = axis - c_radius[j] - r_real[c, i]
+                    axis, vh, vr = segments_pair(P, Q, v, v, end_a, end_b, vel_a, vel_b)
+                    clearance = axis - c_radius[j] - r_real[i]
                     if moving:
                         gap = min(gap, clearance)
                     if allowed:
@@ -353,10 +365,22 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     lag = 0.0 if f.human_speed == "iso" else ESTIMATE_LAG
     drops = dropout_table(sensors)
     mine, real = monitor_capsules(config), contact_capsules(space.robot, space.contact_geometry)
-    r_mine = np.array([np.pad(monitored_body_radii(sc), (0, N - len(x)))
-                       for sc, x in zip(scenarios, names)])
-    r_real = np.array([np.pad(contact_body_radii(sc), (0, N - len(x)))
-                       for sc, x in zip(scenarios, names)])
+    # The monitor's envelopes, by the candidates' tracked points (a recipe per kind), and
+    # each operator's true segments (the same for every candidate: 12 per operator).
+    groups: dict = {}
+    for c, sc in enumerate(scenarios):
+        groups.setdefault(tuple(map(tuple, tracked_points(sc))), []).append(c)
+    recipes = {key: monitor_recipe(config, [list(x) for x in key]) for key in groups}
+    M = max(r.radius.size for r in recipes.values())
+    seg_a, seg_b, r_segment = _truth_segments(scenarios[:1])
+    per = seg_a.size  # true segments per operator
+    r_real = np.tile(r_segment, K)
+    postures = np.zeros((n, K, BODY_POINTS, 3))
+    for c, sc in enumerate(scenarios):
+        own = operator_postures(sc)
+        postures[c] = own[np.minimum(np.arange(K), len(own) - 1)]
+    op_present = np.array([[j < len(sc.operators) for j in range(K)] for sc in scenarios])
+    seg_present = np.repeat(op_present, per, axis=1)
     # The tracker's frames: it looks at offset + j P; the newest frame delivered by then
     # (captured at i P, delivered latency later, unless dropped) is processed.
     period = 1.0 / config.sensor.rate_hz
@@ -435,23 +459,40 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
             ghost = (outlier[:, :, 0] <= seen_at) & (seen_at < outlier[:, :, 1]) & ~hidden
             p_m = p_m + np.where(ghost[:, :, None], outlier[:, :, 2:], 0.0)
         unseen = np.where(hidden, seen_at - occ[:, :, 0], 0.0)
-        ball = f.occlusion_speed * unseen
         tracked, lost = present.copy(), np.zeros(n, dtype=bool)
         if expire:  # the previous rule: ended beyond the exit radius, else lost
             gone = hidden & (unseen > tr.max_coast_time)
             outside = np.hypot(p_m[:, :, 0], p_m[:, :, 1]) > tr.exit_radius
             tracked &= ~(gone & outside)
             lost = np.any(gone & ~outside & present, axis=1)
+        status = np.where(tracked, np.where(hidden, TRACK_HIDDEN, TRACK_TRACKING),
+                          TRACK_NONE).astype(float)
+        h_ends, h_vel = np.full((n, M, 2, 3), np.nan), np.full((n, M, 2, 3), np.nan)
+        h_radius, h_status = np.full((n, M), np.nan), np.full((n, M), float(TRACK_NONE))
+        for key, rows_g in groups.items():
+            r, idx = recipes[key], np.array(rows_g)
+            m = r.radius.size
+            out = (np.empty((idx.size, m, 2, 3)), np.empty((idx.size, m, 2, 3)),
+                   np.empty((idx.size, m)), np.empty((idx.size, m)), np.empty((idx.size, m)))
+            _envelope_batch(r.regions, r.candidates, r.radius, r.operator, r.slots,
+                            np.ascontiguousarray(p_m[idx]), np.ascontiguousarray(v_m[idx]),
+                            status[idx], np.zeros((idx.size, N)), unseen[idx],
+                            float(config.body.tracking_allowance), float(f.occlusion_speed),
+                            *out)
+            h_ends[idx, :m], h_vel[idx, :m], h_radius[idx, :m], h_status[idx, :m] = out[:4]
         p_now, v_now = operators_at(np.full(n, now))
-        truth = bodies(p_now) + offsets
+        points_now = p_now[:, :, None, :] + postures  # (n, K, 10, 3)
+        truth = np.stack([points_now[:, :, seg_a], points_now[:, :, seg_b]], axis=3).reshape(
+            n, K * per, 2, 3)
+        truth_v = np.repeat(v_now, per, axis=1)
         stale = faults(now)
         inside = now <= ends + 1e-9  # (each candidate only over its own duration)
         # Motion is permitted at this tick (free 1), or if its k > 0 (free 2): the
         # separation score counts only then. Other controllers (seed 004's, zones) are
         # not modelled: they keep full speed; a lost track stops the robot.
         free = np.where(inside & ~stale[0] & ~lost, 2 if ssm_only else 1, 0).astype(np.int64)
-        _score_rows(q, v_joint, mine_arrays, real_arrays, p_m, v_m, tracked, ball, r_mine,
-                    truth, bodies(v_now), present, r_real, monitor, truth_t, truth_b,
+        _score_rows(q, v_joint, mine_arrays, real_arrays, h_ends, h_vel, h_radius, h_status,
+                    truth, truth_v, seg_present, r_real, monitor, truth_t, truth_b,
                     float(f.human_uncertainty), f.delta_s, f.d_min, free, levels, rate,
                     truth_rates, k_ssm, gap, margin, moving)
         command_now = np.where(lost, 0.0, k_ssm if ssm_only else 1.0)

@@ -20,6 +20,7 @@ from safety_systems.config.scenario import MAX_DURATION, RobotConfig, ScenarioEr
 from safety_systems.files.ranges import number
 
 MIN_GAP = 1e-9  # s; shorter dropouts and occlusions are none
+NUM_POSTURES = 6  # ``spaces.space.POSTURES``: reach, reach past, elbow, shoulder, lean, both
 
 
 @dc.dataclass
@@ -51,6 +52,7 @@ class SpaceParameters:
     retreat_distance: Range = _r(0.0, 0.0)
     overshoot: Range = _r(0.0, 0.0)
     operators: Range = _r(1.0, 1.0)
+    posture: Range = _r(0.0, 0.0)
     heads: Range = _r(0.0, 0.0)
     noise_std: Range = _r(0.0002, 0.0002)
     latency: Range = _r(0.0, 0.0)
@@ -101,15 +103,15 @@ class ScenarioSpace:
     """A box of approaches, the cell they happen in and the stated assumptions.
 
     ``settle_time``: s every operator stands still before any onset. ``tail_time``: s
-    simulated after the hand reaches the target. ``contact_geometry`` and
-    ``contact_distance``: what contact means (as in a scenario). ``hand_radius`` and
-    ``head_radius``: the bodies' spheres, m. ``noise_bound_sigmas``: for proofs, sensor
-    noise is assumed bounded at this many standard deviations per axis. ``notes``:
-    assumptions in words, repeated in every result. ``recording``: a box around a
-    recording instead of ``parameters`` (``verification.spaces.recorded``; then
-    ``settle_time`` is the least time from t = 0 to an extra occlusion, and
-    ``tail_time``, ``hand_radius``, ``head_radius`` and ``noise_bound_sigmas`` are not
-    used: they must keep their defaults).
+    simulated after the lead point reaches the target. ``contact_geometry`` and
+    ``contact_distance``: what contact means (as in a scenario: any segment of an
+    operator's body, ``safety_systems.cell.human_body``, its radii the table's).
+    ``noise_bound_sigmas``: for proofs, sensor noise is assumed bounded at this many
+    standard deviations per axis. ``notes``: assumptions in words, repeated in every
+    result. ``recording``: a box around a recording instead of ``parameters``
+    (``verification.spaces.recorded``; then ``settle_time`` is the least time from t = 0
+    to an extra occlusion, and ``tail_time`` and ``noise_bound_sigmas`` are not used:
+    they must keep their defaults).
     """
 
     name: str = ""
@@ -117,8 +119,6 @@ class ScenarioSpace:
     tail_time: float = number(1.5, gt=0.0, le=60.0, unit="s")
     contact_geometry: str = "capsules"
     contact_distance: float = number(0.0, ge=0.0, le=1.0, unit="m")
-    hand_radius: float = number(0.05, ge=0.0, le=0.5, unit="m")
-    head_radius: float = number(0.12, ge=0.0, le=0.5, unit="m")
     noise_bound_sigmas: float = number(4.0, gt=0.0, le=10.0)
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     parameters: SpaceParameters = dc.field(default_factory=SpaceParameters)
@@ -135,14 +135,14 @@ LIMITS = {  # allowed ranges of each parameter
     "onset_phase": (0.0, 1.0), "target_phase": (0.0, 1.0),
     "target_link": (0.0, len(CAPSULE_NAMES) - 1.0), "target_along": (0.0, 1.0),
     "retreat_distance": (0.0, 5.0), "overshoot": (0.0, 2.0), "operators": (1.0, 5.0),
-    "heads": (0.0, 1.0), "noise_std": (0.0, 0.05), "latency": (0.0, 1.0),
-    "dropout": (0.0, 5.0), "occlusion": (0.0, 60.0), "occluded_bodies": (1.0, 3.0),
+    "posture": (0.0, NUM_POSTURES - 1.0), "heads": (0.0, 1.0), "noise_std": (0.0, 0.05),
+    "latency": (0.0, 1.0), "dropout": (0.0, 5.0), "occlusion": (0.0, 60.0), "occluded_bodies": (1.0, 3.0),
     "outlier_frames": (0.0, 40.0), "outlier_offset": (0.0, 10.0), "outlier_delay": (0.0, 10.0),
     "braking_time_scale": (0.1, 10.0),
 }
 
 
-WHOLE = ("target_link", "operators", "heads", "occluded_bodies", "outlier_frames")
+WHOLE = ("target_link", "operators", "posture", "heads", "occluded_bodies", "outlier_frames")
 
 
 def check_ranges(block, limits: dict, whole: tuple, prefix: str) -> None:

@@ -84,8 +84,6 @@ _LIMITS = {  # allowed ranges of each parameter; the times are checked against t
 }
 # Fields of a space that a recording space does not use: they must keep their defaults.
 _UNUSED = {"tail_time": "the scenario ends with the recording or the block's duration",
-           "hand_radius": "the mapping gives every body's radius",
-           "head_radius": "the mapping gives every body's radius",
            "noise_bound_sigmas": "the proofs decline a recording space"}
 
 
@@ -190,8 +188,8 @@ def recorded_scenario(space: ScenarioSpace, config: ControllerConfig,
     path = joint_path(space.robot) if path is None else path
     start = block.start + v["time_shift"]
     scale = v["time_scale"]
-    ops = [OperatorConfig(name=o, bodies=[Body(n, [0.0, 0.0, 0.0], r)
-                                          for n, r in zip(bodies.names, bodies.radii)],
+    ops = [OperatorConfig(name=o, bodies=[Body(name=n, point=q)
+                                          for n, q in zip(bodies.names, bodies.points_marked)],
                           recording=block.file, mapping=block.mapping, start=start,
                           time_scale=scale, yaw_deg=v["yaw_deg"],
                           shift=[v["offset_x"], v["offset_y"], v["offset_z"]])

@@ -7,21 +7,27 @@ parameter) becomes a full :class:`safety_systems.config.scenario.Scenario`:
 - The robot runs its path from t = 0. Every operator stands still at its start point
   until the onset, ``settle_time + onset_phase * cycle_time`` (the robot is then at that
   fraction of its cycle), so the tracker has settled.
-- The hand heads for the *target*: a point of the robot at ``target_phase`` of its
+- The operator's *lead* point (the hand, or the elbow, the shoulder, the head, as its
+  posture says) heads for the *target*: a point of the robot at ``target_phase`` of its
   cycle, on the link ``target_link`` (an index into ``robot_geometry.CAPSULE_NAMES``:
   shoulder, upper arm, forearm, the three wrist links, the tool) at the fraction
   ``target_along`` from the link's inner joint to its outer one (for the tool: from the
   flange to the tool tip). The start point lies ``start_distance`` from the target in
   the direction (``azimuth_deg``, ``elevation_deg``); extra operators come from azimuths
   turned by 360 / n degrees.
-- At the onset the hand either goes straight for the target or, when
+- At the onset the lead point either goes straight for the target or, when
   ``retreat_distance`` > 0, first walks that far away and then reverses, with peak
   speed ``peak_speed`` and acceleration ``acceleration``. It reaches on through the
   target by ``overshoot`` along the same line and stays there.
-- Each operator has two tracked gloves: the approaching hand at the reference point and
-  the other hand 0.35 m to its side, spheres of ``hand_radius``; with ``heads`` = 1 also
-  a tracked head, ``HEAD_BACK`` behind the hand (towards where it came from) and
-  ``HEAD_UP`` above it, a sphere of ``head_radius``.
+- Each operator is a whole body (``safety_systems.cell.human_body``) in the posture
+  ``posture`` (:data:`POSTURES`: 0 a reach with the right hand, 1 a reach over and past
+  the target (the forearm's middle leads: the hand beyond, the forearm across), 2 an
+  elbow-first push, 3 a shoulder-first push, 4 the trunk leaning in 40 degrees (the head
+  leads), 5 both arms reaching (between the hands leads)), facing along the approach,
+  moving rigidly with its lead point; every posture is one the body model's table
+  allows. Each operator wears two tracked gloves (``hand``, ``other_hand``: the right
+  and the left hand) and, with ``heads`` = 1, a tracked helmet (``head``); the sensor
+  sees those only.
 - Sensor conditions: noise, latency, and from the onset a run of dropped frames
   (``dropout``, s) and an occlusion (``occlusion``, s) of ``occluded_bodies`` bodies of
   every operator: 1 the approaching hand, 2 both hands, 3 both hands and the head.
@@ -46,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
+from safety_systems.cell import human_body
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.cell.operator_paths import segment_profile
 from safety_systems.cell.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
@@ -60,6 +67,7 @@ from safety_systems.config.scenario import (
     Scenario,
     ScenarioError,
     SensorFault,
+    PosturePoint,
     Waypoint,
     read_task_path,
     validate_scenario,
@@ -81,9 +89,39 @@ from verification.spaces.recorded import (
     validate_recording,
 )
 
-OTHER_HAND_OFFSET = 0.35  # m, sideways from the approaching hand
-HEAD_BACK = 0.30  # m behind the approaching hand, horizontally
-HEAD_UP = 0.45  # m above it
+# The postures (``posture``), each: its name, the point (or the middle of two) that leads,
+# and every body point relative to the head in the facing frame (x towards the target,
+# y left, z up), m. Each edge is shorter than the table's length and each lean within
+# its limit (``human_body.posture_violations``; tests/verification/spaces test it).
+_TRUNK = {"head": (0.0, 0.0, 0.0), "neck": (0.0, 0.0, -0.18), "chest": (0.0, 0.0, -0.40),
+          "pelvis": (0.0, 0.0, -0.75), "shoulder_left": (0.0, 0.19, -0.20),
+          "shoulder_right": (0.0, -0.19, -0.20)}
+_LEFT_DOWN = {"elbow_left": (0.05, 0.23, -0.50), "hand_left": (0.33, 0.22, -0.55)}
+_RIGHT_REACH = {"elbow_right": (0.30, -0.21, -0.32), "hand_right": (0.66, -0.20, -0.36)}
+_LEAN = 40.0  # deg, the trunk's lean of the leaning posture
+_s, _c = math.sin(math.radians(_LEAN)), math.cos(math.radians(_LEAN))
+POSTURES = (
+    ("reach", ("hand_right",), _TRUNK | _LEFT_DOWN | _RIGHT_REACH),
+    ("reach_past", ("elbow_right", "hand_right"), _TRUNK | _LEFT_DOWN | _RIGHT_REACH),
+    ("elbow_first", ("elbow_right",), _TRUNK | _LEFT_DOWN | {
+        "elbow_right": (0.25, -0.35, -0.35), "hand_right": (0.05, -0.25, -0.45)}),
+    ("shoulder_first", ("shoulder_right",), _TRUNK | _LEFT_DOWN | {
+        "elbow_right": (0.0, -0.22, -0.50), "hand_right": (0.10, -0.22, -0.85)}),
+    ("lean_in", ("head",), {  # the trunk 40 deg forward from the pelvis, the head bowed
+        "pelvis": (-0.43 * _s - 0.14, 0.0, -0.43 * _c - 0.12),
+        "chest": (-0.20 * _s - 0.14, 0.0, -0.20 * _c - 0.12),
+        "neck": (-0.14, 0.0, -0.12),
+        "shoulder_left": (-0.16, 0.19, -0.14), "shoulder_right": (-0.16, -0.19, -0.14),
+        "elbow_left": (0.05, 0.24, -0.40), "hand_left": (0.35, 0.22, -0.52),
+        "elbow_right": (0.05, -0.24, -0.40), "hand_right": (0.35, -0.22, -0.52),
+        "head": (0.0, 0.0, 0.0)}),
+    ("both_arms", ("hand_left", "hand_right"), _TRUNK | {
+        "elbow_left": (0.28, 0.22, -0.33), "hand_left": (0.62, 0.12, -0.38),
+        "elbow_right": (0.28, -0.22, -0.33), "hand_right": (0.62, -0.12, -0.38)}),
+)
+POSTURE_NAMES = tuple(name for name, _, _ in POSTURES)
+# The tracked bodies of a space's operator: (name, the body point it marks).
+TRACKED = (("hand", "hand_right"), ("other_hand", "hand_left"), ("head", "head"))
 TARGET_SEGMENTS = LINK_SEGMENTS + ((6, 7),)  # each capsule's points, the tool's last
 
 
@@ -146,11 +184,12 @@ def to_point(space: ScenarioSpace, unit: np.ndarray) -> dict[str, float]:
 def contact_assumption(space: ScenarioSpace) -> str:
     """What contact means in the space's scenarios, in words."""
     if space.contact_geometry == "capsules":
-        return (f"contact means a body's sphere within {space.contact_distance:g} m of a "
-                f"robot capsule (the tool of {space.robot.payload_radius:g} m radius"
+        return (f"contact means a segment of an operator's body within "
+                f"{space.contact_distance:g} m of a robot capsule (the tool of "
+                f"{space.robot.payload_radius:g} m radius"
                 f"{f', {space.robot.tool_length:g} m long' if space.robot.tool_length else ''})")
-    return (f"contact means a body within {space.contact_distance:g} m of the tool flange "
-            "(the seed's tool point; the other links are not checked)")
+    return (f"contact means a segment's axis within {space.contact_distance:g} m of the tool "
+            "flange (the seed's tool point; the other links are not checked)")
 
 
 def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
@@ -159,19 +198,21 @@ def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
         return recording_assumptions(space, config) + [contact_assumption(space)] \
             + list(space.notes)
     p = space.parameters
-    heads = " and a head" if p.heads.max >= 1 else ""
+    heads = " and a helmet" if p.heads.max >= 1 else ""
+    postures = ", ".join(POSTURE_NAMES[int(p.posture.min):int(p.posture.max) + 1])
     links = sorted({CAPSULE_NAMES[int(i)] for i in range(int(p.target_link.min),
                                                           int(p.target_link.max) + 1)})
     occluded = {1: "the approaching hand", 2: "both hands",
                 3: "both hands and the head"}[int(p.occluded_bodies.max)]
     lines = [
-        f"{int(p.operators.min)} to {int(p.operators.max)} operator(s), each tracked by two "
-        f"gloves{heads} (spheres of {space.hand_radius:g} m{', ' if heads else ''}"
-        f"{f'{space.head_radius:g} m' if heads else ''}); no other body enters the cell",
+        f"{int(p.operators.min)} to {int(p.operators.max)} operator(s), each a whole body "
+        f"(head, neck, trunk, shoulders, arms and hands as capsules of the table's sizes) "
+        f"in the postures {postures}, tracked by two gloves{heads}; no other body enters "
+        "the cell",
         f"every operator starts {p.start_distance.min:g} to {p.start_distance.max:g} m from "
         f"the point it approaches and stands still for at least {space.settle_time:g} s",
-        f"hand speed never exceeds {p.peak_speed.max:g} m/s (ISO 13855: 2.0 m/s) and "
-        f"acceleration never exceeds {p.acceleration.max:g} m/s^2",
+        f"no body point moves faster than {p.peak_speed.max:g} m/s (ISO 13855: 2.0 m/s) or "
+        f"accelerates faster than {p.acceleration.max:g} m/s^2 (each posture moves rigidly)",
         f"approaches aim at points of the {', '.join(links)} (capsule axes), from azimuth "
         f"{p.azimuth_deg.min:g} to {p.azimuth_deg.max:g} deg, elevation "
         f"{p.elevation_deg.min:g} to {p.elevation_deg.max:g} deg; straight lines "
@@ -242,22 +283,20 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
         waypoints.append(Waypoint(t, end_point.tolist()))
         length = float(np.linalg.norm(end_point - np.array(waypoints[-2].position)))
         end = max(end, t + approach_times(v["peak_speed"], v["acceleration"], length))
-        side = np.array([-math.sin(az), math.cos(az), 0.0]) * OTHER_HAND_OFFSET
-        bodies = [Body("hand", [0.0, 0.0, 0.0], space.hand_radius),
-                  Body("other_hand", side.tolist(), space.hand_radius)]
-        if heads:  # behind the hand (where it came from) and above it
-            back = np.array([math.cos(az), math.sin(az), 0.0]) * HEAD_BACK
-            bodies.append(Body("head", (back + [0.0, 0.0, HEAD_UP]).tolist(),
-                               space.head_radius))
+        points = posture_offsets(int(round(v["posture"])), az)
+        tracked = [(n, q) for n, q in TRACKED if heads or q != "head"]
+        bodies = [Body(name=n, point=q, offset=points[q].tolist()) for n, q in tracked]
+        posture = [PosturePoint(point=q, offset=points[q].tolist()) for q in human_body.POINTS
+                   if q not in dict(tracked).values()]
         operators.append(OperatorConfig(
             name=f"operator_{j}", max_speed=v["peak_speed"], max_acceleration=v["acceleration"],
-            bodies=bodies, waypoints=waypoints))
+            bodies=bodies, posture=posture, waypoints=waypoints))
     duration = end + space.tail_time
     sensor = dc.replace(config.sensor, noise_std=v["noise_std"], latency=v["latency"],
                         dropouts=[], occlusions=[], faults=[])
     if v["dropout"] > MIN_GAP:
         sensor.dropouts = [Interval(onset, onset + v["dropout"])]
-    hidden = ("hand", "other_hand", "head")[:int(round(v["occluded_bodies"]))]
+    hidden = tuple(n for n, _ in TRACKED)[:int(round(v["occluded_bodies"]))]
     if v["occlusion"] > MIN_GAP:
         sensor.occlusions = [Occlusion(f"{o.name}/{b.name}", onset, onset + v["occlusion"])
                              for o in operators for b in o.bodies if b.name in hidden]
@@ -279,6 +318,32 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
     if validate:
         validate_scenario(scenario)
     return scenario
+
+
+def posture_offsets(index: int, azimuth: float = math.pi) -> dict[str, np.ndarray]:
+    """Every body point's offset from the lead point of posture ``index`` (:data:`POSTURES`),
+    m, for an approach from ``azimuth`` (rad): the operator faces the target, along
+    -(cos azimuth, sin azimuth, 0)."""
+    _, lead, points = POSTURES[index]
+    f = -np.array([math.cos(azimuth), math.sin(azimuth), 0.0])
+    frame = np.array([f, np.cross([0.0, 0.0, 1.0], f), [0.0, 0.0, 1.0]])
+    origin = np.mean([points[q] for q in lead], axis=0)
+    return {q: (np.array(x) - origin) @ frame for q, x in points.items()}
+
+
+def space_postures(space: ScenarioSpace) -> list[np.ndarray]:
+    """Every posture a scripted space's operators take (its ``posture`` range), (10, 3)
+    offsets of the body points (``human_body.POINTS``) from the lead point (one azimuth:
+    a posture turns with its approach, which changes no distance in it)."""
+    p = space.parameters.posture
+    return [np.array([posture_offsets(k)[q] for q in human_body.POINTS])
+            for k in range(int(p.min), int(p.max) + 1)]
+
+
+def posture_reach(space: ScenarioSpace) -> float:
+    """The farthest any body point of the space's postures is from its operator's
+    reference point (the approaching hand), m."""
+    return max(float(np.linalg.norm(x, axis=1).max()) for x in space_postures(space))
 
 
 def corners(space: ScenarioSpace) -> np.ndarray:

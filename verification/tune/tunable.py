@@ -40,6 +40,8 @@ MEASURED = {
     "sensor": "the sensor's rate, latency and noise are measured properties of the cell's "
               "sensor",
     "braking": "the stopping data is measured on the robot",
+    "body": "the operators' body model (sizes, lean limits, tracking allowance) is a premise "
+            "about the people in the cell and the tracker, not a setting",
     "safety.stopping_time": "the stopping time T_s is measured on the robot",
     "safety.stopping_distance": "the stopping distance S_s (B) is measured on the robot",
     "tracker.processing_time": "the tracker's processing time is measured on its computer",

@@ -13,11 +13,13 @@ from verification.spaces.space import free_parameters, load_space, make_scenario
 
 TOLERANCE = 1e-9  # m: the two evaluators run the same maths in the same order
 SPACE = load_space("models/spaces/default.yaml")
-# Everything the evaluators model, varying at once.
+# Everything the evaluators model, varying at once; operators from farther out than the
+# default space's (under iso.yaml the robot moves only while every envelope of the whole
+# operator is beyond S, 2.41 m).
 WIDE = dataclasses.replace(SPACE, parameters=dataclasses.replace(
     SPACE.parameters, latency=Range(0.0, 0.03), dropout=Range(0.0, 0.15),
     occlusion=Range(0.0, 0.4), braking_time_scale=Range(1.0, 1.8),
-    noise_std=Range(0.0, 0.005)))
+    noise_std=Range(0.0, 0.005), start_distance=Range(0.4, 4.5)))
 
 
 def _assert_agree(drake, batch, i):
@@ -49,7 +51,10 @@ def _config(name, **safety):
 def test_batch_agrees_with_drake_on_random_scenarios(config):
     rng = np.random.default_rng(20261122)
     d = len(free_parameters(WIDE))
-    points = [to_point(WIDE, rng.uniform(size=d)) for _ in range(2)]
+    points = [to_point(WIDE, rng.uniform(size=d)) for _ in range(3)]
+    # one from as far as the space goes: the robot must move near someone for the
+    # comparison to mean something
+    points[0]["start_distance"] = WIDE.parameters.start_distance.max
     scenarios = [make_scenario(WIDE, config, p, name=f"s{i}") for i, p in enumerate(points)]
     batch = evaluate_many(scenarios)
     assert np.isfinite(batch.robustness).any()  # the robot moved near someone
@@ -77,7 +82,8 @@ def _with_every_fault(scenario):
 
 WHOLE = dataclasses.replace(SPACE, parameters=dataclasses.replace(
     SPACE.parameters, latency=Range(0.0, 0.03), noise_std=Range(0.0, 0.005),
-    braking_time_scale=Range(1.0, 1.8), occlusion=Range(0.0, 1.0)))
+    braking_time_scale=Range(1.0, 1.8), occlusion=Range(0.0, 1.0),
+    start_distance=Range(0.4, 4.5)))
 
 
 def _tracker(config, **kw):
@@ -101,8 +107,9 @@ def test_batch_agrees_with_drake_on_the_whole_cell_space(config):
     d = len(free_parameters(WHOLE))
     scenarios = [make_scenario(WHOLE, config, to_point(WHOLE, rng.uniform(size=d)),
                                name=f"s{i}") for i in range(2)]
-    # A lunge from 2.4 m at the forearm, the sensor as configured, then every fault.
-    point = dict(to_point(WHOLE, np.full(d, 0.5)), start_distance=2.4, latency=0.0,
+    # A lunge from 4.0 m at the forearm (the whole operator beyond iso.yaml's S at first),
+    # the sensor as configured, then every fault.
+    point = dict(to_point(WHOLE, np.full(d, 0.5)), start_distance=4.0, latency=0.0,
                  occlusion=0.3, outlier_frames=0.0, target_link=2.0, peak_speed=1.8,
                  braking_time_scale=1.0)
     scenarios.append(_with_every_fault(make_scenario(WHOLE, config, point, name="faults")))
