@@ -98,7 +98,7 @@ def _crossing():
     line at t = 1.5 s, coming at the robot's sphere from ahead and to the side."""
     scenario = load_scenario(SCENARIOS / "erga_positive.yaml")
     hand = OperatorConfig(name="operator", max_speed=0.1, max_acceleration=10.0,
-                          bodies=[Body(name="right_hand")],
+                          bodies=[Body(name="right_hand", point="hand_right")],
                           waypoints=[Waypoint(time=0.0, position=[0.518, 0.11, 0.7185]),
                                      Waypoint(time=0.0001, position=[0.218, 0.11, 0.7185])])
     return dataclasses.replace(scenario, name="crossing", operators=[hand], jerk_window=[])

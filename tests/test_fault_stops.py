@@ -12,7 +12,10 @@ from safety_systems.outputs.run_files import write_outputs
 from safety_systems.config.scenario import scenario_from_text
 from safety_systems.diagrams.simulation import simulate
 
-# An operator standing 3.5 m from the robot: far enough that separation never stops it.
+# An operator whose gloves stand 4.0 m from the robot: far enough that separation never
+# stops or slows it. (It stood at 3.5 m when the monitor saw two glove balls; the monitor
+# now bounds the whole operator from the gloves: at 3.5 m the lower trunk's envelope came
+# within 1.18 m of the robot and the override slowed it to 0.90; at 4.0 m, 1.68 m.)
 SCENARIO = """
 name: faults
 duration: 8.5
@@ -33,10 +36,10 @@ controller:
 operators:
 - name: op
   bodies:
-  - {name: right, offset: [0.0, -0.2, 0.0]}
-  - {name: left, offset: [0.0, 0.2, 0.0]}
+  - {name: right, point: hand_right, offset: [0.0, -0.2, 0.0]}
+  - {name: left, point: hand_left, offset: [0.0, 0.2, 0.0]}
   waypoints:
-  - {time: 0.0, position: [3.5, 0.0, 0.3]}
+  - {time: 0.0, position: [4.0, 0.0, 0.3]}
 """
 DT = 0.002
 TOL = 1e-9  # s of rounding in tick times

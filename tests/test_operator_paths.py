@@ -220,17 +220,40 @@ def test_bodies_state_vectorised_matches_scalar_and_layout():
     "kwargs, match",
     [
         (dict(body_offsets=np.zeros((0, 3))), "body_offsets"),
-        (dict(body_offsets=np.zeros((4, 3))), "body_offsets"),
+        # up to ten bodies, one per body point (it was three: gloves and head)
+        (dict(body_offsets=np.zeros((11, 3))), "body_offsets"),
         (dict(body_offsets=np.zeros((2, 2))), "body_offsets"),
         (dict(body_offsets=[[0, 0, float("nan")]]), "body_offsets"),
         (dict(body_offsets=[[0, 0, 0]], enter_time=float("nan")), "enter_time"),
         (dict(body_offsets=[[0, 0, 0]], enter_time=math.inf), "enter_time"),
         (dict(body_offsets=[[0, 0, 0]], enter_time=3.0, leave_time=3.0), "leave_time"),
+        (dict(body_offsets=[[0, 0, 0]], point_offsets=np.zeros((9, 3))), "point_offsets"),
     ],
 )
 def test_scripted_operator_rejects_bad_input(kwargs, match):
     with pytest.raises(ValueError, match=match):
         ScriptedOperator(path=_path(), **kwargs)
+
+
+def test_ten_bodies_are_an_operator_and_its_points_move_with_it():
+    # A whole suit: ten tracked bodies; the layout by points has ten slots per operator
+    # (operator k's point p in slot 10 k + p) and every point moves with the path.
+    rng = np.random.default_rng(7)
+    points = rng.uniform(-0.5, 0.5, (10, 3))
+    ops = [ScriptedOperator(path=_path(), body_offsets=points, point_offsets=points),
+           ScriptedOperator(path=_path(), body_offsets=[[0, 0, 1.7]],
+                            point_offsets=points[::-1])]
+    assert ops[0].num_bodies == 10
+    np.testing.assert_array_equal(
+        ScriptedOperator(path=_path(), body_offsets=[[0, 0, 0]]).point_offsets,
+        np.full((10, 3), np.nan))  # not given
+    layout = body_layout(ops, points=True)
+    np.testing.assert_array_equal(layout.operator_index, [0] * 10 + [1] * 10)
+    p, v, present = operators_bodies_state(ops, 2.75, layout)
+    ref, ref_v = operator_position_velocity(ops[0].path, 2.75)
+    np.testing.assert_allclose(p.reshape(20, 3), np.concatenate([points, points[::-1]]) + ref)
+    np.testing.assert_allclose(v.reshape(20, 3), np.broadcast_to(ref_v, (20, 3)))
+    np.testing.assert_array_equal(present, np.ones(20))
 
 
 @pytest.mark.parametrize("waypoints", [1, 2, 4, 6])

@@ -17,7 +17,8 @@ from safety_systems.diagrams.simulation import simulate
 from safety_systems.outputs import replay
 from safety_systems.outputs.compare import comparison_figure, controller_metrics
 from safety_systems.outputs.metrics import hidden, run_true_segments
-from safety_systems.outputs.run_files import S_NOTE, operator_figures, run_figure
+from safety_systems.outputs.operator_figures import operator_figures
+from safety_systems.outputs.run_files import S_NOTE, run_figure
 
 matplotlib.use("Agg")
 SCENARIOS = Path(__file__).parents[1] / "models" / "scenarios"

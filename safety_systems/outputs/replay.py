@@ -175,7 +175,7 @@ def replay_html(run: Run, *, meshcat: Meshcat | None = None) -> str:
     true positions (hidden while the operator is absent); with the SSM monitor
     a translucent capsule about each operator's nearest monitored segment (its envelope,
     ``envelopes.segment_ends``) of the envelope's radius plus that segment's S (as the
-    override used it, ``run_files.monitor_protective_distances``), shown while that S is
+    override used it, ``operator_figures.monitor_protective_distances``), shown while that S is
     positive: the robot's monitored capsules (the tool point, on ``robot_geometry:
     tool_point``) stay outside it while the override lets the robot move. The robot is
     drawn as Drake's visualizer draws it. Key frames are written only where a part
@@ -222,7 +222,7 @@ def _protective_capsules(run: Run, meshcat: Meshcat, animation, frames: np.ndarr
     """Per operator the translucent capsule of :func:`replay_html` (S about its nearest
     monitored segment's envelope)."""
     from safety_systems.config.configuration import scenario_monitor_recipe
-    from safety_systems.outputs.run_files import (
+    from safety_systems.outputs.operator_figures import (
         monitor_protective_distances,
         nearest_segment,
         operator_segments,

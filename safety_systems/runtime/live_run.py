@@ -107,7 +107,7 @@ def trace_header(operators: list[tuple[str, list[str]]]) -> list[str]:
 
 class _OperatorColumns:
     """The per-operator columns of a trace row from the loop's state (as simulate's
-    ``run_files.operator_figures`` takes them from the logged signals)."""
+    ``operator_figures.operator_figures`` takes them from the logged signals)."""
 
     def __init__(self, loop: SafetyLoop, names: list[str]):
         slots = loop.recipe.slots

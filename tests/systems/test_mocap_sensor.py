@@ -216,7 +216,9 @@ def test_frame_number_and_body_ids_outputs():
     (dict(faults=np.zeros((1, 5))), "faults"),
     (dict(faults=fault_table([("swap", 0, 3, 0.0, 1.0, (0, 0, 0))])), "faults"),
     (dict(num_bodies=0), "num_bodies=0"),
-    (dict(num_bodies=16), "num_bodies=16"),
+    # 50 slots: five operators of ten bodies, one per body point (it was 15, three
+    # bodies each, before the operator became a whole body)
+    (dict(num_bodies=51), "num_bodies=51"),
     (dict(num_bodies=2.0), "num_bodies"),
     (dict(period_sec=0.0005), "period_sec=0.0005"),
     (dict(period_sec=0.06), "period_sec"),
@@ -242,5 +244,6 @@ def test_bad_arguments_rejected(kwargs, match):
 
 def test_boundary_arguments_accepted():
     for period in (0.001, 0.05):
-        MocapSensor(num_bodies=15, period_sec=period, noise_std=0.0, latency_sec=0.0,
-                    occlusions=[(14, 1.0, 1.0)], dropped_frames=[(0.0, math.inf)], seed=0)
+        MocapSensor(num_bodies=50, period_sec=period, noise_std=0.0,
+                    latency_sec=0.0, occlusions=[(49, 1.0, 1.0)],
+                    dropped_frames=[(0.0, math.inf)], seed=0)

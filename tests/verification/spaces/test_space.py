@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from safety_systems.cell import human_body
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.cell.operator_paths import make_operator_path, operator_position_velocity
 from safety_systems.config.scenario import (
@@ -22,8 +23,9 @@ from safety_systems.cell.ur5e import dh_frames, tool0_position
 from safety_systems.config.configuration import joint_path
 from verification.spaces.box import LIMITS, MIN_GAP, NAMES, WHOLE, Range
 from verification.spaces.space import (
-    HEAD_BACK,
-    HEAD_UP,
+    POSTURES,
+    TRACKED,
+    posture_offsets,
     assumptions,
     corners,
     free_parameters,
@@ -142,19 +144,28 @@ def _check_scenario(space, values):
         w = [np.array(p.position) for p in o.waypoints]
         assert o.waypoints[0].time == 0.0 and o.waypoints[1].time == pytest.approx(onset)
         assert o.max_speed == v["peak_speed"] and o.max_acceleration == v["acceleration"]
-        assert [b.name for b in o.bodies] == ["hand", "other_hand"] + ["head"] * heads
-        assert [b.radius for b in o.bodies] == ([space.hand_radius] * 2
-                                                + [space.head_radius] * heads)
-        assert o.bodies[0].offset == [0.0, 0.0, 0.0]
-        assert np.linalg.norm(o.bodies[1].offset) == pytest.approx(0.35)
+        assert [(b.name, b.point) for b in o.bodies] == list(TRACKED[:2 + heads])
         u = (w[0] - target) / v["start_distance"]
         assert np.linalg.norm(w[0] - target) == pytest.approx(v["start_distance"], abs=1e-9)
         assert math.degrees(math.asin(u[2])) == pytest.approx(v["elevation_deg"], abs=1e-6)
-        assert abs(np.dot(o.bodies[1].offset, u)) < 1e-9  # the other hand is to the side
-        if heads:  # behind the hand (towards the start, horizontally) and above it
-            head = np.array(o.bodies[2].offset)
-            back = np.array([u[0], u[1], 0.0]) / math.hypot(u[0], u[1])
-            np.testing.assert_allclose(head, HEAD_BACK * back + [0.0, 0.0, HEAD_UP], atol=1e-12)
+        # The whole body in its posture, relative to the lead point, facing the target
+        # (back along the approach's horizontal direction): every point given once, the
+        # tracked ones by the bodies, the others by the posture.
+        k = int(v["posture"])
+        az = math.atan2(u[1], u[0])
+        points = {b.point: np.array(b.offset) for b in o.bodies} | {
+            q.point: np.array(q.offset) for q in o.posture}
+        assert sorted(points) == sorted(human_body.POINTS) and len(o.bodies) + len(
+            o.posture) == human_body.NUM_POINTS
+        expected = posture_offsets(k, az)
+        for name, x in points.items():
+            np.testing.assert_allclose(x, expected[name], atol=1e-12)
+        lead = np.mean([points[q] for q in POSTURES[k][1]], axis=0)
+        np.testing.assert_allclose(lead, 0.0, atol=1e-12)  # the lead point is the reference
+        # the posture faces the target: its hands are nearer the target than its pelvis
+        facing = -np.array([math.cos(az), math.sin(az), 0.0])
+        assert np.mean([points["hand_left"], points["hand_right"]], axis=0) @ facing \
+            > points["pelvis"] @ facing
         azimuths.append(math.degrees(math.atan2(u[1], u[0])))
         directions.append(u)
         if v["retreat_distance"] > 0.0:  # away along the approach line, then back in
@@ -184,7 +195,7 @@ def _check_scenario(space, values):
             (onset, onset + v["dropout"]))
     else:
         assert s.dropouts == []
-    hidden = ["hand", "other_hand", "head"][:int(v["occluded_bodies"])]
+    hidden = [n for n, _ in TRACKED][:int(v["occluded_bodies"])]
     bodies = [f"{o.name}/{b.name}" for o in scenario.operators for b in o.bodies]
     if v["occlusion"] > MIN_GAP:
         assert [o.body for o in s.occlusions] == [b for b in bodies
@@ -335,3 +346,21 @@ def test_space_task_path_file_errors_name_the_field(tmp_path):
     path.write_text(text)
     with pytest.raises(ScenarioError, match=r"robot\.path\.task_path\.file"):
         load_space(path)
+
+
+def test_every_posture_is_a_body_the_model_allows_and_the_default_space_has_them_all():
+    # The truth the properties measure must be a person the monitor's model allows (the
+    # proofs check it of a space: premises.body_model_holds); each posture leads with the
+    # point it names and faces its approach.
+    for k, (name, lead, _) in enumerate(POSTURES):
+        points = np.array([posture_offsets(k)[q] for q in human_body.POINTS])
+        assert human_body.posture_violations(points, human_body.dimensions()) == [], name
+        np.testing.assert_allclose(np.mean([posture_offsets(k)[q] for q in lead], axis=0),
+                                   0.0, atol=1e-12)
+    p = load_space(ROOT / "models/spaces/default.yaml").parameters.posture
+    assert (p.min, p.max) == (0.0, len(POSTURES) - 1.0)
+    # a posture that breaks the model is seen: a forearm stretched past the table's
+    stretched = posture_offsets(0)
+    stretched["hand_right"] = stretched["elbow_right"] + [0.5, 0.0, 0.0]
+    assert human_body.posture_violations(np.array([stretched[q] for q in human_body.POINTS]),
+                                         human_body.dimensions())
