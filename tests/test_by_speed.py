@@ -154,14 +154,20 @@ def test_s_true_by_speed_takes_the_stop_from_the_rate_now():
 
 
 def test_the_runtime_takes_s_from_the_rate_bound_and_a_missing_one_as_full_speed():
-    loop = SafetyLoop(BY_SPEED, np.array([0.05]))
+    # One operator tracked by a right glove alone: the monitor bounds its whole body from
+    # the glove (the other hand's envelope, a ball about the glove as wide as both arms and
+    # the shoulders, is the nearest), so the glove stands at 4.0 m where it stood at 1.7 m
+    # as a lone 0.05 m ball; the nearest segment's d lies between S's levels again.
+    loop = SafetyLoop(BY_SPEED, [["hand_right"]])
     q = np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0])
     loop.robot(q, 0.0)
     loop.robot(q, 0.002)  # at rest
     for t in (0.0, 0.05, 0.1):
-        loop.frame(t, np.array([[1.7, 0.0, 0.3]]), np.ones(1), np.ones(1))
+        loop.frame(t, np.array([[4.0, 0.0, 0.3]]), np.ones(1), np.ones(1))
     loop.decide(0.1, 0.0)
-    d, s = loop.out[0, 0], loop.level_out[:, 0]
+    assert loop.out.shape == (4, 12) and loop.level_out.shape == (SPEED_LEVELS + 1, 12)
+    i = np.nanargmin(loop.out[0])  # the nearest segment
+    d, s = loop.out[0, i], loop.level_out[:, i]
     assert np.all(np.diff(s) > 0.0) and s[1] < d < s[-1]  # some levels met, not all
     k_slow, _, _ = loop.decide(0.1, 0.0)
     assert 0.0 < k_slow < 1.0  # from rest: the fastest level whose S is met

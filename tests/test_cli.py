@@ -47,11 +47,14 @@ def test_simulate_writes_every_output(tmp_path, capsys, caplog):
     reasons = {line.split(",")[4] for line in lines[1:]}
     assert "none" in reasons and reasons <= set(STOP_REASONS)  # by name, not by code
     html = (out / "replay.html").read_text()
-    # Meshcat embeds its commands as base64 msgpack: the bodies, S spheres and an animation.
+    # Meshcat embeds its commands as base64 msgpack: the operator's true segments (the
+    # whole body now, not the tracked gloves: the right hand's ball, the trunk's capsule),
+    # the capsule of S about its nearest envelope, an animation and the robot.
     commands = b"".join(base64.b64decode(blob) for blob in
                         re.findall(r"base64,([A-Za-z0-9+/=]+)", html))
-    for needle in (b"technician/right_glove/body", b"technician/left_glove/S", b"animation",
-                   b"shoulder_link"):
+    for needle in (b"operators/technician/hand_right/a", b"operators/technician/upper_trunk/axis",
+                   b"operators/technician/forearm_left/axis", b"protective/technician/axis",
+                   b"animation", b"shoulder_link"):
         assert needle in commands
     assert not re.search(r"""src=["']https?://""", html)  # self-contained: nothing fetched
     assert (out / "plot.png").stat().st_size > 10_000

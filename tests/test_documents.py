@@ -76,6 +76,16 @@ def _load(tmp_path, data, schema=Scenario, validate=None):
      "an integer, 1 <= cycles <= 1000"),
     ("robot: {path: {waypoints_deg: [[0, 0, 0, 0, 0, 720]]}}\n",
      "robot.path.waypoints_deg[0][5]", "-360 <= waypoints_deg <= 360 deg"),
+    # The whole operator's schema: a body's former radius is no field (it marks a point
+    # now), the body model's figures and posture offsets have their ranges.
+    ("operators: [{bodies: [{name: hand, radius: 0.05}]}]\n", "operators[0].bodies[0].radius",
+     "one of the fields"),
+    ("controller: {body: {neck_lean_deg: 95}}\n", "controller.body.neck_lean_deg",
+     "0 <= neck_lean_deg <= 89 deg"),
+    ("controller: {body: {hand_radius: 0}}\n", "controller.body.hand_radius",
+     "0 < hand_radius <= 2 m"),
+    ("operators: [{posture: [{point: chest, offset: [0, 0, 3]}]}]\n",
+     "operators[0].posture[0].offset[2]", "-2 <= offset <= 2 m"),
 ])
 def test_bad_documents_give_one_line_naming_the_field(tmp_path, data, field, needle):
     error = _load(tmp_path, data)

@@ -26,6 +26,27 @@ SOURCES = {
     "mapping": [MODELS / "recordings" / "approach_mapping.yaml"],
 }
 EXAMPLES = 120  # per kind of file
+# A whole operator as no shipped scenario writes it (a body model, legacy and named points,
+# a posture): its points, posture and dimensions are fuzzed too. Written into the fuzz's
+# folder as whole_operator.yaml, a scenario source like the shipped ones.
+WHOLE_OPERATOR = """\
+name: whole_operator
+duration: 5.0
+controller:
+  body: {upper_arm: 0.42, trunk_lean_deg: 30.0, tracking_allowance: 0.02}
+operators:
+- name: fitter
+  bodies:
+  - {name: head, offset: [0.3, 0.0, 0.5]}
+  - {name: hand}
+  - {name: band, point: elbow_left, offset: [0.1, 0.25, 0.1]}
+  posture:
+  - {point: chest, offset: [0.3, 0.0, 0.1]}
+  - {point: hand_left, offset: [0.0, 0.3, 0.0]}
+  waypoints:
+  - {time: 0.0, position: [2.5, 0.0, 1.0]}
+  - {time: 3.0, position: [1.5, 0.5, 1.0]}
+"""
 
 ODD_NUMBERS = [0, -0.0, -1, 1e-320, 1e3, 1e6, 1e12, 1e300, 1e308, -1e308, 2**63, 10**30,
                math.inf, -math.inf, math.nan]
@@ -116,12 +137,15 @@ def test_mutated_files_load_or_fail_with_one_line(kind):
         # ../recordings/...).
         shutil.copy(MODELS / "scenes" / "paper_task_path.yaml", root / "scenes")
         shutil.copytree(MODELS / "recordings", root / "recordings")
+        (root / "whole_operator.yaml").write_text(WHOLE_OPERATOR)
+        sources = SOURCES[kind] + ([root / "whole_operator.yaml"] if kind == "scenario"
+                                   else [])
 
         @settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
                   suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
         @given(data=st.data())
         def fuzz(data):
-            source = data.draw(st.sampled_from(SOURCES[kind]), label="source")
+            source = data.draw(st.sampled_from(sources), label="source")
             tree = yaml.safe_load(source.read_text())
             for _ in range(data.draw(st.integers(1, 4), label="tree mutations")):
                 _mutate_tree(tree, data.draw)
@@ -148,7 +172,10 @@ def test_mutated_files_load_or_fail_with_one_line(kind):
 def test_the_fuzzer_reaches_both_outcomes():
     # The unmutated examples load; a mutated one fails (the fuzz test is not vacuous).
     with tempfile.TemporaryDirectory() as folder:
-        for kind, sources in SOURCES.items():
+        (Path(folder) / "src").mkdir()
+        whole = Path(folder) / "src" / "whole_operator.yaml"
+        whole.write_text(WHOLE_OPERATOR)
+        for kind, sources in (SOURCES | {"scenario": SOURCES["scenario"] + [whole]}).items():
             for source in sources:
                 if "file: " in source.read_text():
                     continue  # names a file relative to its own folder

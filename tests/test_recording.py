@@ -13,7 +13,7 @@ from safety_systems.files.input_error import InputError
 from safety_systems.sensing.motive_csv import motive_csv_text, read_motive_csv
 from safety_systems.sensing.c3d_file import read_c3d
 from safety_systems.sensing.recording_mapping import load_mapping, rotation_matrix, to_cell
-from safety_systems.config.scenario import load_scenario
+from safety_systems.config.scenario import load_scenario, operator_points
 from safety_systems.diagrams.simulation import simulate
 from safety_systems.diagrams.workcell import MakeWorkcell
 from verification.search.evaluate_batch import evaluate_batch, evaluate_many
@@ -31,7 +31,7 @@ operators:
 - name: tester
   bodies:
   - {{recorded: {a}, name: right_glove, streaming_id: {ida}}}
-  - {{recorded: {b}, name: head, radius: 0.12}}
+  - {{recorded: {b}, name: helmet, point: head}}
 """
 
 SCENARIO = """\
@@ -114,6 +114,10 @@ def _truth_at_samples(tmp_path, recording: str, start: float, t, p):
     and the file's positions there after the mapping's transform."""
     (tmp_path / "s.yaml").write_text(SCENARIO.format(recording=recording, start=start))
     scenario = load_scenario(tmp_path / "s.yaml")
+    # The bodies and the points they mark come from the mapping (right_glove by its
+    # legacy name, the helmet by its point).
+    assert [b.name for b in scenario.operators[0].bodies] == ["right_glove", "helmet"]
+    assert operator_points(scenario.operators[0]) == ["hand_right", "head"]
     run = simulate(scenario)
     c = load_mapping(tmp_path / "map.yaml").capture_to_cell
     tau = start + run.time
@@ -196,13 +200,25 @@ def test_a_bad_number_or_mapping_gives_exit_2_and_one_line(tmp_path, capsys):
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert "streaming_id" in err and "(7)" in err
+    # A body whose name is not a legacy one must name its point; two cannot mark one; a
+    # mapping in the former format (a radius per body) is refused at the radius.
+    for mapping, field in (
+            (MAPPING.replace("name: helmet, point: head", "name: helmet"), ".bodies[1].point"),
+            (MAPPING.replace("point: head", "point: hand_right"), ".bodies[1].point"),
+            (MAPPING.replace("point: head", "radius: 0.12"), ".bodies[1].radius")):
+        (tmp_path / "map.yaml").write_text(mapping.format(up="y", a="Glove", b="Helmet",
+                                                          ida=7))
+        assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and f"operators[0]{field}" in err, err
+        assert "allowed" in err
 
 
 def test_scripted_and_recorded_operators_do_not_mix(tmp_path, capsys):
     _write_motive(tmp_path, "Meters", "Quaternion")
     (tmp_path / "s.yaml").write_text(SCENARIO.format(recording="rec.csv", start=0.0) + """\
 - name: other
-  bodies: [{name: a}, {name: b}]
+  bodies: [{name: a, point: hand_left}, {name: b, point: hand_right}]
   waypoints: [{time: 0.0, position: [2.0, 0.0, 0.0]}]
 """)
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2
@@ -216,7 +232,7 @@ def test_a_scripted_operator_refuses_the_recorded_operators_fields(tmp_path, cap
     (tmp_path / "s.yaml").write_text(f"""\
 operators:
 - name: walker
-  bodies: [{{name: a}}, {{name: b}}]
+  bodies: [{{name: a, point: hand_left}}, {{name: b, point: hand_right}}]
   waypoints: [{{time: 0.0, position: [2.0, 0.0, 0.0]}}]
   {field}: {value}
 """)

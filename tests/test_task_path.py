@@ -131,7 +131,8 @@ robot:
     task_path: {file: points.yaml, speed: 0.15}
 operators:
 - name: a
-  bodies: [{name: l, offset: [0, 0.2, 0]}, {name: r, offset: [0, -0.2, 0]}]
+  bodies: [{name: l, point: hand_left, offset: [0, 0.2, 0]},
+           {name: r, point: hand_right, offset: [0, -0.2, 0]}]
   waypoints: [{time: 0, position: [2, 0, 1]}]
 """
 

@@ -147,7 +147,8 @@ def test_rise_jerk_bounded_including_arrival(dt, a_max, j_max):
 OK = """
 operators:
 - name: a
-  bodies: [{name: l, offset: [0, 0.2, 0]}, {name: r, offset: [0, -0.2, 0]}]
+  bodies: [{name: l, point: hand_left, offset: [0, 0.2, 0]},
+           {name: r, point: hand_right, offset: [0, -0.2, 0]}]
   waypoints: [{time: 0, position: [2, 0, 1]}]
 """
 

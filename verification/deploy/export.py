@@ -47,7 +47,7 @@ from verification.deploy.certificate import (
 from safety_systems.cell.human_body import DIMENSION_NAMES
 from verification.properties import PROPERTIES
 from verification.spaces.box import ScenarioSpace
-from verification.spaces.space import TRACKED, load_space
+from verification.spaces.space import load_space, tracked_bodies
 
 DEPENDENCIES = ("drake", "numpy", "scipy", "numba", "z3-solver", "cma", "filterpy")
 VERDICT_MEANING = {
@@ -181,8 +181,7 @@ def _bodies(config, space: ScenarioSpace) -> dict:
     dims = {name: float(getattr(config.body, name)) for name in DIMENSION_NAMES}
     out = {"dimensions": dims, "tracking_allowance": float(config.body.tracking_allowance)}
     if space.recording is None:
-        heads = space.parameters.heads.max >= 1
-        out["tracked"] = [q for _, q in TRACKED if heads or q != "head"]
+        out["tracked"] = [q for _, q in tracked_bodies(space, space.parameters.heads.max >= 1)]
         return out
     from safety_systems.sensing.recording_mapping import load_mapping, mapped_point
 

@@ -6,10 +6,10 @@ model of the loop: it is counted (``verification.search.counts``, kind ``ranking
 :func:`bound_scores`, the falsifier's ranking: the proofs' margins
 (``verification.proof.margins.margin``, one per property; under ``safety.stopping: by_speed``
 the least over the speed levels' margins) evaluated pointwise, at each candidate's own
-fastest hand speed and noise, from its parameters alone (no scenario is built):
+fastest speed, from its parameters alone (no scenario is built):
 microseconds per candidate, some thousand times cheaper than a
 closed-loop simulation. It knows nothing of the geometry of an approach; it tells which
-candidates' sensing and speeds come closest to breaking the theorem.
+candidates' speeds come closest to breaking the theorem.
 
 :func:`danger_scores`, the reduced model of the loop, steps the configured monitor and
 the robot's braked path rate on the scenario as the sensor shows it (see
@@ -113,16 +113,17 @@ def hand_speeds(space: ScenarioSpace, points: np.ndarray) -> np.ndarray:
 def bound_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray, *,
                  tally: Tally | None = None) -> np.ndarray:
     """(n, 2) the proofs' margins (columns ``SCORES``; ``proof.margins.margin``) at each
-    candidate's own v_max (:func:`hand_speeds`) and noise: our reading of "the proof's
-    margin evaluated pointwise". It orders candidates; it proves nothing (where a
+    candidate's own v_max (:func:`hand_speeds`; the margins no longer depend on the noise,
+    which the envelopes' allowance covers): our reading of "the proof's margin evaluated
+    pointwise". It orders candidates; it proves nothing (where a
     premise fails it bounds nothing). Counted in ``tally``."""
     from verification.proof.margins import margin  # (z3 and the proofs' bounds, on first use)
 
     points = np.asarray(points, dtype=float).reshape(len(points), -1)
     if tally is not None:
         tally.add("rankings", len(points))
-    v, noise = hand_speeds(space, points), unit_values(space, points, "noise_std")
-    return np.stack([margin(config, space, prop).at(v, noise) for prop in SCORES], axis=1)
+    v = hand_speeds(space, points)
+    return np.stack([margin(config, space, prop).at(v) for prop in SCORES], axis=1)
 
 
 def margin_corner(space: ScenarioSpace, config: ControllerConfig, columns, *,

@@ -107,7 +107,9 @@ class ScenarioSpace:
     ``contact_distance``: what contact means (as in a scenario: any segment of an
     operator's body, ``safety_systems.cell.human_body``, its radii the table's).
     ``noise_bound_sigmas``: for proofs, sensor noise is assumed bounded at this many
-    standard deviations per axis. ``notes``: assumptions in words, repeated in every
+    standard deviations per axis. ``tracked``: the body points every operator is tracked
+    at (``safety_systems.cell.human_body.POINTS``, e.g. all ten for a motion-capture
+    suit); empty: two gloves, and a helmet where ``heads`` is 1. ``notes``: assumptions in words, repeated in every
     result. ``recording``: a box around a recording instead of ``parameters``
     (``verification.spaces.recorded``; then ``settle_time`` is the least time from t = 0
     to an extra occlusion, and ``tail_time`` and ``noise_bound_sigmas`` are not used:
@@ -120,6 +122,7 @@ class ScenarioSpace:
     contact_geometry: str = "capsules"
     contact_distance: float = number(0.0, ge=0.0, le=1.0, unit="m")
     noise_bound_sigmas: float = number(4.0, gt=0.0, le=10.0)
+    tracked: list[str] = dc.field(default_factory=list)
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     parameters: SpaceParameters = dc.field(default_factory=SpaceParameters)
     notes: list[str] = dc.field(default_factory=list)
@@ -136,7 +139,8 @@ LIMITS = {  # allowed ranges of each parameter
     "target_link": (0.0, len(CAPSULE_NAMES) - 1.0), "target_along": (0.0, 1.0),
     "retreat_distance": (0.0, 5.0), "overshoot": (0.0, 2.0), "operators": (1.0, 5.0),
     "posture": (0.0, NUM_POSTURES - 1.0), "heads": (0.0, 1.0), "noise_std": (0.0, 0.05),
-    "latency": (0.0, 1.0), "dropout": (0.0, 5.0), "occlusion": (0.0, 60.0), "occluded_bodies": (1.0, 3.0),
+    "latency": (0.0, 1.0), "dropout": (0.0, 5.0), "occlusion": (0.0, 60.0),
+    "occluded_bodies": (1.0, 10.0),
     "outlier_frames": (0.0, 40.0), "outlier_offset": (0.0, 10.0), "outlier_delay": (0.0, 10.0),
     "braking_time_scale": (0.1, 10.0),
 }

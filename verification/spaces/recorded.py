@@ -84,7 +84,8 @@ _LIMITS = {  # allowed ranges of each parameter; the times are checked against t
 }
 # Fields of a space that a recording space does not use: they must keep their defaults.
 _UNUSED = {"tail_time": "the scenario ends with the recording or the block's duration",
-           "noise_bound_sigmas": "the proofs decline a recording space"}
+           "noise_bound_sigmas": "the proofs decline a recording space",
+           "tracked": "the mapping names every tracked body's point"}
 
 
 def read_recording_block(block: RecordingBlock, folder: Path) -> None:
@@ -130,9 +131,10 @@ def validate_recording(space: ScenarioSpace) -> None:
                             "space's ranges are recording.parameters)")
     for name, why in _UNUSED.items():
         if getattr(space, name) != getattr(defaults, name):
+            default = getattr(defaults, name)
+            shown = f"{default:g}" if isinstance(default, float) else repr(default)
             raise ScenarioError(name, getattr(space, name),
-                                f"{getattr(defaults, name):g} (unused with a recording "
-                                f"block: {why})")
+                                f"{shown} (unused with a recording block: {why})")
     p = block.parameters
     check_ranges(p, _LIMITS, ("occluded_bodies",), "recording.parameters")
     end = recording_end(block)
@@ -257,8 +259,8 @@ def recording_assumptions(space: ScenarioSpace, config: ControllerConfig) -> lis
     p = block.parameters
     ops = operators(block)
     speed = recorded_speed(block)
-    bodies = "; ".join(f"{o}: " + ", ".join(f"{n} ({r:g} m)" for n, r in
-                                              zip(b.names, b.radii)) for o, b in ops)
+    bodies = "; ".join(f"{o}: " + ", ".join(f"{n} ({q})" for n, q in
+                                              zip(b.names, b.points_marked)) for o, b in ops)
     first = ", ".join(f"{o}: {', '.join(b.names[:int(p.occluded_bodies.max)])}"
                       for o, b in ops)
 
@@ -267,9 +269,11 @@ def recording_assumptions(space: ScenarioSpace, config: ControllerConfig) -> lis
 
     return [
         f"the operators of {Path(block.mapping).name} as recorded in "
-        f"{Path(block.file).name} (spheres: {bodies}), each present while the recording "
-        "tracks it, moving linearly between its samples; the recording's untracked "
-        "intervals are occlusions; no other body enters the cell",
+        f"{Path(block.file).name} (tracked bodies and the body points they mark: {bodies}; "
+        "each operator a whole body, its segments between untracked points bounded from "
+        "the recorded ones), each present while the recording tracks it, moving linearly "
+        "between its samples; the recording's untracked intervals are occlusions; no other "
+        "body enters the cell",
         f"recording time {span(_shifted(block, p.time_shift), ' s')} plays at t = 0, at "
         f"{span(p.time_scale)} recording seconds per second (above 1: faster than "
         f"recorded, every speed scaled by it); every body turned by {span(p.yaw_deg, ' deg')} "

@@ -26,11 +26,13 @@ parameter) becomes a full :class:`safety_systems.config.scenario.Scenario`:
   leads), 5 both arms reaching (between the hands leads)), facing along the approach,
   moving rigidly with its lead point; every posture is one the body model's table
   allows. Each operator wears two tracked gloves (``hand``, ``other_hand``: the right
-  and the left hand) and, with ``heads`` = 1, a tracked helmet (``head``); the sensor
-  sees those only.
+  and the left hand) and, with ``heads`` = 1, a tracked helmet (``head``), or is tracked
+  at the space's ``tracked`` points (a body named after its point for the others); the
+  sensor sees those only.
 - Sensor conditions: noise, latency, and from the onset a run of dropped frames
   (``dropout``, s) and an occlusion (``occlusion``, s) of ``occluded_bodies`` bodies of
-  every operator: 1 the approaching hand, 2 both hands, 3 both hands and the head.
+  every operator: 1 the right hand, 2 both hands, 3 both hands and the head, more the
+  other tracked bodies in the order the space tracks them (:func:`hidden_bodies`).
 - Outlier frames (marker swaps): ``outlier_frames`` consecutive frames in which every
   body of every operator is reported ``outlier_offset`` m farther back along its
   approach line (the operator's markers taken for another set's, farther out), starting
@@ -134,6 +136,10 @@ def validate_space(space: ScenarioSpace) -> None:
     if space.contact_geometry not in ROBOT_GEOMETRIES:
         raise ScenarioError("contact_geometry", space.contact_geometry,
                             " | ".join(ROBOT_GEOMETRIES))
+    for i, q in enumerate(space.tracked):
+        if q not in human_body.POINTS or q in space.tracked[:i]:
+            raise ScenarioError(f"tracked[{i}]", q, "body points, each once: "
+                                + " | ".join(human_body.POINTS))
     if space.recording is not None:
         validate_recording(space)
 
@@ -202,13 +208,13 @@ def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
     postures = ", ".join(POSTURE_NAMES[int(p.posture.min):int(p.posture.max) + 1])
     links = sorted({CAPSULE_NAMES[int(i)] for i in range(int(p.target_link.min),
                                                           int(p.target_link.max) + 1)})
-    occluded = {1: "the approaching hand", 2: "both hands",
-                3: "both hands and the head"}[int(p.occluded_bodies.max)]
+    occluded = ", ".join(hidden_bodies(space, p.heads.max >= 1, int(p.occluded_bodies.max)))
     lines = [
         f"{int(p.operators.min)} to {int(p.operators.max)} operator(s), each a whole body "
         f"(head, neck, trunk, shoulders, arms and hands as capsules of the table's sizes) "
-        f"in the postures {postures}, tracked by two gloves{heads}; no other body enters "
-        "the cell",
+        f"in the postures {postures}, tracked by "
+        + (f"two gloves{heads}" if not space.tracked else "markers at its "
+           + ", ".join(space.tracked)) + "; no other body enters the cell",
         f"every operator starts {p.start_distance.min:g} to {p.start_distance.max:g} m from "
         f"the point it approaches and stands still for at least {space.settle_time:g} s",
         f"no body point moves faster than {p.peak_speed.max:g} m/s (ISO 13855: 2.0 m/s) or "
@@ -284,7 +290,7 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
         length = float(np.linalg.norm(end_point - np.array(waypoints[-2].position)))
         end = max(end, t + approach_times(v["peak_speed"], v["acceleration"], length))
         points = posture_offsets(int(round(v["posture"])), az)
-        tracked = [(n, q) for n, q in TRACKED if heads or q != "head"]
+        tracked = tracked_bodies(space, heads)
         bodies = [Body(name=n, point=q, offset=points[q].tolist()) for n, q in tracked]
         posture = [PosturePoint(point=q, offset=points[q].tolist()) for q in human_body.POINTS
                    if q not in dict(tracked).values()]
@@ -296,7 +302,7 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
                         dropouts=[], occlusions=[], faults=[])
     if v["dropout"] > MIN_GAP:
         sensor.dropouts = [Interval(onset, onset + v["dropout"])]
-    hidden = tuple(n for n, _ in TRACKED)[:int(round(v["occluded_bodies"]))]
+    hidden = hidden_bodies(space, heads, int(round(v["occluded_bodies"])))
     if v["occlusion"] > MIN_GAP:
         sensor.occlusions = [Occlusion(f"{o.name}/{b.name}", onset, onset + v["occlusion"])
                              for o in operators for b in o.bodies if b.name in hidden]
@@ -318,6 +324,24 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
     if validate:
         validate_scenario(scenario)
     return scenario
+
+
+def tracked_bodies(space: ScenarioSpace, heads: bool) -> list[tuple[str, str]]:
+    """(name, body point) of every tracked body of a space's operator: the gloves and,
+    with ``heads``, the helmet (:data:`TRACKED`); or the space's ``tracked`` points,
+    named as in :data:`TRACKED` where they are there, else after the point."""
+    if not space.tracked:
+        return [(n, q) for n, q in TRACKED if heads or q != "head"]
+    names = {q: n for n, q in TRACKED}
+    return [(names.get(q, q), q) for q in space.tracked]
+
+
+def hidden_bodies(space: ScenarioSpace, heads: bool, count: int) -> tuple[str, ...]:
+    """The names of the first ``count`` bodies an occlusion hides: the right hand, the
+    left hand, the head, then the others in the order the space tracks them."""
+    names = [n for n, _ in tracked_bodies(space, heads)]
+    first = [n for n, _ in TRACKED if n in names]
+    return tuple(first + [n for n in names if n not in first])[:count]
 
 
 def posture_offsets(index: int, azimuth: float = math.pi) -> dict[str, np.ndarray]:

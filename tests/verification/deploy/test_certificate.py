@@ -47,20 +47,25 @@ def test_the_export_checks(exported, cli):
     assert {n: p["verdict"] for n, p in cert["properties"].items()} == {
         "contact": "proved", "separation": "proved"}
     assert all(p["proved"] and p["premises"] for p in cert["properties"].values())
-    # The whole cell: capsules, body spheres, hidden bodies, frame gating, the robot's
+    # The whole cell: capsules, the operators' body model, hidden bodies, frame gating, the
+    # robot's
     # speed in S, as figures beside the premises that speak of them.
     cell = cert["cell"]
     assert cell["monitor"]["robot_geometry"] == "capsules"
     assert len(cell["monitor"]["radii"]) == len(cell["contact"]["radii"]) == 7
     assert all(m >= r for m, r in zip(cell["monitor"]["radii"], cell["contact"]["radii"]))
     assert cell["monitor"]["robot_speed"] == "directed"
-    assert cell["bodies"] == {"hand_radius": 0.05, "head_radius": 0.12}
+    bodies = cell["bodies"]
+    assert bodies["tracked"] == ["hand_right", "hand_left", "head"]
+    assert bodies["dimensions"]["forearm"] == 0.41 and bodies["dimensions"]["hand_radius"] == 0.12
+    assert bodies["tracking_allowance"] == 0.01
     assert cell["hidden_bodies"]["rule"] == "hazard"
     assert cell["hidden_bodies"]["occlusion_speed"] == 2.0
     assert cell["frames"]["gate"] is True and cell["frames"]["gate_width"] > 0.0
     statements = " ".join(x["statement"] for x in cert["premises"])
     for words in ("monitor's robot contains", "hidden bodies stay hazards",
-                  "pass the gate", "capsules contain the real arm", "fits its sphere"):
+                  "pass the gate", "capsules contain the real arm",
+                  "body is within the monitor's model", "tracking allowance covers"):
         assert words in statements, words
     assert cert["parameters"]["controller.safety.robot_speed"] == '"directed"'
     assert {"safety-systems", "drake", "numpy"} <= set(cert["versions"])

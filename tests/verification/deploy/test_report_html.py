@@ -51,8 +51,10 @@ def test_the_page_holds_what_the_assessor_needs(exported):
     assert "ISO/TS 15066:2016" in page and "ISO 13855:2010" in page
     assert "<code>safety.reaction_time</code>" in page and ">T_r<" in page
     assert "<code>safety.robot_speed</code>" in page and "v_R (S_R = v_R T_r)" in page
-    # The whole cell in words: the capsules, the body spheres, hidden bodies, the gate.
-    for words in ("robot as the monitor measures it", "hands 0.05 m, head 0.12 m",
+    # The whole cell in words: the capsules, the operators' body model and what is
+    # tracked, hidden bodies, the gate.
+    for words in ("robot as the monitor measures it", "whole bodies as capsules",
+                  "forearm 0.41 m", "tracked at: hand_right, hand_left, head",
                   "a ball growing at 2 m/s", "gated: a frame farther"):
         assert words in page, words
     for name in ("contact", "separation"):  # both properties' verdicts

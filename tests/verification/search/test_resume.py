@@ -14,8 +14,10 @@ import numpy as np
 from verification.search.runner import FIELDS, EvaluationCache
 
 MODELS = Path(__file__).parents[3] / "models"
+# The previous configuration on approaches to the elbow by operators in suits: a run that
+# falsifies, so that every stage (evaluating, confirming, reporting) happens.
 ARGS = [str(MODELS / "configs" / "iso_previous.yaml"), "--space",
-        str(MODELS / "spaces" / "default.yaml"), "--budget", "48", "--method", "sobol",
+        str(MODELS / "spaces" / "elbow_approach.yaml"), "--budget", "48", "--method", "sobol",
         "--workers", "1", "--quiet"]
 
 
@@ -68,7 +70,7 @@ def test_verify_survives_being_killed_at_any_point(tmp_path):
     reference = tmp_path / "reference"
     assert _verify(reference).wait() == 1  # falsified
     expected = _comparable(reference)
-    assert expected["report"]["properties"]["contact"]["counterexamples"]
+    assert expected["report"]["properties"]["separation"]["counterexamples"]
 
     out = tmp_path / "resumed"
     start = time.monotonic()

@@ -94,8 +94,9 @@ def test_the_opening_batch_is_the_first_sobol_points_simulated_unranked():
 
 def test_margin_corner_finds_the_parameters_that_move_the_proofs_margins():
     # The margins fall with the hand's speed (its peak, or what its acceleration allows
-    # over the leg: ranking.hand_speeds) and the noise, and depend on nothing else
-    # (ranking.bound_scores): the coordinate search puts exactly those at their top ends
+    # over the leg: ranking.hand_speeds) and depend on nothing else (ranking.bound_scores;
+    # the noise is in the envelopes' allowance, a premise, not in the margins): the
+    # coordinate search puts exactly those at their top ends
     # (the acceleration matters once the peak is at its top, in the second sweep) and
     # leaves every other parameter where it started.
     from verification.search.counts import Tally
@@ -106,7 +107,7 @@ def test_margin_corner_finds_the_parameters_that_move_the_proofs_margins():
     names = free_parameters(SPACE)
     for column in (0, 1):
         corner, moves = found[column]
-        assert sorted(np.array(names)[moves]) == ["acceleration", "noise_std", "peak_speed"]
+        assert sorted(np.array(names)[moves]) == ["acceleration", "peak_speed"]
         assert np.all(corner[moves] == 1.0) and np.all(corner[~moves] == 0.5)
         # the corner scores no higher than any of a set of random points
         pool = np.random.default_rng(0).uniform(size=(256, D))
@@ -125,7 +126,7 @@ def test_the_focus_phase_simulates_the_margins_corner_first():
         log = falsify(SPACE, SEED_CONFIG, runner, budget=64, seed=3, quick=32, explore=0,
                       objectives=(0,))
     focused = np.array(log.points[1:17])
-    for name in ("peak_speed", "noise_std"):
+    for name in ("peak_speed", "acceleration"):
         assert np.all(focused[:, names.index(name)] >= 1.0 - FOCUS_WIDTH)
     spread = focused[:, names.index("azimuth_deg")]
     assert spread.min() < 0.25 and spread.max() > 0.75

@@ -70,7 +70,7 @@ BAD = [  # (path in the YAML tree, value, field named, what is allowed says)
      "a mapping file"),
     (("parameters",), {"peak_speed": {"min": 1.0, "max": 2.0}}, "parameters",
      "none with a recording block"),
-    (("hand_radius",), 0.08, "hand_radius", "unused with a recording block"),
+    (("tracked",), ["head"], "tracked", "unused with a recording block"),
     (("recording", "parameters", "yaw"), {"min": 0.0, "max": 1.0},
      "recording.parameters.yaw", "one of the fields"),
 ]
@@ -224,11 +224,12 @@ def test_tune_over_a_recording_space_needs_allow_passed(tmp_path, cli):
     assert not (tmp_path / "out").exists()
 
 
-def test_the_certificate_gives_the_recorded_bodies_spheres_from_the_mapping(tmp_path):
-    # A recording space's bodies are the mapping's (its hand_radius and head_radius keep
-    # their defaults, unused): the certificate's whole-cell figures and the assessor's
-    # page say so, each body by name. A mapping with other radii shows through.
-    from verification.deploy.assessor_report import _spheres
+def test_the_certificate_gives_the_recorded_bodies_points_from_the_mapping(tmp_path):
+    # A recording space's tracked bodies are the mapping's (its ``tracked`` keeps its
+    # default, unused): the certificate's whole-cell figures and the assessor's page say
+    # which body point each marks, each body by name. A mapping with other points shows
+    # through.
+    from verification.deploy.assessor_report import _bodies as in_words
     from verification.deploy.export import _bodies
 
     folder = tmp_path / "recordings"
@@ -237,12 +238,13 @@ def test_the_certificate_gives_the_recorded_bodies_spheres_from_the_mapping(tmp_
     text = (tmp_path / "recording.yaml").read_text().replace("../recordings/", "recordings/")
     (tmp_path / "recording.yaml").write_text(text)
     mapping = next(folder.glob("*mapping*.yaml"))
-    mapping.write_text(mapping.read_text().replace("radius: 0.12", "radius: 0.15"))
+    mapping.write_text(mapping.read_text().replace("point: head", "point: chest"))
     space = load_space(tmp_path / "recording.yaml")
-    bodies = _bodies(space)
-    expected = {f"{o.name}/{b.name}": b.radius for o in load_mapping(mapping).operators
+    bodies = _bodies(ISO, space)
+    expected = {f"{o.name}/{b.name}": b.point for o in load_mapping(mapping).operators
                 for b in o.bodies}
-    assert bodies["radii"] == expected and 0.15 in expected.values()
-    assert "head 0.15 m" in _spheres(bodies)
-    default = _bodies(load_space(MODELS / "spaces" / "default.yaml"))
-    assert default == {"hand_radius": 0.05, "head_radius": 0.12}
+    assert bodies["tracked"] == expected and "chest" in expected.values()
+    assert "technician/head (chest)" in in_words(bodies)
+    default = _bodies(ISO, load_space(MODELS / "spaces" / "default.yaml"))
+    assert default["tracked"] == ["hand_right", "hand_left", "head"]
+    assert default["dimensions"]["upper_arm"] == ISO.body.upper_arm
