@@ -106,7 +106,7 @@ POSTURES = (
     ("reach", ("hand_right",), _TRUNK | _LEFT_DOWN | _RIGHT_REACH),
     ("reach_past", ("elbow_right", "hand_right"), _TRUNK | _LEFT_DOWN | _RIGHT_REACH),
     ("elbow_first", ("elbow_right",), _TRUNK | _LEFT_DOWN | {
-        "elbow_right": (0.25, -0.35, -0.35), "hand_right": (0.05, -0.25, -0.45)}),
+        "elbow_right": (0.25, -0.35, -0.35), "hand_right": (-0.05, -0.20, -0.55)}),
     ("shoulder_first", ("shoulder_right",), _TRUNK | _LEFT_DOWN | {
         "elbow_right": (0.0, -0.22, -0.50), "hand_right": (0.10, -0.22, -0.85)}),
     ("lean_in", ("head",), {  # the trunk 40 deg forward from the pelvis, the head bowed
