@@ -104,12 +104,10 @@ class BatchResult:
     separation_violation_time: np.ndarray  # s permitted with some pair inside S_true
 
 
-def _common(scenarios: list[Scenario], get, what: str, key=None):
-    """``get`` of the first scenario, checked equal (by ``key`` of it, if given) in all."""
+def _common(scenarios: list[Scenario], get, what: str):
     first = get(scenarios[0])
-    key = (lambda x: x) if key is None else key
     for s in scenarios[1:]:
-        if key(get(s)) != key(first):
+        if get(s) != first:
             raise ValueError(f"evaluate_batch: scenarios differ in {what}; batch them apart")
     return first
 
@@ -381,6 +379,46 @@ def monitor_pair(segment, r_H, z_d, ends, end_velocities, radius, j, monitor):
 
 
 @numba.njit(cache=True)
+def _operator_spheres(h_ends, h_velocities, h_radius, h_std, operator, spheres):
+    """Per scenario and operator, a sphere holding every segment capsule of the operator
+    (centre, radius), its segments' fastest end speed and their largest std, into
+    spheres (B, K, 6): about the mean of the ends, out to the farthest end plus its
+    capsule's radius (every axis point is nearer than the farther end). NaN where a
+    segment is NaN (an unusable operator, or a NaN estimate)."""
+    B, K = spheres.shape[0], spheres.shape[1]
+    count = np.zeros(K)
+    for b in range(B):
+        for k in range(K):
+            for x in range(6):
+                spheres[b, k, x] = 0.0
+            count[k] = 0.0
+        for m in range(operator.size):
+            k = operator[m]
+            count[k] += 2.0
+            for e in range(2):
+                for x in range(3):
+                    spheres[b, k, x] += h_ends[b, m, e, x]
+        for k in range(K):
+            for x in range(3):
+                spheres[b, k, x] /= max(count[k], 1.0)
+        for m in range(operator.size):
+            k = operator[m]
+            for e in range(2):
+                x0 = h_ends[b, m, e, 0] - spheres[b, k, 0]
+                x1 = h_ends[b, m, e, 1] - spheres[b, k, 1]
+                x2 = h_ends[b, m, e, 2] - spheres[b, k, 2]
+                far = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + h_radius[b, m]
+                w0, w1, w2 = (h_velocities[b, m, e, 0], h_velocities[b, m, e, 1],
+                              h_velocities[b, m, e, 2])
+                fast = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                # (a NaN anywhere makes the sphere NaN: max would drop it)
+                spheres[b, k, 3] = far if not far <= spheres[b, k, 3] else spheres[b, k, 3]
+                spheres[b, k, 4] = fast if not fast <= spheres[b, k, 4] else spheres[b, k, 4]
+            std = h_std[b, m]
+            spheres[b, k, 5] = std if not std <= spheres[b, k, 5] else spheres[b, k, 5]
+
+
+@numba.njit(cache=True)
 def _envelope_batch(regions, candidates, radius, operator, slots, est_p, est_v, status, std,
                     unseen, allowance, occlusion_speed, h_ends, h_velocities, h_radius,
                     h_status, h_std):
@@ -394,10 +432,10 @@ def _envelope_batch(regions, candidates, radius, operator, slots, est_p, est_v, 
 
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_velocities,
-             h_radius, h_status, h_std, frames, timeout, monitor, z_d_terms, delta_s, d_min,
-             truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps, truth_segments,
-             end, brake_scale, brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep,
-             sep_min, sep_time):
+             h_radius, h_status, h_std, op_spheres, frames, timeout, monitor, z_d_terms,
+             delta_s, d_min, truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps,
+             truth_segments, op_reach, end, brake_scale, brakes, s, rate, ends_prev, s_last,
+             memo, hint, trig, min_sep, sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
     ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (:func:`_envelope_batch` of the
@@ -466,6 +504,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
     ca, cb, ct0, ct1, c_radius, c_tool = contact_caps
     N, K = h_radius.shape[1], enter.shape[1]
+    op_first_segment = np.arange(K) * (N // K)  # each operator's first segment
     q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
     points, point_v = np.empty((ROBOT_POINTS, 3)), np.empty((ROBOT_POINTS, 3))
     m_ends, m_unused = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
@@ -573,21 +612,22 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                 # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
                 far = bound_monitor and not by_speed and not math.isnan(v_end) \
                     and tracker_stop(h_status[b], fault) == stops.STOP_NONE
-                if far:
+                if far:  # through each operator's sphere (its segments share its status)
                     closest_lb, s_ub = np.inf, -np.inf
-                    for i in range(N):
-                        if usable(h_status[b, i]):
-                            P, Q, vP, vQ = segment_of(h_ends[b], h_velocities[b], i)
-                            h = max(np.sqrt(vP[0] * vP[0] + vP[1] * vP[1] + vP[2] * vP[2]),
-                                    np.sqrt(vQ[0] * vQ[0] + vQ[1] * vQ[1] + vQ[2] * vQ[2]))
-                            h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
-                            z = z_d_base + z_d_sigmas * h_std[b, i]
-                            ub = h * t_sr + v_end * t_r + const + z + _MARGIN
-                            if mode == 1:
-                                ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
-                            lb = _beyond(m_sphere, P, Q, h_radius[b, i])
-                            closest_lb, s_ub = min(closest_lb, lb), max(s_ub, ub)
-                            far = far and not (math.isnan(lb) or math.isnan(ub))
+                    for o in range(K):
+                        if not usable(h_status[b, op_first_segment[o]]):
+                            continue
+                        c0, c1, c2, c_r, fastest, top_std = op_spheres[b, o]
+                        h = h_iso if mode == 1 else (max(fastest, iso) if mode == 2
+                                                     else fastest)
+                        z = z_d_base + z_d_sigmas * top_std
+                        ub = h * t_sr + v_end * t_r + const + z + _MARGIN
+                        if mode == 1:
+                            ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                        g0, g1, g2 = c0 - m_sphere[0], c1 - m_sphere[1], c2 - m_sphere[2]
+                        lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_r - m_sphere[3] - _MARGIN
+                        closest_lb, s_ub = min(closest_lb, lb), max(s_ub, ub)
+                        far = far and not (math.isnan(lb) or math.isnan(ub))
                     far = far and closest_lb >= d_min + _MARGIN and (
                         closest_lb - s_ub >= max((delta_s - 1.0) * s_ub, 1e-12) + _MARGIN)
                 near = (bound_monitor and not by_speed and fault == 0.0 and not far
@@ -655,6 +695,12 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     # Below these a pair could lower a figure (or come inside S_true).
                     contact_floor = min_sep[b] if moving else -np.inf
                     separation_floor = max(sep_min[b], 0.0) if allowed else -np.inf
+                    if bound_contact:  # the whole operator, through its reach about x
+                        g0, g1, g2 = x0 - c_sphere[0], x1 - c_sphere[1], x2 - c_sphere[2]
+                        lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - op_reach[b, o]
+                              - c_sphere[3] - _MARGIN)
+                        if lb > contact_floor and lb - s_true_ub > separation_floor:
+                            continue  # no segment of it can lower either figure
                     for i in range(seg_r.size):
                         pa, pb, r_H = seg_a[i], seg_b[i], seg_r[i]
                         P = (x0 + postures[b, o, pa, 0], x1 + postures[b, o, pa, 1],
@@ -738,9 +784,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     # The monitor's envelopes (one recipe: the scenarios share their operators' tracked
     # points, batch_key) and the true segments (a scripted operator's: each the capsule
     # between two of its true points).
-    recipe = _common(scenarios, lambda s: (scenario_monitor_recipe(s),), "tracked points",
-                     key=lambda r: (r[0].regions.tobytes(), r[0].candidates.tobytes(),
-                                    r[0].radius.tobytes()))[0]
+    _common(scenarios, lambda s: [operator_points(o) for o in s.operators], "tracked points")
+    recipe = scenario_monitor_recipe(scenarios[0])
     truth_segments = _truth_segments(scenarios)
     postures = np.array([operator_postures(sc) for sc in scenarios], dtype=float).reshape(
         B, c.K, NUM_POINTS, 3)
@@ -762,6 +807,10 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     h_ends, h_velocities = np.full((B, M, 2, 3), np.nan), np.full((B, M, 2, 3), np.nan)
     h_radius, h_std = np.full((B, M), np.nan), np.full((B, M), np.nan)
     h_status = np.zeros((B, M))  # no track yet: every segment none, as the tracker's
+    op_spheres = np.full((B, c.K, 6), np.nan)
+    # each operator's reach: its farthest true point from its reference, plus a radius
+    op_reach = (np.linalg.norm(postures, axis=-1).max(axis=-1)
+                + float(truth_segments[2].max(initial=0.0)))
     allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
     min_sep = np.full(B, np.inf)
     sep_min = np.full(B, np.inf)
@@ -775,10 +824,11 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         while stop <= last and not u < stop * dt - _EVENT_TOL:
             stop += 1
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, postures, c.enter, c.leave,
-                 h_ends, h_velocities, h_radius, h_status, h_std, frames, timeout, monitor,
-                 z_d_terms, f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates,
-                 monitor_caps, contact_caps, truth_segments, c.end, c.brake_scale, brakes, s,
-                 rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time)
+                 h_ends, h_velocities, h_radius, h_status, h_std, op_spheres, frames, timeout,
+                 monitor, z_d_terms, f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates,
+                 monitor_caps, contact_caps, truth_segments, op_reach, c.end, c.brake_scale,
+                 brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min,
+                 sep_time)
         k = stop
         if k > last:
             break
@@ -786,6 +836,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         _envelope_batch(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
                         recipe.slots, est_p, est_v, status, std, unseen, allowance,
                         occlusion_speed, h_ends, h_velocities, h_radius, h_status, h_std)
+        _operator_spheres(h_ends, h_velocities, h_radius, h_std, recipe.operator, op_spheres)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        sep_min, sep_time)
