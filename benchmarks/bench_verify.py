@@ -8,10 +8,14 @@ Prints, each beside its goal:
 1. the batched evaluator's throughput in 10-second scenarios per second on one core,
    measuring both properties ("stopped before contact" and the separation invariant)
    (after a small warm-up batch has loaded the compiled code): the whole cell (the iso
-   configuration, the robot as capsules, two operators of three bodies each (two hands
-   and a head) over the default space) beside the tool point (the seed's configuration,
-   one operator's two hands over the flange space), and the ratio to the Drake diagram
-   on the whole-cell scenarios;
+   configuration, the robot as capsules, two operators of 12 segments each (gloves
+   and helmet tracked, the rest bounded by their envelopes) over the default space)
+   beside the tool point (the seed's configuration, one operator's two hands over the
+   flange space), and the ratio to the Drake diagram on the whole-cell scenarios; and
+   the same whole-cell measure of the three-ball operator (two gloves and a head: its
+   last commit, checked out in a temporary git worktree and measured in a child process
+   right after) with the whole operator's price as the ratio of the two (issue 31:
+   at most 2x);
 2. the wall time to prove the iso configuration over the default space (the proof
    alone, and ``verify`` with a 64-simulation cross-check on 2 workers);
 3. time to the first counterexample (``search``), for the seed's configuration and for
@@ -40,8 +44,12 @@ slows it less than it would a wall clock, but still shares the caches).
 
 import argparse
 import dataclasses
+import json
 import math
+import os
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -98,6 +106,54 @@ def _rate(batch: int, **kind) -> tuple[float, float]:
     return rate, float(np.mean(np.isposinf(result.robustness)))
 
 
+# The last commit whose operator is three balls (two gloves and a head): the whole
+# operator's price is measured against it, in the same run.
+THREE_BALL_COMMIT = "9273221"
+
+_THREE_BALL_CHILD = """
+import dataclasses, json, sys
+sys.path.insert(0, "benchmarks")
+import bench_verify as b
+cell = {"space": b.SPACE, "config": b.ISO_MOVING, "operators": 2.0, "heads": 1.0}
+busy = dataclasses.replace(b.ISO_MOVING, safety=dataclasses.replace(
+    b.ISO_MOVING.safety, human_speed="estimated"))
+iso = b._rate(BATCH, **cell)[0]
+print(json.dumps({"iso": iso, "busy": b._rate(BATCH, **dict(cell, config=busy))[0],
+                  "module": b.__file__}))
+"""
+
+
+def three_ball_rates(batch: int) -> dict | None:
+    """The whole-cell throughput of the three-ball operator (``THREE_BALL_COMMIT``: its
+    code, its default space), measured as :func:`throughput` measures this one's, in a
+    child process on a temporary git worktree of that commit, right after this one's
+    (same machine, same core). None where git or that commit is not there."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tree = Path(tmp) / "three_ball"
+        made = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree),
+                               THREE_BALL_COMMIT], capture_output=True, text=True)
+        if made.returncode != 0:
+            print(f"the three-ball commit {THREE_BALL_COMMIT} could not be checked out: "
+                  f"{made.stderr.strip()}")
+            return None
+        try:
+            run = subprocess.run(
+                [sys.executable, "-c", _THREE_BALL_CHILD.replace("BATCH", str(batch))],
+                cwd=tree, env={**os.environ, "PYTHONPATH": str(tree)}, capture_output=True,
+                text=True)
+            if run.returncode != 0:
+                print(f"the three-ball measure failed: {run.stderr.strip().splitlines()[-1:]}")
+                return None
+            rates = json.loads(run.stdout.strip().splitlines()[-1])
+            if not rates["module"].startswith(str(tree)):  # (not this tree's code)
+                print(f"the three-ball measure ran {rates['module']}, not the worktree's")
+                return None
+            return rates
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
+                           capture_output=True)
+
+
 def throughput(batch: int) -> None:
     cell = {"space": SPACE, "config": ISO_MOVING, "operators": 2.0, "heads": 1.0}
     iso_rate, cell_vacuous = _rate(batch, **cell)
@@ -113,7 +169,7 @@ def throughput(batch: int) -> None:
     for s in drake:
         evaluate_drake(s)
     drake_rate = len(drake) / (time.perf_counter() - start)
-    _row(f"batched, capsules, 2 ops x 3 bodies, both properties, 10 s scen./s/core ({batch})",
+    _row(f"batched, capsules, 2 ops x 12 segments, both properties, 10 s scen./s/core ({batch})",
          f"{cell_rate:.0f}", ">= 1000", cell_rate >= 1000)
     _row("  iso.yaml's contact terms", f"{iso_rate:.0f}", "", None)
     _row("    of them never moving near a body", f"{100 * cell_vacuous:.0f}%", "", None)
@@ -125,7 +181,16 @@ def throughput(batch: int) -> None:
     _row("  of them never moving near a body (the seed's configuration)",
          f"{100 * tool_vacuous:.0f}%", "", None)
     _row("  ratio capsules / tool point", f"{cell_rate / tool_rate:.2f}x", "", None)
-    _row("Drake diagram, capsules, 2 operators x 3 bodies, 10 s scenarios/s/core",
+    three = three_ball_rates(batch)
+    if three is not None:
+        three_rate = min(three["iso"], three["busy"])
+        _row(f"  the three-ball operator (commit {THREE_BALL_COMMIT}), the same measure",
+             f"{three_rate:.0f}", "", None)
+        _row("    iso.yaml's contact terms / with estimated human speeds",
+             f"{three['iso']:.0f} / {three['busy']:.0f}", "", None)
+        _row("  price of the whole operator (three-ball / whole, the lower figures)",
+             f"{three_rate / cell_rate:.2f}x", "<= 2x", three_rate / cell_rate <= 2.0)
+    _row("Drake diagram, capsules, 2 operators x 12 segments, 10 s scenarios/s/core",
          f"{drake_rate:.2f}", "", None)
     _row("  ratio batched / Drake", f"{cell_rate / drake_rate:.0f}x", "", None)
 

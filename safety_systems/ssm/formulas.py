@@ -296,8 +296,10 @@ _S_MAX_CAP = 1e100
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def _speed_scale_eq12(d, s_max, delta_s, d_min):
-    """Eq. 12 for one distance (see :func:`speed_override`), compiled."""
+def speed_scale_eq12(d, s_max, delta_s, d_min):
+    """Eq. 12 for one distance (see :func:`speed_override`), compiled. Nondecreasing in
+    d and nonincreasing in s_max (a NaN s_max taken as the cap), which the batched
+    evaluator's exact skips rely on."""
     s = _S_MAX_CAP if math.isnan(s_max) else min(max(s_max, -_S_MAX_CAP), _S_MAX_CAP)
     if not (d >= d_min and d < np.inf):  # also NaN
         return 0.0
@@ -311,7 +313,7 @@ def _speed_scale_eq12(d, s_max, delta_s, d_min):
 def _speed_scale_eq12_elements(d, s_max, delta_s, d_min, out):
     one_s = s_max.size == 1
     for i in range(out.size):
-        out[i] = _speed_scale_eq12(d[i], s_max[0] if one_s else s_max[i], delta_s, d_min)
+        out[i] = speed_scale_eq12(d[i], s_max[0] if one_s else s_max[i], delta_s, d_min)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -334,7 +336,7 @@ def override_row(d, s, inc, delta_s, d_min):
     elif faulty:  # a non-finite d_i or S_i: stop
         k, top = 0.0, np.inf
     else:
-        k = _speed_scale_eq12(closest, top, delta_s, d_min)
+        k = speed_scale_eq12(closest, top, delta_s, d_min)
     return k, top
 
 

@@ -70,6 +70,7 @@ from safety_systems.ssm.formulas import (
     by_speed_command,
     level_at_or_above,
     override_command,
+    speed_scale_eq12,
 )
 from safety_systems.ssm.true_measures import is_moving, is_permitted, true_margin
 from safety_systems.sensing.delivery import TIME_TOL, delivered_frame, unit_noise
@@ -378,6 +379,47 @@ def monitor_pair(segment, r_H, z_d, ends, end_velocities, radius, j, monitor):
     return pair_separation(segment, r_H, z_d, ends, end_velocities, radius, j, monitor)
 
 
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _cone_speed(v, speed, u0, u1, u2, cos_a, sin_a):
+    """An upper bound on v . n over the unit vectors n within the angle a (< 90 deg) of the
+    unit vector u (m/s), ``speed`` = |v|: the smaller of |v| and (v . u) cos a + |v| sin a.
+    With theta the angle from u to v: outside the cone the largest v . n is |v| cos(theta -
+    a) = (v . u) cos a + |v x u| sin a, and |v x u| <= |v|; inside it, it is |v|, and then
+    cos theta cos a + sin a >= cos^2 a + sin a >= 1."""
+    along = v[0] * u0 + v[1] * u1 + v[2] * u2
+    return min(speed, along * cos_a + speed * sin_a)
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _speed_bounds(g0, g1, g2, apart, halves, vP, sP, vQ, sQ, vA, sA, vB, sB, robot_speed):
+    """Upper bounds on a segment-capsule pair's directed speeds (v_human_directed,
+    v_robot_directed) as ``robot_geometry.segments_pair`` takes them (m/s), from the
+    segment's axis midpoint to the capsule's, g = (g0, g1, g2) (|g| = ``apart``), the sum
+    of the two axes' half-lengths ``halves``, the segment's end velocities vP, vQ and the
+    capsule's vA, vB, with their magnitudes sP, sQ, sA, sB.
+
+    The nearest points x_h, x_r lie within their half-lengths of the midpoints, so
+    x_r - x_h lies within ``halves`` of g: where the axes' spheres are apart, its
+    direction n lies in the cone about g / |g| of half-angle asin(halves / |g|). The
+    human's directed speed is the larger of vP . n, vQ . n, and the robot's is
+    w . (-n) with w between vA and vB (at most the larger of vA . (-n), vB . (-n)): each
+    is at most :func:`_cone_speed`. Where the spheres meet (or come within a micrometre,
+    where the two points could coincide and the speeds are taken whole), the faster
+    ends' speeds. ``robot_speed`` 1 (``fastest_point``): the robot's is the faster end's.
+    """
+    if not apart - halves > 1e-6:
+        return max(sP, sQ), max(sA, sB)
+    u0, u1, u2 = g0 / apart, g1 / apart, g2 / apart
+    sin_a = min((halves + 1e-9) / apart, 1.0)
+    cos_a = np.sqrt(1.0 - sin_a * sin_a)
+    h = max(_cone_speed(vP, sP, u0, u1, u2, cos_a, sin_a),
+            _cone_speed(vQ, sQ, u0, u1, u2, cos_a, sin_a))
+    if robot_speed == 1:
+        return h, max(sA, sB)
+    return h, max(_cone_speed(vA, sA, -u0, -u1, -u2, cos_a, sin_a),
+                  _cone_speed(vB, sB, -u0, -u1, -u2, cos_a, sin_a))
+
+
 @numba.njit(cache=True)
 def _operator_spheres(h_ends, h_velocities, h_radius, h_std, operator, spheres):
     """Per scenario and operator, a sphere holding every segment capsule of the operator
@@ -482,9 +524,12 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     the previous tick's s); it is 1 without the pairs when every segment's clearance,
     bounded below through a sphere around the capsules, lies beyond dS times an upper
     bound of every S (the fastest end for v_R, the segment's faster end or the ISO speed
-    for v_H), and 0 when one pair per segment (its capsule nearest at its last full
-    evaluation, ``hint`` (B, M)) already puts a clearance below d_min or below that
-    pair's S (d_i is at most, S_i at least, that pair's); a true segment's properties
+    for v_H); else the pairs are evaluated nearest first (``hint`` (B, M + K): each
+    segment's nearest capsule and each operator's nearest segment at their last
+    evaluation) and only until k is certain (Eq. 12 is monotonic in d and S_max: a pair
+    is skipped when its clearance, bounded below through spheres about the two axes, is
+    above the closest found and its S, bounded above, cannot change k; see the comments
+    there); a true segment's properties
     are skipped when the sphere bound shows it can lower neither figure (nor come inside
     S_true), and so is a pair's when the same holds through a sphere around its capsule
     (its axis' midpoint out to its ends, plus its radius; S_true bounded by the
@@ -512,6 +557,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
     c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
+    m_fast, m_half, m_mid = np.empty(ma.size), np.empty(ma.size), np.empty((ma.size, 3))
+    m_end_speed, c_end_speed = np.empty((ma.size, 2)), np.empty((ca.size, 2))
     speed = 0.0
     m_sphere, c_sphere = (0.0, 0.0, 0.0, np.inf), (0.0, 0.0, 0.0, np.inf)
     memo[:, 1] = np.nan  # the tracker's outputs may have changed: no k to reuse
@@ -566,15 +613,14 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
                 speed = 0.0  # the robot's: its fastest capsule end
                 for j in range(ca.size):
-                    # capsule j's fastest end (every axis point is slower); one root of
-                    # the larger square (the root is monotonic and correctly rounded:
-                    # the same number as the larger of the two roots)
-                    fast2 = 0.0
+                    # capsule j's fastest end (every axis point is slower): the larger of
+                    # the ends' speeds (the root is monotonic and correctly rounded: the
+                    # same number as the root of the larger square)
                     for e in range(2):
                         w0, w1, w2 = c_velocities[j, e, 0], c_velocities[j, e, 1], \
                             c_velocities[j, e, 2]
-                        fast2 = max(fast2, w0 * w0 + w1 * w1 + w2 * w2)
-                    c_fast[j] = np.sqrt(fast2)
+                        c_end_speed[j, e] = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                    c_fast[j] = max(c_end_speed[j, 0], c_end_speed[j, 1])
                     speed = max(speed, c_fast[j])
                     # A sphere around capsule j: its axis' midpoint, out to its ends.
                     for i in range(3):
@@ -583,6 +629,13 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     x1 = c_ends[j, 1, 1] - c_mid[j, 1]
                     x2 = c_ends[j, 1, 2] - c_mid[j, 2]
                     c_reach[j] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + c_radius[j]
+                for j in range(ma.size):  # each monitor capsule's axis: midpoint, half
+                    for i in range(3):
+                        m_mid[j, i] = 0.5 * (m_ends[j, 0, i] + m_ends[j, 1, i])
+                    x0 = m_ends[j, 1, 0] - m_mid[j, 0]
+                    x1 = m_ends[j, 1, 1] - m_mid[j, 1]
+                    x2 = m_ends[j, 1, 2] - m_mid[j, 2]
+                    m_half[j] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
                 if bound_contact:
                     c_sphere = _bounding_sphere(c_ends, c_radius)
                 if bound_monitor:
@@ -604,11 +657,14 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         for i in range(3):
                             m_velocities[j, e, i] = (m_ends[j, e, i]
                                                      - ends_prev[b, j, e, i]) / dt
-                        if bound_monitor:
-                            w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
-                                m_velocities[j, e, 2]
-                            v_end = max(v_end, w0 * w0 + w1 * w1 + w2 * w2)
-                v_end = np.sqrt(v_end)  # (the root of the largest square, as above)
+                        w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
+                            m_velocities[j, e, 2]
+                        m_end_speed[j, e] = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                    m_fast[j] = max(m_end_speed[j, 0], m_end_speed[j, 1])
+                    if math.isnan(m_end_speed[j, 0]) or math.isnan(m_end_speed[j, 1]):
+                        m_fast[j] = np.nan  # (max would drop it; a NaN bound skips nothing)
+                    v_end = m_fast[j] if math.isnan(m_fast[j]) or math.isnan(v_end) \
+                        else max(v_end, m_fast[j])
                 # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
                 far = bound_monitor and not by_speed and not math.isnan(v_end) \
                     and tracker_stop(h_status[b], fault) == stops.STOP_NONE
@@ -630,45 +686,170 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         far = far and not (math.isnan(lb) or math.isnan(ub))
                     far = far and closest_lb >= d_min + _MARGIN and (
                         closest_lb - s_ub >= max((delta_s - 1.0) * s_ub, 1e-12) + _MARGIN)
-                near = (bound_monitor and not by_speed and fault == 0.0 and not far
-                        and not math.isnan(v_end))  # k = 0 for sure?
-                if near:
-                    d_ub, s_lb = np.inf, -np.inf
-                    for i in range(N):
-                        if usable(h_status[b, i]):
-                            j = hint[b, i]
+                if far:
+                    k_override = 1.0  # Eq. 12's ramp is above 1 for every pair
+                else:
+                    near = False
+                    if fault == 0.0 and not by_speed:
+                        # Eq. 12 reads only the closest clearance and the largest S over
+                        # the pairs, and is monotonic in both (``speed_scale_eq12``): once
+                        # the pairs seen give k = 0, more can only keep it there. First each
+                        # operator's nearest pair at its last evaluation (``hint``); then
+                        # the rest in up to two sweeps. The first skips every operator,
+                        # segment or pair whose clearance, bounded below through spheres
+                        # about the axes, is above the closest found, where its S (bounded
+                        # above by the faster ends' speeds, or the ISO speed, or else by
+                        # :func:`_speed_bounds`) would not change k, and keeps the largest
+                        # of those bounds, U. If Eq. 12 then gives the same k with S_max = U
+                        # as with the S found, k is exact (the true S_max lies between);
+                        # else a second sweep skips only what can lower neither figure.
+                        # Segments never evaluated take the figures found (the minimum and
+                        # maximum hold). A NaN bound skips nothing; a NaN figure stops.
+                        closest, top, faulty, near, bound = np.inf, -np.inf, False, False, -np.inf
+                        for i in range(N):
+                            d[i], s_row[i] = np.inf, -np.inf
+                        for o in range(K):
+                            if faulty or not usable(h_status[b, op_first_segment[o]]):
+                                continue
+                            i = hint[b, N + o]
                             c_j, s_j, _, _ = monitor_pair(
                                 segment_of(h_ends[b], h_velocities[b], i), h_radius[b, i],
                                 z_d_base + z_d_sigmas * h_std[b, i], m_ends, m_velocities,
-                                m_radius, j, monitor)
-                            if not (math.isnan(c_j) or math.isnan(s_j)):
-                                d_ub, s_lb = min(d_ub, c_j), max(s_lb, s_j)
-                    near = d_ub + _MARGIN < d_min or (s_lb > 0.0 and d_ub + _MARGIN < s_lb)
-                if far:
-                    k_override = 1.0  # Eq. 12's ramp is above 1 for every pair
-                elif near:
-                    k_override = 0.0  # a clearance below d_min, or below S_max
-                else:
-                    if fault == 0.0:  # else the robot stops whatever d and S are
-                        for i in range(N):
-                            if usable(h_status[b, i]):  # (the override reads only these)
-                                segment = segment_of(h_ends[b], h_velocities[b], i)
-                                z = z_d_base + z_d_sigmas * h_std[b, i]
-                                d[i], s_row[i], _, _, nearest = monitor_segment(
-                                    segment, h_radius[b, i], z, m_ends, m_velocities, m_radius,
-                                    monitor)
-                                if nearest >= 0:
-                                    hint[b, i] = nearest
-                                if by_speed:
+                                m_radius, hint[b, i], monitor)
+                            faulty = math.isnan(c_j) or math.isnan(s_j)
+                            d[i], s_row[i] = c_j, s_j
+                            closest, top = min(closest, c_j), max(top, s_j)
+                        near = not faulty and closest < np.inf and speed_scale_eq12(
+                            closest, top, delta_s, d_min) == 0.0
+                        for sweep in range(2):
+                            relaxed = sweep == 0
+                            k_top = speed_scale_eq12(closest, top, delta_s, d_min)
+                            if near or faulty or not (relaxed or (bound > top and speed_scale_eq12(
+                                    closest, bound, delta_s, d_min) != k_top)):
+                                break  # k is exact
+                            for o in range(K):
+                                if near or faulty or not usable(h_status[b, op_first_segment[o]]):
+                                    continue
+                                c0, c1, c2, c_r, fastest, top_std = op_spheres[b, o]
+                                hv = h_iso if mode == 1 else (max(fastest, iso) if mode == 2
+                                                              else fastest)
+                                ub = (hv * t_sr + v_end * t_r + const + z_d_base
+                                      + z_d_sigmas * top_std + _MARGIN)
+                                if mode == 1:
+                                    ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                                g0, g1, g2 = c0 - m_sphere[0], c1 - m_sphere[1], c2 - m_sphere[2]
+                                lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_r - m_sphere[3] \
+                                    - _MARGIN
+                                if lb > closest and (ub <= top or (relaxed and speed_scale_eq12(
+                                        closest, ub, delta_s, d_min) == k_top)):
+                                    bound = max(bound, ub)
+                                    continue  # none of its pairs can lower d or change k
+                                for i in range(o * (N // K), (o + 1) * (N // K)):
+                                    if near or faulty or not usable(h_status[b, i]):
+                                        continue
+                                    segment = segment_of(h_ends[b], h_velocities[b], i)
+                                    P, Q, vP, vQ = segment
+                                    r_H = h_radius[b, i]
+                                    z = z_d_base + z_d_sigmas * h_std[b, i]
+                                    y0, y1, y2 = (0.5 * (P[0] + Q[0]), 0.5 * (P[1] + Q[1]),
+                                                  0.5 * (P[2] + Q[2]))
+                                    g0, g1, g2 = Q[0] - y0, Q[1] - y1, Q[2] - y2
+                                    half = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+                                    sP = np.sqrt(vP[0] * vP[0] + vP[1] * vP[1] + vP[2] * vP[2])
+                                    sQ = np.sqrt(vQ[0] * vQ[0] + vQ[1] * vQ[1] + vQ[2] * vQ[2])
+                                    hv = max(sP, sQ)
+                                    hv = h_iso if mode == 1 else (max(hv, iso) if mode == 2
+                                                                  else hv)
+                                    base_ub = hv * t_sr + const + z + _MARGIN
+                                    if relaxed:  # the segment against the whole robot
+                                        ub = base_ub + v_end * t_r
+                                        if mode == 1:
+                                            ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                                        g0, g1, g2 = (m_sphere[0] - y0, m_sphere[1] - y1,
+                                                      m_sphere[2] - y2)
+                                        lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - half - r_H
+                                              - m_sphere[3] - _MARGIN)
+                                        if lb > closest and (ub <= top or speed_scale_eq12(
+                                                closest, ub, delta_s, d_min) == k_top):
+                                            bound = max(bound, ub)
+                                            continue
+                                    for j in range(ma.size):
+                                        if relaxed and i == hint[b, N + o] and j == hint[b, i]:
+                                            continue  # (seen first)
+                                        g0 = m_mid[j, 0] - y0  # segment -> capsule
+                                        g1 = m_mid[j, 1] - y1
+                                        g2 = m_mid[j, 2] - y2
+                                        apart = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+                                        if apart - half - r_H - m_half[j] - m_radius[j] \
+                                                - _MARGIN > closest:
+                                            ub = base_ub + m_fast[j] * t_r
+                                            if mode == 1:
+                                                ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD
+                                                         + _MARGIN)
+                                            if not (ub <= top or (relaxed and speed_scale_eq12(
+                                                    closest, ub, delta_s, d_min) == k_top)) \
+                                                    and (mode != 1 or robot_speed == 0):
+                                                h_ub, r_ub = _speed_bounds(
+                                                    g0, g1, g2, apart, half + m_half[j], vP,
+                                                    sP, vQ, sQ, m_velocities[j, 0],
+                                                    m_end_speed[j, 0], m_velocities[j, 1],
+                                                    m_end_speed[j, 1], robot_speed)
+                                                h_ub = h_iso if mode == 1 else (
+                                                    max(h_ub, iso) if mode == 2 else h_ub)
+                                                ub = min(ub, h_ub * t_sr + r_ub * t_r + const + z
+                                                         + _MARGIN)
+                                                if mode == 1:
+                                                    ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD
+                                                             + _MARGIN)
+                                            if ub <= top or (relaxed and speed_scale_eq12(
+                                                    closest, ub, delta_s, d_min) == k_top):
+                                                bound = max(bound, ub)
+                                                continue  # can lower neither figure
+                                        c_j, s_j, _, _ = monitor_pair(
+                                            segment, r_H, z, m_ends, m_velocities, m_radius, j,
+                                            monitor)
+                                        if math.isnan(c_j) or math.isnan(s_j):
+                                            faulty = True  # (the override stops)
+                                            d[i], s_row[i] = np.nan, np.nan
+                                            break
+                                        if c_j < d[i]:
+                                            d[i], hint[b, i] = c_j, j
+                                        s_row[i] = max(s_row[i], s_j)
+                                        closest, top = min(closest, c_j), max(top, s_j)
+                                        k_top = speed_scale_eq12(closest, top, delta_s, d_min)
+                                        near = k_top == 0.0
+                                        if near:
+                                            break  # k = 0 for good
+                        for o in range(K):  # each operator's nearest segment, for next time
+                            best = np.inf
+                            for i in range(o * (N // K), (o + 1) * (N // K)):
+                                if usable(h_status[b, i]) and d[i] < best:
+                                    best, hint[b, N + o] = d[i], i
+                        for i in range(N):  # never evaluated: the figures found
+                            if d[i] == np.inf:
+                                d[i], s_row[i] = closest, top
+                    if near:
+                        k_override = 0.0  # a clearance below d_min, or below S_max
+                    else:
+                        if fault == 0.0 and by_speed:  # else the robot stops whatever d, S
+                            for i in range(N):
+                                if usable(h_status[b, i]):  # (the override reads only these)
+                                    segment = segment_of(h_ends[b], h_velocities[b], i)
+                                    z = z_d_base + z_d_sigmas * h_std[b, i]
+                                    d[i], s_row[i], _, _, nearest = monitor_segment(
+                                        segment, h_radius[b, i], z, m_ends, m_velocities,
+                                        m_radius, monitor)
+                                    if nearest >= 0:
+                                        hint[b, i] = nearest
                                     segment_levels(segment, h_radius[b, i], z, m_ends,
                                                    m_velocities, m_radius, monitor, level_t_sr,
                                                    level_const, s_levels, i)
-                    if by_speed:
-                        k_override = by_speed_command(d, s_levels, h_status[b], fault, rate[b],
-                                                      delta_s, d_min, included)[0]
-                    else:
-                        k_override = override_command(d, s_row, h_status[b], fault, delta_s,
-                                                      d_min, included)[0]
+                        if by_speed:
+                            k_override = by_speed_command(d, s_levels, h_status[b], fault,
+                                                          rate[b], delta_s, d_min, included)[0]
+                        else:
+                            k_override = override_command(d, s_row, h_status[b], fault,
+                                                          delta_s, d_min, included)[0]
                 memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
             # The properties, on the true state at this tick.
             moving = is_moving(speed) and k <= last[b]
@@ -693,8 +874,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     if mode == 1:
                         s_true_ub = max(s_true_ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
                     # Below these a pair could lower a figure (or come inside S_true).
-                    contact_floor = min_sep[b] if moving else -np.inf
-                    separation_floor = max(sep_min[b], 0.0) if allowed else -np.inf
+                    contact_floor = min(min_sep[b], closest) if moving else -np.inf
+                    separation_floor = max(min(sep_min[b], margin), 0.0) if allowed else -np.inf
                     if bound_contact:  # the whole operator, through its reach about x
                         g0, g1, g2 = x0 - c_sphere[0], x1 - c_sphere[1], x2 - c_sphere[2]
                         lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - op_reach[b, o]
@@ -728,6 +909,10 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             margin = min(margin, true_margin(
                                 sep, vh_true, vr_true, mode, stop_t, t_r, stop_b, iso,
                                 iso_reduced))
+                            # Below these a later pair could still lower a figure.
+                            contact_floor = min(contact_floor, closest) if moving else -np.inf
+                            separation_floor = max(min(separation_floor, margin), 0.0) \
+                                if allowed else -np.inf
                 if moving:
                     min_sep[b] = min(min_sep[b], closest)
                 if allowed:
@@ -794,7 +979,9 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     rate = np.zeros(B)
     ends_prev = np.full((B, caps.radius.size, 2, 3), np.nan)
     s_last, memo = np.full(B, np.nan), np.full((B, 3), np.nan)
-    hint = np.zeros((B, M), dtype=np.int64)  # each segment's capsule nearest at its last look
+    # each segment's capsule nearest at its last look, then each operator's nearest segment
+    hint = np.zeros((B, M + c.K), dtype=np.int64)
+    hint[:, M:] = np.arange(c.K) * (M // c.K)
     trig = np.full((B, 15), np.nan)  # robot_points_one_memo's memory
     tracks = np.zeros((B * N, TRACK_SLOT))
     frames = np.zeros((B, 7))  # _F_*: no frame yet, none good

@@ -57,7 +57,7 @@ from safety_systems.ssm.separation import (
     segment_of,
     segment_separation,
 )
-from safety_systems.ssm.formulas import _speed_scale_eq12, by_speed_command, level_at_or_above
+from safety_systems.ssm.formulas import speed_scale_eq12, by_speed_command, level_at_or_above
 from safety_systems.config.configuration import (
     braking_table,
     frame_timeout,
@@ -196,7 +196,7 @@ def _score_rows(q, v_joint, mine, real, h_ends, h_vel, h_radius, h_status, truth
     compiled, through the product's compiled functions: the robot's capsules
     (``robot_geometry``; ``mine`` the monitor's, ``real`` the contact geometry's, each
     (a, b, t0, t1, radius, tool length)) at q, v_joint (n, 6); k (Eq. 12 by
-    ``ssm._speed_scale_eq12`` over the usable segments (``h_status``), the monitor's
+    ``ssm.speed_scale_eq12`` over the usable segments (``h_status``), the monitor's
     envelopes h_ends, h_vel (n, M, 2, 3), radii h_radius, Z_d ``z_d``, d and S of each by
     ``separation.segment_separation``; 1 with no usable segment, 0 on a NaN or a lost
     operator); the smallest clearance of the ``present`` true segments ``truth`` (ends
@@ -255,7 +255,7 @@ def _score_rows(q, v_joint, mine, real, h_ends, h_vel, h_radius, h_status, truth
         elif faulty:
             k = 0.0
         elif any_tracked:
-            k = _speed_scale_eq12(d, top, delta_s, d_min)
+            k = speed_scale_eq12(d, top, delta_s, d_min)
         stop_t, stop_b = truth_t[c], truth_b[c]
         if by_speed:  # the stop from the rate now (metrics.true_protective_distances)
             g = level_at_or_above(rate[c], truth_rt.shape[1] - 1)
