@@ -131,7 +131,7 @@ def three_ball_rates(batch: int) -> dict | None:
     with tempfile.TemporaryDirectory() as tmp:
         tree = Path(tmp) / "three_ball"
         made = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree),
-                               THREE_BALL_COMMIT], capture_output=True, text=True)
+                               THREE_BALL_COMMIT], capture_output=True, text=True, check=False)
         if made.returncode != 0:
             print(f"the three-ball commit {THREE_BALL_COMMIT} could not be checked out: "
                   f"{made.stderr.strip()}")
@@ -140,7 +140,7 @@ def three_ball_rates(batch: int) -> dict | None:
             run = subprocess.run(
                 [sys.executable, "-c", _THREE_BALL_CHILD.replace("BATCH", str(batch))],
                 cwd=tree, env={**os.environ, "PYTHONPATH": str(tree)}, capture_output=True,
-                text=True)
+                text=True, check=False)
             if run.returncode != 0:
                 print(f"the three-ball measure failed: {run.stderr.strip().splitlines()[-1:]}")
                 return None
@@ -151,7 +151,7 @@ def three_ball_rates(batch: int) -> dict | None:
             return rates
         finally:
             subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
-                           capture_output=True)
+                           capture_output=True, check=False)
 
 
 def throughput(batch: int) -> None:

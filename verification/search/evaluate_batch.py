@@ -380,6 +380,20 @@ def monitor_pair(segment, r_H, z_d, ends, end_velocities, radius, j, monitor):
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def _s_bound(v_h, v_r, z_d, mode, t_sr, t_r, const, iso, iso_reduced):
+    """An upper bound on ``formulas.body_protective_distance`` (m) for every human speed
+    at most v_h and robot speed at most v_r (m/s), with ``_MARGIN`` for rounding: v_h by
+    the mode (``estimated_with_floor``: at least ``iso``), and in ``iso`` mode the larger
+    of the two ISO speeds with the reduced rule's threshold as a floor (that rule is not
+    monotonic in the speeds, so the bound takes both of its branches)."""
+    h = max(iso, iso_reduced) if mode == 1 else (max(v_h, iso) if mode == 2 else v_h)
+    s = h * t_sr + v_r * t_r + const + z_d + _MARGIN
+    if mode == 1:
+        s = max(s, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+    return s
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def _cone_speed(v, speed, u0, u1, u2, cos_a, sin_a):
     """An upper bound on v . n over the unit vectors n within the angle a (< 90 deg) of the
     unit vector u (m/s), ``speed`` = |v|: the smaller of |v| and (v . u) cos a + |v| sin a.
@@ -536,7 +550,6 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     operator's speed in its mode and the capsule's fastest end).
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
-    h_iso = max(iso, iso_reduced)
     # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
     level_t_sr, level_const = levels
     by_speed = level_t_sr.size > 0
@@ -559,6 +572,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
     m_fast, m_half, m_mid = np.empty(ma.size), np.empty(ma.size), np.empty((ma.size, 3))
     m_end_speed, c_end_speed = np.empty((ma.size, 2)), np.empty((ca.size, 2))
+    op_lb, op_ub = np.empty(enter.shape[1]), np.empty(enter.shape[1])
     speed = 0.0
     m_sphere, c_sphere = (0.0, 0.0, 0.0, np.inf), (0.0, 0.0, 0.0, np.inf)
     memo[:, 1] = np.nan  # the tracker's outputs may have changed: no k to reuse
@@ -665,25 +679,25 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         m_fast[j] = np.nan  # (max would drop it; a NaN bound skips nothing)
                     v_end = m_fast[j] if math.isnan(m_fast[j]) or math.isnan(v_end) \
                         else max(v_end, m_fast[j])
+                # Each operator through its sphere (its segments share its status): its
+                # clearance bounded below, its S above (the fastest end for v_R).
+                for o in range(K if not by_speed else 0):  # (by_speed: not read)
+                    c0, c1, c2, c_r, fastest, top_std = op_spheres[b, o]
+                    op_ub[o] = _s_bound(fastest, v_end, z_d_base + z_d_sigmas * top_std, mode,
+                                        t_sr, t_r, const, iso, iso_reduced)
+                    g0, g1, g2 = c0 - m_sphere[0], c1 - m_sphere[1], c2 - m_sphere[2]
+                    op_lb[o] = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_r - m_sphere[3] \
+                        - _MARGIN
                 # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
                 far = bound_monitor and not by_speed and not math.isnan(v_end) \
                     and tracker_stop(h_status[b], fault) == stops.STOP_NONE
-                if far:  # through each operator's sphere (its segments share its status)
+                if far:
                     closest_lb, s_ub = np.inf, -np.inf
                     for o in range(K):
-                        if not usable(h_status[b, op_first_segment[o]]):
-                            continue
-                        c0, c1, c2, c_r, fastest, top_std = op_spheres[b, o]
-                        h = h_iso if mode == 1 else (max(fastest, iso) if mode == 2
-                                                     else fastest)
-                        z = z_d_base + z_d_sigmas * top_std
-                        ub = h * t_sr + v_end * t_r + const + z + _MARGIN
-                        if mode == 1:
-                            ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
-                        g0, g1, g2 = c0 - m_sphere[0], c1 - m_sphere[1], c2 - m_sphere[2]
-                        lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_r - m_sphere[3] - _MARGIN
-                        closest_lb, s_ub = min(closest_lb, lb), max(s_ub, ub)
-                        far = far and not (math.isnan(lb) or math.isnan(ub))
+                        if usable(h_status[b, op_first_segment[o]]):
+                            lb, ub = op_lb[o], op_ub[o]
+                            closest_lb, s_ub = min(closest_lb, lb), max(s_ub, ub)
+                            far = far and not (math.isnan(lb) or math.isnan(ub))
                     far = far and closest_lb >= d_min + _MARGIN and (
                         closest_lb - s_ub >= max((delta_s - 1.0) * s_ub, 1e-12) + _MARGIN)
                 if far:
@@ -730,16 +744,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             for o in range(K):
                                 if near or faulty or not usable(h_status[b, op_first_segment[o]]):
                                     continue
-                                c0, c1, c2, c_r, fastest, top_std = op_spheres[b, o]
-                                hv = h_iso if mode == 1 else (max(fastest, iso) if mode == 2
-                                                              else fastest)
-                                ub = (hv * t_sr + v_end * t_r + const + z_d_base
-                                      + z_d_sigmas * top_std + _MARGIN)
-                                if mode == 1:
-                                    ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
-                                g0, g1, g2 = c0 - m_sphere[0], c1 - m_sphere[1], c2 - m_sphere[2]
-                                lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_r - m_sphere[3] \
-                                    - _MARGIN
+                                lb, ub = op_lb[o], op_ub[o]
                                 if lb > closest and (ub <= top or (relaxed and speed_scale_eq12(
                                         closest, ub, delta_s, d_min) == k_top)):
                                     bound = max(bound, ub)
@@ -757,14 +762,9 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                     half = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
                                     sP = np.sqrt(vP[0] * vP[0] + vP[1] * vP[1] + vP[2] * vP[2])
                                     sQ = np.sqrt(vQ[0] * vQ[0] + vQ[1] * vQ[1] + vQ[2] * vQ[2])
-                                    hv = max(sP, sQ)
-                                    hv = h_iso if mode == 1 else (max(hv, iso) if mode == 2
-                                                                  else hv)
-                                    base_ub = hv * t_sr + const + z + _MARGIN
                                     if relaxed:  # the segment against the whole robot
-                                        ub = base_ub + v_end * t_r
-                                        if mode == 1:
-                                            ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                                        ub = _s_bound(max(sP, sQ), v_end, z, mode, t_sr, t_r,
+                                                      const, iso, iso_reduced)
                                         g0, g1, g2 = (m_sphere[0] - y0, m_sphere[1] - y1,
                                                       m_sphere[2] - y2)
                                         lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - half - r_H
@@ -782,10 +782,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                         apart = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
                                         if apart - half - r_H - m_half[j] - m_radius[j] \
                                                 - _MARGIN > closest:
-                                            ub = base_ub + m_fast[j] * t_r
-                                            if mode == 1:
-                                                ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD
-                                                         + _MARGIN)
+                                            ub = _s_bound(max(sP, sQ), m_fast[j], z, mode,
+                                                          t_sr, t_r, const, iso, iso_reduced)
                                             if not (ub <= top or (relaxed and speed_scale_eq12(
                                                     closest, ub, delta_s, d_min) == k_top)) \
                                                     and (mode != 1 or robot_speed == 0):
@@ -794,13 +792,9 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                                     sP, vQ, sQ, m_velocities[j, 0],
                                                     m_end_speed[j, 0], m_velocities[j, 1],
                                                     m_end_speed[j, 1], robot_speed)
-                                                h_ub = h_iso if mode == 1 else (
-                                                    max(h_ub, iso) if mode == 2 else h_ub)
-                                                ub = min(ub, h_ub * t_sr + r_ub * t_r + const + z
-                                                         + _MARGIN)
-                                                if mode == 1:
-                                                    ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD
-                                                             + _MARGIN)
+                                                ub = min(ub, _s_bound(
+                                                    h_ub, r_ub, z, mode, t_sr, t_r, const, iso,
+                                                    iso_reduced))
                                             if ub <= top or (relaxed and speed_scale_eq12(
                                                     closest, ub, delta_s, d_min) == k_top):
                                                 bound = max(bound, ub)
@@ -867,12 +861,9 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         departures, ta, tc, vp, lengths, a_max, directions, waypoints,
                         b * K + o, t)
                     v_H = (w0, w1, w2)
-                    h = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)  # S_true's upper bound
-                    h = h_iso if mode == 1 else (max(h, iso) if mode == 2 else h)
-                    s_human_ub = h * truth_t[b] + truth_b[b] + _MARGIN
-                    s_true_ub = s_human_ub + speed * t_r
-                    if mode == 1:
-                        s_true_ub = max(s_true_ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                    h = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)  # S_true's upper bounds
+                    s_true_ub = _s_bound(h, speed, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
+                                         iso_reduced)
                     # Below these a pair could lower a figure (or come inside S_true).
                     contact_floor = min(min_sep[b], closest) if moving else -np.inf
                     separation_floor = max(min(sep_min[b], margin), 0.0) if allowed else -np.inf
@@ -896,9 +887,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             if bound_contact:  # the pair, through the sphere around capsule j
                                 lb = (_to_segment(c_mid[j, 0], c_mid[j, 1], c_mid[j, 2], P, Q)
                                       - c_reach[j] - r_H - _MARGIN)
-                                ub = s_human_ub + c_fast[j] * t_r
-                                if mode == 1:
-                                    ub = max(ub, ISO_REDUCED_SPEED_THRESHOLD + _MARGIN)
+                                ub = _s_bound(h, c_fast[j], 0.0, mode, truth_t[b], t_r,
+                                              truth_b[b], iso, iso_reduced)
                                 if lb > contact_floor and lb - ub > separation_floor:
                                     continue  # this pair can lower neither figure
                             end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
