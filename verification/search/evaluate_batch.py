@@ -486,11 +486,22 @@ def _envelope_batch(regions, candidates, radius, operator, slots, est_p, est_v, 
                       h_velocities[b], h_radius[b], h_status[b], h_std[b])
 
 
+@numba.njit(cache=True, inline="always")
+def _separation_floor(sep_min, margin):
+    """Below this a true pair's margin could change a separation figure at this tick: the
+    least margin so far (``sep_min``), and 0 while the tick's least margin found
+    (``margin``) is not yet below 0 (the time inside S_true counts the ticks whose margin
+    is); once it is, only a lower margin matters."""
+    if margin < 0.0:
+        return min(sep_min, margin)
+    return max(min(sep_min, margin), 0.0)
+
+
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_velocities,
              h_radius, h_status, h_std, op_spheres, frames, timeout, monitor, z_d_terms,
              delta_s, d_min, truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps,
-             truth_segments, op_reach, end, brake_scale, brakes, s, rate, ends_prev, s_last,
+             truth_segments, reach, end, brake_scale, brakes, s, rate, ends_prev, s_last,
              memo, hint, trig, min_sep, sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
@@ -557,6 +568,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     s_levels = np.empty((max(level_t_sr.size, 1), h_radius.shape[1]))
     z_d_base, z_d_sigmas = z_d_terms
     seg_a, seg_b, seg_r = truth_segments
+    op_reach, seg_mid = reach
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
@@ -570,6 +582,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
     c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
+    pair_ub = np.empty(ca.size)
     m_fast, m_half, m_mid = np.empty(ma.size), np.empty(ma.size), np.empty((ma.size, 3))
     m_end_speed, c_end_speed = np.empty((ma.size, 2)), np.empty((ca.size, 2))
     op_lb, op_ub = np.empty(enter.shape[1]), np.empty(enter.shape[1])
@@ -866,42 +879,49 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                          iso_reduced)
                     # Below these a pair could lower a figure (or come inside S_true).
                     contact_floor = min(min_sep[b], closest) if moving else -np.inf
-                    separation_floor = max(min(sep_min[b], margin), 0.0) if allowed else -np.inf
+                    separation_floor = _separation_floor(sep_min[b], margin) if allowed \
+                        else -np.inf
                     if bound_contact:  # the whole operator, through its reach about x
                         g0, g1, g2 = x0 - c_sphere[0], x1 - c_sphere[1], x2 - c_sphere[2]
                         lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - op_reach[b, o]
                               - c_sphere[3] - _MARGIN)
                         if lb > contact_floor and lb - s_true_ub > separation_floor:
                             continue  # no segment of it can lower either figure
+                    for j in range(ca.size):  # S_true's upper bound, per capsule
+                        pair_ub[j] = _s_bound(h, c_fast[j], 0.0, mode, truth_t[b], t_r,
+                                              truth_b[b], iso, iso_reduced)
                     for i in range(seg_r.size):
                         pa, pb, r_H = seg_a[i], seg_b[i], seg_r[i]
                         P = (x0 + postures[b, o, pa, 0], x1 + postures[b, o, pa, 1],
                              x2 + postures[b, o, pa, 2])
                         Q = (x0 + postures[b, o, pb, 0], x1 + postures[b, o, pb, 1],
                              x2 + postures[b, o, pb, 2])
+                        # (the segment's midpoint and half length, for the spheres below)
+                        y0, y1, y2 = (x0 + seg_mid[b, o, i, 0], x1 + seg_mid[b, o, i, 1],
+                                      x2 + seg_mid[b, o, i, 2])
+                        out = seg_mid[b, o, i, 3] + r_H + _MARGIN
                         if bound_contact:
-                            lb = _beyond(c_sphere, P, Q, r_H)
+                            g0, g1, g2 = c_sphere[0] - y0, c_sphere[1] - y1, c_sphere[2] - y2
+                            lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_sphere[3] - out
                             if lb > contact_floor and lb - s_true_ub > separation_floor:
                                 continue  # can lower neither figure
                         for j in range(ca.size):
-                            if bound_contact:  # the pair, through the sphere around capsule j
-                                lb = (_to_segment(c_mid[j, 0], c_mid[j, 1], c_mid[j, 2], P, Q)
-                                      - c_reach[j] - r_H - _MARGIN)
-                                ub = _s_bound(h, c_fast[j], 0.0, mode, truth_t[b], t_r,
-                                              truth_b[b], iso, iso_reduced)
-                                if lb > contact_floor and lb - ub > separation_floor:
+                            if bound_contact:  # the pair, through spheres around both
+                                g0, g1, g2 = c_mid[j, 0] - y0, c_mid[j, 1] - y1, c_mid[j, 2] - y2
+                                lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_reach[j] - out
+                                if lb > contact_floor and lb - pair_ub[j] > separation_floor:
                                     continue  # this pair can lower neither figure
                             end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
                             axis, vh_true, vr_true = segments_pair(P, Q, v_H, v_H, end_a, end_b,
                                                                    vel_a, vel_b)
                             sep = axis - c_radius[j] - r_H
                             closest = min(closest, sep)
+                            contact_floor = min(contact_floor, closest) if moving else -np.inf
                             margin = min(margin, true_margin(
                                 sep, vh_true, vr_true, mode, stop_t, t_r, stop_b, iso,
                                 iso_reduced))
-                            # Below these a later pair could still lower a figure.
-                            contact_floor = min(contact_floor, closest) if moving else -np.inf
-                            separation_floor = max(min(separation_floor, margin), 0.0) \
+                            # Below this a later pair could still lower a figure.
+                            separation_floor = _separation_floor(sep_min[b], margin) \
                                 if allowed else -np.inf
                 if moving:
                     min_sep[b] = min(min_sep[b], closest)
@@ -988,6 +1008,11 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     # each operator's reach: its farthest true point from its reference, plus a radius
     op_reach = (np.linalg.norm(postures, axis=-1).max(axis=-1)
                 + float(truth_segments[2].max(initial=0.0)))
+    # each true segment's midpoint from its operator's reference, and its half length
+    ends_a, ends_b = postures[:, :, truth_segments[0]], postures[:, :, truth_segments[1]]
+    seg_mid = np.concatenate([0.5 * (ends_a + ends_b), 0.5 * np.linalg.norm(
+        ends_b - ends_a, axis=-1)[..., None]], axis=-1)  # (B, K, segments, 4)
+    reach = (op_reach, np.ascontiguousarray(seg_mid))
     allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
     min_sep = np.full(B, np.inf)
     sep_min = np.full(B, np.inf)
@@ -1003,7 +1028,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, postures, c.enter, c.leave,
                  h_ends, h_velocities, h_radius, h_status, h_std, op_spheres, frames, timeout,
                  monitor, z_d_terms, f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates,
-                 monitor_caps, contact_caps, truth_segments, op_reach, c.end, c.brake_scale,
+                 monitor_caps, contact_caps, truth_segments, reach, c.end, c.brake_scale,
                  brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min,
                  sep_time)
         k = stop
