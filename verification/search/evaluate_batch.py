@@ -52,7 +52,6 @@ from safety_systems.cell.operator_paths import (
 from safety_systems.cell.robot_geometry import NUM_POINTS as ROBOT_POINTS
 from safety_systems.cell.robot_geometry import (
     capsule_ends_one,
-    nearest_parameters,
     robot_points_one_memo,
     segments_pair,
 )
@@ -346,24 +345,6 @@ def _bounding_sphere(ends, radius):
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def _to_segment(c0, c1, c2, P, Q):
-    """The distance from the point c to the segment PQ (m)."""
-    s, _ = nearest_parameters(P, Q, (c0, c1, c2), (c0, c1, c2))
-    x0 = P[0] + s * (Q[0] - P[0]) - c0
-    x1 = P[1] + s * (Q[1] - P[1]) - c1
-    x2 = P[2] + s * (Q[2] - P[2]) - c2
-    return np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
-
-
-@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def _beyond(sphere, P, Q, r_H):
-    """A lower bound on a segment's (axis PQ, radius r_H) clearance to the capsules
-    inside ``sphere`` (m)."""
-    c0, c1, c2, R = sphere
-    return _to_segment(c0, c1, c2, P, Q) - R - r_H - _MARGIN
-
-
-@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def monitor_segment(segment, r_H, z_d, ends, end_velocities, radius, monitor):
     """The SeparationMonitor's d_i, S_i (and the nearest pair's speeds and index) of one
     segment: the product's ``separation.segment_separation`` (a seam for the
@@ -554,11 +535,13 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     evaluation) and only until k is certain (Eq. 12 is monotonic in d and S_max: a pair
     is skipped when its clearance, bounded below through spheres about the two axes, is
     above the closest found and its S, bounded above, cannot change k; see the comments
-    there); a true segment's properties
-    are skipped when the sphere bound shows it can lower neither figure (nor come inside
-    S_true), and so is a pair's when the same holds through a sphere around its capsule
-    (its axis' midpoint out to its ends, plus its radius; S_true bounded by the
-    operator's speed in its mode and the capsule's fastest end).
+    there); a true operator's properties are skipped when a sphere about its reference
+    point (out to its farthest body point) shows it can lower neither figure (nor come
+    inside S_true), a segment's when a sphere about its axis' midpoint (out to its ends,
+    plus its radius) shows the same against the sphere around the robot's capsules, and
+    a pair's when it holds against a sphere around the capsule (its axis' midpoint out
+    to its ends, plus its radius); S_true is bounded by the operator's speed in its mode
+    and the capsule's fastest end.
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
