@@ -323,6 +323,7 @@ def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, 
 
 
 _MARGIN = 1e-9  # m: the bounds below skip work only when rounding could not matter
+_DRIFT = 0.1  # m: an anchor of the kept clearance bounds is renewed beyond this
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -482,8 +483,8 @@ def _separation_floor(sep_min, margin):
 def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_velocities,
              h_radius, h_status, h_std, op_spheres, frames, timeout, monitor, z_d_terms,
              delta_s, d_min, truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps,
-             truth_segments, reach, end, brake_scale, brakes, s, rate, ends_prev, s_last,
-             memo, hint, trig, min_sep, sep_min, sep_time):
+             truth_segments, reach, truth_memo, end, brake_scale, brakes, s, rate, ends_prev,
+             s_last, memo, hint, trig, min_sep, sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
     ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (:func:`_envelope_batch` of the
@@ -541,7 +542,15 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     plus its radius) shows the same against the sphere around the robot's capsules, and
     a pair's when it holds against a sphere around the capsule (its axis' midpoint out
     to its ends, plus its radius); S_true is bounded by the operator's speed in its mode
-    and the capsule's fastest end.
+    and the capsule's fastest end. Each true pair's and segment's clearance bound (exact
+    where measured, through the spheres where skipped) is kept across ticks
+    (``truth_memo`` = (pair bounds (B, K, segments, capsules), segment bounds (B, K,
+    segments), each operator's anchor point (B, K, 3), the robot's anchor capsule ends
+    (B, capsules, 2, 3))): a clearance falls by at most how far its two sides moved, and
+    a rigid operator's points all move as its point does and a capsule axis' points at
+    most as far as its farther end, so a bound kept less the displacements from the
+    anchors (at its tick and now) still bounds it; an anchor farther than ``_DRIFT`` is
+    renewed and the bounds it held go.
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
@@ -552,6 +561,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     z_d_base, z_d_sigmas = z_d_terms
     seg_a, seg_b, seg_r = truth_segments
     op_reach, seg_mid = reach
+    kept, seg_kept, anchor_x, anchor_ends = truth_memo
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
@@ -565,7 +575,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
     c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
-    pair_ub = np.empty(ca.size)
+    pair_ub, c_drift = np.empty(ca.size), np.empty(ca.size)
     m_fast, m_half, m_mid = np.empty(ma.size), np.empty(ma.size), np.empty((ma.size, 3))
     m_end_speed, c_end_speed = np.empty((ma.size, 2)), np.empty((ca.size, 2))
     op_lb, op_ub = np.empty(enter.shape[1]), np.empty(enter.shape[1])
@@ -846,6 +856,27 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
             allowed = is_permitted(k_override) and k <= last[b]
             if moving or allowed:  # (they count only then)
                 closest, margin = np.inf, np.inf
+                # How far each capsule's axis moved since the anchor (its ends' farthest
+                # displacement bounds every axis point's); far: a new anchor, and the
+                # pairs' kept bounds go.
+                drift_far = math.isnan(anchor_ends[b, 0, 0, 0])
+                for j in range(ca.size):
+                    c_drift[j] = 0.0
+                    for e in range(2):
+                        g0 = c_ends[j, e, 0] - anchor_ends[b, j, e, 0]
+                        g1 = c_ends[j, e, 1] - anchor_ends[b, j, e, 1]
+                        g2 = c_ends[j, e, 2] - anchor_ends[b, j, e, 2]
+                        c_drift[j] = max(c_drift[j], np.sqrt(g0 * g0 + g1 * g1 + g2 * g2))
+                    drift_far = drift_far or not c_drift[j] <= _DRIFT
+                c_drift_max = 0.0 if drift_far else np.max(c_drift)
+                if drift_far:
+                    for j in range(ca.size):
+                        c_drift[j] = 0.0
+                        for e in range(2):
+                            for i in range(3):
+                                anchor_ends[b, j, e, i] = c_ends[j, e, i]
+                    for o in range(K):
+                        anchor_x[b, o, 0] = np.nan  # (its bounds go with it, below)
                 stop_t, stop_b = truth_t[b], truth_b[b]  # (full speed: the upper bounds')
                 if by_speed:  # the stop from the rate now (metrics.true_protective_distances)
                     g = level_at_or_above(rate[b], truth_rt.shape[1] - 1)
@@ -858,6 +889,16 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         b * K + o, t)
                     v_H = (w0, w1, w2)
                     h = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)  # S_true's upper bounds
+                    g0, g1, g2 = x0 - anchor_x[b, o, 0], x1 - anchor_x[b, o, 1], \
+                        x2 - anchor_x[b, o, 2]
+                    h_drift = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)  # (the body is rigid)
+                    if not h_drift <= _DRIFT:  # a new anchor: the kept bounds go
+                        anchor_x[b, o, 0], anchor_x[b, o, 1], anchor_x[b, o, 2] = x0, x1, x2
+                        h_drift = 0.0
+                        for i in range(seg_r.size):
+                            seg_kept[b, o, i] = -np.inf
+                            for j in range(ca.size):
+                                kept[b, o, i, j] = -np.inf
                     s_true_ub = _s_bound(h, speed, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
                                          iso_reduced)
                     # Below these a pair could lower a figure (or come inside S_true).
@@ -874,11 +915,11 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         pair_ub[j] = _s_bound(h, c_fast[j], 0.0, mode, truth_t[b], t_r,
                                               truth_b[b], iso, iso_reduced)
                     for i in range(seg_r.size):
-                        pa, pb, r_H = seg_a[i], seg_b[i], seg_r[i]
-                        P = (x0 + postures[b, o, pa, 0], x1 + postures[b, o, pa, 1],
-                             x2 + postures[b, o, pa, 2])
-                        Q = (x0 + postures[b, o, pb, 0], x1 + postures[b, o, pb, 1],
-                             x2 + postures[b, o, pb, 2])
+                        r_H = seg_r[i]
+                        # the segment's least kept bound, less how far both have moved
+                        lb = seg_kept[b, o, i] - h_drift - c_drift_max
+                        if lb > contact_floor and lb - s_true_ub > separation_floor:
+                            continue  # can lower neither figure
                         # (the segment's midpoint and half length, for the spheres below)
                         y0, y1, y2 = (x0 + seg_mid[b, o, i, 0], x1 + seg_mid[b, o, i, 1],
                                       x2 + seg_mid[b, o, i, 2])
@@ -887,17 +928,38 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             g0, g1, g2 = c_sphere[0] - y0, c_sphere[1] - y1, c_sphere[2] - y2
                             lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_sphere[3] - out
                             if lb > contact_floor and lb - s_true_ub > separation_floor:
+                                lb -= h_drift + c_drift_max  # (kept for later ticks)
+                                if lb > seg_kept[b, o, i]:
+                                    seg_kept[b, o, i] = lb
                                 continue  # can lower neither figure
+                        pa, pb = seg_a[i], seg_b[i]
+                        P = (x0 + postures[b, o, pa, 0], x1 + postures[b, o, pa, 1],
+                             x2 + postures[b, o, pa, 2])
+                        Q = (x0 + postures[b, o, pb, 0], x1 + postures[b, o, pb, 1],
+                             x2 + postures[b, o, pb, 2])
+                        least = np.inf
                         for j in range(ca.size):
+                            # the pair's clearance when last bounded, less how far both
+                            # have moved since (from the anchors, both ways)
+                            lb = kept[b, o, i, j] - h_drift - c_drift[j]
+                            if lb > contact_floor and lb - pair_ub[j] > separation_floor:
+                                least = min(least, kept[b, o, i, j])
+                                continue  # this pair can lower neither figure
                             if bound_contact:  # the pair, through spheres around both
                                 g0, g1, g2 = c_mid[j, 0] - y0, c_mid[j, 1] - y1, c_mid[j, 2] - y2
                                 lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_reach[j] - out
                                 if lb > contact_floor and lb - pair_ub[j] > separation_floor:
+                                    lb -= h_drift + c_drift[j]  # (kept for later ticks)
+                                    if lb > kept[b, o, i, j]:
+                                        kept[b, o, i, j] = lb
+                                    least = min(least, kept[b, o, i, j])
                                     continue  # this pair can lower neither figure
                             end_a, end_b, vel_a, vel_b = capsule_axis(c_ends, c_velocities, j)
                             axis, vh_true, vr_true = segments_pair(P, Q, v_H, v_H, end_a, end_b,
                                                                    vel_a, vel_b)
                             sep = axis - c_radius[j] - r_H
+                            kept[b, o, i, j] = sep - h_drift - c_drift[j] - _MARGIN
+                            least = min(least, kept[b, o, i, j])
                             closest = min(closest, sep)
                             contact_floor = min(contact_floor, closest) if moving else -np.inf
                             margin = min(margin, true_margin(
@@ -906,6 +968,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             # Below this a later pair could still lower a figure.
                             separation_floor = _separation_floor(sep_min[b], margin) \
                                 if allowed else -np.inf
+                        seg_kept[b, o, i] = least if not math.isnan(least) else -np.inf
                 if moving:
                     min_sep[b] = min(min_sep[b], closest)
                 if allowed:
@@ -996,6 +1059,13 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     seg_mid = np.concatenate([0.5 * (ends_a + ends_b), 0.5 * np.linalg.norm(
         ends_b - ends_a, axis=-1)[..., None]], axis=-1)  # (B, K, segments, 4)
     reach = (op_reach, np.ascontiguousarray(seg_mid))
+    # each true pair's clearance when last measured, less the drifts from the anchors
+    # (each operator's point, the robot's capsule ends) then: a lower bound while neither
+    # has moved more than _DRIFT from its anchor
+    truth_memo = (np.full((B, c.K, truth_segments[2].size, truth_caps.radius.size), -np.inf),
+                  np.full((B, c.K, truth_segments[2].size), -np.inf),
+                  np.full((B, c.K, 3), np.nan),
+                  np.full((B, truth_caps.radius.size, 2, 3), np.nan))
     allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
     min_sep = np.full(B, np.inf)
     sep_min = np.full(B, np.inf)
@@ -1011,7 +1081,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, postures, c.enter, c.leave,
                  h_ends, h_velocities, h_radius, h_status, h_std, op_spheres, frames, timeout,
                  monitor, z_d_terms, f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates,
-                 monitor_caps, contact_caps, truth_segments, reach, c.end, c.brake_scale,
+                 monitor_caps, contact_caps, truth_segments, reach, truth_memo, c.end,
+                 c.brake_scale,
                  brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min,
                  sep_time)
         k = stop
