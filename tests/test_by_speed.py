@@ -2,6 +2,7 @@
 terms, the override's rule, the simulated stops by rate and S_true by rate."""
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -20,7 +21,7 @@ from safety_systems.outputs.metrics import true_protective_distances
 from safety_systems.runtime.safety_loop import SafetyLoop
 from safety_systems.sensing import stops
 from safety_systems.sensing.tracks import TRACK_LOST, TRACK_TRACKING
-from safety_systems.ssm.formulas import SPEED_LEVELS, by_speed_override_command
+from safety_systems.ssm.formulas import SPEED_LEVELS, by_speed_override_command, held_level
 from safety_systems.systems.speed_override import SpeedOverride
 
 ISO = load_controller_config("models/configs/iso.yaml")
@@ -174,3 +175,12 @@ def test_the_runtime_takes_s_from_the_rate_bound_and_a_missing_one_as_full_speed
     k_fast, _, reason = loop.decide(0.1, 1.0)
     assert k_fast == 0.0 and reason == stops.STOP_SEPARATION  # at full speed: S not met
     assert loop.decide(0.1, np.nan)[0] == 0.0  # no bound: full speed
+
+
+@pytest.mark.parametrize("rate, k, expected", [
+    (0.5, 0.0, 8), (0.5, 0.75, 12), (0.25, 0.5, 8), (1.0, 0.0, 16),
+    (math.nan, 0.0, 16), (math.inf, 0.0, 16), (-math.inf, 0.0, 16),  # fails to full speed
+    (0.5, math.nan, 8), (0.0, math.inf, 0), (0.0, 2.0, 16), (0.0, -1.0, 0)])
+def test_the_held_level_is_the_larger_of_the_rate_and_the_command_and_fails_to_full_speed(
+        rate, k, expected):
+    assert held_level(rate, k, 16) == expected

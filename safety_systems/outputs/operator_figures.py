@@ -8,7 +8,7 @@ from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.config.configuration import scenario_monitor_recipe, truth_recipe
 from safety_systems.diagrams.simulation import Run
 from safety_systems.outputs.metrics import tool_state, true_separations
-from safety_systems.ssm.formulas import level_at_or_above, separation_distances
+from safety_systems.ssm.formulas import held_level, separation_distances
 
 
 def commanded_speed(run: Run) -> np.ndarray:
@@ -66,17 +66,15 @@ def nearest_segment(d: np.ndarray, columns: np.ndarray) -> tuple[np.ndarray, np.
 def override_levels(run: Run) -> np.ndarray:
     """(T,) under ``safety.stopping: by_speed``, the speed level g (of G + 1, S at
     g / G: ``monitor.level_protective_distances``) whose S the override held the
-    distances to at each tick (``ssm.formulas.by_speed_command``): the larger of the
-    level at or above the path rate then (``level_at_or_above``, the logged
-    ``follower.path_state``'s rate, the override's input) and the level it commanded
-    (k = g / G). Where a fault of the sensing chain held the robot (stop reasons after
+    distances to at each tick (``ssm.formulas.held_level``, of the logged
+    ``follower.path_state``'s rate, the override's input, and the k it commanded).
+    Where a fault of the sensing chain held the robot (stop reasons after
     ``separation``) k is 0 whatever level the distances allowed: the rate's level then."""
     m = run["monitor.distances"].shape[1]
     levels = run["monitor.level_protective_distances"].shape[1] // max(m, 1) - 1
     rate = run["follower.path_state"][:, 1]
-    now = np.array([level_at_or_above(float(r), levels) for r in rate], dtype=int)
-    commanded = np.rint(commanded_speed(run) * levels).astype(int)
-    return np.maximum(now, np.clip(commanded, 0, levels))
+    return np.array([held_level(float(r), float(k), levels)
+                     for r, k in zip(rate, commanded_speed(run))], dtype=int)
 
 
 def monitor_protective_distances(run: Run) -> np.ndarray:

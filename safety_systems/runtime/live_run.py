@@ -51,7 +51,7 @@ from safety_systems.runtime.robot_link import RobotLost
 from safety_systems.runtime.safety_loop import SafetyLoop
 from safety_systems.sensing.stops import REJECT_CAUSES
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
-from safety_systems.ssm.formulas import level_at_or_above
+from safety_systems.ssm.formulas import held_level
 
 MAX_OVERRUN = 0.005  # s: a tick may start this late before the watchdog stops the robot
 OVERRUN_HOLD = 0.2  # s k stays 0 after an overrun
@@ -136,8 +136,7 @@ class _OperatorColumns:
         if self.levels is None:
             s = loop.out[1]
         else:
-            g = max(level_at_or_above(rate if math.isfinite(rate) else 1.0, self.levels),
-                    min(max(round(k * self.levels), 0), self.levels))
+            g = held_level(rate, k, self.levels)
             s = loop.level_out[g]
         row[self.at["d_true"]] = math.nan
         row[self.at["nearest_true"]] = math.nan

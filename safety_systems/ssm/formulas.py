@@ -370,6 +370,18 @@ def level_at_or_above(rate, levels):
     return max(0, min(levels, math.ceil((rate - 1e-9) * levels)))
 
 
+def held_level(rate: float, k: float, levels: int) -> int:
+    """The speed level whose S the override held the distances to at a tick under
+    ``safety.stopping: by_speed`` (:func:`by_speed_command`), for the figures that report
+    it (trace, plot, the live runtime's log): the larger of the level at or above the
+    path rate then (:func:`level_at_or_above`) and the level it commanded (k = g /
+    ``levels``). Fails towards the larger S: a rate that is not finite counts as full
+    speed; a k that is not finite commanded a stop (level 0, so the rate's level)."""
+    now = int(level_at_or_above(rate if math.isfinite(rate) else 1.0, levels))
+    commanded = min(max(round(k * levels), 0), levels) if math.isfinite(k) else 0
+    return max(now, commanded)
+
+
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def by_speed_command(d, s_levels, status, fault, rate, delta_s, d_min, included):
     """The SpeedOverride's (k, S_max, stop reason) with S following the robot's speed
