@@ -868,7 +868,6 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         g2 = c_ends[j, e, 2] - anchor_ends[b, j, e, 2]
                         c_drift[j] = max(c_drift[j], np.sqrt(g0 * g0 + g1 * g1 + g2 * g2))
                     drift_far = drift_far or not c_drift[j] <= _DRIFT
-                c_drift_max = 0.0 if drift_far else np.max(c_drift)
                 if drift_far:
                     for j in range(ca.size):
                         c_drift[j] = 0.0
@@ -877,6 +876,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                 anchor_ends[b, j, e, i] = c_ends[j, e, i]
                     for o in range(K):
                         anchor_x[b, o, 0] = np.nan  # (its bounds go with it, below)
+                c_drift_max = np.max(c_drift)
                 stop_t, stop_b = truth_t[b], truth_b[b]  # (full speed: the upper bounds')
                 if by_speed:  # the stop from the rate now (metrics.true_protective_distances)
                     g = level_at_or_above(rate[b], truth_rt.shape[1] - 1)
