@@ -307,19 +307,25 @@ def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
                 for x in adj:
                     cut[x] = [e for e in adj[x] if {x, e[0]} != {pa, pb}]
                 sides = (_component(pa, cut), _component(pb, cut))
-            seen = set()
+            # Of two pairs whose regions are the same balls' centres, the smaller total
+            # is kept: its ellipsoid lies inside the other's, and so does its capsule
+            # (the capsule's radius b grows at least as fast as a, so its ends a - b + b
+            # = a reach less far and its sides are thinner), at most as large.
+            seen = {}
             for A in sides[0]:
                 for B in sides[1]:
                     path = _path(A, B, adj)
                     if any(x in tracked for x in path[1:-1]):
                         continue
                     key = (best[A][0], *np.round(best[A][1], 12), best[B][0],
-                           *np.round(best[B][1], 12),
-                           round(_path_length(path, dims, adj) + best[A][2] + best[B][2], 12))
-                    if key in seen:
-                        continue
-                    seen.add(key)
+                           *np.round(best[B][1], 12))
                     total = _path_length(path, dims, adj) + best[A][2] + best[B][2]
+                    if key in seen:
+                        c = seen[key]
+                        if total < candidates[c][3]:
+                            candidates[c] = (m, base + A, base + B, total, KIND_ELLIPSOID, 0.0)
+                        continue
+                    seen[key] = len(candidates)
                     candidates.append((m, base + A, base + B, total, KIND_ELLIPSOID, 0.0))
         first_slot += len(points)
     return Recipe(np.array(regions, dtype=float).reshape(-1, REGION_COLUMNS),
@@ -371,14 +377,6 @@ def ellipsoid_capsule(c_A, c_B, total):
             b)
 
 
-@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def _size(A, B, r):
-    """A capsule's size for choosing among candidates: r^2 (2 |AB| + 4 r / 3), its volume
-    over pi."""
-    x0, x1, x2 = B[0] - A[0], B[1] - A[1], B[2] - A[2]
-    return r * r * (2.0 * math.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + 4.0 * r / 3.0)
-
-
 @numba.njit(cache=True)
 def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, std, unseen,
                   allowance, occlusion_speed, ends, end_velocities, out_radius, out_status,
@@ -420,7 +418,6 @@ def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, st
             op_status[k] = hidden
         else:
             op_status[k] = tracking
-    best = np.full(radius.size, np.inf)
     for m in range(radius.size):
         out_status[m] = op_status[operator[m]]
         out_std[m] = np.nan
@@ -429,35 +426,64 @@ def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, st
             for x in range(3):
                 ends[m, e, x] = np.nan
                 end_velocities[m, e, x] = np.nan
+    # Each region's centre and radius once (candidates share them).
+    centre, grow = np.empty((regions.shape[0], 3)), np.empty(regions.shape[0])
+    for ra in range(regions.shape[0]):
+        i = int(regions[ra, 0])
+        grow[ra] = allowance
+        if status[i] == hidden:
+            grow[ra] += hidden_ball_radius(unseen[i], occlusion_speed)
+        for x in range(3):
+            centre[ra, x] = p[i, x] + regions[ra, 1 + x]
+    # The smallest candidate of each segment, by its size alone (its axis' length and
+    # radius, without its ends); then its ends, once.
+    best, chosen = np.full(radius.size, np.inf), np.full(radius.size, -1)
     for c in range(candidates.shape[0]):
         m = int(candidates[c, 0])
         if not (out_status[m] == tracking or out_status[m] == hidden):
             continue
         ra, rb = int(candidates[c, 1]), int(candidates[c, 2])
+        kind = candidates[c, 4]
+        if kind == KIND_CONE:
+            length, r = abs(candidates[c, 5]), candidates[c, 3] + grow[ra]
+        else:
+            d0, d1 = centre[rb, 0] - centre[ra, 0], centre[rb, 1] - centre[ra, 1]
+            d2 = centre[rb, 2] - centre[ra, 2]
+            dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            if kind == KIND_DIRECT:
+                length, r = dist, max(grow[ra], grow[rb])
+            else:  # ellipsoid_capsule's axis length and radius
+                a, half = 0.5 * (candidates[c, 3] + grow[ra] + grow[rb]), 0.5 * dist
+                if half >= a:
+                    length, r = dist, 0.0
+                else:
+                    r = math.sqrt((a - half) * (a + half))
+                    length = 2.0 * (a - r)
+        r += radius[m]
+        size = r * r * (2.0 * length + 4.0 * r / 3.0)  # (its cylinder weighed twice)
+        if size < best[m] or (math.isnan(size) and not math.isnan(best[m])):
+            best[m], chosen[m] = size, c  # (a NaN, once met, is kept: the segment is NaN)
+    for m in range(radius.size):
+        c = chosen[m]
+        if c < 0:
+            continue
+        ra, rb = int(candidates[c, 1]), int(candidates[c, 2])
         ia, ib = int(regions[ra, 0]), int(regions[rb, 0])
-        u_a, u_b = allowance, allowance
-        if status[ia] == hidden:
-            u_a += hidden_ball_radius(unseen[ia], occlusion_speed)
-        if status[ib] == hidden:
-            u_b += hidden_ball_radius(unseen[ib], occlusion_speed)
-        c_a = (p[ia, 0] + regions[ra, 1], p[ia, 1] + regions[ra, 2], p[ia, 2] + regions[ra, 3])
-        c_b = (p[ib, 0] + regions[rb, 1], p[ib, 1] + regions[rb, 2], p[ib, 2] + regions[rb, 3])
+        c_a = (centre[ra, 0], centre[ra, 1], centre[ra, 2])
+        c_b = (centre[rb, 0], centre[rb, 1], centre[rb, 2])
         if candidates[c, 4] == KIND_DIRECT:
-            end_a, end_b, r = c_a, c_b, max(u_a, u_b)
+            end_a, end_b, r = c_a, c_b, max(grow[ra], grow[rb])
         elif candidates[c, 4] == KIND_CONE:
             end_a, end_b, r = c_a, (c_a[0], c_a[1], c_a[2] + candidates[c, 5]), \
-                candidates[c, 3] + u_a
+                candidates[c, 3] + grow[ra]
         else:
-            end_a, end_b, r = ellipsoid_capsule(c_a, c_b, candidates[c, 3] + u_a + u_b)
-        r += radius[m]
-        size = _size(end_a, end_b, r)
-        if size < best[m] or (math.isnan(size) and not math.isnan(best[m])):
-            best[m] = size
-            out_radius[m] = r
-            out_std[m] = max(std[ia], std[ib])
-            for x in range(3):
-                ends[m, 0, x], ends[m, 1, x] = end_a[x], end_b[x]
-                end_velocities[m, 0, x], end_velocities[m, 1, x] = v[ia, x], v[ib, x]
+            end_a, end_b, r = ellipsoid_capsule(c_a, c_b, candidates[c, 3] + grow[ra]
+                                                + grow[rb])
+        out_radius[m] = r + radius[m]
+        out_std[m] = max(std[ia], std[ib])
+        for x in range(3):
+            ends[m, 0, x], ends[m, 1, x] = end_a[x], end_b[x]
+            end_velocities[m, 0, x], end_velocities[m, 1, x] = v[ia, x], v[ib, x]
 
 
 # An upright operator relative to its head, in its facing frame (forward f, left l, up z),
