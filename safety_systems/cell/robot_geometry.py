@@ -371,6 +371,8 @@ def segments_pair(P, Q, vP, vQ, A, B, vA, vB):
     w0, w1, w2 = u * vA[0] + t * vB[0], u * vA[1] + t * vB[1], u * vA[2] + t * vB[2]
     y0, y1, y2 = P[0] + s * (Q[0] - P[0]), P[1] + s * (Q[1] - P[1]), P[2] + s * (Q[2] - P[2])
     dist, h_P, v_r = separation_pair((x0, x1, x2), (w0, w1, w2), (y0, y1, y2), vP)
+    if vP[0] == vQ[0] and vP[1] == vQ[1] and vP[2] == vQ[2]:
+        return dist, h_P, v_r  # (a rigid segment: both ends' speeds are this one)
     h_Q = separation_pair((x0, x1, x2), (w0, w1, w2), (y0, y1, y2), vQ)[1]
     return dist, (h_P if h_P >= h_Q or math.isnan(h_P) else h_Q), v_r
 

@@ -417,13 +417,27 @@ def _speed_bounds(g0, g1, g2, apart, halves, vP, sP, vQ, sQ, vA, sA, vB, sB, rob
 
 
 @numba.njit(cache=True)
-def _operator_spheres(h_ends, h_velocities, h_radius, h_std, operator, spheres):
+def _operator_spheres(h_ends, h_velocities, h_radius, h_std, operator, spheres, axes):
     """Per scenario and operator, a sphere holding every segment capsule of the operator
     (centre, radius), its segments' fastest end speed and their largest std, into
     spheres (B, K, 6): about the mean of the ends, out to the farthest end plus its
     capsule's radius (every axis point is nearer than the farther end). NaN where a
-    segment is NaN (an unusable operator, or a NaN estimate)."""
+    segment is NaN (an unusable operator, or a NaN estimate). And per segment, for the
+    monitor's sweeps at every tick until the next update, ``axes`` (B, M, 6): its axis'
+    midpoint, half length and its ends' speeds |vP|, |vQ|."""
     B, K = spheres.shape[0], spheres.shape[1]
+    for b in range(B):
+        for m in range(operator.size):
+            y0 = 0.5 * (h_ends[b, m, 0, 0] + h_ends[b, m, 1, 0])
+            y1 = 0.5 * (h_ends[b, m, 0, 1] + h_ends[b, m, 1, 1])
+            y2 = 0.5 * (h_ends[b, m, 0, 2] + h_ends[b, m, 1, 2])
+            g0, g1, g2 = h_ends[b, m, 1, 0] - y0, h_ends[b, m, 1, 1] - y1, h_ends[b, m, 1, 2] - y2
+            axes[b, m, 0], axes[b, m, 1], axes[b, m, 2] = y0, y1, y2
+            axes[b, m, 3] = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+            for e in range(2):
+                w0, w1, w2 = (h_velocities[b, m, e, 0], h_velocities[b, m, e, 1],
+                              h_velocities[b, m, e, 2])
+                axes[b, m, 4 + e] = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     count = np.zeros(K)
     for b in range(B):
         for k in range(K):
@@ -446,9 +460,7 @@ def _operator_spheres(h_ends, h_velocities, h_radius, h_std, operator, spheres):
                 x1 = h_ends[b, m, e, 1] - spheres[b, k, 1]
                 x2 = h_ends[b, m, e, 2] - spheres[b, k, 2]
                 far = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + h_radius[b, m]
-                w0, w1, w2 = (h_velocities[b, m, e, 0], h_velocities[b, m, e, 1],
-                              h_velocities[b, m, e, 2])
-                fast = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                fast = axes[b, m, 4 + e]  # (its end's speed, above)
                 # (a NaN anywhere makes the sphere NaN: max would drop it)
                 spheres[b, k, 3] = far if not far <= spheres[b, k, 3] else spheres[b, k, 3]
                 spheres[b, k, 4] = fast if not fast <= spheres[b, k, 4] else spheres[b, k, 4]
@@ -481,7 +493,7 @@ def _separation_floor(sep_min, margin):
 
 @numba.njit(cache=True)
 def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_velocities,
-             h_radius, h_status, h_std, op_spheres, frames, timeout, monitor, z_d_terms,
+             h_radius, h_status, h_std, op_spheres, h_axes, frames, timeout, monitor, z_d_terms,
              delta_s, d_min, truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps,
              truth_segments, reach, truth_memo, end, brake_scale, brakes, s, rate, ends_prev,
              s_last, memo, hint, trig, min_sep, sep_min, sep_time):
@@ -542,11 +554,13 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     plus its radius) shows the same against the sphere around the robot's capsules, and
     a pair's when it holds against a sphere around the capsule (its axis' midpoint out
     to its ends, plus its radius); S_true is bounded by the operator's speed in its mode
-    and the capsule's fastest end. Each true pair's and segment's clearance bound (exact
-    where measured, through the spheres where skipped) is kept across ticks
-    (``truth_memo`` = (pair bounds (B, K, segments, capsules), segment bounds (B, K,
-    segments), each operator's anchor point (B, K, 3), the robot's anchor capsule ends
-    (B, capsules, 2, 3))): a clearance falls by at most how far its two sides moved, and
+    and the capsule's fastest end, and for a pair that the sphere leaves by S_true alone,
+    by the directed speeds' bounds in the cone between the axes (:func:`_speed_bounds`).
+    Each true pair's, segment's and operator's clearance bound (exact where measured,
+    through the spheres where skipped) is kept across ticks (``truth_memo`` = (pair
+    bounds (B, K, segments, capsules), segment bounds (B, K, segments), operator bounds
+    (B, K), each operator's anchor point (B, K, 3), the robot's anchor capsule ends (B,
+    capsules, 2, 3))): a clearance falls by at most how far its two sides moved, and
     a rigid operator's points all move as its point does and a capsule axis' points at
     most as far as its farther end, so a bound kept less the displacements from the
     anchors (at its tick and now) still bounds it; an anchor farther than ``_DRIFT`` is
@@ -561,7 +575,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     z_d_base, z_d_sigmas = z_d_terms
     seg_a, seg_b, seg_r = truth_segments
     op_reach, seg_mid = reach
-    kept, seg_kept, anchor_x, anchor_ends = truth_memo
+    kept, seg_kept, op_kept, anchor_x, anchor_ends = truth_memo
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
@@ -575,6 +589,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
     c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
+    c_half = np.empty(ca.size)
     pair_ub, c_drift = np.empty(ca.size), np.empty(ca.size)
     m_fast, m_half, m_mid = np.empty(ma.size), np.empty(ma.size), np.empty((ma.size, 3))
     m_end_speed, c_end_speed = np.empty((ma.size, 2)), np.empty((ca.size, 2))
@@ -648,7 +663,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     x0 = c_ends[j, 1, 0] - c_mid[j, 0]
                     x1 = c_ends[j, 1, 1] - c_mid[j, 1]
                     x2 = c_ends[j, 1, 2] - c_mid[j, 2]
-                    c_reach[j] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + c_radius[j]
+                    c_half[j] = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+                    c_reach[j] = c_half[j] + c_radius[j]
                 for j in range(ma.size):  # each monitor capsule's axis: midpoint, half
                     for i in range(3):
                         m_mid[j, i] = 0.5 * (m_ends[j, 0, i] + m_ends[j, 1, i])
@@ -671,20 +687,19 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                 frozen[b] = (k_override == 0.0 and rate[b] == 0.0 and speed == 0.0
                              and (fault != 0.0 or t_end - frames[b, _F_GOOD] <= timeout))
             else:
-                v_end = 0.0  # RobotCapsules' Eq. 5, and its fastest end (for the bounds)
+                # RobotCapsules' Eq. 5: its fastest end first, through the ends' largest
+                # displacement (the bounds below need no more; its rounding differs from
+                # the ends' speeds' by ulps, far below the bounds' _MARGIN), each end's
+                # velocity only where the pairs are needed (below). NaN where an end is.
+                top_sq = 0.0
                 for j in range(ma.size):
                     for e in range(2):
-                        for i in range(3):
-                            m_velocities[j, e, i] = (m_ends[j, e, i]
-                                                     - ends_prev[b, j, e, i]) / dt
-                        w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
-                            m_velocities[j, e, 2]
-                        m_end_speed[j, e] = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-                    m_fast[j] = max(m_end_speed[j, 0], m_end_speed[j, 1])
-                    if math.isnan(m_end_speed[j, 0]) or math.isnan(m_end_speed[j, 1]):
-                        m_fast[j] = np.nan  # (max would drop it; a NaN bound skips nothing)
-                    v_end = m_fast[j] if math.isnan(m_fast[j]) or math.isnan(v_end) \
-                        else max(v_end, m_fast[j])
+                        x0 = m_ends[j, e, 0] - ends_prev[b, j, e, 0]
+                        x1 = m_ends[j, e, 1] - ends_prev[b, j, e, 1]
+                        x2 = m_ends[j, e, 2] - ends_prev[b, j, e, 2]
+                        sq = x0 * x0 + x1 * x1 + x2 * x2
+                        top_sq = sq if not sq <= top_sq else top_sq  # (max would drop a NaN)
+                v_end = np.sqrt(top_sq) / dt
                 # Each operator through its sphere (its segments share its status): its
                 # clearance bounded below, its S above (the fastest end for v_R).
                 for o in range(K if not by_speed else 0):  # (by_speed: not read)
@@ -709,6 +724,17 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                 if far:
                     k_override = 1.0  # Eq. 12's ramp is above 1 for every pair
                 else:
+                    for j in range(ma.size):  # Eq. 5 per end, and each capsule's faster
+                        for e in range(2):
+                            for i in range(3):
+                                m_velocities[j, e, i] = (m_ends[j, e, i]
+                                                         - ends_prev[b, j, e, i]) / dt
+                            w0, w1, w2 = m_velocities[j, e, 0], m_velocities[j, e, 1], \
+                                m_velocities[j, e, 2]
+                            m_end_speed[j, e] = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                        m_fast[j] = max(m_end_speed[j, 0], m_end_speed[j, 1])
+                        if math.isnan(m_end_speed[j, 0]) or math.isnan(m_end_speed[j, 1]):
+                            m_fast[j] = np.nan  # (max would drop it; a NaN bound skips nothing)
                     near = False
                     if fault == 0.0 and not by_speed:
                         # Eq. 12 reads only the closest clearance and the largest S over
@@ -758,16 +784,11 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                 for i in range(o * (N // K), (o + 1) * (N // K)):
                                     if near or faulty or not usable(h_status[b, i]):
                                         continue
-                                    segment = segment_of(h_ends[b], h_velocities[b], i)
-                                    P, Q, vP, vQ = segment
                                     r_H = h_radius[b, i]
                                     z = z_d_base + z_d_sigmas * h_std[b, i]
-                                    y0, y1, y2 = (0.5 * (P[0] + Q[0]), 0.5 * (P[1] + Q[1]),
-                                                  0.5 * (P[2] + Q[2]))
-                                    g0, g1, g2 = Q[0] - y0, Q[1] - y1, Q[2] - y2
-                                    half = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
-                                    sP = np.sqrt(vP[0] * vP[0] + vP[1] * vP[1] + vP[2] * vP[2])
-                                    sQ = np.sqrt(vQ[0] * vQ[0] + vQ[1] * vQ[1] + vQ[2] * vQ[2])
+                                    y0, y1, y2, half, sP, sQ = (
+                                        h_axes[b, i, 0], h_axes[b, i, 1], h_axes[b, i, 2],
+                                        h_axes[b, i, 3], h_axes[b, i, 4], h_axes[b, i, 5])
                                     if relaxed:  # the segment against the whole robot
                                         ub = _s_bound(max(sP, sQ), v_end, z, mode, t_sr, t_r,
                                                       const, iso, iso_reduced)
@@ -779,6 +800,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                                 closest, ub, delta_s, d_min) == k_top):
                                             bound = max(bound, ub)
                                             continue
+                                    segment = segment_of(h_ends[b], h_velocities[b], i)
+                                    P, Q, vP, vQ = segment
                                     for j in range(ma.size):
                                         if relaxed and i == hint[b, N + o] and j == hint[b, i]:
                                             continue  # (seen first)
@@ -895,6 +918,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     if not h_drift <= _DRIFT:  # a new anchor: the kept bounds go
                         anchor_x[b, o, 0], anchor_x[b, o, 1], anchor_x[b, o, 2] = x0, x1, x2
                         h_drift = 0.0
+                        op_kept[b, o] = -np.inf
                         for i in range(seg_r.size):
                             seg_kept[b, o, i] = -np.inf
                             for j in range(ca.size):
@@ -905,12 +929,21 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     contact_floor = min(min_sep[b], closest) if moving else -np.inf
                     separation_floor = _separation_floor(sep_min[b], margin) if allowed \
                         else -np.inf
+                    # the operator's least kept bound (its segments'), less how far both
+                    # have moved
+                    lb = op_kept[b, o] - h_drift - c_drift_max
+                    if lb > contact_floor and lb - s_true_ub > separation_floor:
+                        continue  # no segment of it can lower either figure
                     if bound_contact:  # the whole operator, through its reach about x
                         g0, g1, g2 = x0 - c_sphere[0], x1 - c_sphere[1], x2 - c_sphere[2]
                         lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - op_reach[b, o]
                               - c_sphere[3] - _MARGIN)
                         if lb > contact_floor and lb - s_true_ub > separation_floor:
+                            lb -= h_drift + c_drift_max  # (kept for later ticks)
+                            if lb > op_kept[b, o]:
+                                op_kept[b, o] = lb
                             continue  # no segment of it can lower either figure
+                    op_least = np.inf  # (its segments' least kept bound, below)
                     for j in range(ca.size):  # S_true's upper bound, per capsule
                         pair_ub[j] = _s_bound(h, c_fast[j], 0.0, mode, truth_t[b], t_r,
                                               truth_b[b], iso, iso_reduced)
@@ -919,6 +952,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         # the segment's least kept bound, less how far both have moved
                         lb = seg_kept[b, o, i] - h_drift - c_drift_max
                         if lb > contact_floor and lb - s_true_ub > separation_floor:
+                            op_least = min(op_least, seg_kept[b, o, i])
                             continue  # can lower neither figure
                         # (the segment's midpoint and half length, for the spheres below)
                         y0, y1, y2 = (x0 + seg_mid[b, o, i, 0], x1 + seg_mid[b, o, i, 1],
@@ -931,6 +965,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                 lb -= h_drift + c_drift_max  # (kept for later ticks)
                                 if lb > seg_kept[b, o, i]:
                                     seg_kept[b, o, i] = lb
+                                op_least = min(op_least, seg_kept[b, o, i])
                                 continue  # can lower neither figure
                         pa, pb = seg_a[i], seg_b[i]
                         P = (x0 + postures[b, o, pa, 0], x1 + postures[b, o, pa, 1],
@@ -947,8 +982,21 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                 continue  # this pair can lower neither figure
                             if bound_contact:  # the pair, through spheres around both
                                 g0, g1, g2 = c_mid[j, 0] - y0, c_mid[j, 1] - y1, c_mid[j, 2] - y2
-                                lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_reach[j] - out
-                                if lb > contact_floor and lb - pair_ub[j] > separation_floor:
+                                apart = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+                                lb = apart - c_reach[j] - out
+                                skip = lb > contact_floor and lb - pair_ub[j] > separation_floor
+                                if lb > contact_floor and not skip:
+                                    # S_true by the directed speeds' bounds in the cone of
+                                    # directions between the axes (:func:`_speed_bounds`;
+                                    # the truth's robot speed is always the directed one)
+                                    h_ub, r_ub = _speed_bounds(
+                                        g0, g1, g2, apart, seg_mid[b, o, i, 3] + c_half[j], v_H,
+                                        h, v_H, h, c_velocities[j, 0], c_end_speed[j, 0],
+                                        c_velocities[j, 1], c_end_speed[j, 1], 0)
+                                    skip = lb - _s_bound(h_ub, r_ub, 0.0, mode, truth_t[b], t_r,
+                                                         truth_b[b], iso, iso_reduced) \
+                                        > separation_floor
+                                if skip:
                                     lb -= h_drift + c_drift[j]  # (kept for later ticks)
                                     if lb > kept[b, o, i, j]:
                                         kept[b, o, i, j] = lb
@@ -969,6 +1017,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             separation_floor = _separation_floor(sep_min[b], margin) \
                                 if allowed else -np.inf
                         seg_kept[b, o, i] = least if not math.isnan(least) else -np.inf
+                        op_least = min(op_least, seg_kept[b, o, i])
+                    op_kept[b, o] = op_least
                 if moving:
                     min_sep[b] = min(min_sep[b], closest)
                 if allowed:
@@ -1051,6 +1101,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     h_radius, h_std = np.full((B, M), np.nan), np.full((B, M), np.nan)
     h_status = np.zeros((B, M))  # no track yet: every segment none, as the tracker's
     op_spheres = np.full((B, c.K, 6), np.nan)
+    h_axes = np.full((B, M, 6), np.nan)
     # each operator's reach: its farthest true point from its reference, plus a radius
     op_reach = (np.linalg.norm(postures, axis=-1).max(axis=-1)
                 + float(truth_segments[2].max(initial=0.0)))
@@ -1064,6 +1115,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     # has moved more than _DRIFT from its anchor
     truth_memo = (np.full((B, c.K, truth_segments[2].size, truth_caps.radius.size), -np.inf),
                   np.full((B, c.K, truth_segments[2].size), -np.inf),
+                  np.full((B, c.K), -np.inf),
                   np.full((B, c.K, 3), np.nan),
                   np.full((B, truth_caps.radius.size, 2, 3), np.nan))
     allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
@@ -1079,7 +1131,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         while stop <= last and not u < stop * dt - _EVENT_TOL:
             stop += 1
         _advance(k, stop, dt, c.ticks, path, c.stack_arrays, postures, c.enter, c.leave,
-                 h_ends, h_velocities, h_radius, h_status, h_std, op_spheres, frames, timeout,
+                 h_ends, h_velocities, h_radius, h_status, h_std, op_spheres, h_axes, frames,
+                 timeout,
                  monitor, z_d_terms, f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates,
                  monitor_caps, contact_caps, truth_segments, reach, truth_memo, c.end,
                  c.brake_scale,
@@ -1092,7 +1145,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         _envelope_batch(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
                         recipe.slots, est_p, est_v, status, std, unseen, allowance,
                         occlusion_speed, h_ends, h_velocities, h_radius, h_status, h_std)
-        _operator_spheres(h_ends, h_velocities, h_radius, h_std, recipe.operator, op_spheres)
+        _operator_spheres(h_ends, h_velocities, h_radius, h_std, recipe.operator, op_spheres,
+                          h_axes)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        sep_min, sep_time)
