@@ -417,27 +417,33 @@ def _speed_bounds(g0, g1, g2, apart, halves, vP, sP, vQ, sQ, vA, sA, vB, sB, rob
 
 
 @numba.njit(cache=True)
-def _operator_spheres(h_ends, h_velocities, h_radius, h_std, operator, spheres, axes):
-    """Per scenario and operator, a sphere holding every segment capsule of the operator
-    (centre, radius), its segments' fastest end speed and their largest std, into
-    spheres (B, K, 6): about the mean of the ends, out to the farthest end plus its
-    capsule's radius (every axis point is nearer than the farther end). NaN where a
-    segment is NaN (an unusable operator, or a NaN estimate). And per segment, for the
-    monitor's sweeps at every tick until the next update, ``axes`` (B, M, 6): its axis'
-    midpoint, half length and its ends' speeds |vP|, |vQ|."""
-    B, K = spheres.shape[0], spheres.shape[1]
-    for b in range(B):
-        for m in range(operator.size):
+def _segment_axes(h_ends, h_velocities, axes):
+    """Per scenario and segment, what the monitor's bounds read at every tick until the
+    next tracker update, into ``axes`` (B, M, 6): its axis' midpoint, half length and
+    its ends' speeds |vP|, |vQ|. NaN where the segment is."""
+    for b in range(axes.shape[0]):
+        for m in range(axes.shape[1]):
             y0 = 0.5 * (h_ends[b, m, 0, 0] + h_ends[b, m, 1, 0])
             y1 = 0.5 * (h_ends[b, m, 0, 1] + h_ends[b, m, 1, 1])
             y2 = 0.5 * (h_ends[b, m, 0, 2] + h_ends[b, m, 1, 2])
-            g0, g1, g2 = h_ends[b, m, 1, 0] - y0, h_ends[b, m, 1, 1] - y1, h_ends[b, m, 1, 2] - y2
+            g0, g1, g2 = (h_ends[b, m, 1, 0] - y0, h_ends[b, m, 1, 1] - y1,
+                          h_ends[b, m, 1, 2] - y2)
             axes[b, m, 0], axes[b, m, 1], axes[b, m, 2] = y0, y1, y2
             axes[b, m, 3] = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
             for e in range(2):
                 w0, w1, w2 = (h_velocities[b, m, e, 0], h_velocities[b, m, e, 1],
                               h_velocities[b, m, e, 2])
                 axes[b, m, 4 + e] = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+
+
+@numba.njit(cache=True)
+def _operator_spheres(h_ends, axes, h_radius, h_std, operator, spheres):
+    """Per scenario and operator, a sphere holding every segment capsule of the operator
+    (centre, radius), its segments' fastest end speed (from :func:`_segment_axes`) and
+    their largest std, into spheres (B, K, 6): about the mean of the ends, out to the
+    farthest end plus its capsule's radius (every axis point is nearer than the farther
+    end). NaN where a segment is NaN (an unusable operator, or a NaN estimate)."""
+    B, K = spheres.shape[0], spheres.shape[1]
     count = np.zeros(K)
     for b in range(B):
         for k in range(K):
@@ -460,7 +466,7 @@ def _operator_spheres(h_ends, h_velocities, h_radius, h_std, operator, spheres, 
                 x1 = h_ends[b, m, e, 1] - spheres[b, k, 1]
                 x2 = h_ends[b, m, e, 2] - spheres[b, k, 2]
                 far = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2) + h_radius[b, m]
-                fast = axes[b, m, 4 + e]  # (its end's speed, above)
+                fast = axes[b, m, 4 + e]
                 # (a NaN anywhere makes the sphere NaN: max would drop it)
                 spheres[b, k, 3] = far if not far <= spheres[b, k, 3] else spheres[b, k, 3]
                 spheres[b, k, 4] = fast if not fast <= spheres[b, k, 4] else spheres[b, k, 4]
@@ -1145,8 +1151,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         _envelope_batch(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
                         recipe.slots, est_p, est_v, status, std, unseen, allowance,
                         occlusion_speed, h_ends, h_velocities, h_radius, h_status, h_std)
-        _operator_spheres(h_ends, h_velocities, h_radius, h_std, recipe.operator, op_spheres,
-                          h_axes)
+        _segment_axes(h_ends, h_velocities, h_axes)
+        _operator_spheres(h_ends, h_axes, h_radius, h_std, recipe.operator, op_spheres)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
                        sep_min, sep_time)
