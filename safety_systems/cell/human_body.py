@@ -494,6 +494,7 @@ _UPRIGHT = {"head": (0.0, 0.0, 0.0), "neck": (0.0, 0.0, -0.18), "chest": (0.0, 0
             "shoulder_right": (0.0, -0.19, -0.20), "elbow_left": (0.08, 0.22, -0.48),
             "elbow_right": (0.08, -0.22, -0.48), "hand_left": (0.42, 0.20, -0.50),
             "hand_right": (0.42, -0.20, -0.50)}
+_UPRIGHT_ROWS = {k: np.array(v) for k, v in _UPRIGHT.items()}
 _UPPER_ARM, _FOREARM = 0.36, 0.37  # m, the arm ``complete_posture`` bends to reach a hand
 _HANDS_TO_HEAD = (-0.30, 0.45)  # m back and up from the hands to the head
 
@@ -507,12 +508,15 @@ def complete_posture(given: dict[str, np.ndarray], facing: np.ndarray) -> dict[s
     (:data:`_UPPER_ARM`, :data:`_FOREARM`). Raises ValueError when a given hand is
     farther from its shoulder than that arm reaches."""
     f = np.array([facing[0], facing[1], 0.0], dtype=float)
-    f = f / np.linalg.norm(f) if np.linalg.norm(f) > 1e-9 else np.array([1.0, 0.0, 0.0])
-    left = np.cross([0.0, 0.0, 1.0], f)
+    norm = np.linalg.norm(f)
+    f = f / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+    f0, f1, f2 = float(f[0]), float(f[1]), float(f[2])
+    # up x f, as np.cross computes it (each product, then the difference), without its cost
+    left = np.array([0.0 * f2 - 1.0 * f1, 1.0 * f0 - 0.0 * f2, 0.0 * f1 - 0.0 * f0])
     frame = np.array([f, left, [0.0, 0.0, 1.0]])  # rows: forward, left, up
 
     def template(name):
-        return np.array(_UPRIGHT[name]) @ frame
+        return _UPRIGHT_ROWS[name] @ frame
 
     given = {k: np.asarray(v, dtype=float) for k, v in given.items()}
     for name in given:
@@ -530,7 +534,7 @@ def complete_posture(given: dict[str, np.ndarray], facing: np.ndarray) -> dict[s
             head = given[trunk[0]] - template(trunk[0])
         else:
             head = np.zeros(3)
-    out = {k: given.get(k, head + template(k)) for k in POINTS}
+    out = {k: given[k] if k in given else head + template(k) for k in POINTS}
     if "hand_left" in given and "hand_right" in given and \
             (given["hand_left"] - given["hand_right"]) @ left < 0.0:
         # the hands are crossed in the facing frame (the file's sides are its own): the

@@ -732,7 +732,11 @@ def operator_posture(o: OperatorConfig) -> np.ndarray:
     given = {body_point(b): np.array(b.offset, dtype=float) for b in o.bodies}
     given.update({q.point: np.array(q.offset, dtype=float) for q in o.posture})
     start = np.array(o.waypoints[0].position, dtype=float) if o.waypoints else np.zeros(3)
-    anchor = start + np.mean(list(given.values()), axis=0)
+    offsets = list(given.values())  # their mean (as np.mean: summed in order, divided)
+    total = offsets[0].copy()
+    for offset in offsets[1:]:
+        total += offset
+    anchor = start + total / len(offsets)
     points = human_body.complete_posture(given, -anchor)
     return np.array([points[k] for k in human_body.POINTS])
 
