@@ -565,12 +565,14 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     Each true pair's, segment's and operator's clearance bound (exact where measured,
     through the spheres where skipped) is kept across ticks (``truth_memo`` = (pair
     bounds (B, K, segments, capsules), segment bounds (B, K, segments), operator bounds
-    (B, K), each operator's anchor point (B, K, 3), the robot's anchor capsule ends (B,
-    capsules, 2, 3))): a clearance falls by at most how far its two sides moved, and
-    a rigid operator's points all move as its point does and a capsule axis' points at
-    most as far as its farther end, so a bound kept less the displacements from the
-    anchors (at its tick and now) still bounds it; an anchor farther than ``_DRIFT`` is
-    renewed and the bounds it held go.
+    (B, K), each operator's anchor point and its time (B, K, 4), the robot's anchor
+    capsule ends (B, capsules, 2, 3))): a clearance falls by at most how far its two
+    sides moved, and a rigid operator's points all move as its point does and a capsule
+    axis' points at most as far as its farther end, so a bound kept less the
+    displacements from the anchors (at its tick and now) still bounds it; an anchor
+    farther than ``_DRIFT`` is renewed and the bounds it held go. An operator is first
+    tried without its point: its path's peak speed (``reach``'s third, (B, K)) times the
+    time since its anchor bounds how far it went.
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
@@ -580,7 +582,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     s_levels = np.empty((max(level_t_sr.size, 1), h_radius.shape[1]))
     z_d_base, z_d_sigmas = z_d_terms
     seg_a, seg_b, seg_r = truth_segments
-    op_reach, seg_mid = reach
+    op_reach, seg_mid, op_speed = reach
     kept, seg_kept, op_kept, anchor_x, anchor_ends = truth_memo
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
@@ -913,6 +915,19 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                 for o in range(K):  # each operator's point once, then its segments
                     if not (t >= enter[b, o] and t < leave[b, o]):
                         continue
+                    # Below these a pair could lower a figure (or come inside S_true).
+                    contact_floor = min(min_sep[b], closest) if moving else -np.inf
+                    separation_floor = _separation_floor(sep_min[b], margin) if allowed \
+                        else -np.inf
+                    # Before its point: the operator's least kept bound less how far it can
+                    # have gone since its anchor at its fastest (``op_speed``: its path's
+                    # peak speed; NaN, no skip, where the anchor went)
+                    lb = (op_kept[b, o] - op_speed[b, o] * (t - anchor_x[b, o, 3])
+                          - c_drift_max)
+                    if lb > contact_floor and lb - _s_bound(
+                            op_speed[b, o], speed, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
+                            iso_reduced) > separation_floor:
+                        continue  # no segment of it can lower either figure
                     x0, x1, x2, w0, w1, w2 = path_point_one(
                         departures, ta, tc, vp, lengths, a_max, directions, waypoints,
                         b * K + o, t)
@@ -923,6 +938,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     h_drift = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)  # (the body is rigid)
                     if not h_drift <= _DRIFT:  # a new anchor: the kept bounds go
                         anchor_x[b, o, 0], anchor_x[b, o, 1], anchor_x[b, o, 2] = x0, x1, x2
+                        anchor_x[b, o, 3] = t
                         h_drift = 0.0
                         op_kept[b, o] = -np.inf
                         for i in range(seg_r.size):
@@ -931,10 +947,6 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                 kept[b, o, i, j] = -np.inf
                     s_true_ub = _s_bound(h, speed, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
                                          iso_reduced)
-                    # Below these a pair could lower a figure (or come inside S_true).
-                    contact_floor = min(min_sep[b], closest) if moving else -np.inf
-                    separation_floor = _separation_floor(sep_min[b], margin) if allowed \
-                        else -np.inf
                     # the operator's least kept bound (its segments'), less how far both
                     # have moved
                     lb = op_kept[b, o] - h_drift - c_drift_max
@@ -1115,14 +1127,16 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     ends_a, ends_b = postures[:, :, truth_segments[0]], postures[:, :, truth_segments[1]]
     seg_mid = np.concatenate([0.5 * (ends_a + ends_b), 0.5 * np.linalg.norm(
         ends_b - ends_a, axis=-1)[..., None]], axis=-1)  # (B, K, segments, 4)
-    reach = (op_reach, np.ascontiguousarray(seg_mid))
+    # each operator's fastest: its path's peak speed (no point of a rigid operator is faster)
+    op_speed = c.stack_arrays[3].max(axis=1, initial=0.0).reshape(B, c.K)
+    reach = (op_reach, np.ascontiguousarray(seg_mid), op_speed)
     # each true pair's clearance when last measured, less the drifts from the anchors
     # (each operator's point, the robot's capsule ends) then: a lower bound while neither
     # has moved more than _DRIFT from its anchor
     truth_memo = (np.full((B, c.K, truth_segments[2].size, truth_caps.radius.size), -np.inf),
                   np.full((B, c.K, truth_segments[2].size), -np.inf),
                   np.full((B, c.K), -np.inf),
-                  np.full((B, c.K, 3), np.nan),
+                  np.full((B, c.K, 4), np.nan),
                   np.full((B, truth_caps.radius.size, 2, 3), np.nan))
     allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
     min_sep = np.full(B, np.inf)
