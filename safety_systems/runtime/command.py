@@ -42,6 +42,7 @@ def run(args: argparse.Namespace, origin: dict) -> int:
     from safety_systems.sensing.recording_mapping import (
         find_operator,
         load_mapping,
+        mapped_names,
         mapped_point,
         recorded_bodies,
     )
@@ -81,8 +82,9 @@ def run(args: argparse.Namespace, origin: dict) -> int:
         raise InputError("--priority", args.priority,
                          f"0 (normal scheduling) or a real-time priority 1-{MAX_PRIORITY}")
     if mocap_address.kind == "replay":
-        recording = read_recording(mocap_address.file)
         try:
+            recording = read_recording(mocap_address.file, mapped_names(mapping),
+                                       truncated=mapping.truncated)
             for o in mapping.operators:
                 recorded_bodies(recording, mapping, find_operator(mapping, o.name, "name"))
         except InputError as e:

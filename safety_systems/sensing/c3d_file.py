@@ -4,9 +4,11 @@ Every labelled point (``POINT:LABELS``) is a body, with its position only (C3D h
 orientation; the rotations are NaN) and no streaming id. Units from ``POINT:UNITS``
 (``mm``, ``cm`` or ``m``; when the parameter is missing, millimetres, the format's
 convention). Sample times from ``POINT:RATE``. A point is untracked in a frame where
-ezc3d gives a NaN coordinate or a negative residual (the format's "invalid" mark).
+ezc3d gives a NaN coordinate, a negative residual (the format's "invalid" mark) or a
+position of exactly (0, 0, 0) (how several vendors store a drop-out).
 """
 
+from collections.abc import Collection
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +26,12 @@ def _parameter(c3d, name: str) -> list:
     return list(point[name]["value"]) if name in point else []
 
 
-def read_c3d(path: str | Path) -> Recording:
-    """Reads a C3D file's points (see the module docstring); raises InputError."""
+def read_c3d(path: str | Path, bodies: Collection[str] | None = None, *,
+             truncated: str = "refuse") -> Recording:
+    """Reads a C3D file's points (see the module docstring); raises InputError.
+    ``bodies``: the labels to read (None: every point), so that the limit on bodies and
+    the rule that each is named once apply to those only (real files repeat labels of
+    points nobody maps). ``truncated`` is not used: a C3D's frame count is its data's."""
     import ezc3d
 
     file = str(path)
@@ -53,6 +59,14 @@ def read_c3d(path: str | Path) -> Recording:
         invalid = np.transpose(np.asarray(residuals, dtype=float).reshape(n, frames)) < 0.0
         positions[invalid] = np.nan
     positions[~np.all(np.isfinite(positions), axis=2)] = np.nan
+    # A point at exactly the origin is a drop-out (ART, Motion Analysis and others store
+    # a lost point as 0, 0, 0, with or without an invalid residual), not a position.
+    positions[np.all(positions == 0.0, axis=2)] = np.nan
+    keep = [i for i, x in enumerate(labels) if bodies is None or x in set(bodies)]
+    if not keep:
+        raise InputError("POINT:LABELS", f"no point named {sorted(bodies or ())}",
+                         f"labels of the file: {labels[:20]}", file=file)
     times = np.arange(frames) / rate[0]
-    return check_recording(Recording(file, times, tuple(labels), (0,) * n, positions,
-                                     np.full((frames, n, 4), np.nan)))
+    return check_recording(Recording(file, times, tuple(labels[i] for i in keep),
+                                     (0,) * len(keep), positions[:, keep],
+                                     np.full((frames, len(keep), 4), np.nan)))

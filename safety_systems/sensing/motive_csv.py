@@ -1,6 +1,8 @@
 """OptiTrack Motive's CSV export: rigid bodies and markers over time.
 
-The export's layout (Motive 2.x and 3.x, "Format Version" 1.2x), as read here::
+The export's layout (Motive 2.x and 3.x, "Format Version" 1.2x), as read here (1.21 and
+1.22 leave the Type, Name and ID labels empty: there the rows are taken in that order;
+skeleton exports add a ``Parent`` row after ID)::
 
     Format Version,1.23,Take Name,...,Capture Frame Rate,120.0,...,Rotation Type,Quaternion,
         Length Units,Meters,Coordinate Space,Global
@@ -17,15 +19,18 @@ Z, W) or an Euler order (``XYZ``, ``XZY``, ``YXZ``, ``YZX``, ``ZXY``, ``ZYX``: c
 Y, Z in degrees, read as rotations about the body's own axes in that order; Motive's
 documentation says "elemental rotations" without saying about which axes, so this is
 our reading), ``Length Units`` is ``Meters``, ``Centimeters`` or ``Millimeters``. The
-bodies are the ``Rigid Body`` columns (position and rotation) and the ``Marker``
-columns (position only); ``Rigid Body Marker`` columns (where the model expects its
-markers) and the quality columns are skipped. An empty cell is a frame where the body
-was not tracked. Times are kept as seconds from the first frame.
+bodies are the ``Rigid Body`` and ``Bone`` columns (position and rotation) and the
+``Marker`` columns (position only); ``Rigid Body Marker`` and ``Bone Marker`` columns
+(where the solved model expects its markers) and the quality columns are skipped. An
+empty cell is a frame where the body was not tracked. Times are kept as seconds from the
+first frame (see :func:`read_motive_csv` for the frame rate).
 """
 
 import csv
 import io
 import math
+import warnings
+from collections.abc import Collection
 from pathlib import Path
 
 import numpy as np
@@ -33,12 +38,17 @@ from scipy.spatial.transform import Rotation
 
 from safety_systems.files.documents import read_text
 from safety_systems.files.input_error import InputError
-from safety_systems.sensing.recording import MAX_SAMPLES, Recording, check_recording
+from safety_systems.sensing.recording import MAX_SAMPLES, TRUNCATED, Recording, check_recording
 
 EULER_ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 ROTATION_TYPES = ("Quaternion",) + EULER_ORDERS
 UNITS = {"Meters": 1.0, "Centimeters": 0.01, "Millimeters": 0.001}
-BODY_TYPES = ("Rigid Body", "Marker")
+# Column types read as bodies: rigid bodies and skeleton bones (position and rotation),
+# markers (position). "Rigid Body Marker" and "Bone Marker" columns (where the solved
+# model puts its markers) and the quality columns are skipped.
+BODY_TYPES = ("Rigid Body", "Bone", "Marker")
+ROTATED = ("Rigid Body", "Bone")
+HEADER_ROWS = ("Type", "Name", "ID", "Parent")
 MAX_BYTES = 512 * 1024 * 1024
 
 
@@ -50,21 +60,35 @@ def _settings(row: list[str], file: str) -> dict[str, str]:
 
 
 def _header_rows(rows: list[list[str]], file: str) -> tuple[dict, int]:
-    """The Type, Name and ID rows by name, the group row and the axis row, and the index
-    of the first data row."""
+    """The Type, Name, ID and Parent rows by name, the group row and the axis row, and the
+    index of the first data row. The rows between the settings and the group row are
+    named by their label (column 2: Format Version 1.23 on); where the label is empty
+    (1.21, 1.22) they are, in order, Type, Name, ID and Parent."""
+    for i, row in enumerate(rows[1:16], start=1):
+        if row and row[0].strip() == "Frame":
+            break
+    else:
+        raise InputError("header row 'Frame'", "missing", "Motive's header rows: Type, Name, "
+                         "ID, the column groups and 'Frame,Time (Seconds),...'", file=file)
     found: dict[str, list[str]] = {}
-    for i, row in enumerate(rows[1:12], start=1):
-        if len(row) > 1 and row[1] in ("Type", "Name", "ID") and not row[0]:
-            found[row[1]] = row
-        elif row and row[0] == "Frame":
-            if "Type" not in found or "Name" not in found:
-                break
-            found["group"], found["axis"] = rows[i - 1], row
-            return found, i + 1
-    missing = [k for k in ("Type", "Name") if k not in found] or ["Frame"]
-    raise InputError(f"header row '{missing[0]}'", "missing",
-                     "Motive's header rows: Type, Name, ID, the column groups and "
-                     "'Frame,Time (Seconds),...'", file=file)
+    unlabelled = []
+    for row in rows[1:i - 1]:
+        if not any(c.strip() for c in row):
+            continue
+        label = row[1].strip() if len(row) > 1 and not row[0].strip() else ""
+        if label in HEADER_ROWS and label not in found:
+            found[label] = row
+        else:
+            unlabelled.append(row)
+    for label, row in zip([k for k in HEADER_ROWS if k not in found], unlabelled):
+        found[label] = row
+    for label in ("Type", "Name"):
+        if label not in found:
+            raise InputError(f"header row '{label}'", "missing", "Motive's header rows: Type, "
+                             "Name, ID, the column groups and 'Frame,Time (Seconds),...'",
+                             file=file)
+    found["group"], found["axis"] = rows[i - 1], rows[i]
+    return found, i + 1
 
 
 def _number(cell: str, line: int, column: str, file: str) -> float:
@@ -80,9 +104,36 @@ def _number(cell: str, line: int, column: str, file: str) -> float:
     return x
 
 
-def read_motive_csv(path: str | Path) -> Recording:
-    """Reads a Motive CSV export (see the module docstring); raises InputError."""
+def _rate(settings: dict[str, str], file: str) -> float:
+    """The export's frame rate (Hz) from its header (``Export Frame Rate``, else ``Capture
+    Frame Rate``); NaN where neither is given."""
+    for key in ("Export Frame Rate", "Capture Frame Rate"):
+        if settings.get(key, ""):
+            try:
+                rate = float(settings[key])
+            except ValueError:
+                rate = math.nan
+            if not (math.isfinite(rate) and 0.0 < rate <= 100_000.0):
+                raise InputError(key, settings[key], "a frame rate in Hz, above 0 and at most "
+                                 "100,000", file=file)
+            return rate
+    return math.nan
+
+
+def read_motive_csv(path: str | Path, bodies: Collection[str] | None = None, *,
+                    truncated: str = "refuse") -> Recording:
+    """Reads a Motive CSV export (see the module docstring); raises InputError.
+
+    ``bodies``: the names to read (a mapping's recorded bodies; None: every body), so
+    that the limit on bodies and the rule that each is named once apply to those only.
+    Times come from the frame numbers and the header's frame rate (the time column is
+    rounded: at 360 Hz to a few ms), checked against the time column to half a frame;
+    frames missing from the numbering are frames in which no body was tracked. An export
+    with fewer frames than its header's ``Total Exported Frames`` (cut short) is refused,
+    or, with ``truncated="use"``, read as far as it goes, with a warning line."""
     file = str(path)
+    if truncated not in TRUNCATED:
+        raise ValueError(f"truncated={truncated!r}: allowed {' | '.join(TRUNCATED)}")
     rows = list(csv.reader(io.StringIO(read_text(path, max_bytes=MAX_BYTES))))
     if not rows:
         raise InputError("<file>", "empty", "a Motive CSV export", file=file)
@@ -93,24 +144,29 @@ def read_motive_csv(path: str | Path) -> Recording:
     unit = settings.get("Length Units", "")
     if unit not in UNITS:
         raise InputError("Length Units", unit, " | ".join(UNITS), file=file)
+    rate = _rate(settings, file)
     head, first = _header_rows(rows, file)
     width = len(head["axis"])
     pad = {k: (v + [""] * width)[:width] for k, v in head.items()}
-    bodies: dict[tuple[str, str], dict] = {}  # (type, name) -> columns
+    wanted = None if bodies is None else set(bodies)
+    found: dict[tuple[str, str], dict] = {}  # (type, name) -> columns
     for j in range(2, width):
         kind, name = pad["Type"][j].strip(), pad["Name"][j].strip()
         group, axis = pad["group"][j].strip(), pad["axis"][j].strip()
         if kind not in BODY_TYPES or group not in ("Position", "Rotation"):
             continue
-        entry = bodies.setdefault((kind, name), {"id": pad.get("ID", pad["Name"])[j].strip()})
+        if wanted is not None and name not in wanted:
+            continue
+        entry = found.setdefault((kind, name), {"id": pad.get("ID", pad["Name"])[j].strip()})
         entry[(group, axis)] = j
-    if not bodies:
-        raise InputError("Type", "no Rigid Body or Marker columns", "a recording of rigid "
-                         "bodies or markers", file=file)
+    if not found:
+        raise InputError("Type", "no Rigid Body, Bone or Marker columns" + (
+            "" if wanted is None else f" named {sorted(wanted)}"), "a recording of rigid "
+            "bodies, bones or markers", file=file)
     data = [r for r in rows[first:] if any(c.strip() for c in r)]
     if len(data) > MAX_SAMPLES:
         raise InputError("<frames>", len(data), f"at most {MAX_SAMPLES:,} frames", file=file)
-    used = sorted({1} | {j for b in bodies.values() for k, j in b.items() if k != "id"})
+    used = sorted({0, 1} | {j for b in found.values() for k, j in b.items() if k != "id"})
     table = np.full((len(data), width), np.nan)
     for i, row in enumerate(data):
         if len(row) > width:
@@ -122,19 +178,21 @@ def read_motive_csv(path: str | Path) -> Recording:
                                       file)
     if np.any(np.isnan(table[:, 1])):
         raise InputError("Time (Seconds)", "an empty cell", "a time on every frame", file=file)
+    frame_at = _frame_numbers(table, first, file)
+    _check_complete(settings, len(data), truncated, file)
     scale = UNITS[unit]
     names, ids, positions, rotations = [], [], [], []
-    for (kind, name), cols in bodies.items():
+    for (kind, name), cols in found.items():
         need = [("Position", a) for a in "XYZ"]
-        if kind == "Rigid Body":
-            need += [("Rotation", a) for a in ("XYZW" if rotation == "Quaternion" else "XYZ")]
+        if kind in ROTATED:
+            need += [("Rotation", a) for a in need_axes(rotation)]
         missing = [f"{g} {a}" for g, a in need if (g, a) not in cols]
         if missing:
             raise InputError(f"{kind} '{name}'", f"no {missing[0]} column",
                              f"columns {', '.join(f'{g} {a}' for g, a in need)}", file=file)
         p = table[:, [cols[("Position", a)] for a in "XYZ"]] * scale
         q = np.full((len(data), 4), np.nan)
-        if kind == "Rigid Body":
+        if kind in ROTATED:
             r = table[:, [cols[("Rotation", a)] for a in need_axes(rotation)]]
             ok = np.all(np.isfinite(r), axis=1)
             if ok.any():
@@ -146,8 +204,65 @@ def read_motive_csv(path: str | Path) -> Recording:
         positions.append(p)
         rotations.append(q)
     times = table[:, 1] - table[0, 1]
-    return check_recording(Recording(file, times, tuple(names), tuple(ids),
-                                     np.stack(positions, axis=1), np.stack(rotations, axis=1)))
+    p, q = np.stack(positions, axis=1), np.stack(rotations, axis=1)
+    if math.isfinite(rate):
+        times, p, q = _on_frames(frame_at, rate, times, p, q, first, file)
+    return check_recording(Recording(file, times, tuple(names), tuple(ids), p, q))
+
+
+def _frame_numbers(table: np.ndarray, first: int, file: str) -> np.ndarray:
+    """The Frame column: whole numbers, increasing (raises InputError naming the line)."""
+    frames = table[:, 0]
+    bad = np.flatnonzero(~(np.isfinite(frames) & (frames == np.round(frames))
+                           & (np.abs(frames) < 2**52)))
+    if bad.size:
+        raise InputError(f"line {first + bad[0] + 1}, column Frame", table[bad[0], 0],
+                         "a whole frame number", file=file)
+    back = np.flatnonzero(np.diff(frames) <= 0)
+    if back.size:
+        k = back[0] + 1
+        raise InputError(f"line {first + k + 1}, column Frame", int(frames[k]),
+                         f"a frame after the previous line's ({int(frames[k - 1])})", file=file)
+    return frames.astype(np.int64)
+
+
+def _on_frames(frames: np.ndarray, rate: float, times: np.ndarray, p: np.ndarray,
+               q: np.ndarray, first: int, file: str) -> tuple:
+    """Times from the frame numbers at ``rate``, checked against the time column to half a
+    frame; frames the numbering skips added as frames in which no body was tracked."""
+    n = frames - frames[0]
+    exact = n / rate
+    off = np.flatnonzero(np.abs(times - exact) > 0.5 / rate)
+    if off.size:
+        k = off[0]
+        raise InputError(f"line {first + k + 1}, column Time", float(times[k] + 0.0),
+                         f"frame {int(frames[k])} at {rate:g} Hz, {exact[k]:.6f} s after the "
+                         f"first frame, to half a frame (the header's frame rate)", file=file)
+    if n[-1] + 1 > MAX_SAMPLES:
+        raise InputError("<frames>", int(n[-1] + 1), f"at most {MAX_SAMPLES:,} frames "
+                         "from the first frame number to the last", file=file)
+    if n[-1] + 1 == frames.size:
+        return exact, p, q
+    full_p = np.full((int(n[-1]) + 1,) + p.shape[1:], np.nan)
+    full_q = np.full((int(n[-1]) + 1,) + q.shape[1:], np.nan)
+    full_p[n], full_q[n] = p, q
+    return np.arange(int(n[-1]) + 1) / rate, full_p, full_q
+
+
+def _check_complete(settings: dict[str, str], frames: int, truncated: str, file: str) -> None:
+    """An export shorter than its header's ``Total Exported Frames``: refused, or with
+    ``truncated="use"`` a warning line."""
+    total = settings.get("Total Exported Frames", "")
+    if not total.isdigit() or frames >= int(total):
+        return
+    said = (f"{file}: Total Exported Frames {total}, but {frames} frames in the file: "
+            "a truncated export")
+    if truncated == "use":
+        warnings.warn(said + "; the frames present are used", stacklevel=3)
+        return
+    raise InputError("Total Exported Frames", int(total), f"{frames} frames, as in the file "
+                     "(it was cut short; `truncated: use` in the mapping reads the frames "
+                     "present)", file=file)
 
 
 def need_axes(rotation: str) -> str:

@@ -27,6 +27,7 @@ from safety_systems.files.input_error import InputError
 
 MAX_SAMPLES = 2_000_000  # rows of a recording (about 4.6 h at 120 Hz)
 MAX_BODIES = 64
+TRUNCATED = ("refuse", "use")  # what a recording cut short of its stated length gives
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

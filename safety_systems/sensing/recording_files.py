@@ -3,6 +3,7 @@
 and only this module imports the readers, so a new format is one reader and one entry
 in :data:`READERS`."""
 
+from collections.abc import Collection
 from pathlib import Path
 
 from safety_systems.files.input_error import InputError
@@ -17,10 +18,14 @@ READERS = {
 }
 
 
-def read_recording(path: str | Path) -> Recording:
-    """A recording by its file's extension (:data:`READERS`); raises InputError."""
+def read_recording(path: str | Path, bodies: Collection[str] | None = None, *,
+                   truncated: str = "refuse") -> Recording:
+    """A recording by its file's extension (:data:`READERS`); raises InputError.
+    ``bodies``: the names to read (None: all), so that the limits on bodies and their
+    names apply to those only; ``truncated``: what a file cut short gives ("refuse", or
+    "use" its frames, with a warning), where the format says how long it should be."""
     reader = READERS.get(Path(path).suffix.lower())
     if reader is None:
         raise InputError("path", str(path), "a recording: " + " or ".join(
             what for _, what in READERS.values()))
-    return reader[0](path)
+    return reader[0](path, bodies, truncated=truncated)

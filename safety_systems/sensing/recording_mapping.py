@@ -15,6 +15,10 @@ A mapping YAML file::
       - {recorded: Helmet, name: head, point: head, streaming_id: 3}
       - {recorded: ElbowBandR, name: right_elbow, point: elbow_right, streaming_id: 4}
 
+``truncated: use`` (default ``refuse``) reads a recording cut short of the length its
+header states (a Motive export's ``Total Exported Frames``) as far as it goes, with a
+warning line. Only the mapped bodies are read: the limits on a recording's bodies and
+the rule that each is named once apply to those.
 ``recorded`` names the body in the recording (Motive's rigid body name, a C3D point
 label); ``streaming_id`` is its NatNet rigid-body id (Motive's "Streaming ID"), which
 the live runtime needs (frames carry ids, not names; 0: not given) and which, where a
@@ -43,7 +47,7 @@ from safety_systems.files.documents import load_document, read_input
 from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import number
-from safety_systems.sensing.recording import Recording, fill_gaps, gaps, span
+from safety_systems.sensing.recording import TRUNCATED, Recording, fill_gaps, gaps, span
 from safety_systems.sensing.recording_files import read_recording
 
 UP_AXES = ("y", "z")
@@ -91,6 +95,7 @@ class RecordingMapping:
     capture_to_cell: CaptureToCell = dc.field(default_factory=CaptureToCell)
     operators: list[MappedOperator] = dc.field(default_factory=list)
     ignore_ids: list[int] = number([], ge=1, le=MAX_STREAMING_ID)
+    truncated: str = "refuse"  # a recording cut short: refuse | use (its frames, warned)
 
 
 def validate_mapping(m: RecordingMapping) -> None:
@@ -103,6 +108,8 @@ def validate_mapping(m: RecordingMapping) -> None:
             raise InputError(f"capture_to_cell.{name}", getattr(c, name), "3 numbers")
     if not 1 <= len(m.operators) <= MAX_OPERATORS:
         raise InputError("operators", len(m.operators), f"1 to {MAX_OPERATORS} operators")
+    if m.truncated not in TRUNCATED:
+        raise InputError("truncated", m.truncated, " | ".join(TRUNCATED))
     names, recorded, ids = set(), set(), set()
     for i, o in enumerate(m.operators):
         if NAME.fullmatch(o.name) is None or o.name in names:
@@ -216,12 +223,18 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
         ids=tuple(rec.ids[k] for k in index), raw=raw)
 
 
+def mapped_names(mapping: RecordingMapping) -> list[str]:
+    """The recorded bodies a mapping maps, every operator's: the ones a reader reads."""
+    return [b.recorded for o in mapping.operators for b in o.bodies]
+
+
 @functools.lru_cache(maxsize=16)
 def _cached(recording: str, mapping: str, operator: str, digests: tuple) -> RecordedBodies:
     m = load_mapping(mapping)
     try:
-        rec = read_recording(recording)
-        return recorded_bodies(rec, m, find_operator(m, operator, "name"))
+        chosen = find_operator(m, operator, "name")
+        rec = read_recording(recording, mapped_names(m), truncated=m.truncated)
+        return recorded_bodies(rec, m, chosen)
     except InputError as e:
         raise e.in_file(mapping) from None
 

@@ -1,0 +1,208 @@
+"""What real motion capture writes: real Motive exports (tests/data/motive_csv, with their
+licences and sources) and the layouts real files have that this project's own writer
+does not (Motive 3 skeleton exports, rates the time column rounds, skipped frame
+numbers, truncated exports, C3D drop-outs stored at the origin, repeated C3D labels)."""
+
+import csv
+import io
+from pathlib import Path
+
+import ezc3d
+import numpy as np
+import pytest
+
+from safety_systems.files.input_error import InputError
+from safety_systems.sensing.c3d_file import read_c3d
+from safety_systems.sensing.motive_csv import motive_csv_text, read_motive_csv
+from safety_systems.sensing.recording import MAX_BODIES
+from safety_systems.sensing.recording_mapping import load_recorded_operator
+
+MOTIVE = Path(__file__).parent / "data" / "motive_csv"
+Z_HOP = MOTIVE / "2020-07-11_basic_physics__z_hop_1.csv"
+CIRCULAR = MOTIVE / "2020-07-11_basic_physics__circular_accel_left_stick_motion.csv"
+V1_21 = MOTIVE / "cmuphyscomp_hmv-s16_sample_optitrack_take_v1.21.csv"
+
+
+@pytest.mark.parametrize("path, frames, body, position, rotation", [
+    # (the files' first data rows, as exported)
+    (Z_HOP, 726, "stick_right", (-0.150353, 0.436091, 0.738103),
+     (0.579157, 0.607438, 0.367702, 0.400488)),
+    (CIRCULAR, 137, "stick_right", (0.209618, 0.016767, 0.908816),
+     (-0.256928, 0.083916, 0.826310, 0.494124)),
+    (V1_21, 250, "Rigid Body 1", (0.060002, 0.019150, 0.076611),
+     (0.000035, 0.000016, -0.000030, -1.0)),
+])
+def test_real_motive_exports_with_empty_row_labels_are_read(path, frames, body, position,
+                                                            rotation):
+    rec = read_motive_csv(path)
+    k = rec.body(body)
+    assert rec.times.size == frames and rec.rate_hz == pytest.approx(120.0)
+    np.testing.assert_allclose(rec.positions[0, k], position, atol=1e-6)
+    q = np.array(rotation) / np.linalg.norm(rotation)
+    assert abs(np.dot(rec.rotations[0, k], q)) == pytest.approx(1.0, abs=1e-6)
+    # times from the frame numbers at the header's 120 Hz (the export starts at frame 21120)
+    np.testing.assert_allclose(np.diff(rec.times), 1.0 / 120.0, rtol=0, atol=1e-12)
+    if path == Z_HOP:
+        assert rec.times[-1] == pytest.approx((21845 - 21120) / 120.0, abs=1e-12)
+        assert set(rec.names) == {"stick_right", "stick_left", "diabolo_red"}
+
+
+def test_the_real_1_21_export_keeps_its_markers_and_skips_its_quality_columns():
+    rec = read_motive_csv(V1_21)
+    assert "Rigid Body 1" in rec.names and any(n.startswith("Unlabeled:") for n in rec.names)
+    assert not any(n.startswith("Rigid Body 1_") for n in rec.names)  # expected markers
+    markers = [i for i, n in enumerate(rec.names) if n != "Rigid Body 1"]
+    assert np.isnan(rec.rotations[:, markers]).all()
+
+
+def _motive3_text(bones: int, markers_per_bone: int, frames: int, rate: float = 120.0,
+                  total: int | None = None, time_digits: int = 6, skip=()) -> str:
+    """A Motive 3 skeleton export (Format Version 1.25, labelled rows with a Parent row,
+    Bone and Bone Marker columns, two rigid bodies): bone j at (j, 0.01 t, 1) m at frame
+    t, the rigid bodies at (-1, 0, 0) and (-2, 0, 0)."""
+    cols = []  # (type, name, id, parent, group, axis, value(t))
+    for j in range(bones):
+        name = f"Skeleton:Bone{j}"
+        for a, v in zip("XYZW", (0.0, 0.0, 0.0, 1.0)):
+            cols.append(("Bone", name, str(j + 1), "Skeleton:Hip", "Rotation", a,
+                         lambda t, v=v: v))
+        for a, f in zip("XYZ", (lambda t, j=j: float(j), lambda t: 0.01 * t,
+                                lambda t: 1.0)):
+            cols.append(("Bone", name, str(j + 1), "Skeleton:Hip", "Position", a, f))
+        for m in range(markers_per_bone):
+            for a in "XYZ":
+                cols.append(("Bone Marker", f"{name}:M{m}", "", name, "Position", a,
+                             lambda t: 0.5))
+    for r in range(2):
+        for a, v in zip("XYZW", (0.0, 0.0, 0.0, 1.0)):
+            cols.append(("Rigid Body", f"Tool{r}", str(100 + r), "", "Rotation", a,
+                         lambda t, v=v: v))
+        for a, v in zip("XYZ", (-1.0 - r, 0.0, 0.0)):
+            cols.append(("Rigid Body", f"Tool{r}", str(100 + r), "", "Position", a,
+                         lambda t, v=v: v))
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(["Format Version", "1.25", "Take Name", "skeleton", "Capture Frame Rate",
+                f"{rate:.6f}", "Export Frame Rate", f"{rate:.6f}", "Total Frames in Take",
+                str(frames), "Total Exported Frames", str(total or frames), "Rotation Type",
+                "Quaternion", "Length Units", "Meters", "Coordinate Space", "Global"])
+    w.writerow([])
+    for label, k in (("Type", 0), ("Name", 1), ("ID", 2), ("Parent", 3)):
+        w.writerow(["", label] + [c[k] for c in cols])
+    w.writerow(["", ""] + [c[4] for c in cols])
+    w.writerow(["Frame", "Time (Seconds)"] + [c[5] for c in cols])
+    for t in range(frames):
+        if t in skip:
+            continue
+        w.writerow([str(t), f"{t / rate:.{time_digits}f}"] + [f"{c[6](t):.6f}" for c in cols])
+    return out.getvalue()
+
+
+def test_a_motive_3_skeleton_export_of_many_bodies_is_read_for_the_mapped_ones(tmp_path):
+    path = tmp_path / "skeleton.csv"
+    path.write_text(_motive3_text(bones=80, markers_per_bone=1, frames=30))  # 162 bodies
+    with pytest.raises(InputError) as e:  # all of them: more than a recording holds
+        read_motive_csv(path)
+    assert "<bodies>" in str(e.value) and "\n" not in str(e.value)
+    rec = read_motive_csv(path, ["Skeleton:Bone3", "Skeleton:Bone79", "Tool1"])
+    assert sorted(rec.names) == ["Skeleton:Bone3", "Skeleton:Bone79", "Tool1"]
+    k = rec.body("Skeleton:Bone79")
+    np.testing.assert_allclose(rec.positions[:, k, 0], 79.0)
+    np.testing.assert_allclose(rec.positions[:, k, 1], 0.01 * np.arange(30), atol=1e-9)
+    np.testing.assert_allclose(rec.rotations[:, k], [[0.0, 0.0, 0.0, 1.0]] * 30, atol=1e-9)
+    assert rec.ids[k] == 80 and rec.ids[rec.body("Tool1")] == 101
+    assert 82 > MAX_BODIES  # (the bones and rigid bodies alone)
+    # through a mapping: only its bodies are read
+    (tmp_path / "map.yaml").write_text(
+        "capture_to_cell: {up_axis: z}\noperators:\n- name: a\n  bodies:\n"
+        "  - {recorded: 'Skeleton:Bone3', name: hand, point: hand_right}\n"
+        "  - {recorded: 'Skeleton:Bone5', name: head, point: head}\n")
+    bodies = load_recorded_operator(path, tmp_path / "map.yaml")
+    np.testing.assert_allclose(bodies.raw[0, :, 0], [3.0, 5.0])
+
+
+def test_the_rate_comes_from_the_header_and_the_frame_numbers(tmp_path):
+    # 360 Hz with the time column rounded to the millisecond: 1/360 s reads as 0.003 s
+    path = tmp_path / "fast.csv"
+    path.write_text(_motive3_text(bones=2, markers_per_bone=0, frames=361, rate=360.0,
+                                  time_digits=3))
+    rec = read_motive_csv(path)
+    assert rec.rate_hz == pytest.approx(360.0, rel=1e-12)
+    np.testing.assert_allclose(rec.times, np.arange(361) / 360.0, rtol=0, atol=1e-12)
+    # a time column that disagrees with the frames by more than half a frame is refused
+    text = path.read_text().replace("\n5,0.014,", "\n5,0.020,")
+    path.write_text(text)
+    with pytest.raises(InputError) as e:
+        read_motive_csv(path)
+    assert "column Time" in str(e.value) and "frame 5" in str(e.value)
+
+
+def test_frames_missing_from_the_numbering_are_frames_without_tracking(tmp_path):
+    path = tmp_path / "gaps.csv"
+    path.write_text(_motive3_text(bones=2, markers_per_bone=0, frames=50, total=46,
+                                  skip={10, 11, 12, 30}))
+    rec = read_motive_csv(path)
+    assert rec.times.size == 50
+    np.testing.assert_allclose(rec.times, np.arange(50) / 120.0, rtol=0, atol=1e-12)
+    hidden = np.isnan(rec.positions[:, 0, 0])
+    assert np.flatnonzero(hidden).tolist() == [10, 11, 12, 30]
+
+
+def test_a_truncated_export_is_one_line_or_used_with_a_warning(tmp_path):
+    path = tmp_path / "cut.csv"
+    path.write_text(_motive3_text(bones=2, markers_per_bone=0, frames=32, total=17263))
+    with pytest.raises(InputError) as e:
+        read_motive_csv(path)
+    line = str(e.value)
+    assert "Total Exported Frames" in line and "17263" in line and "32 frames" in line
+    assert str(path) in line and "\n" not in line
+    with pytest.warns(UserWarning, match="truncated export"):
+        rec = read_motive_csv(path, truncated="use")
+    assert rec.times.size == 32
+
+
+def test_this_projects_own_export_still_reads_as_written(tmp_path):
+    t = np.arange(20) / 100.0
+    p = np.zeros((20, 1, 3)) + [1.0, 2.0, 3.0]
+    q = np.tile([0.0, 0.0, 0.0, 1.0], (20, 1, 1))
+    (tmp_path / "own.csv").write_text(motive_csv_text(t, ["A"], [3], p, q, rate_hz=100.0))
+    rec = read_motive_csv(tmp_path / "own.csv")
+    np.testing.assert_allclose(rec.times, t, atol=1e-12)
+
+
+def _c3d(path: Path, labels: tuple, points: np.ndarray, residuals=None) -> None:
+    """A C3D of ``points`` (T, n, 3) in mm at 100 Hz."""
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = [100.0]
+    c["parameters"]["POINT"]["LABELS"]["value"] = labels
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    data = np.ones((4, len(labels), points.shape[0]))
+    data[:3] = np.transpose(points, (2, 1, 0))
+    c["data"]["points"] = data
+    c.write(str(path))
+
+
+def test_a_c3d_drop_out_at_the_origin_is_a_gap(tmp_path):
+    T = 40
+    p = np.zeros((T, 2, 3)) + [[1000.0, 200.0, 900.0], [1200.0, 0.0, 1500.0]]
+    p[:, 0, 0] += 5.0 * np.arange(T)
+    p[10:14, 0] = 0.0  # an ART-style drop-out: the point stored at the origin
+    p[:, 1, 1] = 0.0  # a real position with a zero coordinate is not one
+    _c3d(tmp_path / "drop.c3d", ("hand", "head"), p)
+    rec = read_c3d(tmp_path / "drop.c3d")
+    assert np.flatnonzero(np.isnan(rec.positions[:, 0, 0])).tolist() == [10, 11, 12, 13]
+    assert np.isfinite(rec.positions[:, 1]).all()
+    speeds = np.linalg.norm(np.diff(rec.positions[:, 0], axis=0), axis=1) * 100.0
+    assert np.nanmax(speeds) == pytest.approx(0.5)  # not 112 m/s to the origin and back
+
+
+def test_c3d_labels_repeated_matter_only_if_mapped(tmp_path):
+    p = np.zeros((20, 3, 3)) + [[100.0, 0.0, 1000.0], [200.0, 0.0, 500.0], [300.0, 0, 500]]
+    _c3d(tmp_path / "dup.c3d", ("WRIST", "RKNE", "RKNE"), p)
+    rec = read_c3d(tmp_path / "dup.c3d", ["WRIST"])
+    assert rec.names == ("WRIST",)
+    np.testing.assert_allclose(rec.positions[0, 0], [0.1, 0.0, 1.0])
+    for bodies in (None, ["WRIST", "RKNE"]):
+        with pytest.raises(InputError) as e:
+            read_c3d(tmp_path / "dup.c3d", bodies)
+        assert "RKNE" in str(e.value) and "\n" not in str(e.value)
