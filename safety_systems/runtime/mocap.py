@@ -3,8 +3,10 @@ the ``natnet`` client library, and turned into the tracker's entries.
 
 The client runs in unicast mode and is polled from the control loop: the loop waits on
 the client's sockets (:meth:`NatNetSource.sockets`) until its next tick and, when a
-packet comes, calls the library's ``update_sync``, which parses it and hands each frame
-to :meth:`NatNetSource._on_frame` with its arrival time. A packet the library cannot
+packet comes, reads it as the library's ``update_sync`` does (which parses it and hands
+each frame to :meth:`NatNetSource._on_frame` with its arrival time), but sends the
+server a keep-alive once a second, not on every poll. A server speaking NatNet before
+3.0 is refused when connecting (:data:`NATNET_VERSIONS`). A packet the library cannot
 parse raises inside it; that is counted as a bad packet (the watchdog stops the robot
 until a good frame follows).
 
@@ -30,6 +32,12 @@ from safety_systems.sensing.sensor_faults import UNKNOWN_ID_BASE
 
 DRIFT = 1e-4  # s/s: how fast the capture clock's offset may rise (100 ppm)
 NATNET_PORT = 1510  # Motive's command port
+# The NatNet versions whose frames the client library reads whole (Motive 2.0 on). Before
+# 3.0 (Motive 1.5-1.10: NatNet 2.5-2.10) a frame carries a latency field ahead of its
+# timecode that natnet 0.3.0 does not read, so every later field, the timestamp among
+# them, is misread (seen on real Motive 1.x frames: 0.0, -9.3e61, -2.3e226 s).
+NATNET_VERSIONS = ((3, 0), (4, 1))
+KEEP_ALIVE_PERIOD = 1.0  # s: a unicast client's keep-alive to the server, at most this often
 
 
 @dataclasses.dataclass(frozen=True)
@@ -139,33 +147,67 @@ class NatNetSource:
         self.client.on_data_frame_received_event.handlers.append(self._on_frame)
         self.frames: list = []  # (arrival, DataFrame), oldest first
         self.bad_packets = 0
+        self.keep_alives = 0  # sent from poll
+        self._kept_alive = -math.inf
 
     def connect(self, timeout: float = 5.0) -> None:
+        """Connects; raises ConnectionError (one line) where no server answers or the
+        server speaks a NatNet version outside :data:`NATNET_VERSIONS`."""
         try:
             self.client.connect(timeout=timeout)
         except (TimeoutError, OSError) as e:
             raise ConnectionError(f"no NatNet server answered at {self.client.server_ip_address}"
                                   f":{self.client.command_port} ({type(e).__name__})") from None
+        version = self.client.protocol_version
+        low, high = NATNET_VERSIONS
+        spoken = None if version is None else (version.major, version.minor)
+        if spoken is None or not low <= spoken <= high:
+            said = "none" if spoken is None else f"{spoken[0]}.{spoken[1]}"
+            self.close()
+            raise ConnectionError(
+                f"the NatNet server at {self.client.server_ip_address}:"
+                f"{self.client.command_port} speaks NatNet {said}; allowed: "
+                f"{low[0]}.{low[1]} to {high[0]}.{high[1]} (Motive 2.0 on: before 3.0 the "
+                "client library misreads every frame's time)")
+        self._kept_alive = self._now()
 
     def sockets(self) -> list:
-        """The client's sockets, to wait on (natnet 0.3.0 keeps them private)."""
-        return [s for s in (self.client._NatNetClient__command_socket,
-                            self.client._NatNetClient__data_socket) if s is not None]
+        """The client's data and command sockets, to wait on (natnet 0.3.0 keeps them
+        private)."""
+        return [s for s in (self.client._NatNetClient__data_socket,
+                            self.client._NatNetClient__command_socket) if s is not None]
 
     def _on_frame(self, frame) -> None:
         self.frames.append((self._now(), frame))
 
     def poll(self) -> list:
         """Reads every packet waiting; returns the new frames [(arrival, frame)] (a packet
-        the library cannot parse counts in ``bad_packets``)."""
+        the library cannot parse counts in ``bad_packets``). A keep-alive goes to the
+        server at most every :data:`KEEP_ALIVE_PERIOD` (the library's ``update_sync``
+        sends one on every call: at the loop's rate, hundreds a second)."""
         for _ in range(64):  # each failure leaves the rest of the packets queued
             try:
-                self.client.update_sync()
+                self._read()
                 break
             except Exception:  # noqa: BLE001 - any parse failure is a bad packet
                 self.bad_packets += 1
         frames, self.frames = self.frames, []
         return frames
+
+    def _read(self) -> None:
+        """``update_sync`` (natnet 0.3.0) with its keep-alives spaced out."""
+        read = self.client._NatNetClient__process_socket
+        data, command = self.sockets() if len(self.sockets()) == 2 else (None, None)
+        if data is None:
+            return
+        while read(data):
+            pass
+        keep = self._now() - self._kept_alive >= KEEP_ALIVE_PERIOD
+        if keep:
+            self._kept_alive = self._now()
+            self.keep_alives += 1
+        while read(command, send_keep_alive=keep):
+            keep = False
 
     def close(self) -> None:
         try:

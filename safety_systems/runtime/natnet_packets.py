@@ -31,11 +31,12 @@ def _message(message_id: int, payload: bytes) -> bytes:
     return struct.pack("<HH", message_id, len(payload)) + payload
 
 
-def server_info(app_name: str = "safety-systems replay", *, data_port: int = 1511) -> bytes:
+def server_info(app_name: str = "safety-systems replay", *, data_port: int = 1511,
+                natnet_version: tuple = NATNET_VERSION) -> bytes:
     """NAT_SERVERINFO: the application's name (256 bytes), its version, the NatNet
     version, the stamps' clock frequency, the data port, multicast (no) and its group."""
     name = app_name.encode("utf-8")[:255].ljust(256, b"\0")
-    payload = (name + bytes(SERVER_VERSION) + bytes(NATNET_VERSION)
+    payload = (name + bytes(SERVER_VERSION) + bytes(natnet_version)
                + struct.pack("<QHB", CLOCK_HZ, data_port, 0) + bytes([239, 255, 42, 99]))
     return _message(NAT_SERVERINFO, payload)
 
