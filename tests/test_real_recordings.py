@@ -206,3 +206,67 @@ def test_c3d_labels_repeated_matter_only_if_mapped(tmp_path):
         with pytest.raises(InputError) as e:
             read_c3d(tmp_path / "dup.c3d", bodies)
         assert "RKNE" in str(e.value) and "\n" not in str(e.value)
+
+
+_BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0.0 0.0 0.0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT RightShoulder
+  {
+    OFFSET -20.0 50.0 0.0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT RightHand
+    {
+      OFFSET -60.0 0.0 0.0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET -10.0 0.0 0.0
+      }
+    }
+  }
+}
+MOTION
+Frames: FRAMES
+Frame Time: 0.01
+ROWS"""
+
+
+def _bvh(path: Path, frames: int = 50) -> np.ndarray:
+    """A BVH of a root walking along x at 1 m/s (in cm) and an arm swinging about the
+    shoulder's z axis by 90 deg * t (s); returns the hand's positions (frames, 3) in m."""
+    rows, hand = [], []
+    for f in range(frames):
+        t = 0.01 * f
+        angle = 90.0 * t
+        rows.append(f"{100.0 * t} 90.0 0.0 0.0 0.0 0.0 {angle} 0.0 0.0 0.0 0.0 0.0")
+        a = np.radians(angle)  # the arm (-60, 0, 0) turned about z
+        hand.append([1.0 * t - 0.2 - 0.6 * np.cos(a), 0.9 + 0.5 - 0.6 * np.sin(a), 0.0])
+    path.write_text(_BVH.replace("FRAMES", str(frames)).replace("ROWS", "\n".join(rows)))
+    return np.array(hand)
+
+
+def test_a_bvh_file_is_read_in_the_units_the_mapping_gives(tmp_path):
+    from safety_systems.sensing.recording_files import read_recording
+
+    hand = _bvh(tmp_path / "walk.bvh")
+    rec = read_recording(tmp_path / "walk.bvh", units="cm")
+    assert rec.names == ("Hips", "RightShoulder", "RightHand")
+    assert rec.rate_hz == pytest.approx(100.0)
+    np.testing.assert_allclose(rec.positions[:, 2], hand, atol=1e-5)
+    np.testing.assert_allclose(rec.positions[:, 0, 0], 0.01 * np.arange(50), atol=1e-6)
+    with pytest.raises(InputError) as e:  # a BVH file states no unit
+        read_recording(tmp_path / "walk.bvh")
+    assert "units" in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(InputError) as e:  # a Motive export states its own
+        read_recording(Z_HOP, units="cm")
+    assert "units" in str(e.value) and "\n" not in str(e.value)
+    (tmp_path / "map.yaml").write_text(
+        "capture_to_cell: {up_axis: y}\nunits: cm\noperators:\n- name: a\n  bodies:\n"
+        "  - {recorded: RightHand, name: hand, point: hand_right}\n"
+        "  - {recorded: Hips, name: hips, point: pelvis}\n")
+    bodies = load_recorded_operator(tmp_path / "walk.bvh", tmp_path / "map.yaml")
+    assert bodies.raw.shape == (50, 2, 3)
+    np.testing.assert_allclose(bodies.raw[:, 0, 2], hand[:, 1], atol=1e-5)  # y up -> z

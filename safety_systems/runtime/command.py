@@ -84,7 +84,7 @@ def run(args: argparse.Namespace, origin: dict) -> int:
     if mocap_address.kind == "replay":
         try:
             recording = read_recording(mocap_address.file, mapped_names(mapping),
-                                       truncated=mapping.truncated)
+                                       truncated=mapping.truncated, units=mapping.units)
             for o in mapping.operators:
                 recorded_bodies(recording, mapping, find_operator(mapping, o.name, "name"))
         except InputError as e:

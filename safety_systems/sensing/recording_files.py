@@ -7,6 +7,7 @@ from collections.abc import Collection
 from pathlib import Path
 
 from safety_systems.files.input_error import InputError
+from safety_systems.sensing.bvh_file import UNITS, read_bvh
 from safety_systems.sensing.c3d_file import read_c3d
 from safety_systems.sensing.motive_csv import read_motive_csv
 from safety_systems.sensing.recording import Recording
@@ -15,17 +16,28 @@ from safety_systems.sensing.recording import Recording
 READERS = {
     ".csv": (read_motive_csv, "a Motive CSV export (.csv)"),
     ".c3d": (read_c3d, "a C3D file (.c3d)"),
+    ".bvh": (read_bvh, "a BVH file (.bvh)"),
 }
+UNITLESS = (".bvh",)  # formats that state no length unit: the caller gives it
+LENGTH_UNITS = tuple(UNITS)  # the units a caller may give them
 
 
 def read_recording(path: str | Path, bodies: Collection[str] | None = None, *,
-                   truncated: str = "refuse") -> Recording:
+                   truncated: str = "refuse", units: str = "") -> Recording:
     """A recording by its file's extension (:data:`READERS`); raises InputError.
     ``bodies``: the names to read (None: all), so that the limits on bodies and their
     names apply to those only; ``truncated``: what a file cut short gives ("refuse", or
-    "use" its frames, with a warning), where the format says how long it should be."""
-    reader = READERS.get(Path(path).suffix.lower())
+    "use" its frames, with a warning), where the format says how long it should be;
+    ``units``: the length unit of a format that states none (:data:`UNITLESS`), and
+    only there."""
+    suffix = Path(path).suffix.lower()
+    reader = READERS.get(suffix)
     if reader is None:
         raise InputError("path", str(path), "a recording: " + " or ".join(
             what for _, what in READERS.values()))
+    if suffix in UNITLESS:
+        return reader[0](path, bodies, truncated=truncated, units=units)
+    if units:
+        raise InputError("units", units, f"empty for {reader[1]}: it states its own unit",
+                         file=str(path))
     return reader[0](path, bodies, truncated=truncated)

@@ -15,9 +15,10 @@ A mapping YAML file::
       - {recorded: Helmet, name: head, point: head, streaming_id: 3}
       - {recorded: ElbowBandR, name: right_elbow, point: elbow_right, streaming_id: 4}
 
-``truncated: use`` (default ``refuse``) reads a recording cut short of the length its
-header states (a Motive export's ``Total Exported Frames``) as far as it goes, with a
-warning line. Only the mapped bodies are read: the limits on a recording's bodies and
+``units`` (m, cm, mm or in) is the length unit of a BVH file, which states none (other
+formats state theirs, and refuse this field). ``truncated: use`` (default ``refuse``)
+reads a recording cut short of the length its header states (a Motive export's ``Total
+Exported Frames``) as far as it goes, with a warning line. Only the mapped bodies are read: the limits on a recording's bodies and
 the rule that each is named once apply to those.
 ``recorded`` names the body in the recording (Motive's rigid body name, a C3D point
 label); ``streaming_id`` is its NatNet rigid-body id (Motive's "Streaming ID"), which
@@ -48,7 +49,7 @@ from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import number
 from safety_systems.sensing.recording import TRUNCATED, Recording, fill_gaps, gaps, span
-from safety_systems.sensing.recording_files import read_recording
+from safety_systems.sensing.recording_files import LENGTH_UNITS, read_recording
 
 UP_AXES = ("y", "z")
 MAX_STREAMING_ID = 2**31 - 1
@@ -96,6 +97,7 @@ class RecordingMapping:
     operators: list[MappedOperator] = dc.field(default_factory=list)
     ignore_ids: list[int] = number([], ge=1, le=MAX_STREAMING_ID)
     truncated: str = "refuse"  # a recording cut short: refuse | use (its frames, warned)
+    units: str = ""  # the length unit of a recording that states none (BVH): m | cm | mm | in
 
 
 def validate_mapping(m: RecordingMapping) -> None:
@@ -110,6 +112,8 @@ def validate_mapping(m: RecordingMapping) -> None:
         raise InputError("operators", len(m.operators), f"1 to {MAX_OPERATORS} operators")
     if m.truncated not in TRUNCATED:
         raise InputError("truncated", m.truncated, " | ".join(TRUNCATED))
+    if m.units not in ("",) + LENGTH_UNITS:
+        raise InputError("units", m.units, "empty, or for a BVH file " + " | ".join(LENGTH_UNITS))
     names, recorded, ids = set(), set(), set()
     for i, o in enumerate(m.operators):
         if NAME.fullmatch(o.name) is None or o.name in names:
@@ -233,7 +237,8 @@ def _cached(recording: str, mapping: str, operator: str, digests: tuple) -> Reco
     m = load_mapping(mapping)
     try:
         chosen = find_operator(m, operator, "name")
-        rec = read_recording(recording, mapped_names(m), truncated=m.truncated)
+        rec = read_recording(recording, mapped_names(m), truncated=m.truncated,
+                             units=m.units)
         return recorded_bodies(rec, m, chosen)
     except InputError as e:
         raise e.in_file(mapping) from None
