@@ -226,7 +226,8 @@ def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method:
     checked = model_premises(config, space) + [
         (f"hidden bodies stay hazards (hidden_bodies: {t.hidden_bodies}) and a hidden "
          f"body's ball grows at least as fast as the recorded bodies move (occlusion_speed "
-         f"{f.occlusion_speed:g} >= {v_max:.3f} m/s: the recording's fastest segment at the "
+         f"{f.occlusion_speed:g} >= {v_max:.3f} m/s: the fastest segment of the part of the "
+         f"recording the space plays at the "
          f"largest time scale, {p.time_scale.max:g})",
          t.hidden_bodies == "hazard" and f.occlusion_speed >= v_max),
         (f"the gate admits the recorded bodies' speeds (gate_speed {t.gate_speed:g} >= "

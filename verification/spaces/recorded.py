@@ -215,15 +215,28 @@ def recorded_scenario(space: ScenarioSpace, config: ControllerConfig,
     return scenario
 
 
+def played_window(block: RecordingBlock) -> tuple[float, float]:
+    """The recording times any point of the space plays, s: from its start at the
+    smallest time shift to the end of the longest play at the largest shift and time
+    scale (or the recording's end)."""
+    p = block.parameters
+    longest = min(block.duration or MAX_DURATION, MAX_DURATION) * p.time_scale.max
+    return (block.start + p.time_shift.min,
+            min(recording_end(block), block.start + p.time_shift.max + longest))
+
+
 def recorded_speed(block: RecordingBlock) -> float:
-    """The fastest any body moves as recorded, m/s: the largest segment speed of the
-    played truth (linear between samples, ``sensing.recording``) while the body is
-    present; the played speed is this times the time scale."""
+    """The fastest any body moves as recorded over the part the space plays
+    (:func:`played_window`), m/s: the largest speed of the played truth's segments
+    (linear between samples, ``sensing.recording``) that reach into that part while the
+    body is present; the played speed is this times the time scale."""
     fastest = 0.0
+    first, last = played_window(block)
     for _, b in operators(block):
         step = np.linalg.norm(np.diff(b.points, axis=0), axis=2) / np.diff(b.times)[:, None]
+        played = (b.times[1:] > first) & (b.times[:-1] < last)
         inside = ((b.times[:-1, None] >= b.tracked_times[:, 0])
-                  & (b.times[1:, None] <= b.tracked_times[:, 1]))
+                  & (b.times[1:, None] <= b.tracked_times[:, 1]) & played[:, None])
         if inside.any():
             fastest = max(fastest, float(step[inside].max()))
     return fastest

@@ -248,3 +248,23 @@ def test_the_certificate_gives_the_recorded_bodies_points_from_the_mapping(tmp_p
     default = _bodies(ISO, load_space(MODELS / "spaces" / "default.yaml"))
     assert default["tracked"] == ["hand_right", "hand_left", "head"]
     assert default["dimensions"]["upper_arm"] == ISO.body.upper_arm
+
+def test_the_speed_premise_measures_the_part_of_the_recording_the_space_plays():
+    """approach.csv: the technician stands for its first 2 s and walks at up to 1.59 m/s
+    later; a space that plays only the first 2 s is measured over those (the premise of
+    its hidden-body balls and its gate then asks what that motion needs)."""
+    import dataclasses as dc
+
+    from verification.spaces.recorded import played_window, recorded_speed
+
+    block = SPACE.recording
+    p = block.parameters
+    still = dc.replace(p, time_shift=dc.replace(p.time_shift, min=0.0, max=0.0),
+                       time_scale=dc.replace(p.time_scale, min=1.0, max=1.0))
+    first = dc.replace(block, start=0.0, duration=2.0, parameters=still)
+    assert played_window(first) == (0.0, 2.0)
+    assert recorded_speed(first) < 0.2 < 1.5 < recorded_speed(block)
+    # the box's shifts and scales widen the window: 3 s of shift, 2 s at 1.3x
+    wide = dc.replace(block, start=0.0, duration=2.0)
+    assert played_window(wide) == pytest.approx((0.0, 3.0 + 2.0 * 1.3))
+    assert recorded_speed(wide) >= recorded_speed(first)
