@@ -3,6 +3,7 @@
 session), a server that speaks NatNet 2.9 (refused: the client library misreads its
 frames' times), and the keep-alives a polled client sends."""
 
+import csv
 import select
 import socket
 import struct
@@ -119,3 +120,112 @@ def test_keep_alives_go_once_a_second_not_on_every_poll():
     sent = [t for t in server.keep_alives if t > after_connect]
     assert polls > 300
     assert 1 <= source.keep_alives <= 3 and len(sent) == source.keep_alives
+
+
+def _captured_session() -> tuple[dict, list]:
+    """From the real Motive 2.1 session (traffic.pcapng): the server's command replies by
+    the message id they answer, in order, and its frames of data with their capture
+    times (s from the first)."""
+    import dpkt
+
+    replies: dict = {}
+    frames = []
+    answers = {1: 0, 3: 2, 5: 4, 13: 12, 100: 2}  # reply id -> request id (100: unknown)
+    with open(REAL / "traffic.pcapng", "rb") as f:
+        for ts, buf in dpkt.pcapng.Reader(f):
+            ip = dpkt.ethernet.Ethernet(buf).data
+            if not isinstance(ip, dpkt.ip.IP) or not isinstance(ip.data, dpkt.udp.UDP):
+                continue
+            udp = ip.data
+            payload = bytes(udp.data)
+            mid = message_id(payload)
+            if udp.sport == 1511 and mid == 7:
+                frames.append((ts, payload))
+            elif udp.sport == 1510 and mid in answers:
+                replies.setdefault(answers[mid], []).append(payload)
+    t0 = frames[0][0]
+    return replies, [(float(ts - t0), p) for ts, p in frames]
+
+
+class _Motive21:
+    """A loopback server answering as the captured Motive 2.1 did: each request by the
+    captured reply to it (in the captured order, the last repeated), then the captured
+    frames at their captured times to the client."""
+
+    def __init__(self):
+        self.replies, self.frames = _captured_session()
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.port = self.sock.getsockname()[1]
+        self.stop, self.sent = False, 0
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        client, start, used = None, None, {}
+        while not self.stop:
+            if start is not None and self.sent < len(self.frames):
+                wait = max(0.0, start + self.frames[self.sent][0] - time.monotonic())
+            else:
+                wait = 0.05
+            ready, _, _ = select.select([self.sock], [], [], wait)
+            if ready:
+                data, address = self.sock.recvfrom(65536)
+                mid = message_id(data)
+                if mid in self.replies:
+                    n = used.get(mid, 0)
+                    self.sock.sendto(self.replies[mid][min(n, len(self.replies[mid]) - 1)],
+                                     address)
+                    used[mid] = n + 1
+                    if mid == NAT_CONNECT and client is None:
+                        client, start = address, time.monotonic() + 0.3
+                continue
+            if start is not None and self.sent < len(self.frames):
+                self.sock.sendto(self.frames[self.sent][1], client)
+                self.sent += 1
+
+    def close(self) -> None:
+        self.stop = True
+        self.thread.join(timeout=2.0)
+        self.sock.close()
+
+
+def test_the_real_motive_2_1_session_is_replayed_through_run(tmp_path, exported_params):
+    """`run` against a server answering as the captured Motive 2.1 did, with its 518
+    captured frames at their captured 120 Hz, the rigid body mapped as an operator's
+    head: every frame read (none bad), their times good (no frame goes stale while they
+    flow), the body measured."""
+    import json
+
+    from safety_systems.cli import main
+
+    server = _Motive21()
+    assert len(server.frames) == 518
+    (tmp_path / "map.yaml").write_text(
+        "capture_to_cell: {up_axis: y, translation: [1.6, 0.0, 0.0]}\n"
+        "operators:\n- name: visitor\n  bodies:\n"
+        "  - {recorded: body2, name: head, point: head, streaming_id: 2}\n")
+    try:
+        code = main(["run", str(exported_params), "--mocap",
+                     f"natnet://127.0.0.1:{server.port}?local=127.0.0.1", "--robot", "none",
+                     "--mapping", str(tmp_path / "map.yaml"), "--log", str(tmp_path / "log"),
+                     "--duration", "5.5", "--quiet"])
+    finally:
+        server.close()
+    assert code == 0
+    summary = json.loads((tmp_path / "log" / "summary.json").read_text())
+    assert summary["bad_packets"] == 0
+    assert summary["frames"] == server.sent == 518
+    with open(tmp_path / "log" / "trace.csv") as f:
+        rows = list(csv.DictReader(f))
+    flowing = [r for r in rows if 0.5 < float(r["time"]) < 4.0
+               and 10 < int(float(r["frames"])) < 518]
+    # While the frames flow their times are good (no frame goes stale) and the monitor
+    # measures the body: its head 0.56 m from the robot, inside iso.yaml's S (2.41 m),
+    # so the robot model is held by the separation rule; after the last frame, by the
+    # stale-frame rule. k is 0 throughout.
+    assert len(flowing) > 1000
+    assert {r["stop_reason"] for r in flowing} == {"separation"}
+    assert all(float(r["visitor:d_measured"]) < float(r["visitor:S"]) for r in flowing)
+    assert rows[-1]["stop_reason"] == "stale_frame"
+    assert all(float(r["k"]) == 0.0 for r in rows)
