@@ -270,3 +270,18 @@ def test_a_bvh_file_is_read_in_the_units_the_mapping_gives(tmp_path):
     bodies = load_recorded_operator(tmp_path / "walk.bvh", tmp_path / "map.yaml")
     assert bodies.raw.shape == (50, 2, 3)
     np.testing.assert_allclose(bodies.raw[:, 0, 2], hand[:, 1], atol=1e-5)  # y up -> z
+
+
+def test_the_real_vicon_c3d_is_read_in_its_units():
+    rec = read_c3d(Path(__file__).parent / "data" / "c3d" /
+                   "ezc3d_markers_analogs_vicon100Hz_boxlift.c3d")
+    assert rec.times.size == 580 and rec.rate_hz == pytest.approx(100.0)
+    assert len(rec.names) == 51 and rec.names[0] == "boite:gauche_ext"
+    # as pyomeca's file-reading test states it, in mm: the first marker at the last frame
+    np.testing.assert_allclose(rec.positions[-1, 0], (0.09925964, -0.25917093, 0.9039809),
+                               atol=1e-8)
+    # its drop-outs are gaps, not jumps: no marker moves faster than a hand can
+    step = np.linalg.norm(np.diff(rec.positions, axis=0), axis=2) * 100.0
+    assert np.nanmax(step) < 5.0
+    rec = read_c3d(rec.file, ["Daphnee:WRIST", "Daphnee:CLAV_post"])
+    assert sorted(rec.names) == ["Daphnee:CLAV_post", "Daphnee:WRIST"]  # (in file order)
