@@ -72,7 +72,7 @@ def _bad(tmp_path, text):
     ("robot: {mode: warp}\n", "robot.mode"),
     ("duration: -3\n", "duration"),
     ("speeed: 3\n", "speeed"),
-    (INSPECTION.read_text().replace("max_speed: 1.8", "max_speed: 2.4"),
+    (INSPECTION.read_text().replace("max_speed: 1.8", "max_speed: 4.4"),
      "operators[0].max_speed"),
     (INSPECTION.read_text().replace("{time: 20.0,", "{time: 8.5,"), "operators[0].waypoints"),
 ])

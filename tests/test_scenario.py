@@ -51,7 +51,7 @@ operators:
         ("controller: {safety: {delta_s: 0.5}}", "controller.safety.delta_s"),
         ("controller: {safety: {stopping: current}}", "controller.safety.stopping"),
         (OK.replace("[0, 0.2, 0]", "[0, x, 0]"), "operators[0].bodies[0].offset[1]"),
-        (OK + "  max_speed: 2.5\n", "operators[0].max_speed"),
+        (OK + "  max_speed: 4.5\n", "operators[0].max_speed"),
         # One body is now enough (a helmet alone: the monitor bounds the rest of the
         # operator, human_body); none is not.
         (OK.replace("""{name: l, point: hand_left, offset: [0, 0.2, 0]},

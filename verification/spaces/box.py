@@ -16,7 +16,8 @@ import math
 import typing
 
 from safety_systems.cell.robot_geometry import CAPSULE_NAMES
-from safety_systems.config.scenario import MAX_DURATION, RobotConfig, ScenarioError
+from safety_systems.config.scenario import (MAX_DURATION, MAX_SCRIPTED_SPEED, RobotConfig,
+                                             ScenarioError)
 from safety_systems.files.ranges import number
 
 MIN_GAP = 1e-9  # s; shorter dropouts and occlusions are none
@@ -134,7 +135,8 @@ NAMES = tuple(f.name for f in dc.fields(SpaceParameters))
 
 LIMITS = {  # allowed ranges of each parameter
     "azimuth_deg": (-360.0, 360.0), "elevation_deg": (-80.0, 80.0),
-    "start_distance": (0.2, 10.0), "peak_speed": (0.01, 2.0), "acceleration": (0.1, 100.0),
+    "start_distance": (0.2, 10.0), "peak_speed": (0.01, MAX_SCRIPTED_SPEED),
+    "acceleration": (0.1, 100.0),
     "onset_phase": (0.0, 1.0), "target_phase": (0.0, 1.0),
     "target_link": (0.0, len(CAPSULE_NAMES) - 1.0), "target_along": (0.0, 1.0),
     "retreat_distance": (0.0, 5.0), "overshoot": (0.0, 2.0), "operators": (1.0, 5.0),

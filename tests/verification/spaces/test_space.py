@@ -63,7 +63,7 @@ def test_default_space_loads_and_validates():
     ("parameters:\n  peak_speed: {min: 0.5, max: 2.0, mean: 1.0}", "parameters.peak_speed.mean"),
     ("parameters:\n  peak_speed: {min: fast, max: 2.0}", "parameters.peak_speed.min"),
     ("parameters:\n  peak_speed: {min: 1.5, max: 1.0}", "parameters.peak_speed"),
-    ("parameters:\n  peak_speed: {min: 0.5, max: 2.5}", "parameters.peak_speed"),
+    ("parameters:\n  peak_speed: {min: 0.5, max: 4.5}", "parameters.peak_speed"),
     ("parameters:\n  elevation_deg: {min: -90.0, max: 0.0}", "parameters.elevation_deg"),
     ("parameters:\n  noise_std: {min: -0.001, max: 0.001}", "parameters.noise_std"),
     ("parameters:\n  overshoot: {min: 0.0, max: .inf}", "parameters.overshoot"),
