@@ -91,6 +91,8 @@ def test_the_human_speed_is_the_faster_ends(P, Q, vP, vQ, A, B, vA, vB):
        phi=st.floats(0, 2 * math.pi))
 @example(c_A=(0.0, 0.0, 0.0), c_B=(0.0, 0.0, 3.554958369568176e-160), slack=1.0, u=0.0, w=0.0,
          phi=0.0)  # foci a subnormal apart (found by CI)
+@example(c_A=(0.0, 1.875, 0.0), c_B=(0.0, 0.625, 0.0), slack=2.220446049250313e-16, u=0.5,
+         w=1.0, phi=0.0)  # a needle: the total an ulp above the foci's distance (found by CI)
 def test_the_capsule_holds_the_ellipsoid(c_A, c_B, slack, u, w, phi):
     c_A, c_B = np.array(c_A), np.array(c_B)
     # math.hypot, not np.linalg.norm: the latter squares first, and foci 1e-160 apart
@@ -99,7 +101,9 @@ def test_the_capsule_holds_the_ellipsoid(c_A, c_B, slack, u, w, phi):
     end_a, end_b, r = hb.ellipsoid_capsule(tuple(c_A), tuple(c_B), total)
     # a point of the ellipsoid: along the axis at t in [-a, a], out to its surface
     a, c = total / 2, math.hypot(*(c_B - c_A)) / 2
-    b = math.sqrt(max(a * a - c * c, 0.0))
+    # (a - c)(a + c), not a^2 - c^2: with foci a hair short of the total (slack 2e-16)
+    # the latter's cancellation made b 10% too large, a point outside the ellipsoid
+    b = math.sqrt(max((a - c) * (a + c), 0.0))
     axis = (c_B - c_A) / (2 * c) if c > 0 else np.array([1.0, 0.0, 0.0])
     side = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
     side /= np.linalg.norm(side)
