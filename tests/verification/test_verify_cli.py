@@ -109,7 +109,7 @@ def test_bad_arguments_exit_2(tmp_path, capsys, args, field):
 
 def test_bad_space_file_exits_2(tmp_path, capsys):
     bad = tmp_path / "space.yaml"
-    bad.write_text("parameters:\n  peak_speed: {min: 0.5, max: 3.0}\n")
+    bad.write_text("parameters:\n  peak_speed: {min: 0.5, max: 4.5}\n")
     code = main(["verify", str(MODELS / "configs" / "iso.yaml"), "--space", str(bad), "--out",
                  str(tmp_path / "out")])
     err = capsys.readouterr().err.strip().splitlines()
