@@ -225,7 +225,9 @@ def test_the_real_motive_2_1_session_is_replayed_through_run(tmp_path, exported_
     # so the robot model is held by the separation rule; after the last frame, by the
     # stale-frame rule. k is 0 throughout.
     assert len(flowing) > 1000
-    assert {r["stop_reason"] for r in flowing} == {"separation"}
+    # (a loaded machine may also overrun a tick: the watchdog's stop, not the stream's)
+    reasons = {r["stop_reason"] for r in flowing}
+    assert "separation" in reasons and reasons <= {"separation", "overrun"}
     assert all(float(r["visitor:d_measured"]) < float(r["visitor:S"]) for r in flowing)
     assert rows[-1]["stop_reason"] == "stale_frame"
     assert all(float(r["k"]) == 0.0 for r in rows)
