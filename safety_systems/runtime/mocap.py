@@ -172,10 +172,9 @@ class NatNetSource:
         self._kept_alive = self._now()
 
     def sockets(self) -> list:
-        """The client's data and command sockets, to wait on (natnet 0.3.0 keeps them
-        private)."""
-        return [s for s in (self.client._NatNetClient__data_socket,
-                            self.client._NatNetClient__command_socket) if s is not None]
+        """The client's sockets, to wait on (natnet 0.3.0 keeps them private)."""
+        return [s for s in (self.client._NatNetClient__command_socket,
+                            self.client._NatNetClient__data_socket) if s is not None]
 
     def _on_frame(self, frame) -> None:
         self.frames.append((self._now(), frame))
@@ -196,15 +195,17 @@ class NatNetSource:
 
     def _read(self) -> None:
         """``update_sync`` (natnet 0.3.0) with its keep-alives spaced out."""
-        read = self.client._NatNetClient__process_socket
-        data, command = self.sockets() if len(self.sockets()) == 2 else (None, None)
-        if data is None:
+        c = self.client
+        read = c._NatNetClient__process_socket
+        data, command = c._NatNetClient__data_socket, c._NatNetClient__command_socket
+        if data is None or command is None:
             return
         while read(data):
             pass
-        keep = self._now() - self._kept_alive >= KEEP_ALIVE_PERIOD
+        now = self._now()
+        keep = now - self._kept_alive >= KEEP_ALIVE_PERIOD
         if keep:
-            self._kept_alive = self._now()
+            self._kept_alive = now
             self.keep_alives += 1
         while read(command, send_keep_alive=keep):
             keep = False

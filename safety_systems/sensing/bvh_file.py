@@ -52,7 +52,8 @@ def read_bvh(path: str | Path, bodies: Collection[str] | None = None, *,
         raise InputError("Frames", frames, f"2 to {MAX_SAMPLES:,} frames", file=file)
     joints = [j for j, _, _ in root.layout()]
     names = [j.Name for j in joints]
-    keep = [i for i, n in enumerate(names) if bodies is None or n in set(bodies)]
+    wanted = None if bodies is None else set(bodies)
+    keep = [i for i, n in enumerate(names) if wanted is None or n in wanted]
     if not keep:
         raise InputError("HIERARCHY", f"no joint named {sorted(bodies or ())}",
                          f"joints of the file: {names[:20]}", file=file)

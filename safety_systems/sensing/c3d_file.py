@@ -62,7 +62,8 @@ def read_c3d(path: str | Path, bodies: Collection[str] | None = None, *,
     # A point at exactly the origin is a drop-out (ART, Motion Analysis and others store
     # a lost point as 0, 0, 0, with or without an invalid residual), not a position.
     positions[np.all(positions == 0.0, axis=2)] = np.nan
-    keep = [i for i, x in enumerate(labels) if bodies is None or x in set(bodies)]
+    wanted = None if bodies is None else set(bodies)
+    keep = [i for i, x in enumerate(labels) if wanted is None or x in wanted]
     if not keep:
         raise InputError("POINT:LABELS", f"no point named {sorted(bodies or ())}",
                          f"labels of the file: {labels[:20]}", file=file)

@@ -235,7 +235,7 @@ def _on_frames(frames: np.ndarray, rate: float, times: np.ndarray, p: np.ndarray
     off = np.flatnonzero(np.abs(times - exact) > 0.5 / rate)
     if off.size:
         k = off[0]
-        raise InputError(f"line {first + k + 1}, column Time", float(times[k] + 0.0),
+        raise InputError(f"line {first + k + 1}, column Time", float(times[k]),
                          f"frame {int(frames[k])} at {rate:g} Hz, {exact[k]:.6f} s after the "
                          f"first frame, to half a frame (the header's frame rate)", file=file)
     if n[-1] + 1 > MAX_SAMPLES:

@@ -18,8 +18,9 @@ A mapping YAML file::
 ``units`` (m, cm, mm or in) is the length unit of a BVH file, which states none (other
 formats state theirs, and refuse this field). ``truncated: use`` (default ``refuse``)
 reads a recording cut short of the length its header states (a Motive export's ``Total
-Exported Frames``) as far as it goes, with a warning line. Only the mapped bodies are read: the limits on a recording's bodies and
-the rule that each is named once apply to those.
+Exported Frames``) as far as it goes, with a warning line. Only the mapped bodies are
+read: the limits on a recording's bodies and the rule that each is named once apply to
+those.
 ``recorded`` names the body in the recording (Motive's rigid body name, a C3D point
 label); ``streaming_id`` is its NatNet rigid-body id (Motive's "Streaming ID"), which
 the live runtime needs (frames carry ids, not names; 0: not given) and which, where a
