@@ -15,6 +15,7 @@ on a verdict weaker than ``--require``.
 import argparse
 import dataclasses
 import sys
+import warnings
 
 from safety_systems.files.documents import forget_inputs
 from safety_systems.files.input_error import InputError
@@ -539,13 +540,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A library's warning (a truncated export used, capture glitches) as one line."""
+    _warn(" ".join(str(message).split()))
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(argv)
     args.argv = argv
     forget_inputs()  # the inputs of this command alone go into its results
     try:
-        return args.run(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning
+            return args.run(args)
     except InputError as e:
         print(f"safety-systems: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -234,14 +234,18 @@ Frame Time: 0.01
 ROWS"""
 
 
-def _bvh(path: Path, frames: int = 50) -> np.ndarray:
+def _bvh(path: Path, frames: int = 50, flips=()) -> np.ndarray:
     """A BVH of a root walking along x at 1 m/s (in cm) and an arm swinging about the
-    shoulder's z axis by 90 deg * t (s); returns the hand's positions (frames, 3) in m."""
+    shoulder's z axis by 90 deg * t (s); returns the hand's positions (frames, 3) in m.
+    At the frames ``flips`` the arm is turned by 180 deg more (a joint flipped for a
+    frame, as real BVH files have); the returned positions are the unflipped ones."""
     rows, hand = [], []
     for f in range(frames):
         t = 0.01 * f
         angle = 90.0 * t
-        rows.append(f"{100.0 * t} 90.0 0.0 0.0 0.0 0.0 {angle} 0.0 0.0 0.0 0.0 0.0")
+        rows.append(f"{100.0 * t} 90.0 0.0 0.0 0.0 0.0 {angle + 180.0} 0.0 0.0 0.0 0.0 0.0"
+                    if f in flips else None)
+        rows[-1] = rows[-1] or(f"{100.0 * t} 90.0 0.0 0.0 0.0 0.0 {angle} 0.0 0.0 0.0 0.0 0.0")
         a = np.radians(angle)  # the arm (-60, 0, 0) turned about z
         hand.append([1.0 * t - 0.2 - 0.6 * np.cos(a), 0.9 + 0.5 - 0.6 * np.sin(a), 0.0])
     path.write_text(_BVH.replace("FRAMES", str(frames)).replace("ROWS", "\n".join(rows)))
@@ -270,6 +274,51 @@ def test_a_bvh_file_is_read_in_the_units_the_mapping_gives(tmp_path):
     bodies = load_recorded_operator(tmp_path / "walk.bvh", tmp_path / "map.yaml")
     assert bodies.raw.shape == (50, 2, 3)
     np.testing.assert_allclose(bodies.raw[:, 0, 2], hand[:, 1], atol=1e-5)  # y up -> z
+
+
+def test_single_frame_flips_of_a_bvh_joint_are_capture_glitches(tmp_path):
+    """The arm flipped by 180 deg for one frame (t = 0.3 s) and for two (0.6, 0.61 s):
+    the hand jumps 1.2 m and back, about 120 m/s. Those samples are read as untracked with
+    a warning, so the played truth (and the fastest-body premise) moves as the body did;
+    with a flip_speed above the jump they are read as written."""
+    hand = _bvh(tmp_path / "flip.bvh", frames=100, flips={30, 60, 61})
+    mapping = ("capture_to_cell: {up_axis: y}\nunits: cm\nFLIPoperators:\n- name: a\n"
+               "  bodies:\n  - {recorded: RightHand, name: hand, point: hand_right}\n"
+               "  - {recorded: Hips, name: hips, point: pelvis}\n")
+    (tmp_path / "map.yaml").write_text(mapping.replace("FLIP", ""))
+    with pytest.warns(UserWarning, match=r"RightHand: 3 sample\(s\) from t = 0.3 s"):
+        bodies = load_recorded_operator(tmp_path / "flip.bvh", tmp_path / "map.yaml")
+    assert bodies.flips == (3, 0)
+    assert np.flatnonzero(np.isnan(bodies.raw[:, 0, 0])).tolist() == [30, 60, 61]
+    np.testing.assert_allclose(bodies.gaps[0], [(0.29, 0.31), (0.59, 0.62)])
+    assert bodies.gaps[1] == ()
+    np.testing.assert_allclose(bodies.points[:, 0, 2], hand[:, 1], atol=0.02)
+    speed = np.linalg.norm(np.diff(bodies.points, axis=0), axis=2) / 0.01
+    assert speed.max() < 2.0  # walk 1 m/s + swing 0.94 m/s, not 120 m/s
+    (tmp_path / "map.yaml").write_text(mapping.replace("FLIP", "flip_speed: 1000\n"))
+    bodies = load_recorded_operator(tmp_path / "flip.bvh", tmp_path / "map.yaml")
+    assert bodies.flips == (0, 0) and np.isfinite(bodies.raw).all()
+    assert (np.linalg.norm(np.diff(bodies.points, axis=0), axis=2) / 0.01).max() > 100.0
+
+
+def test_fast_real_motion_and_a_jump_that_stays_are_not_glitches():
+    from safety_systems.sensing.recording import flips
+
+    rng = np.random.default_rng(3)
+    t = np.arange(240) / 120.0
+    p = np.zeros((240, 3, 3))
+    p[:, 0, 0] = 3.4 * t  # a hand at 3.4 m/s (a real jump's), 2 mm noise
+    p[:, 0] += rng.normal(0.0, 0.002, (240, 3))
+    p[:, 1, 1] = np.where(t < 1.0, 0.0, 1.5)  # re-identified 1.5 m away, and stays there
+    p[:, 2, 2] = 1.0
+    p[0, 2, 2] = 3.0  # a first sample has no track to leave: not a glitch by the rule
+    p[100, 2] = np.nan  # a gap beside a glitch: neighbours are the tracked samples
+    p[101, 2, 2] = 2.0
+    p[200:203, 2, 0] = 1.0  # three samples out and back: one glitch of three
+    p[220:224, 2, 0] = 1.0  # four: longer than a glitch, read as written
+    out = flips(t, p, 10.0)
+    assert not out[:, :2].any()
+    assert np.flatnonzero(out[:, 2]).tolist() == [101, 200, 201, 202]
 
 
 def test_the_real_vicon_c3d_is_read_in_its_units():

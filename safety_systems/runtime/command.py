@@ -6,6 +6,7 @@ the runtime, a lost robot, no NatNet server), 130 interrupted.
 """
 
 import argparse
+import json
 import math
 import select
 import subprocess
@@ -20,10 +21,16 @@ REPLAY_TAIL = 0.5  # s the runtime runs on after a replay's last frame
 PORT_WAIT = 30.0  # s to wait for the replay server to listen
 
 
-def start_replay(file: str, options: dict, rate: float) -> tuple[subprocess.Popen, int]:
-    """Starts ``replay_server`` on 127.0.0.1 in its own process; (process, its port)."""
+def start_replay(file: str, options: dict, rate: float, mapping=None
+                 ) -> tuple[subprocess.Popen, int]:
+    """Starts ``replay_server`` on 127.0.0.1 in its own process; (process, its port).
+    With a ``mapping`` it streams the mapping's bodies, read as the mapping reads them."""
     argv = [sys.executable, "-m", "safety_systems.runtime.replay_server", file,
             "--rate", repr(rate)]
+    if mapping is not None:
+        bodies = {b.recorded: b.streaming_id for o in mapping.operators for b in o.bodies}
+        argv += ["--bodies", json.dumps(bodies), "--units", mapping.units,
+                 "--truncated", mapping.truncated]
     for key, value in options.items():
         argv += [f"--{key}", *value.split(":")]
     process = subprocess.Popen(argv, stdout=subprocess.PIPE, text=True)
@@ -103,7 +110,7 @@ def run(args: argparse.Namespace, origin: dict) -> int:
     robot = None
     try:
         if mocap_address.kind == "replay":
-            server, port = start_replay(mocap_address.file, options, rate)
+            server, port = start_replay(mocap_address.file, options, rate, mapping)
             mocap_address = MocapAddress("natnet", "127.0.0.1", port, "127.0.0.1")
         mocap = NatNetSource(mocap_address, time.monotonic)
         robot = connect_robot(robot_address, params.robot, params.controller)

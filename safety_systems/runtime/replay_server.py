@@ -7,8 +7,12 @@ body of the recording in the capture frame: frame i is the recording at time
 start + i / rate (:func:`stream_frames`: linear between samples, as the simulator plays
 a recording; a body is flagged untracked before its first tracked sample, after its
 last and inside its recording's gaps), with that recording time as its timestamp.
-Bodies without a streaming id in the file (C3D points, markers) get ids 1, 2, ... in
-file order. Keep-alives and other requests are read and ignored.
+``--bodies`` (a JSON object: recorded name -> streaming id, as ``run`` passes the
+mapping's) streams those bodies only, read as the mapping reads them (``--units``,
+``--truncated``; a skeleton export's hundreds of columns are not read), each with the
+file's id or, where the file gives none (C3D points, BVH joints, markers), the given one.
+Without it every body of the file is streamed, those without ids as 1, 2, ... in file
+order. Keep-alives and other requests are read and ignored.
 
 For tests and demonstrations it can misbehave on purpose (times are recording times):
 ``stop`` (no frame from then on: the stream stops), ``garbage`` (a packet of random
@@ -23,6 +27,7 @@ seconds) or when its client sends NAT_DISCONNECT.
 
 import argparse
 import dataclasses
+import json
 import math
 import select
 import socket
@@ -56,8 +61,11 @@ class Misbehaviour:
     late: tuple[float, float] | None = None
 
 
-def stream_ids(rec: Recording) -> list[int]:
-    """The rigid-body ids streamed: the file's, or 1, 2, ... where it gives none."""
+def stream_ids(rec: Recording, given: dict[str, int] | None = None) -> list[int]:
+    """The rigid-body ids streamed: the file's; where it gives none, ``given``'s (by name)
+    or 1, 2, ... (see the module docstring)."""
+    if given is not None:
+        return [i or int(given[n]) for n, i in zip(rec.names, rec.ids)]
     return list(rec.ids) if all(rec.ids) else list(range(1, len(rec.names) + 1))
 
 
@@ -86,12 +94,14 @@ def stream_frames(rec: Recording, rate: float, start: float, count: int
 
 def serve(rec: Recording, *, rate: float, start: float = 0.0, duration: float | None = None,
           host: str = "127.0.0.1", port: int = 0, misbehave: Misbehaviour = Misbehaviour(),
-          linger: float = 1.0, wait: float = 30.0, announce=print) -> int:
-    """Serves one client (see the module docstring); returns the frames sent."""
+          linger: float = 1.0, wait: float = 30.0, announce=print,
+          ids: dict[str, int] | None = None) -> int:
+    """Serves one client (see the module docstring; ``ids``: streaming ids by name for
+    bodies the file gives none); returns the frames sent."""
     end = rec.times[-1] if duration is None else min(rec.times[-1], start + duration)
     count = int(math.floor((end - start) * rate + 1e-9)) + 1
     taus, p, r, tracked = stream_frames(rec, rate, start, count)
-    ids = stream_ids(rec)
+    ids = stream_ids(rec, ids)
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind((host, port))
     announce(f"port {sock.getsockname()[1]}")
@@ -161,12 +171,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--garbage", type=float)
     parser.add_argument("--late", type=float, nargs=2)
     parser.add_argument("--linger", type=float, default=1.0)
+    parser.add_argument("--bodies", type=json.loads)
+    parser.add_argument("--units", default="")
+    parser.add_argument("--truncated", default="refuse")
     args = parser.parse_args(argv)
-    rec = read_recording(args.recording)
+    rec = read_recording(args.recording, None if args.bodies is None else list(args.bodies),
+                         truncated=args.truncated, units=args.units)
     misbehave = Misbehaviour(args.stop, args.garbage, tuple(args.late) if args.late else None)
     serve(rec, rate=args.rate, start=args.start, duration=args.duration, port=args.port,
           misbehave=misbehave, linger=args.linger,
-          announce=lambda line: print(line, flush=True))
+          announce=lambda line: print(line, flush=True), ids=args.bodies)
     return 0
 
 

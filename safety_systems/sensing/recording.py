@@ -15,6 +15,12 @@ it, the last's after). Where the body was not tracked, the truth is taken as the
 straight line between the samples around the gap (the best estimate there is; the
 sensor does not see the body then, see :func:`gaps`). A body is present from its first
 tracked sample to its last one.
+
+Capture glitches (:func:`flips`): a run of one to ``MAX_FLIP_FRAMES`` tracked samples
+that leaves the body's track and comes back to it faster than any body moves (a joint of
+a BVH file flipped for a frame, a marker swapped for two) is not motion: the mapping's
+reader takes those samples as untracked, as the tracker's gate rejects such an entry
+live, so that neither the played truth nor the fastest-body premise moves with them.
 """
 
 import dataclasses
@@ -27,7 +33,9 @@ from safety_systems.files.input_error import InputError
 
 MAX_SAMPLES = 2_000_000  # rows of a recording (about 4.6 h at 120 Hz)
 MAX_BODIES = 64
-TRUNCATED = ("refuse", "use")  # what a recording cut short of its stated length gives
+TRUNCATED = ("refuse", "use")
+MAX_FLIP_FRAMES = 3  # samples: the longest run out of a track taken as a capture glitch
+FLIP_WIDTH = 0.05  # m: the glitch rule's allowance for noise (the tracker gate's default)  # what a recording cut short of its stated length gives
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -86,6 +94,37 @@ def gaps(times: np.ndarray, tracked: np.ndarray) -> list[tuple[float, float]]:
         return []
     jumps = np.flatnonzero(np.diff(idx) > 1)
     return [(float(times[idx[j]]), float(times[idx[j + 1]])) for j in jumps]
+
+
+def flips(times: np.ndarray, points: np.ndarray, speed: float,
+          width: float = FLIP_WIDTH) -> np.ndarray:
+    """(T, n) bool: the capture glitches of ``points`` (T, n, 3; NaN where untracked),
+    see the module docstring. A run of tracked samples i..j (1 to ``MAX_FLIP_FRAMES``)
+    between tracked samples a (before) and z (after) is one when the step a -> i and the
+    step j -> z are each longer than a body moving at ``speed`` m/s could go in their
+    time plus ``width`` m, while a -> z is not. A body's first and last tracked samples
+    have no neighbour on one side and are never taken as glitches."""
+    out = np.zeros(points.shape[:2], dtype=bool)
+    for b in range(points.shape[1]):
+        idx = np.flatnonzero(np.all(np.isfinite(points[:, b]), axis=1))
+        if idx.size < 3:
+            continue
+        p, t = points[idx, b], times[idx]
+
+        def far(i, j):  # the step i -> j (tracked indices) faster than the rule allows
+            return np.linalg.norm(p[j] - p[i], axis=-1) > speed * (t[j] - t[i]) + width
+
+        leaves = np.flatnonzero(far(np.arange(idx.size - 1), np.arange(1, idx.size))) + 1
+        after = 0
+        for k in leaves:  # sample k left the track of k - 1
+            if k < after:
+                continue
+            for z in range(k + 1, min(k + MAX_FLIP_FRAMES, idx.size - 1) + 1):
+                if far(z - 1, z) and not far(k - 1, z):
+                    out[idx[k:z], b] = True
+                    after = z + 1
+                    break
+    return out
 
 
 def span(times: np.ndarray, tracked: np.ndarray) -> tuple[float, float]:

@@ -20,7 +20,10 @@ formats state theirs, and refuse this field). ``truncated: use`` (default ``refu
 reads a recording cut short of the length its header states (a Motive export's ``Total
 Exported Frames``) as far as it goes, with a warning line. Only the mapped bodies are
 read: the limits on a recording's bodies and the rule that each is named once apply to
-those.
+those. ``flip_speed`` (m/s, default 10) is the glitch rule's speed
+(``sensing.recording.flips``): a mapped body's sample reached and left faster than it,
+from and back to a track the body could have followed, is a capture glitch, read as
+untracked with a warning line naming the body, how many and the first one's time.
 ``recorded`` names the body in the recording (Motive's rigid body name, a C3D point
 label); ``streaming_id`` is its NatNet rigid-body id (Motive's "Streaming ID"), which
 the live runtime needs (frames carry ids, not names; 0: not given) and which, where a
@@ -39,6 +42,7 @@ This module must not use ``from __future__ import annotations`` (the YAML loader
 import dataclasses as dc
 import functools
 import hashlib
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -49,7 +53,14 @@ from safety_systems.files.documents import load_document, read_input
 from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import number
-from safety_systems.sensing.recording import TRUNCATED, Recording, fill_gaps, gaps, span
+from safety_systems.sensing.recording import (
+    TRUNCATED,
+    Recording,
+    fill_gaps,
+    flips,
+    gaps,
+    span,
+)
 from safety_systems.sensing.recording_files import LENGTH_UNITS, read_recording
 
 UP_AXES = ("y", "z")
@@ -99,6 +110,7 @@ class RecordingMapping:
     ignore_ids: list[int] = number([], ge=1, le=MAX_STREAMING_ID)
     truncated: str = "refuse"  # a recording cut short: refuse | use (its frames, warned)
     units: str = ""  # the length unit of a recording that states none (BVH): m | cm | mm | in
+    flip_speed: float = number(10.0, ge=2.0, le=1000.0, unit="m/s")  # capture glitches
 
 
 def validate_mapping(m: RecordingMapping) -> None:
@@ -200,6 +212,7 @@ class RecordedBodies:
     points_marked: tuple  # the body point each body marks (``human_body.POINTS``)
     ids: tuple
     raw: np.ndarray  # (T, n, 3) the cell-frame samples, NaN where untracked
+    flips: tuple = ()  # per body: samples taken as capture glitches (``recording.flips``)
 
 
 def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedOperator
@@ -218,6 +231,14 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
                              f"({rec.ids[k]})")
         index.append(k)
     raw = to_cell(mapping.capture_to_cell, rec.positions[:, index])
+    glitch = flips(rec.times, raw, mapping.flip_speed)
+    raw[glitch] = np.nan
+    for i in np.flatnonzero(glitch.any(axis=0)):
+        first = float(rec.times[np.flatnonzero(glitch[:, i])[0]])
+        warnings.warn(f"{rec.file}: {operator.bodies[i].recorded}: {int(glitch[:, i].sum())} "
+                      f"sample(s) from t = {first:g} s read as untracked: capture glitches "
+                      f"(out of its track and back faster than flip_speed, "
+                      f"{mapping.flip_speed:g} m/s)", stacklevel=2)
     tracked = np.all(np.isfinite(raw), axis=2)
     return RecordedBodies(
         times=rec.times, points=fill_gaps(rec.times, raw),
@@ -225,7 +246,8 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
         gaps=tuple(tuple(gaps(rec.times, tracked[:, i])) for i in range(len(index))),
         names=tuple(b.name for b in operator.bodies),
         points_marked=tuple(mapped_point(b) for b in operator.bodies),
-        ids=tuple(rec.ids[k] for k in index), raw=raw)
+        ids=tuple(rec.ids[k] for k in index), raw=raw,
+        flips=tuple(int(n) for n in glitch.sum(axis=0)))
 
 
 def mapped_names(mapping: RecordingMapping) -> list[str]:

@@ -264,6 +264,56 @@ def test_a_garbage_packet_gives_k_0_at_once_until_a_good_frame(tmp_path, exporte
     assert (trace["k"][first:later] == 0.0).all()
 
 
+def _flipped_bvh(path: Path, frames: int = 80, extra_joints: int = 70) -> None:
+    """A BVH at 20 Hz in cm: an operator standing, its right arm flipped by 180 deg for
+    the one frame at t = 2.0 s (the hand 1.6 m out and back: 32 m/s), and
+    ``extra_joints`` unmapped joints (more bodies than a recording may hold)."""
+    def joint(name, offset, child):
+        return (f"JOINT {name}\n{{\nOFFSET {offset}\nCHANNELS 3 Zrotation Xrotation "
+                f"Yrotation\n{child}\n}}")
+    end = "End Site\n{\nOFFSET 0.0 0.0 10.0\n}"
+    joints = [joint("Head", "0.0 0.0 70.0", end),
+              joint("RightShoulder", "0.0 -20.0 50.0", joint("RightHand", "0.0 -60.0 0.0", end))]
+    joints += [joint(f"Extra{i}", "0.0 0.0 1.0", end) for i in range(extra_joints)]
+    rows = [f"0.0 250.0 100.0 0 0 0 0 0 0 {180.0 if f == 40 else 0.0} 0 0 0 0 0"
+            + " 0 0 0" * extra_joints for f in range(frames)]
+    path.write_text("HIERARCHY\nROOT Hips\n{\nOFFSET 0.0 0.0 0.0\nCHANNELS 6 Xposition "
+                    "Yposition Zposition Zrotation Xrotation Yrotation\n" + "\n".join(joints)
+                    + f"\n}}\nMOTION\nFrames: {frames}\nFrame Time: 0.05\n"
+                    + "\n".join(rows) + "\n")
+
+
+def test_a_capture_glitch_replayed_live_is_gated_like_any_outlier(tmp_path, exported_params,
+                                                                    capsys):
+    """A BVH joint flipped for one frame, streamed as live NatNet (ids from the mapping,
+    the file has none; only the mapped joints read, though the file holds more than a
+    recording may): the reader's warning names it, and live the tracker's gate rejects
+    that frame, a protective stop that ends with the next clean frame."""
+    _flipped_bvh(tmp_path / "flip.bvh")
+    (tmp_path / "map.yaml").write_text(
+        "capture_to_cell: {up_axis: z}\nunits: cm\noperators:\n- name: a\n  bodies:\n"
+        "  - {recorded: RightHand, name: hand, point: hand_right, streaming_id: 1}\n"
+        "  - {recorded: Head, name: head, point: head, streaming_id: 2}\n")
+    code = main(["run", str(exported_params), "--mocap",
+                 f"replay://{tmp_path / 'flip.bvh'}?duration=3.5", "--robot", "none",
+                 "--mapping", str(tmp_path / "map.yaml"), "--log", str(tmp_path / "log"),
+                 "--quiet", "--max-overrun", str(SLACK)])
+    err = capsys.readouterr().err
+    assert code == 0
+    assert "warning: " in err and "RightHand: 1 sample(s) from t = 2 s read as untracked" in err
+    trace = _trace(tmp_path / "log")
+    summary = json.loads((tmp_path / "log" / "summary.json").read_text())
+    assert summary["frames"] >= 60 and summary["protective_stops"]["gate"]["count"] == 1
+    rejected = np.flatnonzero(np.diff(trace["rejected_gate"]) > 0) + 1
+    assert rejected.size == 1
+    first = rejected[0]
+    assert trace["stop_reason"][first] == "gate" and trace["k"][first] == 0.0
+    assert trace["frames"][first] == 41  # the frame at t = 2.0 s (frames count from 1)
+    later = np.flatnonzero(trace["frames"] > trace["frames"][first])[0]
+    assert trace["stop_reason"][later] != "gate"
+    assert (trace["stop_reason"][first:later] == "gate").all()
+
+
 def test_a_late_frame_is_stale_and_does_not_restart_the_robot(tmp_path, exported_params):
     code, trace, _ = _run(tmp_path, exported_params, f"replay://{CSV}?late=1.0:0.32"
                           "&duration=2.0", "--max-overrun", str(SLACK))

@@ -272,6 +272,8 @@ def recording_assumptions(space: ScenarioSpace, config: ControllerConfig) -> lis
     p = block.parameters
     ops = operators(block)
     speed = recorded_speed(block)
+    glitches = sum(sum(b.flips) for _, b in ops)
+    flip_speed = load_mapping(block.mapping).flip_speed
     bodies = "; ".join(f"{o}: " + ", ".join(f"{n} ({q})" for n, q in
                                               zip(b.names, b.points_marked)) for o, b in ops)
     first = ", ".join(f"{o}: {', '.join(b.names[:int(p.occluded_bodies.max)])}"
@@ -285,8 +287,10 @@ def recording_assumptions(space: ScenarioSpace, config: ControllerConfig) -> lis
         f"{Path(block.file).name} (tracked bodies and the body points they mark: {bodies}; "
         "each operator a whole body, its segments between untracked points bounded from "
         "the recorded ones), each present while the recording tracks it, moving linearly "
-        "between its samples; the recording's untracked intervals are occlusions; no other "
-        "body enters the cell",
+        "between its samples; the recording's untracked intervals are occlusions"
+        + (f" (among them {glitches} sample(s) taken as capture glitches: out of a body's "
+           f"track and back faster than {flip_speed:g} m/s)" if glitches else "")
+        + "; no other body enters the cell",
         f"recording time {span(_shifted(block, p.time_shift), ' s')} plays at t = 0, at "
         f"{span(p.time_scale)} recording seconds per second (above 1: faster than "
         f"recorded, every speed scaled by it); every body turned by {span(p.yaw_deg, ' deg')} "
