@@ -1,7 +1,7 @@
 """Speed and sample efficiency of the verification layer, measured in one run.
 
-    python benchmarks/bench_verify.py [--seeds 10] [--budget 4096] [--batch 512]
-        [--parts throughput,proof,search,fraction] [--configs seed,subtle]
+    python benchmarks/bench_verify.py [--seeds 10] [--budgets 200,4096] [--batch 512]
+        [--parts throughput,proof,search,fraction,costs] [--configs seed,subtle,contact]
         [--searches ours,UniformRandom,DualAnnealing]
 
 Prints, each beside its goal:
@@ -18,24 +18,30 @@ Prints, each beside its goal:
    at most 2x);
 2. the wall time to prove the iso configuration over the default space (the proof
    alone, and ``verify`` with a 64-simulation cross-check on 2 workers);
-3. time to the first counterexample (``search``), for the seed's configuration and for
-   a subtly unsafe one (``benchmarks/subtle_unsafe.yaml``) over the default space, both
-   properties searched as ``verify`` does, ``--seeds`` searches each, in this process
-   (one core; the compiled code loaded first, not timed): for this project's falsifier
-   and for psy-taliro's UniformRandom and DualAnnealing (the ``bench`` extra:
-   ``pip install -e '.[bench]'``) on the same batched evaluator and the same box, one
-   scenario per evaluation, stopping at the first cost below 0 (the smallest robustness
-   of the two properties): falsified out of ``--seeds``, the median evaluations to the
-   first counterexample (every evaluation of any model in order: for this project the
-   candidates ranked before it and the simulations up to it; a search that found none
-   counts as the budget + 1) and the median CPU seconds until it was found (for this
-   project, when the batch that held it was done), and the ratios (where no search
-   can do better, every seed falsified or each found at its first evaluation, a tie
-   is printed as one, not as ahead); then the Drake
-   diagram's wall time to confirm this project's first counterexample (the run stops a
-   quarter second after the violation shows) beside the whole run's;
-4. how much of the default space the subtle configuration leaves unsafe (``fraction``:
-   16384 Sobol points simulated).
+3. time to the first counterexample (``search``), at verify's default budget (200) and
+   at 4096 (``--budgets``, in simulation-equivalents: ``verification.search.counts``),
+   for the seed's configuration, a subtly unsafe one (``benchmarks/subtle_unsafe.yaml``,
+   separation) and a contact mutant (``benchmarks/contact_unsafe.yaml``) over the
+   default space, both properties searched as ``verify`` does, ``--seeds`` searches
+   each, in this process (one core; the compiled code loaded first, not timed): for this
+   project's falsifier and for psy-taliro's UniformRandom and DualAnnealing (the
+   ``bench`` extra: ``pip install -e '.[bench]'``) on the same batched evaluator and the
+   same box, one scenario per evaluation, with the same budget in evaluations, stopping
+   at the first cost below 0 (the smallest robustness of the two properties):
+   falsified out of ``--seeds``, psy-taliro's also within this project's CPU time on
+   the same seed (at the same CPU time), the median cost to the first counterexample
+   (for this project every evaluation of any model in order, priced: the candidates
+   ranked before it and the simulations up to it; a search that found none counts as
+   the budget + 1) and the median CPU seconds until it was found (for this project,
+   when the batch that held it was done), and the ratios (where no search can do
+   better, every seed falsified or each found at its first evaluation, a tie is
+   printed as one, not as ahead); then the Drake diagram's wall time to confirm this
+   project's first counterexample (the run stops a quarter second after the violation
+   shows) beside the whole run's;
+4. how much of the default space the subtle configuration and the contact mutant leave
+   unsafe (``fraction``: 16384 Sobol points simulated);
+5. what each kind of evaluation costs in simulations (``costs``), beside the prices a
+   budget uses.
 
 Run it on an otherwise idle machine, pinned to one core (``taskset -c 0``). The
 throughput is one core's, timed as this process' CPU time (so other work on the machine
@@ -62,6 +68,7 @@ from safety_systems.config.scenario import load_controller_config
 from verification.search.evaluate_batch import evaluate_many
 from verification.search.evaluate_drake import evaluate_drake
 from verification.proof.theorems import prove
+from verification.search.counts import COST
 from verification.search.runner import Runner
 from verification.search.strategies import falsify, sweep_points
 from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
@@ -78,6 +85,8 @@ ISO = load_controller_config(ROOT / "models" / "configs" / "iso.yaml")
 ISO_MOVING = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety,
                                                                  robot_uncertainty=0.0))
 SUBTLE = load_controller_config(ROOT / "benchmarks" / "subtle_unsafe.yaml")
+CONTACT = load_controller_config(ROOT / "benchmarks" / "contact_unsafe.yaml")
+DEFAULT_BUDGET = 200  # verify's
 
 
 def _row(name: str, figure: str, goal: str, meets: bool | None) -> None:
@@ -224,20 +233,24 @@ def _first(log, objectives) -> dict | None:
     return min(firsts, key=lambda f: f["simulation"]) if firsts else None
 
 
-def ours(space, config, seed: int, budget: int, objectives) -> dict | None:
+def ours(space, config, seed: int, budget: int, objectives) -> dict:
     """This project's falsifier, stopping at the first violation of any objective: the
-    evaluations in order up to it (the rankings made before it and the simulations up
-    to and including it), all evaluations made by then, CPU seconds by then."""
+    cost in order up to it, in simulation-equivalents (``counts.COST``: the rankings made
+    before it and the simulations up to and including it), all evaluations made by
+    then, CPU seconds by then; with none found, ``found`` False and the whole run's CPU."""
     with Runner(workers=1) as runner:
         log = falsify(space, config, runner, budget=budget, seed=seed, stop_at_first=True,
                       objectives=objectives)
     first = _first(log, objectives)
     if first is None:
-        return None
+        return {"found": False, "cpu": runner.tally.cpu_seconds(),
+                "made": runner.tally.search_cost()}
     e = first["evaluations"]
-    return {"evaluations": e["rankings"] + first["simulation"], "made": e["total"],
-            "simulations": first["simulation"], "rankings": e["rankings"],
-            "cpu": first["cpu_seconds"], "point": log.points[first["simulation"] - 1]}
+    ranked = COST["margins"] * e["margins"] + COST["dangers"] * e["dangers"]
+    return {"found": True, "evaluations": ranked + first["simulation"],
+            "made": e["search_cost"], "simulations": first["simulation"],
+            "rankings": ranked, "cpu": first["cpu_seconds"],
+            "point": log.points[first["simulation"] - 1]}
 
 
 class _Objective:
@@ -278,59 +291,67 @@ def taliro(name: str, space, config, seed: int, budget: int, objectives) -> dict
     d = len(free_parameters(space))
     optimizer.optimize(objective, Optimizer.Params(seed=seed, budget=budget,
                                                    input_bounds=[Interval(0.0, 1.0)] * d))
-    return objective.first
+    if objective.first is None:
+        return {"found": False, "cpu": time.process_time() - objective.start,
+                "made": objective.calls}
+    return {"found": True, **objective.first}
 
 
-GOALS = {"seed": 1.0, "subtle": 3.0}  # s CPU to the first counterexample (median)
+# s CPU to the first counterexample (median), at verify's default budget and at 4096
+GOALS = {"seed": 1.0, "subtle": 1.0, "contact": 1.0}
 
 
-def first_counterexamples(seeds: int, budget: int, which: list[str], searches: list[str]
-                          ) -> None:
-    """Point 2 and 3 of the issue: each search on each configuration, ``seeds`` times."""
+def first_counterexamples(seeds: int, budgets: list[int], which: list[str],
+                          searches: list[str]) -> None:
+    """Each search on each configuration at each budget, ``seeds`` times."""
     configs = {"seed": (SEED, "seed config (seed_estimated.yaml)"),
-               "subtle": (SUBTLE, "subtle config (subtle_unsafe.yaml)")}
+               "subtle": (SUBTLE, "subtle config (subtle_unsafe.yaml)"),
+               "contact": (CONTACT, "contact mutant (contact_unsafe.yaml)")}
     objectives = [0, 2]  # contact and separation, as verify's default
     with Runner(workers=1) as runner:  # loads the compiled code (not timed)
         falsify(SPACE, ISO, runner, budget=16, seed=99, objectives=objectives)
     warm = make_scenario(SPACE, ISO, to_point(SPACE, np.full(20, 0.5)))
     evaluate_many([warm])
     evaluate_drake(warm)  # (the diagram's first build loads the robot model: not timed)
-    for key in which:
-        config, label = configs[key]
-        rows = {}
-        for search in searches:
-            results = []
-            for seed in range(seeds):
-                if search == "ours":
-                    r = ours(SPACE, config, seed, budget, objectives)
-                else:
-                    r = taliro(search, SPACE, config, seed, budget, objectives)
-                results.append(r)
-                print(f"  {key} {search} seed {seed}: "
-                      + ("none" if r is None else f"{r['evaluations']} evaluations in order "
-                         f"({r['made']} made), {r['cpu']:.3f} s CPU"), flush=True)
-            rows[search] = results
-        _table(label, rows, budget, GOALS[key])
-        if "ours" in rows and any(rows["ours"]):
-            confirm_time(config, next(r for r in rows["ours"] if r))
+    for budget in budgets:
+        for key in which:
+            config, label = configs[key]
+            rows = {}
+            for search in searches:
+                results = []
+                for seed in range(seeds):
+                    if search == "ours":
+                        r = ours(SPACE, config, seed, budget, objectives)
+                    else:
+                        r = taliro(search, SPACE, config, seed, budget, objectives)
+                    results.append(r)
+                    print(f"  {key} budget {budget} {search} seed {seed}: "
+                          + (f"{r['evaluations']:g} in order ({r['made']:g} made), "
+                             f"{r['cpu']:.3f} s CPU" if r["found"] else
+                             f"none ({r['made']:g} made, {r['cpu']:.3f} s CPU)"), flush=True)
+                rows[search] = results
+            _table(f"{label}, budget {budget}", rows, budget, GOALS[key])
+            if "ours" in rows and any(r["found"] for r in rows["ours"]):
+                confirm_time(config, next(r for r in rows["ours"] if r["found"]))
 
 
 def _median(results, key, cap):
     """Median of ``key`` over the seeds; a search that found nothing counts as ``cap``."""
-    return statistics.median(r[key] if r is not None else cap for r in results)
+    return statistics.median(r[key] if r["found"] else cap for r in results)
 
 
 def _table(label: str, rows: dict, budget: int, goal: float) -> None:
     n = len(next(iter(rows.values())))
     mine = rows.get("ours")
     for search, results in rows.items():
-        hits = sum(r is not None for r in results)
+        hits = sum(r["found"] for r in results)
         evaluations = _median(results, "evaluations", budget + 1)
         cpu = _median(results, "cpu", math.inf)
         name = "this project" if search == "ours" else f"psy-taliro {search}"
         _row(f"{label}: {name}: falsified", f"{hits}/{n}", f"{n}/{n}" if search == "ours"
              else "", hits == n if search == "ours" else None)
-        _row("  median evaluations to the first (in order; none found: budget + 1)",
+        _row("  median evaluations to the first (in order, simulation-equivalents; none "
+             "found: budget + 1)",
              f"{evaluations:g}", "", None)
         _row("  median CPU s to the first (none found: inf)", f"{cpu:.3f}",
              f"<= {goal:g}" if search == "ours" else "", cpu <= goal if search == "ours"
@@ -339,12 +360,17 @@ def _table(label: str, rows: dict, budget: int, goal: float) -> None:
             sims = _median(results, "simulations", budget + 1)
             made = _median(results, "made", budget + 1)
             _row("    of which closed-loop simulations (median)", f"{sims:g}", "", None)
-            _row("    of which candidates ranked (median)",
+            _row("    of which candidates ranked, simulation-equivalents (median)",
                  f"{_median(results, 'rankings', 0):g}", "", None)
             _row("    all evaluations made by then, whole batches (median)", f"{made:g}", "",
                  None)
         elif mine is not None:
-            m_hits = sum(r is not None for r in mine)
+            m_hits = sum(r["found"] for r in mine)
+            # at the same CPU time: the seeds it falsified within the CPU this project
+            # took on the same seed (to its first, or its whole run where it found none)
+            same = sum(t["found"] and t["cpu"] <= o["cpu"] for t, o in zip(results, mine))
+            _row("  falsified within this project's CPU time, seed by seed", f"{same}/{n}",
+                 "", None)
             mine_e = _median(mine, "evaluations", budget + 1)
             # Where both find it at the first evaluation (the least any search can take),
             # both did the same work: one scenario on the same evaluator.
@@ -386,19 +412,51 @@ def confirm_time(config, found: dict) -> None:
 
 
 def fraction(n: int) -> None:
-    """How much of the default space the subtle configuration leaves unsafe: a scrambled
-    Sobol set of n points (seed 11) simulated, violations counted per property, with a
-    Clopper-Pearson 95% upper bound (the Sobol points read as a random sample)."""
+    """How much of the default space the subtle configuration and the contact mutant
+    leave unsafe: a scrambled Sobol set of n points (seed 11) simulated, violations
+    counted per property, with a Clopper-Pearson 95% upper bound (the Sobol points read
+    as a random sample)."""
     from scipy.stats import beta
 
     points = sweep_points("sobol", n, len(free_parameters(SPACE)), seed=11)
-    r = evaluate_many([make_scenario(SPACE, SUBTLE, to_point(SPACE, u)) for u in points])
-    for name, rho in (("contact", r.robustness), ("separation", r.separation)):
-        k = int(np.sum(rho < 0.0))
-        upper = beta.ppf(0.975, k + 1, n - k)
-        _row(f"subtle config: {name} violated in {k} of {n} Sobol points; 95% upper bound",
-             f"{100.0 * k / n:.3f}%", "< 0.1%", upper < 0.001 if name == "separation" else None)
-        _row("  (Clopper-Pearson upper bound)", f"{100.0 * upper:.3f}%", "", None)
+    for label, config in (("subtle config", SUBTLE), ("contact mutant", CONTACT)):
+        r = evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u)) for u in points])
+        for name, rho in (("contact", r.robustness), ("separation", r.separation)):
+            k = int(np.sum(rho < 0.0))
+            upper = beta.ppf(0.975, k + 1, n - k)
+            _row(f"{label}: {name} violated in {k} of {n} Sobol points; 95% upper bound",
+                 f"{100.0 * k / n:.3f}%", "", None)
+            _row("  (Clopper-Pearson upper bound)", f"{100.0 * upper:.3f}%", "", None)
+
+
+def costs(n: int = 512) -> None:
+    """What each kind of evaluation costs, CPU per evaluation over a closed-loop
+    simulation's (its scenario built included), on n Sobol points of the default space
+    for iso.yaml and the subtle file, beside the prices a budget uses
+    (``counts.COST``)."""
+    from verification.search.ranking import bound_scores, danger_scores
+
+    points = sweep_points("sobol", n, len(free_parameters(SPACE)), seed=5)
+
+    def cpu(work) -> float:
+        start = time.process_time()
+        work()
+        return time.process_time() - start
+
+    for label, config in (("iso", ISO), ("subtle", SUBTLE)):
+        evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u)) for u in points[:8]])
+        danger_scores(SPACE, config, points[:8])
+        sim = cpu(lambda: evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u))
+                                         for u in points])) / n
+        margin = cpu(lambda: bound_scores(SPACE, config, np.tile(points, (8, 1)))) / (8 * n)
+        danger = cpu(lambda: danger_scores(SPACE, config, points)) / n
+        drake = cpu(lambda: evaluate_drake(make_scenario(SPACE, config,
+                                                         to_point(SPACE, points[0]))))
+        _row(f"{label}: a simulation, its scenario built included, CPU ms", f"{sim * 1e3:.2f}",
+             "", None)
+        for kind, each in (("margins", margin), ("dangers", danger), ("drake", drake)):
+            _row(f"  {kind}: simulation-equivalents each (the budget's price: "
+                 f"{COST[kind]:g})", f"{each / sim:.4g}", "", None)
 
 
 def proof_time() -> None:
@@ -418,12 +476,14 @@ def proof_time() -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10)
-    parser.add_argument("--budget", type=int, default=4096,
-                        help="closed-loop simulations per search (psy-taliro: evaluations)")
+    parser.add_argument("--budgets", default=f"{DEFAULT_BUDGET},4096",
+                        help="search budgets, comma-separated, in simulation-equivalents "
+                             "(psy-taliro: evaluations)")
     parser.add_argument("--batch", type=int, default=512)
-    parser.add_argument("--parts", default="throughput,proof,search,fraction",
-                        help="which measures, comma-separated (default: all four)")
-    parser.add_argument("--configs", default="seed,subtle", help="for search: seed,subtle")
+    parser.add_argument("--parts", default="throughput,proof,search,fraction,costs",
+                        help="which measures, comma-separated (default: all five)")
+    parser.add_argument("--configs", default="seed,subtle,contact",
+                        help="for search: seed,subtle,contact")
     parser.add_argument("--searches", default="ours,UniformRandom,DualAnnealing",
                         help="for search: ours and psy-taliro's UniformRandom,DualAnnealing")
     parser.add_argument("--fraction-points", type=int, default=16384)
@@ -443,9 +503,12 @@ def main() -> None:
     if "proof" in parts:
         proof_time()
     if "search" in parts:
-        first_counterexamples(args.seeds, args.budget, args.configs.split(","), searches)
+        first_counterexamples(args.seeds, [int(b) for b in args.budgets.split(",")],
+                              args.configs.split(","), searches)
     if "fraction" in parts:
         fraction(args.fraction_points)
+    if "costs" in parts:
+        costs()
 
 
 if __name__ == "__main__":

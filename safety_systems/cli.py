@@ -122,7 +122,12 @@ def _verify(args: argparse.Namespace) -> int:
     from safety_systems.cell.braking import PLACEHOLDER_WARNING
     from safety_systems.files.documents import read_text
     from safety_systems.files.output_files import prepare_out
-    from verification.report import disagreement_lines, vacuous_warnings, write_report
+    from verification.report import (
+        counts_in_words,
+        disagreement_lines,
+        vacuous_warnings,
+        write_report,
+    )
     from verification.search.runner import check_scheduler
     from verification.spaces.space import load_space
     from verification.verdicts import EXIT_REQUIREMENT, exit_code
@@ -164,9 +169,8 @@ def _verify(args: argparse.Namespace) -> int:
                      if p["proof"].get("needed_allowance") else ""))
         e = report["evaluations"]
         print(f"{report['verdict']} over {report['simulations']} simulations "
-              f"({e['total']} model evaluations: {e['simulations']} simulations, "
-              f"{e['rankings']} rankings, {e['drake']} Drake runs; "
-              f"{report['cpu_seconds']:.1f} s CPU) -> {out}")
+              f"({e['total']} model evaluations: {counts_in_words(e)} of "
+              f"{report['budget']}; {report['cpu_seconds']:.1f} s CPU) -> {out}")
     if code == EXIT_REQUIREMENT:
         print(f"safety-systems: --require {args.require}: the verdict is {outcome.verdict}",
               file=sys.stderr)
@@ -420,7 +424,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="output folder, created if missing; run again with the same "
                           "folder to resume (required; no default)")
     ver.add_argument("--budget", type=int, default=200,
-                     help="closed-loop simulations (default: %(default)s)")
+                     help="the search's work in simulation-equivalents: simulations, "
+                          "and the candidates its rankings score, priced (default: "
+                          "%(default)s)")
     ver.add_argument("--method", default="falsify",
                      choices=("falsify", "sobol", "halton", "grid", "uniform", "corners"),
                      help="how the space is searched (default: %(default)s)")
@@ -464,7 +470,8 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument("--allow", default="proved", choices=("proved", "passed"),
                       help="weakest verdict accepted (default: %(default)s)")
     tune.add_argument("--budget", type=int, default=200,
-                      help="simulations of each verification (default: %(default)s)")
+                      help="each verification's search, in simulation-equivalents "
+                           "(default: %(default)s)")
     tune.add_argument("--candidates", type=int, default=24,
                       help="candidates simulated besides the base configuration "
                            "(default: %(default)s)")

@@ -128,8 +128,10 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str,
         "simulations": len(o.log.points),
         # every evaluation of a model of the loop in this run, by kind and in total
         # (simulations: closed-loop, evaluated here, not read from a resumed run's cache;
-        # rankings: candidates scored by the falsifier's cheap models; drake: Drake
-        # replays), and the run's CPU and wall seconds (verification/search/counts.py)
+        # margins and dangers: candidates scored by the proofs' margins and by the reduced
+        # model; drake: Drake replays; search_cost: the search's kinds in
+        # simulation-equivalents, which the budget bounds; cost: with the replays), and
+        # the run's CPU and wall seconds (verification/search/counts.py)
         "evaluations": o.evaluations.get("evaluations"),
         "cpu_seconds": o.evaluations.get("cpu_seconds"),
         "wall_seconds": o.evaluations.get("wall_seconds"),
@@ -259,9 +261,15 @@ def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
 
 def _when(x: dict) -> str:
     e = x["evaluations"]
-    return (f"{e['total']} evaluations ({e['simulations']} simulations, {e['rankings']} "
-            f"rankings, {e['drake']} Drake runs), {x['cpu_seconds']:.2f} s CPU, "
+    return (f"{e['total']} evaluations ({counts_in_words(e)}), {x['cpu_seconds']:.2f} s CPU, "
             f"{x['wall_seconds']:.2f} s wall")
+
+
+def counts_in_words(e: dict) -> str:
+    """Evaluations by kind and the search's cost (``counts.Tally.evaluations``)."""
+    return (f"{e['simulations']} simulations, {e['margins']} margin scorings, "
+            f"{e['dangers']} reduced-model scorings, {e['drake']} Drake runs; the search "
+            f"{e['search_cost']:g} simulation-equivalents")
 
 
 def first_counterexample_lines(first: dict | None) -> list[str]:
@@ -283,9 +291,9 @@ def evaluation_lines(report: dict) -> list[str]:
     e = report.get("evaluations")
     if not e:
         return []
-    lines = [f"- evaluations of models of the loop: {e['total']} in all: {e['simulations']} "
-             f"closed-loop simulations, {e['rankings']} candidate rankings (cheap models), "
-             f"{e['drake']} Drake diagram runs; {report['cpu_seconds']:.2f} s CPU, "
+    lines = [f"- evaluations of models of the loop: {e['total']} in all: "
+             f"{counts_in_words(e)} (its budget: {report['budget']}; with the Drake runs "
+             f"{e['cost']:g}); {report['cpu_seconds']:.2f} s CPU, "
              f"{report['wall_seconds']:.2f} s wall"]
     if report.get("stopped_at_first"):
         lines.append(f"- stopped at the first confirmed counterexample "

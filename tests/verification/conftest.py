@@ -95,7 +95,7 @@ def _tune_iso(root: Path) -> None:
     (root / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
     code, _, err = run_cli(["tune", ISO, "--tune", root / "tune.yaml", "--space", SMALL_SPACE,
                             "--tasks", root / "task.yaml", "--out", root / "tune", "--budget",
-                            "6", "--candidates", "3", "--screen", "4", "--workers", "1",
+                            "24", "--candidates", "3", "--screen", "4", "--workers", "1",
                             "--quiet"])
     assert code == 0, err
     result = json.loads((root / "tune" / "tune.json").read_text())

@@ -55,7 +55,7 @@ def _space(space=DEFAULT, **ranges):
         space.parameters, **{k: Range(*v) for k, v in ranges.items()}))
 
 
-def _verify(config, space, tmp_path, budget=40, seed=0, candidates=2048, properties="contact"):
+def _verify(config, space, tmp_path, budget=1000, seed=0, candidates=2048, properties="contact"):
     return verify(config, space, tmp_path, budget=budget, workers=1, seed=seed,
                   stop_at_first=True, candidates=candidates, properties=properties)
 
@@ -267,4 +267,4 @@ def test_seed_configuration_passes_gentle_approaches_to_the_flange(tmp_path):
 
 
 def test_directed_speed_sign_flipped(tmp_path, flipped_sign):
-    _assert_falsified(_verify(SEED, _space(FLANGE, **GENTLE), tmp_path, budget=20))
+    _assert_falsified(_verify(SEED, _space(FLANGE, **GENTLE), tmp_path, budget=400))

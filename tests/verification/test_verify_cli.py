@@ -61,7 +61,7 @@ def test_one_property_alone(tmp_path):
 def test_previous_behaviour_is_falsified_on_the_whole_cell_space(tmp_path):
     out = tmp_path / "previous"
     code = main(["verify", str(MODELS / "configs" / "iso_previous.yaml"), "--space", SPACE,
-                 "--out", str(out), "--budget", "6", "--workers", "1", "--quiet"])
+                 "--out", str(out), "--budget", "200", "--workers", "1", "--quiet"])
     report = json.loads((out / "report.json").read_text())
     assert code == 1 and report["verdict"] == "falsified"
     contact = report["properties"]["contact"]
@@ -74,7 +74,7 @@ def test_previous_behaviour_is_falsified_on_the_whole_cell_space(tmp_path):
 def test_seed_configuration_is_falsified_and_replayable(tmp_path):
     out = tmp_path / "seed"
     code = main(["verify", str(MODELS / "configs" / "seed_estimated.yaml"), "--space", SPACE,
-                 "--out", str(out), "--budget", "8", "--workers", "1", "--seed", "1",
+                 "--out", str(out), "--budget", "32", "--workers", "1", "--seed", "1",
                  "--quiet"])
     report = json.loads((out / "report.json").read_text())
     assert code == 1 and report["verdict"] == "falsified"

@@ -1,14 +1,24 @@
 """Every evaluation of a model of the loop that a verification makes, and what it cost.
 
-Three kinds, counted apart and in total (``KINDS``):
+Four kinds, counted apart and in total (``KINDS``):
 
 - ``simulations``: closed-loop simulations of the search (the batched evaluator, or the
   Drake diagram for the scenarios it does not model: ``evaluate_batch.evaluate_many``),
-  counted as they are evaluated (a figure read back from a resumed run's cache is not);
-- ``rankings``: scorings of a candidate by the falsifier's reduced model
-  (``verification.search.ranking``), which orders candidates before they are simulated;
+  the scenario built included, counted as they are evaluated (a figure read back from a
+  resumed run's cache is not);
+- ``margins``: candidates scored by the proofs' margins (``ranking.bound_scores``, and
+  the coordinate search for their least corner, ``ranking.margin_corner``);
+- ``dangers``: candidates scored by the reduced model of the loop
+  (``ranking.danger_scores``), which orders them before they are simulated;
 - ``drake``: runs of the Drake diagram that replay a search's scenario (confirmations
   and cross-checks; ``verification.verify``).
+
+One currency, the simulation-equivalent (``COST``: each kind's measured CPU cost per
+evaluation over a closed-loop simulation's, the batched evaluator's on the default space;
+``benchmarks/bench_verify.py --parts costs`` measures them again): a search's ``--budget``
+bounds what its kinds cost together (``search_cost``: simulations, margins, dangers); the
+Drake replays that check its verdict are counted and priced beside it, outside the budget
+(a verdict always has its replays).
 
 CPU seconds are this process's (``time.process_time``) plus the CPU time of the work
 done in worker processes (measured there and sent back with the results); wall seconds
@@ -18,7 +28,15 @@ are ``time.perf_counter``'s. Both run from the tally's creation.
 import dataclasses
 import time
 
-KINDS = ("simulations", "rankings", "drake")
+KINDS = ("simulations", "margins", "dangers", "drake")
+SEARCH_KINDS = ("simulations", "margins", "dangers")  # what a search's budget bounds
+# Simulation-equivalents per evaluation (see the module docstring), as bench_verify
+# --parts costs measured them on this project's machine (two shared cores, 2026-11-26;
+# a simulation 2.3 ms of CPU, its scenario built included): a margin scoring 7 us, a
+# reduced-model score 7.4 ms, a whole 10 s scenario in the Drake diagram 0.5-0.6 s. The
+# ratios, not the times, are what a budget uses; they moved by less than 30% between
+# configurations.
+COST = {"simulations": 1.0, "margins": 0.004, "dangers": 3.5, "drake": 250.0}
 
 
 @dataclasses.dataclass
@@ -26,7 +44,8 @@ class Tally:
     """Running counts of evaluations by kind, and the clocks since the start."""
 
     simulations: int = 0
-    rankings: int = 0
+    margins: int = 0
+    dangers: int = 0
     drake: int = 0
     worker_cpu: float = 0.0  # s of CPU spent in other processes
     _cpu0: float = dataclasses.field(default_factory=time.process_time)
@@ -41,6 +60,14 @@ class Tally:
     def total(self) -> int:
         return sum(getattr(self, k) for k in KINDS)
 
+    def search_cost(self) -> float:
+        """What the search's evaluations cost, in simulation-equivalents (``COST``)."""
+        return sum(COST[k] * getattr(self, k) for k in SEARCH_KINDS)
+
+    def cost(self) -> float:
+        """What every evaluation cost, Drake replays included, in simulation-equivalents."""
+        return sum(COST[k] * getattr(self, k) for k in KINDS)
+
     def cpu_seconds(self) -> float:
         return time.process_time() - self._cpu0 + self.worker_cpu
 
@@ -48,8 +75,10 @@ class Tally:
         return time.perf_counter() - self._wall0
 
     def evaluations(self) -> dict:
-        """The counts by kind and their total."""
-        return {**{k: getattr(self, k) for k in KINDS}, "total": self.total}
+        """The counts by kind, their total, and their cost in simulation-equivalents (the
+        search's, which its budget bounds, and with the Drake replays)."""
+        return {**{k: getattr(self, k) for k in KINDS}, "total": self.total,
+                "search_cost": round(self.search_cost(), 3), "cost": round(self.cost(), 3)}
 
     def snapshot(self) -> dict:
         """The counts so far and the CPU and wall seconds since the start."""

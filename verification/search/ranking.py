@@ -1,12 +1,14 @@
 """The falsifier's rankings: cheap models of the loop that score candidate scenarios all
 at once, so that the search simulates the most dangerous first (robustness >= 0 safe;
 a lower score is more dangerous). Each candidate scored by either is one evaluation of a
-model of the loop: it is counted (``verification.search.counts``, kind ``rankings``).
+model of the loop: it is counted (``verification.search.counts``, kinds ``margins`` and
+``dangers``) and priced (``counts.COST``).
 
 :func:`bound_scores`, the falsifier's ranking: the proofs' margins
 (``verification.proof.margins.margin``, one per property; under ``safety.stopping: by_speed``
 the least over the speed levels' margins) evaluated pointwise, at each candidate's own
-fastest speed, from its parameters alone (no scenario is built):
+fastest speed, from its parameters alone (no scenario is built), less how far a hidden
+hand can outrun its envelope where the configuration lets it (:func:`hidden_shortfall`):
 microseconds per candidate, some thousand times cheaper than a
 closed-loop simulation. It knows nothing of the geometry of an approach; it tells which
 candidates' speeds come closest to breaking the theorem.
@@ -121,9 +123,36 @@ def bound_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndar
 
     points = np.asarray(points, dtype=float).reshape(len(points), -1)
     if tally is not None:
-        tally.add("rankings", len(points))
+        tally.add("margins", len(points))
     v = hand_speeds(space, points)
-    return np.stack([margin(config, space, prop).at(v) for prop in SCORES], axis=1)
+    scores = np.stack([margin(config, space, prop).at(v) for prop in SCORES], axis=1)
+    return scores - hidden_shortfall(space, config, points, v)[:, None]
+
+
+def hidden_shortfall(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
+                     v: np.ndarray) -> np.ndarray:
+    """(n,) how far, m, a candidate's hidden hand can get out of its envelope: the
+    margins assume a hidden body's ball grows at least as fast as the body moves (a
+    premise of the proofs). Where the configuration's ``occlusion_speed`` is slower than
+    the candidate's hand speed v and the occlusion hides every tracked body of the
+    operator (else the seen ones bound the hand within an arm's reach), the hand gains
+    (v - occlusion_speed) per second for as long as it is hidden (its occlusion and
+    dropout, from the onset) while it comes towards the robot (after the walk away of a
+    retreat, then over the retreat, the start distance and the overshoot, at v), and
+    the margin is that much smaller. Zero where the premise holds; our reading, for
+    ranking only (it proves nothing)."""
+    gain = np.maximum(0.0, v - config.safety.occlusion_speed)
+    everyone = (unit_values(space, points, "occluded_bodies")
+                >= 2.0 + unit_values(space, points, "heads"))
+    gain = np.where(everyone, gain, 0.0)
+    if not gain.any():
+        return gain
+    hidden = unit_values(space, points, "occlusion") + unit_values(space, points, "dropout")
+    retreat = unit_values(space, points, "retreat_distance")
+    towards = retreat + unit_values(space, points, "start_distance") + unit_values(
+        space, points, "overshoot")
+    speed = np.maximum(v, 1e-9)
+    return gain * np.clip(hidden - retreat / speed, 0.0, towards / speed)
 
 
 def margin_corner(space: ScenarioSpace, config: ControllerConfig, columns, *,
@@ -178,7 +207,7 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
     if not scenarios:
         return np.zeros((0, len(SCORES)))
     if tally is not None:
-        tally.add("rankings", len(scenarios))
+        tally.add("dangers", len(scenarios))
     horizon = (max(s.duration for s in scenarios), max(s.robot.cycles for s in scenarios))
     parts = 1 if runner is None else max(1, min(runner.workers, len(points) // 256))
     if parts == 1:

@@ -14,8 +14,10 @@ Points live in the unit cube over the space's free parameters
   candidate) and the best it ranks; then CMA-ES (the ``cma``
   package) minimises each property's closed-loop robustness from the best point found,
   each population simulated as one batch. Every evaluation of any model is counted
-  (``verification.search.counts``: the runner's tally); every verdict rests on closed-loop
-  simulations.
+  (``verification.search.counts``: the runner's tally) and priced in simulation-
+  equivalents (``counts.COST``): the budget bounds them all, and sizes each phase (how
+  many candidates each ranking scores, and whether the reduced model runs at all).
+  Every verdict rests on closed-loop simulations.
 
 The rankings model scripted approaches: a space built around a recording
 (``verification.spaces.recorded``) is searched without them (see :func:`falsify`), and
@@ -32,6 +34,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from safety_systems.config.scenario import ControllerConfig
+from verification.search.counts import COST
 from verification.search.ranking import bound_scores, danger_scores, margin_corner
 from verification.search.runner import Runner
 from verification.spaces.box import ScenarioSpace
@@ -44,6 +47,13 @@ SCORE_OF = {0: 0, 1: 0, 2: 1, 3: 1}
 # The focus phase's box: the parameters that move a property's margin within this
 # fraction of their range from the margin's least corner (``ranking.margin_corner``).
 FOCUS_WIDTH = 1.0 / 16.0
+# The budget's shares (simulation-equivalents): the proofs' margins may score candidates
+# for up to MARGIN_SHARE of it, the reduced model for up to DANGER_SHARE; the reduced
+# model runs only if that buys MIN_DANGER candidates (at 3.5 simulations a score, a
+# budget of 224 and more).
+MARGIN_SHARE = 1.0 / 16.0
+DANGER_SHARE = 1.0 / 4.0
+MIN_DANGER = 16
 
 
 def sweep_points(method: str, n: int, d: int, *, seed: int = 0) -> np.ndarray:
@@ -117,8 +127,9 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
             round_size: int = 16, max_round: int = 256, stop_at_first: bool = False,
             objectives: tuple | list = (0,), confirm=None) -> SearchLog:
     """Searches for the smallest robustness of each property in ``objectives`` (columns
-    of the runner's figures; every simulation measures them all) with at most ``budget``
-    simulations, cheapest routes first:
+    of the runner's figures; every simulation measures them all) with evaluations that
+    cost at most ``budget`` simulation-equivalents in all (``counts.COST``: a simulation
+    one, a margin scoring 0.004, a reduced-model score 3.5), cheapest routes first:
 
     1. opening: the first ``opening`` points (at most an eighth of the budget) of a Sobol
        set of ``pool`` points are simulated as one batch, unranked, before anything else
@@ -127,22 +138,23 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
        points whose parameters that move a property's proof margin lie within
        ``FOCUS_WIDTH`` of the corner where that margin is least (``_focus``), the others
        anywhere in their ranges, in batches of ``round_size`` doubling: the margin
-       needs a few dozen scorings to find that corner, where ranking the whole Sobol set
-       costs ``pool`` of them;
-       then the corners (at most 10 free parameters) and the rest of the Sobol set are
-       scored at once by the proofs' margins evaluated pointwise
-       (``ranking.bound_scores``, microseconds each) and the rest of the ``quick``
-       simulations (default: an eighth of the budget in all) go to them in that order,
-       each property still searched taking its turn down its own score column
-       (``SCORE_OF``), in batches of
+       needs a few dozen scorings to find that corner;
+       then the corners (at most 10 free parameters) and the Sobol set, as many as
+       ``MARGIN_SHARE`` of the budget pays for (at 4096, all 16,384; at 200, 3,125), are
+       scored by the proofs' margins evaluated pointwise (``ranking.bound_scores``,
+       microseconds each) and the rest of the ``quick`` simulations (default: an eighth
+       of the budget in all) go to them in that order, each property still searched
+       taking its turn down its own score column (``SCORE_OF``), in batches of
        ``round_size`` doubling up to ``max_round``: violations that come of speed and
        sensing are found here;
-    3. thorough: the reduced model of the loop (``ranking.danger_scores``, about a
-       simulation's cost each) ranks the corners and the first ``candidates`` of the
-       Sobol set, and ``explore`` simulations go to them in danger order (each property
-       still searched in turn down its own score; four ranked for one plain Sobol
-       point), in rounds of five: violations that come of the
-       geometry of an approach, occlusions or faults are found here;
+    3. thorough: the reduced model of the loop (``ranking.danger_scores``, 3.5
+       simulations a candidate) ranks the corners and the first Sobol points, as many as
+       ``DANGER_SHARE`` of the budget pays for (at most ``candidates``; none below
+       ``MIN_DANGER``: then the Sobol points not simulated yet, in order), and
+       ``explore`` simulations go to them in danger order (each property still searched
+       in turn down its own score; four ranked for one plain Sobol point), in rounds of
+       five: violations that come of the geometry of an approach, occlusions or faults
+       are found here;
     4. property by property, each with an even share of what is left, CMA-ES from the
        best point so far for it, restarted from the next candidates whenever it stops.
 
@@ -175,22 +187,25 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
     rest = np.vstack([corners(space) if with_corners else np.zeros((0, d)), sobol[opening:]])
     quick = (budget // 8 if ranked else budget // 2) if quick is None else quick
     focus = 0 if not ranked else quick // 2 if focus is None else min(focus, quick)
+    began = search.spent()
     if search.wanted(objectives) and focus > 0:
         _focus(search, objectives, focus, seed, round_size, max_round)
-    stop = len(log.points) + quick - focus
+    quick_left = quick - (search.spent() - began)  # (the focus's margins count too)
     done: set = set()  # indices of ``rest`` simulated
     queues: dict[int, list] = {j: [] for j in objectives}
-    if search.wanted(objectives) and quick > 0:
+    if search.wanted(objectives) and quick_left > 0:
         if ranked:
-            scores = bound_scores(space, config, rest, tally=runner.tally)
+            scored = min(len(rest), _affordable(budget * MARGIN_SHARE, "margins"))
+            scores = bound_scores(space, config, rest[:scored], tally=runner.tally)
             queues = {j: list(np.argsort(scores[:, SCORE_OF[j]], kind="stable"))
                       for j in objectives}
         else:
             queues = {j: list(range(len(rest))) for j in objectives}
+    stop = search.spent() + quick_left
     size = round_size
-    while search.wanted(objectives) and len(log.points) < stop:
+    while search.wanted(objectives) and search.spent() < stop:
         wanted = [j for j in search.wanted(objectives) if queues[j]]
-        room = min(size, stop - len(log.points))
+        room = min(size, _whole(stop - search.spent()))
         batch: list = []
         while wanted and len(batch) < room and any(queues[j] for j in wanted):
             for j in wanted:  # each property in turn, down its own ranking
@@ -205,9 +220,11 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         size = min(2 * size, max_round)
     queue: list = []
     if search.wanted(objectives) and explore > 0:
-        if ranked:
-            scored = np.vstack([corners(space) if d <= 10 else np.zeros((0, d)),
-                                sobol[:candidates]])
+        n_danger = min(candidates + (2 ** d if with_corners else 0),
+                       _affordable(budget * DANGER_SHARE, "dangers"))
+        if ranked and n_danger >= MIN_DANGER:
+            scored = np.vstack([corners(space) if with_corners else np.zeros((0, d)),
+                                sobol[:candidates]])[:n_danger]
             danger = danger_scores(space, config, scored, runner=runner)
             orders = [np.argsort(danger[:, SCORE_OF[j]], kind="stable")
                       for j in search.wanted(objectives)]  # each property's, in turn
@@ -217,16 +234,18 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
             queue = [rest[i] for i in range(len(rest)) if i not in done]
         seen = {tuple(np.round(p, 12)) for p in log.points}
         queue = [p for p in queue if tuple(np.round(p, 12)) not in seen]
-    stop = len(log.points) + min(explore, budget - len(log.points))
-    while search.wanted(objectives) and len(log.points) < stop and queue:
-        take = min(5, stop - len(log.points))
+    stop = search.spent() + min(explore, search.left())
+    while search.wanted(objectives) and search.spent() < stop and queue:
+        take = min(5, _whole(stop - search.spent()))
+        if take < 1:
+            break
         batch, queue = np.array(queue[:take]), queue[take:]
         search.simulate(batch)
     for n, objective in enumerate(objectives):
-        share = len(log.points) + (budget - len(log.points)) // (len(objectives) - n)
+        share = search.spent() + search.left() / (len(objectives) - n)
         restarts = queue + [rest[i] for i in queues[objective] if i not in done]
         restart = 0
-        while (len(log.points) < share and not search.found(objective) and not search.over()
+        while (search.spent() < share and not search.found(objective) and not search.over()
                and (restart == 0 or restarts)):
             start = (np.asarray(log.points[int(np.argmin(log.column(objective)))])
                      if restart == 0 else np.asarray(restarts.pop(0)))
@@ -235,14 +254,24 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
             restart += 1
     # What CMA-ES could not use (fewer simulations left than a population): the next
     # candidates in line, so that the whole budget is spent.
-    if search.wanted(objectives) and len(log.points) < budget:
+    if search.wanted(objectives) and search.left() >= 1.0:
         seen = {tuple(np.round(p, 12)) for p in log.points}
         line = itertools.chain(queue, (rest[i] for i in range(len(rest)) if i not in done))
         fresh = (p for p in line if tuple(np.round(p, 12)) not in seen)
-        left = list(itertools.islice(fresh, budget - len(log.points)))
+        left = list(itertools.islice(fresh, _whole(search.left())))
         if left:
             search.simulate(np.array(left))
     return log
+
+
+def _affordable(cost: float, kind: str) -> int:
+    """How many evaluations of ``kind`` ``cost`` simulation-equivalents pay for."""
+    return max(0, int(math.floor(cost / COST[kind] + 1e-9)))
+
+
+def _whole(cost: float) -> int:
+    """How many simulations ``cost`` simulation-equivalents pay for."""
+    return _affordable(cost, "simulations")
 
 
 def _focus(search: "_Search", objectives, allowance: int, seed: int, round_size: int,
@@ -250,22 +279,24 @@ def _focus(search: "_Search", objectives, allowance: int, seed: int, round_size:
     """Phase 2a of :func:`falsify`: up to ``allowance`` simulations of Sobol points in
     the corner of the box where each property's proof margin is least. The corner and
     the parameters that move the margin come from ``ranking.margin_corner`` (a few
-    dozen scorings, counted); each point keeps its other parameters anywhere in their
+    dozen scorings, counted in the allowance); each point keeps its other parameters anywhere in their
     range and puts those within ``FOCUS_WIDTH`` of the corner. The properties take
     turns, point by point, in batches of ``round_size`` doubling; a property whose
     margin no parameter moves has nothing to focus on."""
-    space, runner, log = search.space, search.runner, search.log
+    space, runner = search.space, search.runner
     d = len(free_parameters(space))
     columns = sorted({SCORE_OF[j] for j in search.wanted(objectives)})
     aims = margin_corner(space, search.config, columns, tally=runner.tally)
     engine = qmc.Sobol(d, scramble=True, seed=seed + 1)
     units = engine.random_base2(max(0, math.ceil(math.log2(max(allowance, 1)))))
-    stop, used, size = len(log.points) + allowance, 0, round_size
-    while len(log.points) < stop and used < len(units):
+    stop, used, size = search.spent() + allowance, 0, round_size
+    while search.spent() < stop and used < len(units):
         wanted = [j for j in search.wanted(objectives) if aims[SCORE_OF[j]][1].any()]
         if not wanted:
             return
-        take = units[used:used + min(size, stop - len(log.points))]
+        take = units[used:used + min(size, _whole(stop - search.spent()))]
+        if not len(take):
+            return
         used += len(take)
         batch = take.copy()
         for k in range(len(batch)):
@@ -296,9 +327,23 @@ class _Search:
         self.budget, self.stop_at_first, self.confirm = budget, stop_at_first, confirm
         self.confirmed: dict[int, int] = {}  # column -> simulation index confirmed
         self.rejected: set = set()  # (column, index) the confirmation did not accept
+        tally = runner.tally  # (it may hold earlier work: only this search's counts)
+        self.began = {k: getattr(tally, k) for k in ("margins", "dangers")}
+
+    def spent(self) -> float:
+        """What this search's evaluations have cost so far, simulation-equivalents: its
+        simulations (a figure read back from a resumed run's cache too, so that a resumed
+        search takes the same course) and its rankings."""
+        tally = self.runner.tally
+        return len(self.log.points) + sum(COST[k] * (getattr(tally, k) - n)
+                                          for k, n in self.began.items())
+
+    def left(self) -> float:
+        return self.budget - self.spent()
 
     def simulate(self, points: np.ndarray, objective: int = 0) -> np.ndarray:
-        points = np.asarray(points)[:max(0, self.budget - len(self.log.points))]
+        """Simulates as many of ``points`` as the budget has left (see :func:`falsify`)."""
+        points = np.asarray(points)[:_whole(self.left())]
         if not len(points):
             return np.zeros(0)
         before = len(self.log.points)
@@ -333,16 +378,16 @@ class _Search:
         return self.stop_at_first and self.confirm is not None and bool(self.confirmed)
 
 
-def _cma(search: _Search, start, budget, seed, objective=0) -> bool:
-    """One CMA-ES run from ``start`` on the figure in column ``objective``; False when
-    the budget leaves no room for it."""
-    popsize, log = 6, search.log
-    if budget - len(log.points) < popsize:
+def _cma(search: _Search, start, until: float, seed, objective=0) -> bool:
+    """One CMA-ES run from ``start`` on the figure in column ``objective`` while the
+    search has spent less than ``until``; False when that leaves no room for it."""
+    popsize = 6
+    if until - search.spent() < popsize:
         return False
     options = {"bounds": [0.0, 1.0], "seed": seed + 1, "verbose": -9, "popsize": popsize,
                "tolfun": 1e-4, "tolx": 1e-4}
     es = cma.CMAEvolutionStrategy(np.clip(start, 0.0, 1.0).tolist(), 0.08, options)
-    while not es.stop() and len(log.points) + popsize <= budget:
+    while not es.stop() and search.spent() + popsize <= until:
         xs = np.clip(np.array(es.ask()), 0.0, 1.0)
         values = search.simulate(xs, objective)
         es.tell(list(xs), [float(v) if math.isfinite(v) else 1e3 for v in values])

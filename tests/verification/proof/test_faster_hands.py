@@ -61,3 +61,47 @@ def test_a_three_metre_per_second_operator_runs_in_the_batched_evaluator(tmp_pat
     assert all(o.max_speed == 3.0 for s in scenarios for o in s.operators)
     result = evaluate_many(scenarios)
     assert not np.isnan(result.robustness).any()
+
+
+def test_a_three_metre_per_second_configuration_is_tuned_exported_and_checked(tmp_path):
+    """iso.yaml's file with every human speed at 3 m/s (ISO human speeds, hidden bodies'
+    growth, the gate) over the tune tests' small space with operators up to 3 m/s: tune
+    chooses a configuration, export certifies it and check accepts it, as for any other."""
+    import json
+
+    import yaml
+
+    from tests.verification.conftest import SMALL_SPACE, TUNE_BLOCK, run_cli
+
+    text = (MODELS / "configs" / "iso.yaml").read_text()
+    for key in ("gate_speed", "iso_human_speed", "iso_reduced_human_speed",
+                "occlusion_speed"):
+        assert f"  {key}: 2.0\n" in text
+        text = text.replace(f"  {key}: 2.0\n", f"  {key}: 3.0\n")
+    (tmp_path / "fast.yaml").write_text(text)
+    space = SMALL_SPACE.read_text()
+    assert "peak_speed: {min: 1.0, max: 2.0}" in space
+    (tmp_path / "space.yaml").write_text(space.replace("peak_speed: {min: 1.0, max: 2.0}",
+                                                       "peak_speed: {min: 1.0, max: 3.0}"))
+    (tmp_path / "tune.yaml").write_text(TUNE_BLOCK)
+    task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
+    task["duration"], task["robot"]["cycles"] = 25.0, 3
+    (tmp_path / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
+    code, _, err = run_cli(["tune", tmp_path / "fast.yaml", "--tune", tmp_path / "tune.yaml",
+                            "--space", tmp_path / "space.yaml", "--tasks",
+                            tmp_path / "task.yaml", "--out", tmp_path / "tune", "--budget",
+                            "6", "--candidates", "3", "--screen", "4", "--workers", "1",
+                            "--quiet"])
+    assert code == 0, err
+    chosen = json.loads((tmp_path / "tune" / "tune.json").read_text())["chosen"]
+    report = json.loads(Path(chosen["report"]).read_text())
+    assert report["verdict"] == "proved" and report["box"]["peak_speed"][1] == 3.0
+    code, _, err = run_cli(["export", chosen["config"], "--report", chosen["report"], "--tune",
+                            tmp_path / "tune" / "tune.json", "--out", tmp_path / "export",
+                            "--quiet"])
+    assert code == 0, err
+    exported = (tmp_path / "export" / "params.yaml").read_text()
+    for key in ("iso_human_speed", "occlusion_speed", "gate_speed"):
+        assert f"{key}: 3.0" in exported
+    code, out, err = run_cli(["check", tmp_path / "export" / "params.yaml"])
+    assert code == 0, err

@@ -12,7 +12,7 @@ import verification.search.strategies as search_module
 import verification.verify as verify_module
 from safety_systems.cli import main
 from safety_systems.config.scenario import load_controller_config
-from verification.search.counts import Tally
+from verification.search.counts import COST, Tally
 from verification.report import write_report
 from verification.spaces.space import load_space
 from verification.verify import verify
@@ -23,11 +23,11 @@ SPACE = load_space(MODELS / "spaces" / "default.yaml")
 
 class Counting:
     """Wraps the evaluators verify reaches (the batched simulations, both rankings and
-    the Drake diagram) and counts what each call evaluates; after every batch of
+    the Drake diagram) and counts what each call evaluates (and prices it); after every batch of
     simulations it notes the counts so far and which properties the batch violated."""
 
     def __init__(self, monkeypatch):
-        self.counts = {"simulations": 0, "rankings": 0, "drake": 0}
+        self.counts = {"simulations": 0, "margins": 0, "dangers": 0, "drake": 0}
         self.batches = []  # (counts after the batch, contact violated, separation violated)
         chunk, bound = runner_module._evaluate_chunk, search_module.bound_scores
         danger, drake = search_module.danger_scores, verify_module.evaluate_drake
@@ -39,9 +39,9 @@ class Counting:
                                  bool((figures[2] < 0).any())))
             return figures
 
-        def ranking(fn):
+        def ranking(fn, kind):
             def counted(space, config, points, **kw):
-                self.counts["rankings"] += len(points)
+                self.counts[kind] += len(points)
                 return fn(space, config, points, **kw)
             return counted
 
@@ -50,33 +50,43 @@ class Counting:
             return drake(scenario, **kw)
 
         monkeypatch.setattr(runner_module, "_evaluate_chunk", counted_chunk)
-        monkeypatch.setattr(search_module, "bound_scores", ranking(bound))
-        monkeypatch.setattr(ranking_module, "bound_scores", ranking(bound))  # margin_corner
-        monkeypatch.setattr(search_module, "danger_scores", ranking(danger))
+        monkeypatch.setattr(search_module, "bound_scores", ranking(bound, "margins"))
+        monkeypatch.setattr(ranking_module, "bound_scores",
+                            ranking(bound, "margins"))  # (margin_corner's)
+        monkeypatch.setattr(search_module, "danger_scores", ranking(danger, "dangers"))
         monkeypatch.setattr(verify_module, "evaluate_drake", counted_drake)
 
     def total(self) -> dict:
-        return {**self.counts, "total": sum(self.counts.values())}
+        return _priced(self.counts)
 
     def at_first(self, column: int) -> dict:
         """The counts after the first batch that violated contact (0) or separation (1)."""
-        counts = next(c for c, *bad in self.batches if bad[column])
-        return {**counts, "total": sum(counts.values())}
+        return _priced(next(c for c, *bad in self.batches if bad[column]))
+
+
+def _priced(counts: dict) -> dict:
+    """Counts with their total and their cost in simulation-equivalents, the search's
+    and with the Drake runs: each count times its kind's price (``counts.COST``)."""
+    search = sum(COST[k] * counts[k] for k in ("simulations", "margins", "dangers"))
+    return {**counts, "total": sum(counts.values()), "search_cost": round(search, 3),
+            "cost": round(search + COST["drake"] * counts["drake"], 3)}
 
 
 def test_report_counts_equal_the_evaluator_calls(tmp_path, monkeypatch):
     calls = Counting(monkeypatch)
     config = load_controller_config(MODELS / "configs" / "iso_previous.yaml")
     out = tmp_path / "previous"
-    outcome = verify(config, SPACE, out, budget=24, workers=1, seed=2, candidates=256)
+    # (a budget of 240: the reduced model runs from MIN_DANGER candidates, 224 and more)
+    outcome = verify(config, SPACE, out, budget=240, workers=1, seed=2, candidates=256)
     report = write_report(outcome, out, config_path="iso_previous.yaml",
                           space_path="default.yaml", replay=False)
     assert json.loads((out / "report.json").read_text())["evaluations"] == report["evaluations"]
-    # All three kinds were used, and the report's counts are the calls made.
+    # All four kinds were used, and the report's counts are the calls made.
     assert min(calls.counts.values()) > 0
     assert report["evaluations"] == calls.total()
     assert report["cpu_seconds"] > 0.0 and report["wall_seconds"] > 0.0
-    assert calls.counts["simulations"] <= report["simulations"] <= 24  # (repeats: cached)
+    assert calls.counts["simulations"] <= report["simulations"] <= 240  # (repeats: cached)
+    assert report["evaluations"]["search_cost"] <= 240  # the budget bounds them all
     for column, name in enumerate(("contact", "separation")):
         first = report["properties"][name]["first_counterexample"]
         assert first["found"]["evaluations"] == calls.at_first(column), name
@@ -93,9 +103,14 @@ def test_report_counts_equal_the_evaluator_calls(tmp_path, monkeypatch):
 def test_tally_counts_by_kind_and_refuses_unknown_kinds():
     tally = Tally()
     tally.add("simulations", 3)
-    tally.add("rankings", 5)
+    tally.add("margins", 500)
+    tally.add("dangers", 2)
     tally.add("drake")
-    assert tally.evaluations() == {"simulations": 3, "rankings": 5, "drake": 1, "total": 9}
+    assert tally.evaluations() == {"simulations": 3, "margins": 500, "dangers": 2, "drake": 1,
+                                   "total": 506, "search_cost": 3 + 2.0 + 7.0,
+                                   "cost": 12.0 + COST["drake"]}
+    with pytest.raises(ValueError, match="kind"):
+        tally.add("rankings")
     with pytest.raises(ValueError, match="kind"):
         tally.add("proofs")
 

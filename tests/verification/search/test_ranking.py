@@ -70,7 +70,7 @@ def test_danger_scores_order_candidates_as_the_closed_loop_does(name):
     result = evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u)) for u in points])
     tally = Tally()
     scores = danger_scores(SPACE, config, points, tally=tally)
-    assert tally.rankings == len(points) and tally.simulations == 0
+    assert tally.dangers == len(points) and tally.simulations == 0
     for column, rho in ((0, result.robustness), (1, result.separation)):
         finite = np.isfinite(rho) & np.isfinite(scores[:, column])
         assert finite.sum() > 100, column
@@ -166,7 +166,7 @@ def test_bound_scores_are_the_proofs_margins_at_each_point():
     mild[names.index("peak_speed")], mild[names.index("noise_std")] = 0.2, 0.0
     tally = Tally()
     scores = bound_scores(SPACE, ISO, np.array([worst, mild]), tally=tally)
-    assert tally.rankings == 2 and tally.total == 2
+    assert tally.margins == 2 and tally.total == 2
     for column, (prover, prop) in enumerate(((prove, "contact"),
                                               (prove_separation, "separation"))):
         assert scores[0, column] == pytest.approx(prover(ISO, SPACE).margin_at_worst_corner,

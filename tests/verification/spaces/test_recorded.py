@@ -19,6 +19,7 @@ from safety_systems.config.scenario import load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
 from safety_systems.sensing.motive_csv import read_motive_csv
 from safety_systems.sensing.recording_mapping import load_mapping, to_cell
+from verification.search.counts import COST
 from verification.search.evaluate_drake import evaluate_drake
 from verification.spaces.recorded import RECORDING_NAMES
 from verification.report import write_report
@@ -187,9 +188,10 @@ def test_verify_falsifies_the_seeds_configuration_counts_every_run_and_replays_i
     report = write_report(outcome, tmp_path, config_path=str(UNSAFE),
                           space_path=str(SPACE_FILE), replay=False)
     assert report["verdict"] == "falsified"
-    assert report["evaluations"] == {"simulations": calls.search, "rankings": 0,
-                                     "drake": calls.replays,
-                                     "total": calls.search + calls.replays}
+    assert report["evaluations"] == {
+        "simulations": calls.search, "margins": 0, "dangers": 0, "drake": calls.replays,
+        "total": calls.search + calls.replays, "search_cost": calls.search,
+        "cost": calls.search + COST["drake"] * calls.replays}
     assert 0 < calls.search <= report["simulations"] <= 8 and calls.replays > 0
     separation = report["properties"]["separation"]
     assert separation["verdict"] == "falsified" and separation["counterexamples"]
