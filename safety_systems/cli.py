@@ -6,10 +6,11 @@ result file is written atomically (``safety_systems.files.output_files``) and ca
 provenance (``safety_systems.outputs.provenance``).
 
 Exit codes: 0 done, 1 (``plan``: the IAPF did not reach the goal; ``tune``: no
-candidate met its constraint; ``check``: parameters not certified), 2 bad input (one
-line on stderr naming the file, the field, the value and what is allowed), 130
-interrupted; ``verify`` has its own table (``verification.verdicts``), ``check`` exits 4
-on a verdict weaker than ``--require``.
+candidate met its constraint; ``check``, ``run``: parameters not certified), 2 bad input
+(one line on stderr naming the file, the field, the value and what is allowed), 3
+(``verify``: inconclusive; ``run``: a fault ended it), 4 (``verify``, ``check``: a verdict
+weaker than ``--require``), 130 interrupted; ``verify``'s table:
+``verification.verdicts``.
 """
 
 import argparse
@@ -111,10 +112,16 @@ def _simulate(args: argparse.Namespace) -> int:
     if not args.quiet:
         task = summary["task_time"]
         sep = summary["min_separation_while_moving"]
+        margin = summary["min_separation_margin"]
         print(f"{scenario.name}: task_time={'unfinished' if task is None else f'{task:.2f} s'}"
               f", min_separation_while_moving={'n/a' if sep is None else f'{sep:.3f} m'}"
               f", contact_while_moving={summary['contact_while_moving']}"
-              f", stopped_time={summary['stopped_time']:.2f} s -> {args.out}")
+              f", min_separation_margin="
+              + ("n/a" if margin is None else f"{margin:+.3f} m at "
+                 f"{summary['min_separation_margin_time']:.2f} s"
+                 + (" (the separation invariant broken: d_true < S_true while the robot "
+                    "was let move)" if margin < 0.0 else ""))
+              + f", stopped_time={summary['stopped_time']:.2f} s -> {args.out}")
     return 0
 
 
@@ -125,6 +132,8 @@ def _verify(args: argparse.Namespace) -> int:
     from verification.report import (
         counts_in_words,
         disagreement_lines,
+        first_words,
+        metres,
         vacuous_warnings,
         write_report,
     )
@@ -162,8 +171,8 @@ def _verify(args: argparse.Namespace) -> int:
         for name, p in report["properties"].items():
             first = p["simulations_to_first_counterexample"]
             vacuous = p["vacuous"]["evaluated"]["share"]
-            print(f"{name}: {p['verdict']}: min robustness {p['min_robustness']}"
-                  + (f", first counterexample after {first} simulations" if first else "")
+            print(f"{name}: {p['verdict']}: min robustness {metres(p['min_robustness'])}"
+                  + (f", {first_words(first)}" if first else "")
                   + (f", {100.0 * vacuous:.0f}% vacuous" if vacuous is not None else "")
                   + (f"; needs {p['proof']['needed_allowance']:.3f} m more Z_d + Z_r"
                      if p["proof"].get("needed_allowance") else ""))
@@ -285,7 +294,8 @@ def _plan(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from safety_systems.runtime.command import run
 
-    return run(args, _origin(args.argv, {}))
+    # (the provenance is taken when the summary is written: by then every input was read)
+    return run(args, lambda: _origin(args.argv, {}))
 
 
 def _export(args: argparse.Namespace) -> int:
@@ -380,9 +390,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="Simulate, verify and tune ISO/TS 15066 speed and separation monitoring "
                     "of a collaborative UR5e cell, and export verified parameters. Exit "
                     "codes: 0 done, 1 verify falsified, plan short of its goal, tune without "
-                    "a configuration meeting its constraint or check of parameters not "
+                    "a configuration meeting its constraint, check or run of parameters not "
                     "certified, 2 bad input (one line naming the file, the field, the value "
-                    "and what is allowed), 130 interrupted.")
+                    "and what is allowed), 3 verify inconclusive or run ended by a fault, 4 "
+                    "verify or check weaker than --require, 130 interrupted.")
     parser.add_argument("--version", action="version", version=version_line(),
                         help="print the versions of safety-systems and Drake and exit")
     commands = parser.add_subparsers(dest="command", required=True)

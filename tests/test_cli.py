@@ -190,3 +190,16 @@ def test_check_reads_every_kind_of_file(tmp_path, capsys):
     assert capsys.readouterr().err.strip() == (
         f"safety-systems: {bad}: points: got \"a second 'points' on line 2\"; allowed: "
         "each key once in a mapping (the first is on line 1)")
+
+
+def test_simulate_says_the_separation_margin_on_the_console(tmp_path, capsys):
+    # The seed's configuration on the inspection task breaks the separation invariant
+    # while no body touches the robot: the console line says both.
+    out = tmp_path / "seed"
+    seed = Path(__file__).parents[1] / "models" / "configs" / "seed_estimated.yaml"
+    assert main(["simulate", str(INSPECTION), "--out", str(out), "--config", str(seed)]) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    summary = json.loads((out / "summary.json").read_text())
+    margin = summary["min_separation_margin"]
+    assert f"min_separation_margin={margin:+.3f} m" in line
+    assert ("separation invariant broken" in line) == (margin < 0.0)

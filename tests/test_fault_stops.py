@@ -102,10 +102,12 @@ def test_summary_and_trace_count_stops_rejections_and_hidden_time(run_and_output
     assert summary == json.loads((out / "summary.json").read_text())
     stops_ = summary["protective_stops"]
     assert {name: stops_[name]["count"] for name in stops_} == {
-        "separation": 0, "stale_frame": 2, "lost_track": 0, "bad_time": 2, "non_finite": 1,
+        "separation": 0, "stale_frame": 1, "lost_track": 0, "bad_time": 2, "non_finite": 1,
         "unknown_id": 1, "gate": 2}
-    # Stale: before the first frame is processed (t < 0.001 s), and the dropout.
-    assert stops_["stale_frame"]["time"] == pytest.approx(DT + 7.201 - (6.95 + TIMEOUT), abs=DT)
+    # Stale: the dropout; the hold before the first frame is processed (t < 0.001 s) is
+    # the start, not a stop, and said apart.
+    assert stops_["stale_frame"]["time"] == pytest.approx(7.201 - (6.95 + TIMEOUT), abs=DT)
+    assert 0.0 < summary["first_frame_wait"] <= DT + 1e-9
     # 4 frames of each body fault; time: the duplicate frame at 3.0 s carries 2.95 s (the
     # newest good frame's), and at 4.0 and 4.05 s frames carry 3.9 and 3.95 s; the gate:
     # 4 outlier frames, then 2 swapped frames of both gloves.
@@ -121,3 +123,16 @@ def test_summary_and_trace_count_stops_rejections_and_hidden_time(run_and_output
     hidden_ticks = sum(r["op/left:hidden"] == "1" for r in rows)
     assert hidden_ticks * DT == pytest.approx(hidden_time["op/left"], abs=DT)
     assert (out / "plot.png").stat().st_size > 10_000
+
+
+def test_the_wait_for_the_first_frame_is_not_a_stop_but_a_stream_that_never_comes_is():
+    from safety_systems.outputs.metrics import first_frame_wait, stops_by_cause
+
+    stale, none = stops.STOP_REASONS.index("stale_frame"), 0
+    t = np.arange(6) * 0.5
+    waited = np.array([stale, stale, none, stale, none, none], dtype=float)
+    assert first_frame_wait(waited, t) == 1.0
+    assert stops_by_cause(waited, t)["stale_frame"] == {"count": 1, "time": 0.5}
+    never = np.full(6, float(stale))  # no frame ever came: a fault, counted whole
+    assert first_frame_wait(never, t) == 0.0
+    assert stops_by_cause(never, t)["stale_frame"] == {"count": 1, "time": 2.5}

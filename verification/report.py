@@ -187,6 +187,21 @@ def plot_robustness(o: Outcome, path: Path) -> None:
     plt.close(fig)
 
 
+def metres(x) -> str:
+    """A robustness (m) as read: four decimals (0.1 mm), +inf / -inf / none as words."""
+    if x is None:
+        return "none"
+    x = float(x)
+    return f"{x:+.4f} m" if math.isfinite(x) else ("+inf (vacuous)" if x > 0 else "-inf")
+
+
+def first_words(first) -> str:
+    """When the first counterexample came, in words."""
+    if not first:
+        return "no counterexample"
+    return f"first counterexample at simulation {first}"
+
+
 def _share(v: dict) -> str:
     return "-" if v["share"] is None else (f"{100.0 * v['share']:.0f}% ({v['vacuous']} of "
                                            f"{v['of']})")
@@ -195,9 +210,9 @@ def _share(v: dict) -> str:
 def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
     v = p["vacuous"]
     lines = [f"## {name}: {p['verdict'].upper()}", "", f"- property: {p['property']}",
-             f"- smallest robustness found: {p['min_robustness']}; simulations violating it: "
-             f"{p['simulations_violating']}; first counterexample after "
-             f"{p['simulations_to_first_counterexample'] or '-'} simulations",
+             f"- smallest robustness found: {metres(p['min_robustness'])}; simulations "
+             f"violating it: {p['simulations_violating']}; "
+             + first_words(p['simulations_to_first_counterexample']),
              *first_counterexample_lines(p.get("first_counterexample")),
              f"- vacuous share ({v['definition']}; robustness +inf): "
              f"{_share(v['evaluated'])} of the evaluated scenarios, "
@@ -267,9 +282,13 @@ def _when(x: dict) -> str:
 
 def counts_in_words(e: dict) -> str:
     """Evaluations by kind and the search's cost (``counts.Tally.evaluations``)."""
-    return (f"{e['simulations']} simulations, {e['margins']} margin scorings, "
-            f"{e['dangers']} reduced-model scorings, {e['drake']} Drake runs; the search "
-            f"{e['search_cost']:g} simulation-equivalents")
+    return (f"{_n(e['simulations'], 'simulation')}, {_n(e['margins'], 'margin scoring')}, "
+            f"{_n(e['dangers'], 'reduced-model scoring')}, {_n(e['drake'], 'Drake run')}; "
+            f"the search {e['search_cost']:g} simulation-equivalents")
+
+
+def _n(count: int, noun: str) -> str:
+    return f"{count} {noun}" + ("" if count == 1 else "s")
 
 
 def first_counterexample_lines(first: dict | None) -> list[str]:

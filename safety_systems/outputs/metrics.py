@@ -238,14 +238,33 @@ def stop_reasons(run: Run) -> np.ndarray:
 
 
 def protective_stops(run: Run) -> dict:
-    """Protective stops by cause: how many times one began and the seconds it lasted."""
+    """Protective stops by cause: how many times one began and the seconds it lasted (the
+    wait for the first frame apart: :func:`first_frame_wait`)."""
     return stops_by_cause(stop_reasons(run), run.time, STOP_REASONS[1:SIMULATED])
+
+
+def first_frame_wait(reasons: np.ndarray, time: np.ndarray) -> float:
+    """Seconds the robot was held from the first tick because no frame had come yet (a
+    ``stale_frame`` hold from tick 0): the start, not a fault, so
+    :func:`stops_by_cause` leaves it out of the ``stale_frame`` stops."""
+    end = _waiting(reasons)
+    return float(time[end] - time[0]) if end else 0.0
+
+
+def _waiting(reasons: np.ndarray) -> int:
+    """The ticks of the hold from tick 0 until the first frame (see above); none where
+    no frame ever came (that is a fault: the stream never delivered)."""
+    held = np.asarray(reasons) == STOP_REASONS.index("stale_frame")
+    return 0 if held.all() else int(np.argmin(held))
 
 
 def stops_by_cause(reasons: np.ndarray, time: np.ndarray, causes=STOP_REASONS[1:]) -> dict:
     """:func:`protective_stops` of stop reasons (T,) at times (T,), for the ``causes``
-    named (by default every one, the live runtime's too)."""
+    named (by default every one, the live runtime's too); the hold from the first tick
+    until the first frame (:func:`first_frame_wait`) is not a stop."""
     dt = np.diff(time, append=time[-1]) if time.size else time
+    reasons = np.array(reasons, dtype=float)
+    reasons[:_waiting(reasons)] = -1.0  # (no cause)
     out = {}
     for name in causes:
         code = STOP_REASONS.index(name)
@@ -301,6 +320,7 @@ def summarize(run: Run) -> dict:
         "min_separation_margin_time": float(run.time[worst]) if margin is not None else None,
         "min_separation": finite,
         "max_tool_speed": float(np.max(speed)),
+        "first_frame_wait": first_frame_wait(stop_reasons(run), run.time),
         "protective_stops": protective_stops(run),
         "rejected_frames": rejected_frames(run),
         "hidden_time": hidden_time(run),

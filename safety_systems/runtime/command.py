@@ -42,7 +42,9 @@ def start_replay(file: str, options: dict, rate: float, mapping=None
     return process, int(line.split()[1])
 
 
-def run(args: argparse.Namespace, origin: dict) -> int:
+def run(args: argparse.Namespace, origin) -> int:
+    """``safety-systems run``; ``origin()`` gives the provenance (called when the summary
+    is written, so that it names every input read: params, certificate, mapping, recording)."""
     from safety_systems.files.output_files import prepare_out, write_json
     from safety_systems.outputs.run_files import write_table
     from safety_systems.sensing.recording_files import read_recording
@@ -141,7 +143,7 @@ def run(args: argparse.Namespace, origin: dict) -> int:
     summary = dict(params=str(args.params), certified=params.certified,
                    certificate_check=params.line, mocap=args.mocap, robot=robot.name,
                    mapping=str(args.mapping), scheduling=scheduling, **result.summary,
-                   provenance=origin)
+                   provenance=origin())
     write_json(out / "summary.json", summary)
     if not args.quiet:
         timing = summary["timing"]

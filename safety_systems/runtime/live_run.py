@@ -45,7 +45,7 @@ import numpy as np
 
 from safety_systems.cell.human_body import NUM_SEGMENTS, SEGMENT_NAMES
 from safety_systems.sensing import stops
-from safety_systems.outputs.metrics import stops_by_cause
+from safety_systems.outputs.metrics import first_frame_wait, stops_by_cause
 from safety_systems.runtime.mocap import BodyMap, FrameClock, NatNetSource
 from safety_systems.runtime.robot_link import RobotLost
 from safety_systems.runtime.safety_loop import SafetyLoop
@@ -297,6 +297,7 @@ def _summary(rows, header, hidden, latencies, lateness, period, state, end, moca
         "ticks": int(len(rows)),
         "frames": int(state["frames"]),
         "bad_packets": int(mocap.bad_packets),
+        "first_frame_wait": first_frame_wait(reasons, time_),
         "protective_stops": stops_by_cause(reasons, time_),
         "rejected_frames": {c: int(last[header.index(f"rejected_{c}")]) for c in REJECT_CAUSES},
         "hidden_time": hidden,

@@ -304,6 +304,11 @@ def test_a_capture_glitch_replayed_live_is_gated_like_any_outlier(tmp_path, expo
     trace = _trace(tmp_path / "log")
     summary = json.loads((tmp_path / "log" / "summary.json").read_text())
     assert summary["frames"] >= 60 and summary["protective_stops"]["gate"]["count"] == 1
+    # the summary names every input it read, with its SHA-256
+    inputs = summary["provenance"]["inputs"]
+    for path in (exported_params, exported_params.parent / "certificate.json",
+                 tmp_path / "map.yaml", tmp_path / "flip.bvh"):
+        assert len(inputs[str(path)]) == 64, path
     rejected = np.flatnonzero(np.diff(trace["rejected_gate"]) > 0) + 1
     assert rejected.size == 1
     first = rejected[0]

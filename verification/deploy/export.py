@@ -49,7 +49,10 @@ from verification.properties import PROPERTIES
 from verification.spaces.box import ScenarioSpace
 from verification.spaces.space import load_space, tracked_bodies
 
-DEPENDENCIES = ("drake", "numpy", "scipy", "numba", "z3-solver", "cma", "filterpy")
+# The installed packages whose code computed the verdict (the certificate names their
+# versions): the simulators, the proofs' solver, the search's optimizer, the readers.
+# (filterpy, listed before, is a test dependency: the Kalman filter's reference.)
+DEPENDENCIES = ("drake", "numpy", "scipy", "numba", "z3-solver", "cma", "ezc3d", "bvhio")
 VERDICT_MEANING = {
     "proved": "proved over the whole continuous box of the scenario space "
               "(verification.proof), the search and the Drake replays agreeing",

@@ -33,6 +33,18 @@ class Range:
     max: float = 0.0
 
 
+def span(r: Range, unit: str = "") -> str:
+    """A range in words: its one value where min = max, else "min to max" (then the unit,
+    e.g. " m")."""
+    return f"{r.min:g}{unit}" if r.min == r.max else f"{r.min:g} to {r.max:g}{unit}"
+
+
+def how_many(r: Range, noun: str) -> str:
+    """A whole-number range of ``noun``: "1 operator", "1 to 2 operators"."""
+    lo, hi = int(r.min), int(r.max)
+    return f"{lo} {noun}" if lo == hi == 1 else f"{lo if lo == hi else f'{lo} to {hi}'} {noun}s"
+
+
 def _r(lo: float, hi: float):
     return dc.field(default_factory=lambda: Range(lo, hi))
 

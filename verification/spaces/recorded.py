@@ -72,6 +72,7 @@ from verification.spaces.box import (
     RecordingParameters,
     ScenarioSpace,
     check_ranges,
+    span,
 )
 
 RECORDING_NAMES = tuple(f.name for f in dc.fields(RecordingParameters))
@@ -279,9 +280,6 @@ def recording_assumptions(space: ScenarioSpace, config: ControllerConfig) -> lis
     first = ", ".join(f"{o}: {', '.join(b.names[:int(p.occluded_bodies.max)])}"
                       for o, b in ops)
 
-    def span(r, unit: str = "") -> str:
-        return f"{r.min:g}{unit}" if r.min == r.max else f"{r.min:g} to {r.max:g}{unit}"
-
     return [
         f"the operators of {Path(block.mapping).name} as recorded in "
         f"{Path(block.file).name} (tracked bodies and the body points they mark: {bodies}; "
@@ -305,8 +303,10 @@ def recording_assumptions(space: ScenarioSpace, config: ControllerConfig) -> lis
            f"{span(p.occluded_bodies)} bodies of every operator ({first}), from recording "
            f"time {span(p.occlusion_start, ' s')}" if p.occlusion.max > MIN_GAP
            else "no extra occlusion"),
-        f"the robot stops as its stopping data says, times scaled by "
-        f"{span(p.braking_time_scale)}; scenarios run until the recording ends"
+        "the robot stops as its stopping data says"
+        + ("" if p.braking_time_scale.min == p.braking_time_scale.max == 1.0 else
+           f", times scaled by {span(p.braking_time_scale)}")
+        + "; scenarios run until the recording ends"
         + (f" or for {block.duration:g} s" if block.duration else ""),
     ]
 

@@ -83,6 +83,8 @@ from verification.spaces.box import (
     Range,
     ScenarioSpace,
     check_ranges,
+    how_many,
+    span,
 )
 from verification.spaces.recorded import (
     read_recording_block,
@@ -210,31 +212,32 @@ def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
                                                           int(p.target_link.max) + 1)})
     occluded = ", ".join(hidden_bodies(space, p.heads.max >= 1, int(p.occluded_bodies.max)))
     lines = [
-        f"{int(p.operators.min)} to {int(p.operators.max)} operator(s), each a whole body "
+        f"{how_many(p.operators, 'operator')}, each a whole body "
         f"(head, neck, trunk, shoulders, arms and hands as capsules of the table's sizes) "
         f"in the postures {postures}, tracked by "
         + (f"two gloves{heads}" if not space.tracked else "markers at its "
            + ", ".join(space.tracked)) + "; no other body enters the cell",
-        f"every operator starts {p.start_distance.min:g} to {p.start_distance.max:g} m from "
+        f"every operator starts {span(p.start_distance, ' m')} from "
         f"the point it approaches and stands still for at least {space.settle_time:g} s",
         f"no body point moves faster than {p.peak_speed.max:g} m/s (ISO 13855: 2.0 m/s) or "
         f"accelerates faster than {p.acceleration.max:g} m/s^2 (each posture moves rigidly)",
         f"approaches aim at points of the {', '.join(links)} (capsule axes), from azimuth "
-        f"{p.azimuth_deg.min:g} to {p.azimuth_deg.max:g} deg, elevation "
-        f"{p.elevation_deg.min:g} to {p.elevation_deg.max:g} deg; straight lines "
+        f"{span(p.azimuth_deg, ' deg')}, elevation {span(p.elevation_deg, ' deg')}; "
+        "straight lines "
         + ("with a retreat of up to "f"{p.retreat_distance.max:g} m before reversing"
            if p.retreat_distance.max > 0 else "without retreat")
         + f", reaching up to {p.overshoot.max:g} m past the target",
-        f"sensor: {config.sensor.rate_hz:g} Hz, noise std {p.noise_std.min:g} to "
-        f"{p.noise_std.max:g} m (bounded at {space.noise_bound_sigmas:g} sigma for proofs), "
-        f"latency {p.latency.min:g} to {p.latency.max:g} s, dropped frames up to "
+        f"sensor: {config.sensor.rate_hz:g} Hz, noise std {span(p.noise_std, ' m')} "
+        f"(bounded at {space.noise_bound_sigmas:g} sigma for proofs), "
+        f"latency {span(p.latency, ' s')}, dropped frames up to "
         f"{p.dropout.max:g} s, occlusion of up to {occluded} of every operator for up to "
         f"{p.occlusion.max:g} s",
         (f"up to {int(p.outlier_frames.max)} outlier frames of every operator's bodies, "
-         f"{p.outlier_offset.min:g} to {p.outlier_offset.max:g} m from their true positions"
+         f"{span(p.outlier_offset, ' m')} from their true positions"
          if p.outlier_frames.max >= 1 else "no outlier frames"),
-        f"the robot stops as its stopping data says, times scaled by "
-        f"{p.braking_time_scale.min:g} to {p.braking_time_scale.max:g}",
+        "the robot stops as its stopping data says"
+        + ("" if p.braking_time_scale.min == p.braking_time_scale.max == 1.0 else
+           f", times scaled by {span(p.braking_time_scale)}"),
         contact_assumption(space),
     ]
     return lines + list(space.notes)

@@ -75,8 +75,7 @@ def _search(result: dict) -> list[str]:
              "| candidate | status | total task time [s] | verdict | why | values |",
              "|---|---|---|---|---|---|"]
     for c in result["candidates"]:
-        values = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                           for k, v in c["values"].items())
+        values = ", ".join(f"{k}={_value(v)}" for k, v in c["values"].items())
         lines.append(f"| {c['index']} | {c['status']} | {_s(c['total_task_time'])} | "
                      f"{c['verdict'] or '-'} | {c['reason']} | {values} |")
     lines += ["", "Counterexamples kept (every later candidate is replayed against them "
@@ -118,3 +117,11 @@ def markdown(result: dict) -> str:
 def write_tune(result: dict, out: Path) -> None:
     write_json(out / "tune.json", result)
     write_text(out / "tune.md", markdown(result))
+
+
+def _value(v) -> str:
+    """A tuned value as read: 4 significant digits; None (a field's default rule, as
+    frame_timeout's: 1.5 sensor periods + latency + processing) as "default"."""
+    if v is None:
+        return "default"
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
