@@ -210,7 +210,9 @@ def _share(v: dict) -> str:
 def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
     v = p["vacuous"]
     lines = [f"## {name}: {p['verdict'].upper()}", "", f"- property: {p['property']}",
-             f"- smallest robustness found: {metres(p['min_robustness'])}; simulations "
+             f"- smallest robustness the search found: {metres(p['min_robustness'])} (the "
+             "Drake replays' figures, each beside the search's, are below; a violation's "
+             "replay stops a quarter second after it shows); simulations "
              f"violating it: {p['simulations_violating']}; "
              + first_words(p['simulations_to_first_counterexample']),
              *first_counterexample_lines(p.get("first_counterexample")),

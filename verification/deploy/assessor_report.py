@@ -294,9 +294,11 @@ def assessor_html(certificate: dict, params: Params, space: ScenarioSpace,
         "the simulated model, the configuration and the space) or <i>trusted</i> (taken "
         "from the files and the real cell: the assessor must confirm these).</p>",
         _properties(certificate),
-        f"<p>Evidence: {certificate['simulations']} closed-loop simulations and "
-        f"{certificate['model_evaluations']} runs of the full Drake model "
-        f"({_e(certificate['counts_meaning'])})</p>",
+        f"<p>Evidence: {certificate['simulations']} closed-loop simulations of the search "
+        f"and {certificate['evaluations'].get('drake', 0)} runs of the full Drake model; "
+        "every evaluation by kind: "
+        + _e(", ".join(f"{k} {v:g}" for k, v in certificate["evaluations"].items()))
+        + f" ({_e(certificate['counts_meaning'])})</p>",
         "<h2>4. The scenario space</h2>", _space(certificate, space),
         "<h2>5. Counterexamples found on the way</h2>",
         _counterexamples(certificate, plots),

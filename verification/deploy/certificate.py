@@ -38,7 +38,7 @@ from safety_systems.config.configuration import braking_table, placeholder_braki
 from verification.verdicts import EXIT_REQUIREMENT, VERDICTS
 
 SCHEMA = "safety-systems certificate"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: ``evaluations`` by kind, as report.json's (was model_evaluations)
 DIGEST = "certificate_sha256"
 _ZEROS = "0" * 64
 _DIGEST_TEXT = re.compile(r'"certificate_sha256": "([0-9a-f]{64})"')
@@ -49,7 +49,7 @@ FIELDS = {  # every key of a certificate and the type of its value
     "checksum_covers": str, "params_file": str, "params_file_sha256": str, "verdict": str,
     "verdict_meaning": str, "method": str, "robot_mode": str, "properties": dict,
     "premises": list, "cell": dict, "braking_data": dict, "assumptions": dict,
-    "simulations": int, "model_evaluations": int, "counts_meaning": str,
+    "simulations": int, "evaluations": dict, "counts_meaning": str,
     "min_robustness": dict, "counterexamples": list, "versions": dict, "parameters": dict,
     "sources": dict, "exported": str, DIGEST: str,
 }

@@ -61,10 +61,14 @@ VERDICT_MEANING = {
     "inconclusive": "the evidence contradicts itself (an evaluator or the proof is wrong): "
                     "NOT SAFE TO DEPLOY",
 }
-COUNTS_MEANING = ("simulations: closed-loop simulations of the space's scenarios in the "
-                  "batched evaluator (the search); model_evaluations: runs of the full Drake "
-                  "diagram (the replays that confirm or cross-check the search's figures). "
-                  "The proofs are not simulations.")
+COUNTS_MEANING = ("simulations: the search's closed-loop simulations of the space's "
+                  "scenarios; evaluations: every evaluation of a model of the loop, by kind, "
+                  "as verify's report.json gives them (simulations; margins and dangers, "
+                  "candidates scored by the proofs' margins and by the reduced model; drake, "
+                  "runs of the full Drake diagram that confirm or cross-check the search's "
+                  "figures; their total; search_cost, the search's in simulation-"
+                  "equivalents, which its budget bounds; cost, with the Drake runs). The "
+                  "proofs are not simulations.")
 
 
 NUMBER = (int, float)
@@ -236,8 +240,8 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
     replays = {r["simulation"] for p in report["properties"].values()
                for r in p.get("drake_replays", [])}
     counted = report.get("evaluations")  # every evaluation by kind (verification/search/counts.py)
-    drake_runs = (counted["drake"] if isinstance(counted, dict)
-                  and type(counted.get("drake")) is int else len(replays))
+    evaluations = (dict(counted) if isinstance(counted, dict) else
+                   {"drake": len(replays)})  # (a report from before the counts)
     sources = {"config": {"path": config_path, "sha256": sha},
                "report": {"path": str(report_path),
                           "sha256": inputs_read().get(str(report_path), "")},
@@ -256,7 +260,7 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
         "properties": properties, "premises": premises(report),
         "cell": whole_cell(params, space),
         "braking_data": braking_data(params), "assumptions": assumptions,
-        "simulations": int(report["simulations"]), "model_evaluations": drake_runs,
+        "simulations": int(report["simulations"]), "evaluations": evaluations,
         "counts_meaning": COUNTS_MEANING,
         "min_robustness": {n: p["min_robustness"] for n, p in report["properties"].items()},
         "counterexamples": counterexamples(report, tune),

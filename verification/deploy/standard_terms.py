@@ -63,8 +63,14 @@ TERMS = {
     "safety.iso_human_speed": ("v_H = K", "ISO 13855:2010, K = 2000 mm/s; ISO/TS 15066 "
                                "Eq. (1)", "the operator's speed in S (and the floor of "
                                "estimated_with_floor)"),
-    "safety.iso_reduced_human_speed": ("K = 1600 mm/s", "ISO 13855:2010 (where S > 500 mm)",
-                                       "the operator's speed where S exceeds 0.5 m"),
+    "safety.iso_reduced_human_speed": ("v_H = K where S > 500 mm", "ISO 13855:2010 (K = "
+                                       "1600 mm/s where S > 500 mm)", "the operator's "
+                                       "speed where S exceeds 0.5 m (the value configured; "
+                                       "the standard allows 1600 mm/s there)"),
+    "safety.stopping": ("T_s, S_s in S", f"{ISO_SSM}; seed 000 Eqs. 9-11",
+                        "which stop S takes: the full-speed stopping time and distance "
+                        "(full_speed), or the stop from the speed the robot runs at "
+                        "(by_speed, from the braking data)"),
     "safety.reaction_time": ("T_r", ISO_SSM, "the robot system's reaction time"),
     "safety.stopping_time": ("T_s", ISO_SSM + "; ISO 10218-1 (stopping data)",
                              "the robot's stopping time (unset: the braking table's at full "

@@ -41,7 +41,9 @@ def test_the_export_checks(exported, cli):
     assert cert["braking_data"]["origin"] == "placeholder"
     assert cert["assumptions"]["space"]["parameters"]["peak_speed"]["max"] == 2.0
     assert cert["assumptions"]["assumptions"] and cert["assumptions"]["box"]
-    assert cert["simulations"] == 6 and cert["model_evaluations"] >= 1
+    assert cert["simulations"] == 6 and cert["evaluations"]["drake"] >= 1
+    report = json.loads((exported / "verified" / "report.json").read_text())
+    assert cert["evaluations"] == report["evaluations"]  # one vocabulary
     assert set(cert["min_robustness"]) == {"contact", "separation"}
     # Both properties' verdicts (contact and separation), each with its proof's premises.
     assert {n: p["verdict"] for n, p in cert["properties"].items()} == {
@@ -159,9 +161,9 @@ def test_each_reason_is_named(exported, tmp_path, cli):
     assert code == 0 and "weaker than proved" in out
     code, _, err = cli(["check", params, "--require", "proved"])
     assert code == EXIT_REQUIREMENT and "weaker than proved" in err
-    _rewrite(folder, schema_version=2)
+    _rewrite(folder, schema_version=3)
     code, _, err = cli(["check", params])
-    assert code == 2 and "schema_version: got 2" in err and "another" in err
+    assert code == 2 and "schema_version: got 3" in err and "another" in err
     shutil.copy(exported / "export" / "certificate.json", folder)
     cert = json.loads((folder / "certificate.json").read_text())
     cert["extra"] = 1
