@@ -247,12 +247,12 @@ def first_frame_wait(reasons: np.ndarray, time: np.ndarray) -> float:
     """Seconds the robot was held from the first tick because no frame had come yet (a
     ``stale_frame`` hold from tick 0): the start, not a fault, so
     :func:`stops_by_cause` leaves it out of the ``stale_frame`` stops."""
-    end = _waiting(reasons)
+    end = first_frame_ticks(reasons)
     return float(time[end] - time[0]) if end else 0.0
 
 
-def _waiting(reasons: np.ndarray) -> int:
-    """The ticks of the hold from tick 0 until the first frame (see above); none where
+def first_frame_ticks(reasons: np.ndarray) -> int:
+    """The ticks of the hold from tick 0 until the first frame (:func:`first_frame_wait`); none where
     no frame ever came (that is a fault: the stream never delivered)."""
     held = np.asarray(reasons) == STOP_REASONS.index("stale_frame")
     return 0 if held.all() else int(np.argmin(held))
@@ -264,7 +264,7 @@ def stops_by_cause(reasons: np.ndarray, time: np.ndarray, causes=STOP_REASONS[1:
     until the first frame (:func:`first_frame_wait`) is not a stop."""
     dt = np.diff(time, append=time[-1]) if time.size else time
     reasons = np.array(reasons, dtype=float)
-    reasons[:_waiting(reasons)] = -1.0  # (no cause)
+    reasons[:first_frame_ticks(reasons)] = -1.0  # (no cause)
     out = {}
     for name in causes:
         code = STOP_REASONS.index(name)

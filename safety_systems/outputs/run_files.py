@@ -9,6 +9,7 @@ import numpy as np
 from safety_systems.cell.braking import PLACEHOLDER_WARNING
 from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.outputs.metrics import (
+    first_frame_ticks,
     hidden,
     robot_contact_state,
     robot_speed,
@@ -183,7 +184,7 @@ def run_figure(run: Run, summary: dict | None = None):
     for op, color in zip(operators, colors):
         for j, i in enumerate(op["bodies"]):
             top.plot(t, v_est[:, i], color=color, ls=BODY_STYLES[j % len(BODY_STYLES)],
-                     lw=1.0, label=f"v {run.body_names[i]} (estimated)")
+                     lw=1.0, label=f"v {run.body_names[i]} (the tracker's estimate)")
     top.plot(t, speed, color="goldenrod", label="v_R (tool)")
     top.set_ylabel("speed [m/s]")
     top.grid(alpha=0.3)
@@ -205,6 +206,11 @@ def run_figure(run: Run, summary: dict | None = None):
                 middle.plot(t, op["d_measured_bodies"][:, j], color=color, lw=1.0,
                             ls=BODY_STYLES[j % len(BODY_STYLES)],
                             label=f"d {run.body_names[i]} (tool to estimate)")
+    for op, color in zip(operators, colors):  # where a trace ends before the run does
+        seen = np.flatnonzero(np.isfinite(op["d_true"]))
+        if seen.size and seen[-1] < t.size - 1:
+            middle.axvline(t[seen[-1]], color=color, lw=0.8, ls="-.",
+                           label=f"{op['name']} gone (left the cell) at {t[seen[-1]]:.1f} s")
     if ssm:
         middle.axhline(run.scenario.controller.safety.d_min, color="red", lw=1.0,
                        label="d_min")
@@ -234,7 +240,8 @@ def run_figure(run: Run, summary: dict | None = None):
     if s_low < 0.0:
         fig.supxlabel(S_NOTE, fontsize="small")
     c = run.scenario.controller
-    fig.suptitle(f"{run.scenario.name}: SSM speed override (human speed: {c.safety.human_speed})"
+    fig.suptitle(f"{run.scenario.name}: SSM speed override (the human speed in S: "
+                 f"{_human_speed_words(c.safety)})"
                  if c.type == "ssm_override" else f"{run.scenario.name}: controller {c.type}")
     return fig
 
@@ -247,14 +254,32 @@ def _intervals(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
     return [(t[a], t[b - 1] + dt) for a, b in zip(starts, ends)]
 
 
+def _human_speed_words(safety) -> str:
+    """How the human speed enters S, in words for a title."""
+    mode = safety.human_speed
+    if mode == "iso":
+        return f"constant, {safety.iso_human_speed:g} m/s (iso)"
+    if mode == "estimated":
+        return "the tracker's estimate (estimated)"
+    return (f"the estimate, at least {safety.iso_human_speed:g} m/s "
+            f"({mode})")
+
+
 def _shade(axes, distance_axis, run: Run, operators: list[dict], colors: list) -> None:
     """Fault stops (grey, on every one of ``axes``) and the hidden intervals of each body
     slot (on ``distance_axis``, in its operator's colour, hatched by slot)."""
-    faults = stop_reasons(run) > STOP_SEPARATION
+    reasons = stop_reasons(run)
+    faults = reasons > STOP_SEPARATION
+    faults[:first_frame_ticks(reasons)] = False  # (the wait for the first frame: no fault)
+    # a stop of a tick or two would be thinner than a pixel: drawn at least 0.4% of the axis
+    least = 0.004 * float(run.time[-1] - run.time[0]) if run.time.size else 0.0
     for k, (a, b) in enumerate(_intervals(run.time, faults)):
+        if b - a < least:
+            a, b = (a + b - least) / 2.0, (a + b + least) / 2.0
         for axis in axes:
-            axis.axvspan(a, b, color="0.5", alpha=0.25, lw=0,
-                         label="fault stop" if k == 0 else None)
+            axis.axvspan(a, b, color="0.5", alpha=0.35, lw=0,
+                         label="fault stop (short ones widened to be seen)" if k == 0
+                         else None)
     is_hidden = hidden(run)
     for op, color in zip(operators, colors):
         for j, i in enumerate(op["bodies"]):
