@@ -252,8 +252,8 @@ def first_frame_wait(reasons: np.ndarray, time: np.ndarray) -> float:
 
 
 def first_frame_ticks(reasons: np.ndarray) -> int:
-    """The ticks of the hold from tick 0 until the first frame (:func:`first_frame_wait`); none where
-    no frame ever came (that is a fault: the stream never delivered)."""
+    """The ticks of the hold from tick 0 until the first frame (:func:`first_frame_wait`);
+    none where no frame ever came (that is a fault: the stream never delivered)."""
     held = np.asarray(reasons) == STOP_REASONS.index("stale_frame")
     return 0 if held.all() else int(np.argmin(held))
 

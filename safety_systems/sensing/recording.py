@@ -33,9 +33,9 @@ from safety_systems.files.input_error import InputError
 
 MAX_SAMPLES = 2_000_000  # rows of a recording (about 4.6 h at 120 Hz)
 MAX_BODIES = 64
-TRUNCATED = ("refuse", "use")
+TRUNCATED = ("refuse", "use")  # what a recording cut short of its stated length gives
 MAX_FLIP_FRAMES = 3  # samples: the longest run out of a track taken as a capture glitch
-FLIP_WIDTH = 0.05  # m: the glitch rule's allowance for noise (the tracker gate's default)  # what a recording cut short of its stated length gives
+FLIP_WIDTH = 0.05  # m: the glitch rule's allowance for noise (the tracker gate's default)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

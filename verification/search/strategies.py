@@ -279,8 +279,8 @@ def _focus(search: "_Search", objectives, allowance: int, seed: int, round_size:
     """Phase 2a of :func:`falsify`: up to ``allowance`` simulations of Sobol points in
     the corner of the box where each property's proof margin is least. The corner and
     the parameters that move the margin come from ``ranking.margin_corner`` (a few
-    dozen scorings, counted in the allowance); each point keeps its other parameters anywhere in their
-    range and puts those within ``FOCUS_WIDTH`` of the corner. The properties take
+    dozen scorings, counted in the allowance); each point keeps its other parameters
+    anywhere in their range and puts those within ``FOCUS_WIDTH`` of the corner. The properties take
     turns, point by point, in batches of ``round_size`` doubling; a property whose
     margin no parameter moves has nothing to focus on."""
     space, runner = search.space, search.runner
