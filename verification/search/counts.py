@@ -62,11 +62,12 @@ class Tally:
 
     def search_cost(self) -> float:
         """What the search's evaluations cost, in simulation-equivalents (``COST``)."""
-        return sum(COST[k] * getattr(self, k) for k in SEARCH_KINDS)
+        return self.cost(SEARCH_KINDS)
 
-    def cost(self) -> float:
-        """What every evaluation cost, Drake replays included, in simulation-equivalents."""
-        return sum(COST[k] * getattr(self, k) for k in KINDS)
+    def cost(self, kinds=KINDS) -> float:
+        """What the evaluations of ``kinds`` cost (default: all, Drake replays included),
+        in simulation-equivalents (``COST``)."""
+        return sum(COST[k] * getattr(self, k) for k in kinds)
 
     def cpu_seconds(self) -> float:
         return time.process_time() - self._cpu0 + self.worker_cpu

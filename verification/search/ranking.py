@@ -106,10 +106,16 @@ def hand_speeds(space: ScenarioSpace, points: np.ndarray) -> np.ndarray:
     """The fastest each candidate's approaching hand moves: its last leg (the retreat,
     the start distance and the overshoot) run rest to rest at its peak speed and
     acceleration (``operator_paths.segment_profile``'s peak)."""
-    leg = sum(unit_values(space, points, x) for x in ("retreat_distance", "start_distance",
-                                                       "overshoot"))
     return np.minimum(unit_values(space, points, "peak_speed"),
-                      np.sqrt(leg * unit_values(space, points, "acceleration")))
+                      np.sqrt(last_leg(space, points) * unit_values(space, points,
+                                                                     "acceleration")))
+
+
+def last_leg(space: ScenarioSpace, points: np.ndarray) -> np.ndarray:
+    """(n,) m: the approaching hand's last leg, towards the robot: the retreat walked back,
+    the start distance and the overshoot."""
+    return sum(unit_values(space, points, x) for x in ("retreat_distance", "start_distance",
+                                                       "overshoot"))
 
 
 def bound_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray, *,
@@ -149,10 +155,8 @@ def hidden_shortfall(space: ScenarioSpace, config: ControllerConfig, points: np.
         return gain
     hidden = unit_values(space, points, "occlusion") + unit_values(space, points, "dropout")
     retreat = unit_values(space, points, "retreat_distance")
-    towards = retreat + unit_values(space, points, "start_distance") + unit_values(
-        space, points, "overshoot")
     speed = np.maximum(v, 1e-9)
-    return gain * np.clip(hidden - retreat / speed, 0.0, towards / speed)
+    return gain * np.clip(hidden - retreat / speed, 0.0, last_leg(space, points) / speed)
 
 
 def margin_corner(space: ScenarioSpace, config: ControllerConfig, columns, *,

@@ -54,6 +54,7 @@ FOCUS_WIDTH = 1.0 / 16.0
 MARGIN_SHARE = 1.0 / 16.0
 DANGER_SHARE = 1.0 / 4.0
 MIN_DANGER = 16
+RANKINGS = ("margins", "dangers")  # the tally's kinds that rank candidates
 
 
 def sweep_points(method: str, n: int, d: int, *, seed: int = 0) -> np.ndarray:
@@ -327,16 +328,14 @@ class _Search:
         self.budget, self.stop_at_first, self.confirm = budget, stop_at_first, confirm
         self.confirmed: dict[int, int] = {}  # column -> simulation index confirmed
         self.rejected: set = set()  # (column, index) the confirmation did not accept
-        tally = runner.tally  # (it may hold earlier work: only this search's counts)
-        self.began = {k: getattr(tally, k) for k in ("margins", "dangers")}
+        # (the tally may hold earlier work: only this search's rankings count)
+        self.began = runner.tally.cost(RANKINGS)
 
     def spent(self) -> float:
         """What this search's evaluations have cost so far, simulation-equivalents: its
         simulations (a figure read back from a resumed run's cache too, so that a resumed
         search takes the same course) and its rankings."""
-        tally = self.runner.tally
-        return len(self.log.points) + sum(COST[k] * (getattr(tally, k) - n)
-                                          for k, n in self.began.items())
+        return len(self.log.points) + self.runner.tally.cost(RANKINGS) - self.began
 
     def left(self) -> float:
         return self.budget - self.spent()
