@@ -110,19 +110,24 @@ def _simulate(args: argparse.Namespace) -> int:
     summary = write_outputs(run, out, html=args.html,
                             origin=_origin(args.argv, scenario_seeds(scenario)))
     if not args.quiet:
-        task = summary["task_time"]
-        sep = summary["min_separation_while_moving"]
-        margin = summary["min_separation_margin"]
-        print(f"{scenario.name}: task_time={'unfinished' if task is None else f'{task:.2f} s'}"
-              f", min_separation_while_moving={'n/a' if sep is None else f'{sep:.3f} m'}"
-              f", contact_while_moving={summary['contact_while_moving']}"
-              f", min_separation_margin="
-              + ("n/a" if margin is None else f"{margin:+.3f} m at "
-                 f"{summary['min_separation_margin_time']:.2f} s"
-                 + (" (the separation invariant broken: d_true < S_true while the robot "
-                    "was let move)" if margin < 0.0 else ""))
-              + f", stopped_time={summary['stopped_time']:.2f} s -> {args.out}")
+        print(f"{scenario.name}: {simulate_line(summary)} -> {args.out}")
     return 0
+
+
+def simulate_line(summary: dict) -> str:
+    """``simulate``'s console line: a run's figures from its summary.json."""
+    task = summary["task_time"]
+    sep = summary["min_separation_while_moving"]
+    margin = summary["min_separation_margin"]
+    return (f"task_time={'unfinished' if task is None else f'{task:.2f} s'}"
+            f", min_separation_while_moving={'n/a' if sep is None else f'{sep:.3f} m'}"
+            f", contact_while_moving={summary['contact_while_moving']}"
+            f", min_separation_margin="
+            + ("n/a" if margin is None else f"{margin:+.3f} m at "
+               f"{summary['min_separation_margin_time']:.2f} s"
+               + (" (the separation invariant broken: d_true < S_true while the robot "
+                  "was let move)" if margin < 0.0 else ""))
+            + f", stopped_time={summary['stopped_time']:.2f} s")
 
 
 def _verify(args: argparse.Namespace) -> int:
