@@ -229,5 +229,10 @@ def test_the_real_motive_2_1_session_is_replayed_through_run(tmp_path, exported_
     reasons = {r["stop_reason"] for r in flowing}
     assert "separation" in reasons and reasons <= {"separation", "overrun"}
     assert all(float(r["visitor:d_measured"]) < float(r["visitor:S"]) for r in flowing)
-    assert rows[-1]["stop_reason"] == "stale_frame"
+    # After the last frame the stale-frame rule holds it (the watchdog's overrun stop,
+    # which the log names instead while it holds, may also show on a loaded machine).
+    after = [r for r in rows if int(float(r["frames"])) == 518 and float(r["time"]) > 5.0]
+    assert after
+    assert "stale_frame" in {r["stop_reason"] for r in after}
+    assert {r["stop_reason"] for r in after} <= {"stale_frame", "overrun"}
     assert all(float(r["k"]) == 0.0 for r in rows)
