@@ -226,7 +226,8 @@ def _tune(args: argparse.Namespace) -> int:
     result = Tuner(config, block, space, tasks, out, space_path=args.space, allow=args.allow,
                    budget=args.budget, candidates=args.candidates, screen=args.screen,
                    workers=args.workers, scheduler=args.scheduler, seed=args.seed,
-                   origin=_origin(args.argv, {"search": args.seed}), say=say).run()
+                   origin=_origin(args.argv, {"search": args.seed}), say=say,
+                   progress=not args.quiet).run()
     write_tune(result, out)
     if not args.quiet:
         def seconds(x):

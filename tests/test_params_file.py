@@ -12,6 +12,7 @@ from safety_systems.files.input_error import InputError
 from safety_systems.config.params_file import (
     NODE,
     Params,
+    deployed_controller,
     deployed_robot,
     load_params,
     params_text,
@@ -72,6 +73,29 @@ def test_every_shipped_configuration_round_trips_through_a_ros2_parameter_file(
     path = tmp_path / "params.yaml"
     path.write_text(text)
     assert load_params(path) == params
+
+
+def test_a_controller_s_unused_blocks_are_left_out_and_read_back_as_defaults(tmp_path):
+    """An SSM configuration's params.yaml has no alteration.* or zones.* parameters (the
+    SSM controller never reads them), even where the configuration set them; ERGA's
+    keeps its alteration block and drops zones."""
+    ssm = _params(MODELS / "configs" / "iso.yaml")
+    ssm.controller = dataclasses.replace(ssm.controller, alteration=dataclasses.replace(
+        ssm.controller.alteration, speed_limit=0.123), zones=dataclasses.replace(
+        ssm.controller.zones, red_speed=0.05))
+    text = params_text(ssm)
+    assert not [k for k in ros2_parameter_file(text)
+                if k.startswith(("controller.alteration.", "controller.zones."))]
+    path = tmp_path / "params.yaml"
+    path.write_text(text)
+    read = load_params(path)
+    assert read.controller == deployed_controller(ssm.controller) != ssm.controller
+    assert read.controller.alteration == type(ssm.controller.alteration)()
+    assert read.controller.safety == ssm.controller.safety
+    erga = _params(MODELS / "configs" / "erga.yaml")
+    keys = ros2_parameter_file(params_text(erga))
+    assert any(k.startswith("controller.alteration.") for k in keys)
+    assert not any(k.startswith("controller.zones.") for k in keys)
 
 
 def test_the_default_path_is_written_out_and_runs_the_same(tmp_path):

@@ -73,6 +73,29 @@ def test_run_figure_shows_each_operator_and_k_on_its_own_axis(inspection):
     assert distances.get_ylim()[0] <= np.nanmin(op["d_measured"]) < 0.0
 
 
+def test_two_bodies_moving_together_are_both_seen_in_the_speed_panel(inspection):
+    """The technician's gloves move as one (a rigid walk): the left glove's speed is
+    drawn as a wide pale band under the right's, and its legend says so; a body whose
+    trace differs keeps a line of its own."""
+    from safety_systems.outputs.run_files import SAME_SPEED, _same_trace
+
+    speeds, _, _ = run_figure(inspection).axes
+    labels = list(_lines(speeds))
+    left = next(label for label in labels if "left_glove" in label)
+    assert "(estimate; as right_glove's, within 0.01 m/s)" in left
+    band = next(line for line in speeds.get_lines() if line.get_label() == left)
+    assert band.get_linewidth() > 2.0 and band.get_alpha() < 1.0
+    right = next(line for line in speeds.get_lines() if "right_glove" in line.get_label())
+    assert right.get_linewidth() == 1.0 and "within" not in right.get_label()
+    v = np.zeros((5, 2))
+    v[:, 1] = [0.0, 0.0, SAME_SPEED * 1.5, 0.0, 0.0]
+    assert _same_trace(v, [0], 1) is None
+    v[2, 1] = SAME_SPEED
+    assert _same_trace(v, [0], 1) == 0
+    v[0, 1] = np.nan  # seen at other ticks: not the same trace
+    assert _same_trace(v, [0], 1) is None
+
+
 HIDDEN = """
 name: hidden_bodies
 duration: 4.0

@@ -17,8 +17,11 @@ Nested records become dotted names; the items of a list of records or of rows be
 ``item0``, ``item1``, ...; a number of a float field is always written with a decimal
 point or an exponent (ROS 2 types a parameter by its spelling, and its arrays hold one
 type); empty lists and unset (null) values are left out, since ROS 2 has neither.
-Every value is written, defaults too, and the robot's default path is written out
-waypoint by waypoint, so the file does not depend on this version's defaults.
+Every value the controller reads is written, defaults too, and the robot's default path
+is written out waypoint by waypoint, so the file does not depend on this version's
+defaults. The blocks its type never reads (``scenario.UNUSED_BLOCKS``: an SSM
+controller's ``alteration`` and ``zones``) are left out: :func:`deployed_controller`
+sets them to their defaults, which is what reading the file gives them back.
 
 Reading (:func:`load_params`) applies ``safety_systems.files.documents``' rules (a text file,
 valid YAML, no duplicate keys), then the ROS 2 form (the node key, ``ros__parameters``,
@@ -42,6 +45,7 @@ from safety_systems.files.input_error import InputError
 from safety_systems.cell.joint_path import DEFAULT_DURATIONS, DEFAULT_WAYPOINTS_DEG
 from safety_systems.files.ranges import number, type_hints
 from safety_systems.config.scenario import (
+    UNUSED_BLOCKS,
     ControllerConfig,
     RobotConfig,
     validate_controller,
@@ -94,6 +98,14 @@ def deployed_robot(robot: RobotConfig) -> DeployedRobot:
         path.task_path = dc.replace(path.task_path, file="")
     return DeployedRobot(**{name: getattr(robot, name) for name in ROBOT_FIELDS[:-1]},
                          path=path)
+
+
+def deployed_controller(config: ControllerConfig) -> ControllerConfig:
+    """``config`` with the blocks its type never reads (``UNUSED_BLOCKS``) at their
+    defaults: what params.yaml certifies and reads back (it leaves those blocks out)."""
+    defaults = ControllerConfig()
+    return dc.replace(config, **{name: getattr(defaults, name)
+                                 for name in UNUSED_BLOCKS.get(config.type, ())})
 
 
 def robot_config(deployed: DeployedRobot, base: RobotConfig) -> RobotConfig:
@@ -161,10 +173,13 @@ def _flatten(obj: typing.Any, hint, key: str, default: typing.Any, out: dict) ->
 
 
 def flat_parameters(params: Params) -> dict[str, str]:
-    """Every parameter of params.yaml by its dotted name, spelled as written."""
+    """Every parameter of params.yaml by its dotted name, spelled as written (none of the
+    blocks the controller's type never reads)."""
     flat: dict[str, str] = {}
     _flatten(params, Params, "", None, flat)
-    return flat
+    unused = tuple(f"controller.{name}." for name in UNUSED_BLOCKS.get(
+        params.controller.type, ()))
+    return {key: text for key, text in flat.items() if not key.startswith(unused)}
 
 
 def params_text(params: Params, header: list[str] = ()) -> str:

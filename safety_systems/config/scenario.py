@@ -400,6 +400,10 @@ class ZonesConfig:
 
 ROBOT_GEOMETRIES = ("capsules", "tool_point")
 CONTROLLER_TYPES = ("ssm_override", "erga", "hwang", "bimodal", "none", "zones")
+# The blocks of a ControllerConfig a controller type never reads: the speed alteration
+# controllers' (seed 004) ``alteration`` and the safety zones' (seed 001) ``zones``.
+UNUSED_BLOCKS = {"ssm_override": ("alteration", "zones"), "zones": ("alteration",),
+                 **{t: ("zones",) for t in ("erga", "hwang", "bimodal", "none")}}
 
 
 @dc.dataclass

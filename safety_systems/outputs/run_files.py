@@ -183,8 +183,15 @@ def run_figure(run: Run, summary: dict | None = None):
     colors = [f"C{k % 10}" for k in range(len(operators))]
     for op, color in zip(operators, colors):
         for j, i in enumerate(op["bodies"]):
-            top.plot(t, v_est[:, i], color=color, ls=BODY_STYLES[j % len(BODY_STYLES)],
-                     lw=1.0, label=f"v {run.body_names[i]} (the tracker's estimate)")
+            twin = _same_trace(v_est, op["bodies"][:j], i)
+            if twin is None:
+                top.plot(t, v_est[:, i], color=color, ls=BODY_STYLES[j % len(BODY_STYLES)],
+                         lw=1.0, label=f"v {run.body_names[i]} (the tracker's estimate)")
+            else:  # a body moving with another (an operator's gloves) would hide under it
+                top.plot(t, v_est[:, i], color=color, lw=4.0, alpha=0.3, zorder=1.5,
+                         label=f"v {run.body_names[i]} (estimate; as "
+                               f"{run.body_names[twin].split('/')[-1]}'s, "
+                               f"within {SAME_SPEED:g} m/s)")
     top.plot(t, speed, color="goldenrod", label="v_R (tool)")
     top.set_ylabel("speed [m/s]")
     top.grid(alpha=0.3)
@@ -244,6 +251,21 @@ def run_figure(run: Run, summary: dict | None = None):
                  f"{_human_speed_words(c.safety)})"
                  if c.type == "ssm_override" else f"{run.scenario.name}: controller {c.type}")
     return fig
+
+
+SAME_SPEED = 0.01  # m/s: two bodies' speed traces this close throughout draw as one line
+
+
+def _same_trace(v: np.ndarray, earlier, i: int) -> int | None:
+    """The first of the ``earlier`` columns of ``v`` whose trace stays within
+    ``SAME_SPEED`` of column ``i`` wherever both are known (and that are known at the
+    same ticks), or None."""
+    known = np.isfinite(v[:, i])
+    for e in earlier:
+        if (np.array_equal(known, np.isfinite(v[:, e])) and known.any()
+                and float(np.max(np.abs(v[known, i] - v[known, e]))) <= SAME_SPEED):
+            return int(e)
+    return None
 
 
 def _intervals(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:

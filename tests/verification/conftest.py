@@ -93,11 +93,12 @@ def _tune_iso(root: Path) -> None:
     task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
     task["duration"], task["robot"]["cycles"] = 25.0, 3
     (root / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
-    code, _, err = run_cli(["tune", ISO, "--tune", root / "tune.yaml", "--space", SMALL_SPACE,
+    code, out, err = run_cli(["tune", ISO, "--tune", root / "tune.yaml", "--space", SMALL_SPACE,
                             "--tasks", root / "task.yaml", "--out", root / "tune", "--budget",
-                            "24", "--candidates", "3", "--screen", "4", "--workers", "1",
-                            "--quiet"])
+                            "24", "--candidates", "3", "--screen", "4", "--workers", "1"])
     assert code == 0, err
+    (root / "tune_stderr.txt").write_text(err)  # its progress and console, for test_tune
+    (root / "tune_stdout.txt").write_text(out)
     result = json.loads((root / "tune" / "tune.json").read_text())
     chosen = result["chosen"]
     code, _, err = run_cli(["export", chosen["config"], "--report", chosen["report"], "--tune",

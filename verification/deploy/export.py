@@ -30,7 +30,13 @@ from safety_systems.config.configuration import contact_capsules, monitor_capsul
 from safety_systems.files.documents import inputs_read, read_input, read_text
 from safety_systems.files.input_error import InputError
 from safety_systems.files.output_files import write_text
-from safety_systems.config.params_file import Params, deployed_robot, flat_parameters, params_text
+from safety_systems.config.params_file import (
+    Params,
+    deployed_controller,
+    deployed_robot,
+    flat_parameters,
+    params_text,
+)
 from safety_systems.outputs.provenance import version
 from safety_systems.config.scenario import ControllerConfig
 from safety_systems.config.configuration import frame_timeout
@@ -224,7 +230,7 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
                          f"the SHA-256 of {config_path} ({sha[:12]}...): this report is of "
                          "another configuration", file=report_path)
     space, space_path, space_sha = _space(report, report_path)
-    params = Params(controller=config, robot=deployed_robot(space.robot))
+    params = Params(controller=deployed_controller(config), robot=deployed_robot(space.robot))
     assumptions = {"space_file": space_path, "space_sha256": space_sha, "space": plain(space),
                    "assumptions": report["assumptions"], "box": report["box"],
                    "free_parameters": report["free_parameters"],

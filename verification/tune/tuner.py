@@ -156,7 +156,7 @@ class Tuner:
                  allow: str = "proved", budget: int = 200, candidates: int = 24,
                  screen: int = SCREEN, workers: int | None = None,
                  scheduler: str | None = None, seed: int = 0, references: dict | None = None,
-                 origin: dict | None = None, say=None):
+                 origin: dict | None = None, say=None, progress: bool = False):
         if allow not in ALLOW:
             raise ValueError(f"allow: got {allow!r}; allowed: {' | '.join(ALLOW)}")
         self.config, self.block, self.space, self.tasks = config, block, space, tasks
@@ -164,11 +164,15 @@ class Tuner:
         self.budget, self.n_candidates, self.screen = budget, candidates, screen
         self.workers, self.scheduler, self.seed = workers, scheduler, seed
         self.references = REFERENCES if references is None else references
-        self.origin, self.say = origin, say or (lambda line: None)
+        self.origin, self._say = origin, say or (lambda line: None)
+        self.progress = Progress(progress)
         self.kept: list[Kept] = []
         self.counts = {"screened": 0, "proofs": 0, "counterexample_replays": 0,
                        "task_runs": 0, "verifications": 0, "simulations": 0}
         self.control_period = 1.0 / space.robot.control_rate_hz
+
+    def say(self, line: str) -> None:
+        self.progress.write(line, self._say)
 
     # ------------------------------------------------------------------ the pieces
 
@@ -341,44 +345,57 @@ class Tuner:
 
     def run(self) -> dict:
         self.out.mkdir(parents=True, exist_ok=True)
-        with Runner(workers=self.workers, scheduler=self.scheduler,
-                    cache_path=self.out / "evaluations.jsonl") as runner:
-            rows = [self.reference(runner, label, path)
-                    for label, path in self.references.items()]
+        bar = self.progress
+        with bar, Runner(workers=self.workers, scheduler=self.scheduler,
+                         cache_path=self.out / "evaluations.jsonl") as runner:
+            bar.phase("references: verify and time", len(self.references))
+            rows = []
+            for label, path in self.references.items():
+                rows.append(self.reference(runner, label, path))
+                bar.step()
             pool = self.candidates()
             valid = [c for c in pool if c.status == "screened"]
+            bar.phase("screen: counterexamples kept", 1)
             self.recheck(runner, valid)
+            bar.step()
+            bar.phase("screen: proofs", len(valid))
             for c in valid:
                 if c.status == "screened":
                     self.prove(c)
                     c.proxy = proxy_distance(c.config)
                     c.full_speed = full_speed_distance(c.config)
+                bar.step()
             if self.allow == "proved":  # the proofs are the constraint: descend on them
                 seeds = sorted((c for c in pool if c.status == "screened"),
                                key=lambda c: (c.proxy, c.index))[:REFINE_SEEDS]
+                bar.phase("refine the best proved", len(seeds))
                 for c in seeds:
                     refined = self.refine(c, len(pool))
                     if refined is not None:
                         refined.reason = f"refined from candidate {c.index}"
                         pool.append(refined)
                         self.recheck(runner, [refined])
+                    bar.step()
                 self.counts["refined"] = len(pool) - self.counts["screened"]
             order = [pool[0]] + sorted((c for c in pool[1:] if c.status == "screened"),
                                        key=lambda c: (c.proxy, c.index))
             best, evaluated = None, []
+            bar.phase("candidates: tasks, then verify", len(order[:self.n_candidates + 1]))
             for c in order[:self.n_candidates + 1]:
-                if c.status != "screened":
-                    continue  # the base configuration may have failed its screen
-                evaluated.append(c)
-                best = self.evaluate(runner, c, best)
+                if c.status == "screened":  # the base configuration may have failed its screen
+                    evaluated.append(c)
+                    best = self.evaluate(runner, c, best)
+                bar.step()
             for c in pool:
                 if c.status == "screened":
                     c.status = "not simulated"
                     c.reason = f"beyond the {self.n_candidates} candidates simulated"
             chosen_row = None
             if best is not None:
+                bar.phase("the chosen one's tasks", 1)
                 chosen_row = self.row(runner, "chosen", best.config, best.report_dict,
                                       best.tasks)
+                bar.step()
         return self.result(pool, evaluated, rows, best, chosen_row)
 
     def reference(self, runner: Runner, label: str, path: Path) -> dict:
@@ -471,6 +488,47 @@ class Tuner:
                                      "property": k.property, "robustness": k.robustness}
                                     for k in self.kept],
                 "counts": self.counts, "provenance": self.origin}
+
+
+class Progress:
+    """tune's progress on stderr: one bar per phase (references, screen, refinement,
+    candidates), each step a unit of its phase (a reference verified and timed, a
+    candidate proved, refined or simulated), with the time spent and an estimate of the
+    phase's rest; lines said meanwhile print above it. Off: nothing is drawn."""
+
+    def __init__(self, on: bool):
+        self.on, self.bar = on, None
+
+    def phase(self, name: str, steps: int) -> None:
+        self.close()
+        if self.on:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=steps, desc=name, unit="step", leave=False)
+
+    def step(self) -> None:
+        if self.bar is not None:
+            self.bar.update(1)
+
+    def write(self, line: str, say) -> None:
+        if self.bar is None:
+            say(line)
+        else:
+            from tqdm import tqdm
+
+            with tqdm.external_write_mode():
+                say(line)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 def _run_task(scenario: Scenario, config: ControllerConfig, operators: bool) -> TaskRun:

@@ -81,6 +81,37 @@ def test_the_report_compares_with_iso_and_the_seed_and_states_the_vacuous_share(
     assert "safety-systems export" in markdown
 
 
+def test_tune_shows_its_progress_phase_by_phase(tuned):
+    """Without --quiet, tune draws a progress bar per phase on stderr (it runs for
+    minutes), with each candidate's fate printed above it."""
+    err = (tuned / "tune_stderr.txt").read_text()
+    phases = ["references: verify and time", "screen: counterexamples kept",
+              "screen: proofs", "refine the best proved", "candidates: tasks, then verify",
+              "the chosen one's tasks"]
+    at = [err.find(p) for p in phases]
+    assert -1 not in at and at == sorted(at), at
+    assert "step" in err
+    out = (tuned / "tune_stdout.txt").read_text()
+    assert "candidate 0:" in out and "time lost:" in out
+
+
+def test_progress_prints_said_lines_above_its_bar_and_nothing_when_off(capsys):
+    from verification.tune.tuner import Progress
+
+    said = []
+    with Progress(True) as bar:
+        bar.phase("a phase", 2)
+        bar.step()
+        bar.write("a line", said.append)
+        bar.step()
+    assert said == ["a line"] and "a phase" in capsys.readouterr().err
+    with Progress(False) as bar:
+        bar.phase("a phase", 2)
+        bar.step()
+        bar.write("a line", said.append)
+    assert said == ["a line", "a line"] and capsys.readouterr().err == ""
+
+
 def test_counterexamples_are_kept_and_later_candidates_replayed_against_them(tuned):
     result = _result(tuned)
     kept = result["counterexamples"]
