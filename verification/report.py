@@ -145,8 +145,19 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str,
 
 
 def plot_robustness(o: Outcome, path: Path) -> None:
+    """Writes :func:`robustness_figure` to ``path`` (PNG)."""
+    import matplotlib.pyplot as plt
+
+    fig = robustness_figure(o)
+    save_figure(fig, path, dpi=100)
+    plt.close(fig)
+
+
+def robustness_figure(o: Outcome):
     """Robustness of every simulation over the two free parameters that vary most with
-    it (by rank correlation), and in the order the search ran them."""
+    it (by rank correlation), and in the order the search ran them. Each panel says what
+    it leaves out: vacuous simulations (robustness +inf: the robot never moved near a
+    body) are counted, not drawn; violations are marked and counted, or "none" said."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -166,25 +177,33 @@ def plot_robustness(o: Outcome, path: Path) -> None:
         a, b = np.argsort(np.nan_to_num(corr))[::-1][:2]
         sc = left.scatter(points[:, a], points[:, b], c=shown, cmap="RdYlGn", s=18,
                           vmin=min(-0.05, np.nanmin(shown)), vmax=max(0.05, np.nanmax(shown)))
-        left.scatter(points[rho < 0, a], points[rho < 0, b], marker="x", c="black", s=40,
-                     label="violation")
+        violating = int(np.sum(rho < 0))
+        if violating:
+            left.scatter(points[rho < 0, a], points[rho < 0, b], marker="x", c="black",
+                         s=40, label=f"violation ({violating})")
+            left.legend(loc="best")
         fig.colorbar(sc, ax=left, label=f"{name} robustness [m] (>= 0 safe)")
-        left.set_xlabel(f"{names[a]} (0 = min, 1 = max)")
-        left.set_ylabel(f"{names[b]} (0 = min, 1 = max)")
-        left.legend(loc="upper right")
-    left.set_title("robustness over the space")
+        left.set_xlabel(f"{names[a]} (0 = its least, 1 = its greatest in the space)")
+        left.set_ylabel(f"{names[b]} (0 = its least, 1 = its greatest)")
+    vacuous = int(np.sum(np.isposinf(rho)))
+    left.set_title(f"{name} robustness over the two parameters it varies most with\n"
+                   f"{len(rho) - vacuous} simulations drawn"
+                   + (f", {vacuous} vacuous (+inf) not drawn" if vacuous else "")
+                   + ("" if np.any(rho < 0) else "; no violation"), fontsize="medium")
     for other, p in o.properties.items():
         values = o.log.column(p.column)
+        bad = int(np.sum(values < 0))
         right.plot(np.arange(1, len(values) + 1), np.where(np.isfinite(values), values, np.nan),
-                   ".", ms=4, label=other)
-    right.axhline(0.0, color="red")
+                   ".", ms=4, label=f"{other} ({bad} violating)" if bad else
+                   f"{other} (none violating)")
+    right.axhline(0.0, color="red", label="0: below it, a violation")
     right.legend(loc="upper right")
-    right.set_xlabel("simulation")
+    right.set_xlabel("simulation, in the order the search ran them")
     right.set_ylabel("robustness [m]")
-    right.set_title(f"verdict: {o.verdict}")
+    right.set_title(f"every simulation of the search (verdict: {o.verdict})",
+                    fontsize="medium")
     fig.tight_layout()
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
+    return fig
 
 
 def metres(x) -> str:
