@@ -145,6 +145,22 @@ def test_comparison_figure_has_time_on_its_axis_and_its_legend_beside():
     assert line.get_xdata()[1] == pytest.approx(0.1)
 
 
+def test_comparison_figure_shows_controllers_that_share_a_trace_and_names_di_1():
+    """Two controllers with the same speed trace (both at the pre-programmed speed before
+    they act): the one drawn first is wider, so the one on top of it does not hide it; the
+    DI = 1 line is named and drawn in no controller's colour."""
+    scenario = load_scenario(SCENARIOS / "erga_positive.yaml")
+    row = {"scenario": scenario.name, **controller_metrics(simulate(scenario, duration=1.0))}
+    fig = comparison_figure([dict(row, controller="erga"), dict(row, controller="none")])
+    danger, speed = fig.axes[:2]
+    erga, none = speed.get_lines()
+    np.testing.assert_array_equal(erga.get_ydata(), none.get_ydata())
+    assert erga.get_linewidth() > none.get_linewidth() and erga.get_color() != none.get_color()
+    threshold = [line for line in danger.get_lines() if line.get_label().startswith("DI = 1")]
+    assert len(threshold) == 1 and threshold[0].get_color() not in (erga.get_color(),
+                                                                     none.get_color())
+
+
 # The replay ---------------------------------------------------------------------------
 
 class _Animation:

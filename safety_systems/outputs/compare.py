@@ -108,7 +108,11 @@ def plot(rows: list[dict], path: Path) -> None:
 
 def comparison_figure(rows: list[dict]):
     """Danger index and speed at each controller sample over time, one column per
-    scenario (seed Figs. 8, 11); one legend beside the panels, off the data."""
+    scenario (seed Figs. 8, 11); one legend beside the panels, off the data. Controllers
+    often share stretches (the pre-programmed speed, the same DI before they act): each
+    is drawn narrower than the one before it, so one lying on another still shows. The
+    line at DI = 1 is the seed's collision threshold (Eq. 6), drawn apart from the
+    controllers' colours and named."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -117,14 +121,21 @@ def comparison_figure(rows: list[dict]):
     names = list(dict.fromkeys(r["scenario"] for r in rows))
     fig, axes = plt.subplots(2, len(names), figsize=(6 * len(names) + 1.5, 7),
                              squeeze=False, layout="constrained")
+    controllers = list(dict.fromkeys(r["controller"] for r in rows))
+    width = {name: 1.0 + 1.2 * (len(controllers) - 1 - k) for k, name in
+             enumerate(controllers)}  # the first drawn widest, the last 1.0
+    colour = {name: f"C{k % 10}" for k, name in enumerate(controllers)}
     for c, name in enumerate(names):
         period = None
         for r in (r for r in rows if r["scenario"] == name):
             period = r["sample_period"]
             t = period * np.arange(len(r["samples"]))
-            axes[0, c].plot(t, r["danger_at_samples"][:len(t)], ".-", label=r["controller"])
-            axes[1, c].plot(t, 1000 * np.array(r["samples"]), ".-", label=r["controller"])
-        axes[0, c].axhline(1.0, color="red", lw=0.8)
+            style = dict(marker=".", ms=2.0 + width[r["controller"]], lw=width[r["controller"]],
+                         color=colour[r["controller"]], label=r["controller"])
+            axes[0, c].plot(t, r["danger_at_samples"][:len(t)], **style)
+            axes[1, c].plot(t, 1000 * np.array(r["samples"]), **style)
+        axes[0, c].axhline(1.0, color="black", ls="--", lw=0.8,
+                           label="DI = 1: the ellipsoids touch (seed Eq. 6)")
         axes[0, c].set_title(f"{name}: danger index")
         axes[1, c].set_title(f"{name}: speed along the path [mm/s]")
         axes[1, c].set_xlabel(f"time [s] (a sample every {period:g} s)")
