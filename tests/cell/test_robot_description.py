@@ -178,3 +178,18 @@ def test_frame_links_are_merged_not_refused(tmp_path):
     (tmp_path / "heavy.urdf").write_text(heavy)
     assert "link panda_link8.collision" in _refusal(
         lambda: load_robot_description(tmp_path / "heavy.urdf"))
+
+
+def test_panda_loads_in_drake_with_its_geometry():
+    """Drake's SceneGraph takes the Panda's OBJ meshes (9) and finger boxes (8)."""
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+    from pydrake.systems.framework import DiagramBuilder
+
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
+    Parser(plant).AddModels(str(PANDA))
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("panda_link0"), RigidTransform())
+    plant.Finalize()
+    builder.Build()
+    assert plant.num_positions() == 9  # 7 arm joints, 2 fingers
+    assert scene_graph.model_inspector().num_geometries() == 9 + 8
