@@ -2,7 +2,7 @@
 
 Frames: ``base_link`` is the standard-DH base frame {0} (z up; at q = 0 the arm points
 along -x), ``tool0`` is DH frame {6} at the flange. The URDF is generated from the
-constants below by ``models/ur5e/generate_urdf.py``; ``models/ur5e/README.md`` lists
+constants below by ``models/generate_urdf.py``; ``models/ur5e/README.md`` lists
 the sources.
 """
 
