@@ -24,6 +24,7 @@ isolated core): they say what this machine did in this run.
 
 import argparse
 import json
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -84,7 +85,10 @@ def main() -> int:
     parser.add_argument("--duration", type=float, default=20.0, help="s (default 20)")
     parser.add_argument("--bodies", type=int, default=10)
     parser.add_argument("--frame-rate", type=float, default=120.0, help="Hz (default 120)")
+    parser.add_argument("--json", type=Path, default=None,
+                        help="also write the figures printed to this JSON file")
     args = parser.parse_args()
+    load = os.getloadavg()[0]
     from safety_systems.cli import main as cli
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -116,6 +120,14 @@ def main() -> int:
           + ("met" if p99 <= GOAL_FRAME_TO_K_P99 else "NOT MET"))
     stops = summary["protective_stops"]
     print(f"stops by cause: {json.dumps(stops)}")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps({
+            "duration": args.duration, "bodies": args.bodies, "frame_rate": args.frame_rate,
+            "load_1min": load, "scheduling": scheduling, "exit": code, "end": summary["end"],
+            "tick_late_p50": late[0], "tick_late_p99": late[1], "tick_late_max": late[2],
+            "frame_to_k_p50": p50, "frame_to_k_p99": p99, "protective_stops": stops},
+            indent=1) + "\n")
     return 0
 
 

@@ -26,6 +26,8 @@ Run it pinned to one core for the one-core figure (e.g.
 
 import argparse
 import dataclasses
+import json
+import os
 import time
 import timeit
 from pathlib import Path
@@ -164,32 +166,44 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=20.0, help="simulated seconds")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--json", type=Path, default=None,
+                        help="also write the figures printed to this JSON file")
     args = parser.parse_args()
+    figures: dict = {"duration": args.duration, "repeats": args.repeats,
+                     "load_1min": os.getloadavg()[0]}
     print(f"inspection scenario, {args.duration:g} s simulated, best of {args.repeats}")
     print(f"{'measure':44s} {'figure':>10s} {'goal':>10s} {'figure/goal':>12s}")
     for mode, goal in GOALS.items():
         rtf = real_time_factor(mode, args.duration, args.repeats)
+        figures[f"real_time_{mode}"] = rtf
         print(f"{'real-time factor, ' + mode + ' mode':44s} {rtf:9.1f}x {goal:9.0f}x "
               f"{rtf / goal:12.2f}")
     ten = real_time_factor("kinematic", 10.0, args.repeats)
+    figures["real_time_kinematic_10s"] = ten
     print(f"{'real-time factor, kinematic, 10 s':44s} {ten:9.1f}x {CONFIRM_GOAL:9.0f}x "
           f"{ten / CONFIRM_GOAL:12.2f}")
     for systems in (1, 2, 4):  # four: the control loop's parts at 500 Hz
         rtf = idle_floor(systems, args.duration, args.repeats)
+        figures[f"floor_idle_{systems}"] = rtf
         print(f"{f'  floor: {systems} idle Python system(s) at 500 Hz':44s} {rtf:9.1f}x "
               f"{'':>10s} {rtf / GOALS['kinematic']:12.2f}")
         if systems == 4:
             print(f"{'  kinematic 10 s / this floor':44s} {ten / rtf:9.2f}x")
     for systems in (0, 4):
         rtf = plant_floor(args.duration, args.repeats, systems)
+        figures[f"floor_plant_{systems}"] = rtf
         what = f"+ {systems} idle Python" if systems else "alone"
         print(f"{'  floor: plant + inverse dyn. ' + what:44s} {rtf:9.1f}x "
               f"{'':>10s} {rtf / GOALS['dynamic']:12.2f}")
     config = load_controller_config(ISO)
     for name, capsules in (("7 capsules", monitor_capsules(config)), ("tool point", tool_point())):
         us = monitor_and_override_us(capsules, config)
+        figures[f"monitor_us_{name.replace(' ', '_')}"] = us
         what = f"env. + monitor + override, 60 segm. x {name}"
         print(f"{what:44s} {us:8.1f}us {MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(figures, indent=1) + "\n")
 
 if __name__ == "__main__":
     main()

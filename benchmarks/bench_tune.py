@@ -25,6 +25,7 @@ verifications, ``tune.md``), so the configuration behind the figure can be expor
 
 import argparse
 import dataclasses
+import json
 import sys
 import tempfile
 import time
@@ -101,7 +102,11 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=None)
     parser.add_argument("--out", type=Path, default=None,
                         help="keep the tune run's folder here (default: a temporary one)")
+    parser.add_argument("--json", type=Path, default=None,
+                        help="also write the figures printed to this JSON file")
     args = parser.parse_args()
+    figures: dict = {"budget": args.budget, "candidates": args.candidates,
+                     "workers": args.workers}
     config, block = load_tunable(ROOT / "models" / "configs" / "iso.yaml",
                                  ROOT / "models" / "tune" / "ssm.yaml")
     space_path = ROOT / "models" / "spaces" / "default.yaml"
@@ -131,6 +136,11 @@ def main() -> int:
               + ("unfinished" if lost is None else f"{lost:.2f} s"))
     reduction = result["lost_time_reduction_vs_iso"]
     chosen = result["chosen"]
+    figures.update(table={row["configuration"]: {
+        "verdict": row["verdict"], "total_lost_time": row["total_lost_time"],
+        "tasks": row["tasks"]} for row in result["table"]}, reduction=reduction,
+        chosen=chosen and {"verdict": chosen["verdict"], "values": chosen["values"],
+                           "changed": chosen["changed"]})
     verdict = chosen["verdict"] if chosen else "none"
     met = reduction is not None and reduction >= GOAL and verdict == "proved"
     if chosen:
@@ -155,8 +165,12 @@ def main() -> int:
     # Smaller ones, for reference (below what the proofs here allow: see the note below).
     distances += [("for reference", d) for d in REFERENCE_DISTANCES]
     print("\n2. why: full-speed distance and each task's exposure to it")
+    figures["full_speed_distance"] = {name: d for name, d in distances if name != "for reference"}
+    figures["exposure"] = {}
     for task in tasks:
         seconds = exposure(task, [d for _, d in distances])
+        figures["exposure"][task.name] = [{"distance": d, "seconds": x}
+                                          for (_, d), x in zip(distances, seconds)]
         print(f"   {task.name}: " + "; ".join(
             f"{name} {d:.2f} m: a body within it for {s:.1f} s"
             for (name, d), s in zip(distances, seconds)))
@@ -169,12 +183,19 @@ def main() -> int:
         chosen_config = with_values(config, chosen["values"])
         for task in tasks:
             total, by_segment, true_median = held_on(task, chosen_config)
+            figures.setdefault("held", {})[task.name] = {
+                "separation_stop": total, "by_segment": by_segment,
+                "true_nearest_median": true_median}
             parts = ", ".join(f"{name} {t:.1f} s" for name, t in
                               sorted(by_segment.items(), key=lambda x: -x[1]))
             print(f"   chosen on {task.name}: held on a separation stop {total:.1f} s, by the "
                   f"segment nearest in the monitor's measure: {parts}; the true nearest "
                   f"segment then {true_median:.2f} m away (median)")
     print(f"\n3. tune wall time: {wall:.0f} s ({result['counts']})")
+    figures.update(wall=wall, counts=result["counts"])
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(figures, indent=1, default=float) + "\n")
     return 0
 
 

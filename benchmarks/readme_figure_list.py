@@ -1,0 +1,306 @@
+"""The README's figures that come from runs: where each stands, which run gives it, and
+its noise (read by ``benchmarks/readme_figures.py``; see its docstring).
+
+A pattern finds its figure in the README in exactly one place: the words around it, with
+its number as the group ``v`` (``NUM``; a space matches any white space). Noise:
+``"exact"`` for what the code decides (the README prints it rounded: it must equal the
+run's value at the digits printed), ``"text"`` for a word (a chosen mode), or a relative
+band for what the machine and its load move (wall and CPU times, rates): the README's
+figure within that fraction of the run's.
+"""
+
+import dataclasses
+import typing
+from pathlib import Path
+
+MODELS = Path(__file__).resolve().parent.parent / "models"
+NUM = r"(?P<v>[-+]?[0-9][0-9,]*(?:\.[0-9]+)?)"
+TIME_NOISE = 0.5  # wall and CPU seconds: another run on a machine with other work on it
+
+
+@dataclasses.dataclass(frozen=True)
+class Figure:
+    name: str
+    pattern: str
+    get: typing.Callable[[dict], float]
+    noise: typing.Any = "exact"
+    scale: float = 1.0  # the README's unit per the run's (100 for a percentage)
+
+    def value(self, data: dict) -> typing.Any:
+        x = self.get(data)
+        return str(x) if self.noise == "text" else float(x) * self.scale
+
+
+def _at(x, path: str, what: str):
+    """``x`` followed down ``path``, keys joined by "/" (list items by their index)."""
+    for key in path.split("/"):
+        x = x[int(key)] if isinstance(x, list) else x[key]
+    if x is None:
+        raise TypeError(f"{what}: {path} is null")
+    return x
+
+
+def _source(get, *sources: tuple[str, str]):
+    """``get``, marked with what it reads: ("runs", id), ("probes", name), ("bench", name)."""
+    get.sources = sources
+    return get
+
+
+def run(name: str, path: str) -> typing.Callable[[dict], typing.Any]:
+    """A recorded run's figure: ``path`` into its record (``wall``, ``cpu``, ``exit``,
+    ``files/summary/task_time``, ...)."""
+    return _source(lambda data: _at(data["runs"][name], path, name), ("runs", name))
+
+
+def bench(name: str, path: str) -> typing.Callable[[dict], typing.Any]:
+    """A benchmark's figure, from its ``--json`` file (``benchmarks/results/NAME.json``)."""
+    return _source(lambda data: _at(data[name], path, name), ("bench", name))
+
+
+def probe(name: str) -> typing.Callable[[dict], typing.Any]:
+    """A figure computed in process by ``PROBES[name]`` (a proof, a distance: seconds)."""
+    return _source(lambda data: _at(data["probes"], name, "probes"), ("probes", name))
+
+
+def _iso_with(**safety):
+    """iso.yaml with these safety fields."""
+    from safety_systems.config.scenario import load_controller_config
+
+    iso = load_controller_config(MODELS / "configs" / "iso.yaml")
+    return dataclasses.replace(iso, safety=dataclasses.replace(iso.safety, **safety))
+
+
+def _default_space():
+    from verification.spaces.space import load_space
+
+    return load_space(MODELS / "spaces" / "default.yaml")
+
+
+def _needed_allowance(robot_speed: str) -> float:
+    """Z_d + Z_r the separation proof asks of iso.yaml over the default space, with this
+    robot speed in S."""
+    from verification.proof.theorems import prove_separation
+
+    config = _iso_with(robot_uncertainty=0.0, robot_speed=robot_speed)
+    return prove_separation(config, _default_space()).needed_allowance
+
+
+def _screen_example() -> float:
+    """The full-speed distance of iso.yaml with T_r 0.1 s, C 0, Z_r 0.38 m, if both
+    proofs hold over the default space (NaN if not)."""
+    from verification.proof.theorems import prove, prove_separation
+    from verification.tune.tuner import full_speed_distance
+
+    config = _iso_with(reaction_time=0.1, intrusion_distance=0.0, robot_uncertainty=0.38)
+    space = _default_space()
+    proved = prove(config, space).proved and prove_separation(config, space).proved
+    return full_speed_distance(config) if proved else float("nan")
+
+
+def _iso_full_speed_distance() -> float:
+    from verification.tune.tuner import full_speed_distance
+
+    return full_speed_distance(_iso_with())
+
+
+# Figures computed in process, in seconds: ``run`` records them and the tests compute them
+# again on the code they test.
+PROBES = {
+    "allowance_directed": lambda: _needed_allowance("directed"),
+    "allowance_fastest_point": lambda: _needed_allowance("fastest_point"),
+    "screen_example_distance": _screen_example,
+    "iso_full_speed_distance": _iso_full_speed_distance,
+}
+
+
+def both(a, b) -> typing.Callable[[dict], float]:
+    """The figure two runs share (NaN, which agrees with nothing, where they differ)."""
+    def get(data: dict) -> float:
+        x, y = a(data), b(data)
+        return x if x == y else float("nan")
+    return _source(get, *a.sources, *b.sources)
+
+
+SUMMARY, REPORT = "files/summary", "files/report"
+CONTACT, SEPARATION = f"{REPORT}/properties/contact", f"{REPORT}/properties/separation"
+
+# Runs the README's prose quotes beyond its code blocks: (id, command), run after them.
+EXTRA_RUNS = (
+    ("inspection-100", ".venv/bin/safety-systems simulate models/scenarios/inspection.yaml "
+                       "--out out/inspection-100 --duration 100"),
+    ("inspection-deployed-100", ".venv/bin/safety-systems simulate "
+                                "models/scenarios/inspection.yaml --config "
+                                "out/deploy/params.yaml --out out/inspection-deployed-100 "
+                                "--duration 100"),
+    ("ewaste", ".venv/bin/safety-systems simulate models/scenarios/ewaste_sorting.yaml "
+               "--out out/ewaste"),
+    ("verify-recording-previous", ".venv/bin/safety-systems verify "
+                                  "models/configs/iso_previous.yaml --space "
+                                  "models/spaces/recording.yaml --out "
+                                  "out/verify-recording-previous --budget 64"),
+    ("verify-recording-iso", ".venv/bin/safety-systems verify models/configs/iso.yaml "
+                             "--space models/spaces/recording.yaml --out "
+                             "out/verify-recording-iso --budget 64"),
+    ("verify-tuned", ".venv/bin/safety-systems verify models/configs/tuned.yaml --space "
+                     "models/spaces/default.yaml --out out/verify-tuned"),
+)
+
+def chosen(name: str) -> typing.Callable[[dict], typing.Any]:
+    return bench("bench_tune", f"chosen/values/{name}")
+
+
+def scaled(get, factor: float) -> typing.Callable[[dict], float]:
+    return _source(lambda data: get(data) * factor, *get.sources)
+
+
+def exposure(task: str, which: str) -> typing.Callable[[dict], float]:
+    """bench_tune's exposure of ``task``: the seconds a body is within iso.yaml's
+    full-speed distance (``which`` "iso") or a reference distance ("1.5", "1.0")."""
+    def get(data: dict) -> float:
+        rows = data["bench_tune"]["exposure"][task]
+        if which == "iso":
+            return rows[0]["seconds"]
+        return next(r["seconds"] for r in rows if abs(r["distance"] - float(which)) < 1e-12)
+    return _source(get, ("bench", "bench_tune"))
+
+
+TUNE, TEXT = "bench_tune", r"(?P<v>[a-z_]+)"
+
+# The benchmarks ``run --only NAME`` runs (argv after the interpreter; ``--json`` added).
+BENCHES = {
+    "bench_tune": ["benchmarks/bench_tune.py", "--workers", "1"],
+}
+
+FIGURES = (
+    # Set-up: the first verify of a fresh clone compiles; the second is the run itself.
+    Figure("first_verify_wall", r"the first `verify` below took " + NUM + " s of wall time",
+           run("verify-iso", "wall"), TIME_NOISE),
+    Figure("first_verify_cpu", r"s of wall time \(" + NUM + " s of CPU\) on a fresh clone",
+           run("verify-iso", "cpu"), TIME_NOISE),
+    Figure("second_verify_wall", r"on a fresh clone and " + NUM + r" s \([0-9.]+ s of CPU\) "
+           "the second time", run("verify-iso#2", "wall"), TIME_NOISE),
+    Figure("second_verify_cpu", r"on a fresh clone and [0-9.]+ s \(" + NUM + r" s of CPU\) "
+           "the second time", run("verify-iso#2", "cpu"), TIME_NOISE),
+    # The separation invariant broken without contact, in a shipped scenario.
+    Figure("ewaste_margin", r"the e-waste sorting cell's run does \(`min_separation_margin` "
+           + NUM + " m", run("ewaste", f"{SUMMARY}/min_separation_margin")),
+    Figure("ewaste_clearance", r"the e-waste sorting cell's run does .{0,200}?no contact: "
+           "its smallest clearance while the robot moves is " + NUM + " m",
+           run("ewaste", f"{SUMMARY}/min_separation_while_moving")),
+    # verify's examples.
+    Figure("verify_iso_exit", r"The first proves \(exit " + NUM, run("verify-iso#2", "exit")),
+    Figure("verify_iso_wall", r"The first proves \(exit 0, " + NUM + " s here once compiled",
+           run("verify-iso#2", "wall"), TIME_NOISE),
+    Figure("verify_previous_exit", r"the other two falsify the previous behaviour \(exit "
+           + NUM + " each", both(run("verify-elbow", "exit"), run("verify-occluded", "exit"))),
+    Figure("verify_elbow_wall", r"with contact while the robot moves \(" + NUM + " s here "
+           "once compiled", run("verify-elbow", "wall"), TIME_NOISE),
+    Figure("verify_occluded_wall", r"compiles its own variant of the per-tick maths first, "
+           + NUM + " s the first time here", run("verify-occluded", "wall"), TIME_NOISE),
+    # Export, check and load: the certified parameters on the inspection task.
+    Figure("deployed_held", r"the certified parameters hold the robot still for " + NUM
+           + " s", run("inspection-deployed-100", f"{SUMMARY}/stopped_time")),
+    Figure("deployed_task_time", r"and its 7 cycles need " + NUM + r" s \(`--duration 100`",
+           run("inspection-deployed-100", f"{SUMMARY}/task_time")),
+    Figure("own_task_time", r"does not finish them in 55 s either \(" + NUM + " s, held",
+           run("inspection-100", f"{SUMMARY}/task_time")),
+    Figure("own_held", r"does not finish them in 55 s either \([0-9.]+ s, held " + NUM
+           + " s", run("inspection-100", f"{SUMMARY}/stopped_time")),
+    # The scenario space around a recording.
+    Figure("recording_wall", r"With a budget of 64 \(" + NUM + " s of wall time here",
+           run("verify-recording", "wall"), TIME_NOISE),
+    Figure("recording_cpu", r"s of wall time here, " + NUM + " s of CPU",
+           run("verify-recording", "cpu"), TIME_NOISE),
+    Figure("recording_separation_at", r"the separation\s+invariant at simulation " + NUM,
+           run("verify-recording", f"{SEPARATION}/simulations_to_first_counterexample")),
+    Figure("recording_contact_at", r"contact at simulation " + NUM + r" \(",
+           run("verify-recording", f"{CONTACT}/simulations_to_first_counterexample")),
+    Figure("recording_contact", r"contact at simulation [0-9]+ \([^)]*?" + NUM + r" m\)",
+           run("verify-recording", f"{CONTACT}/min_robustness")),
+    Figure("recording_previous", r"`iso_previous.yaml` fails the separation invariant \("
+           + NUM + " m", run("verify-recording-previous", f"{SEPARATION}/min_robustness")),
+    Figure("recording_previous_at", r"`iso_previous.yaml` fails the separation invariant "
+           r"\([-0-9.]+ m,\s+at simulation " + NUM,
+           run("verify-recording-previous", f"{SEPARATION}/simulations_to_first_counterexample")),
+    Figure("recording_iso_contact", r"`iso.yaml` passes both \(smallest robustness " + NUM
+           + " m", run("verify-recording-iso", f"{CONTACT}/min_robustness")),
+    Figure("recording_iso_separation", r"`iso.yaml` passes both \(smallest robustness "
+           r"[0-9.]+ m and " + NUM + " m", run("verify-recording-iso",
+                                                f"{SEPARATION}.min_robustness")),
+    Figure("recording_iso_vacuous", r"m and [0-9.]+ m; " + NUM + "% of the scenarios vacuous",
+           run("verify-recording-iso", f"{CONTACT}/vacuous/evaluated/share"), scale=100.0),
+    # tune: bench_tune's run and the configuration it chose (shipped as tuned.yaml).
+    Figure("tune_wall", r"`--workers 1`, " + NUM + " s here", bench(TUNE, "wall"), TIME_NOISE),
+    Figure("tune_proofs", r"s here, " + NUM + " proofs", bench(TUNE, "counts/proofs")),
+    Figure("tune_simulations", r"proofs, " + NUM + " simulations and",
+           bench(TUNE, "counts/simulations")),
+    Figure("tune_task_runs", r"simulations and " + NUM + " task runs counted",
+           bench(TUNE, "counts/task_runs")),
+    Figure("chosen_human_speed", r"the chosen configuration \(human speed `" + TEXT + "`",
+           chosen("safety.human_speed"), "text"),
+    Figure("chosen_stopping", r"`stopping: " + TEXT + "`, `robot_speed",
+           chosen("safety.stopping"), "text"),
+    Figure("chosen_robot_speed", r"`robot_speed: " + TEXT + "`, frame timeout",
+           chosen("safety.robot_speed"), "text"),
+    Figure("chosen_frame_timeout", r"fastest_point`, frame timeout " + NUM + " s, T_r",
+           chosen("tracker.frame_timeout")),
+    Figure("chosen_reaction_time", r"frame timeout [0-9.]+ s, T_r " + NUM + " s, C", chosen("safety.reaction_time")),
+    Figure("chosen_intrusion", r"s, T_r [0-9.]+ s, C " + NUM + ", Z_r",
+           chosen("safety.intrusion_distance")),
+    Figure("chosen_z_r", r", C [0-9.]+, Z_r " + NUM + " m, ΔS", chosen("safety.robot_uncertainty")),
+    Figure("chosen_delta_s", r"m, ΔS " + NUM + ", d_min", chosen("safety.delta_s")),
+    Figure("chosen_d_min", r", d_min " + NUM + " m, velocity process noise",
+           chosen("safety.d_min")),
+    Figure("chosen_noise", r"velocity process noise " + NUM + r" \(m/s\)\^2\),",
+           chosen("tracker.velocity_process_noise")),
+    Figure("chosen_lost", r"and\s+loses " + NUM + " s over the two tasks",
+           bench(TUNE, "table/chosen/total_lost_time")),
+    Figure("iso_lost", r"s over the two tasks against `iso.yaml`'s " + NUM + " s",
+           bench(TUNE, "table/iso.yaml/total_lost_time")),
+    Figure("tune_reduction", r"\*\*" + NUM + "% less, goal", bench(TUNE, "reduction"),
+           scale=100.0),
+    Figure("iso_lost_again", r"`iso.yaml` loses more too \(" + NUM + " s",
+           bench(TUNE, "table/iso.yaml/total_lost_time")),
+    Figure("held_inspection", r"holds the robot on a separation stop for " + NUM
+           + " s of the inspection", bench(TUNE, "held/inspection/separation_stop")),
+    Figure("held_co_kitting", r"s of the inspection and " + NUM + " s of the co-kitting run",
+           bench(TUNE, "held/co_kitting/separation_stop")),
+    Figure("held_true_inspection", r"the true nearest segment is then " + NUM + " m and",
+           bench(TUNE, "held/inspection/true_nearest_median")),
+    Figure("held_true_co_kitting", r"the true nearest segment is then [0-9.]+ m and " + NUM
+           + r" m away \(median\)", bench(TUNE, "held/co_kitting/true_nearest_median")),
+    Figure("iso_full_speed_distance", r"\(`iso.yaml`: " + NUM + " m; the chosen",
+           bench(TUNE, "full_speed_distance/iso.yaml")),
+    Figure("chosen_full_speed_distance", r"m; the chosen: " + NUM + r" m\)",
+           bench(TUNE, "full_speed_distance/chosen")),
+    Figure("exposure_iso_distance", r"some segment of an operator is within " + NUM
+           + " m of it", bench(TUNE, "full_speed_distance/iso.yaml")),
+    Figure("exposure_inspection", r"m of it for " + NUM + r" s \(inspection\)",
+           exposure("inspection", "iso")),
+    Figure("exposure_co_kitting", r"s \(inspection\) and " + NUM + r" s\s+\(co-kitting\)",
+           exposure("co_kitting", "iso")),
+    Figure("exposure_1_5_inspection", r"within 1.5 m for " + NUM + " s and",
+           exposure("inspection", "1.5")),
+    Figure("exposure_1_5_co_kitting", r"within 1.5 m for [0-9.]+ s and " + NUM + " s",
+           exposure("co_kitting", "1.5")),
+    Figure("exposure_1_0_inspection", r"still within 1.0 m for " + NUM + " s and",
+           exposure("inspection", "1.0")),
+    Figure("exposure_1_0_co_kitting", r"still within 1.0 m for [0-9.]+ s and " + NUM + " s",
+           exposure("co_kitting", "1.0")),
+    # Proofs and distances (PROBES).
+    Figure("allowance_fastest_point", r"separation invariant's proof then asks for about "
+           + NUM + r" m of Z_d \+ Z_r", probe("allowance_fastest_point")),
+    Figure("allowance_directed", r"m of Z_d \+ Z_r on the default space instead of " + NUM
+           + " m", probe("allowance_directed")),
+    Figure("screen_example_distance", r"both prove with a full-speed\s+distance of " + NUM
+           + " m", probe("screen_example_distance")),
+    Figure("export_s", r"while the technician works near it \(S is " + NUM + " m",
+           probe("iso_full_speed_distance")),
+    # tune: the shipped tuned.yaml re-verified.
+    Figure("tuned_verify_minutes", r"--out DIR`, " + NUM + " min here",
+           scaled(run("verify-tuned", "wall"), 1.0 / 60.0), TIME_NOISE),
+    Figure("tuned_contact_margin", r"min here:\s+contact margin " + NUM + " m",
+           run("verify-tuned", f"{CONTACT}/proof/margin_at_worst_corner")),
+    Figure("tuned_separation_margin", r"min here:\s+contact margin [0-9.]+ m, separation "
+           + NUM + " m", run("verify-tuned", f"{SEPARATION}/proof/margin_at_worst_corner")),
+)
