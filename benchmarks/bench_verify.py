@@ -89,9 +89,15 @@ CONTACT = load_controller_config(ROOT / "benchmarks" / "contact_unsafe.yaml")
 DEFAULT_BUDGET = 200  # verify's
 
 
+# The figures of this run, as --json writes them: every printed row, and the search's,
+# costs', fraction's, proof's and confirmation's figures by name.
+FIGURES: dict = {"rows": []}
+
+
 def _row(name: str, figure: str, goal: str, meets: bool | None) -> None:
     verdict = "" if meets is None else ("yes" if meets else "NO")
     print(f"{name:72s} {figure:>14s} {goal:>12s} {verdict:>6s}")
+    FIGURES["rows"].append({"measure": name, "figure": figure, "goal": goal, "met": meets})
 
 
 def _ten_second_scenarios(n: int, seed: int, space=SPACE, config=ISO, **fixed) -> list:
@@ -331,8 +337,23 @@ def first_counterexamples(seeds: int, budgets: list[int], which: list[str],
                              f"none ({r['made']:g} made, {r['cpu']:.3f} s CPU)"), flush=True)
                 rows[search] = results
             _table(f"{label}, budget {budget}", rows, budget, GOALS[key])
+            FIGURES.setdefault("search", {}).setdefault(key, {})[str(budget)] = {
+                search: _summary(results, budget) for search, results in rows.items()}
             if "ours" in rows and any(r["found"] for r in rows["ours"]):
-                confirm_time(config, next(r for r in rows["ours"] if r["found"]))
+                confirm = confirm_time(config, next(r for r in rows["ours"] if r["found"]))
+                FIGURES["search"][key][str(budget)]["confirm"] = confirm
+
+
+def _summary(results: list[dict], budget: int) -> dict:
+    """A search's figures over the seeds, as the table prints them (medians; a search
+    that found nothing counts as budget + 1 evaluations and inf CPU seconds)."""
+    out = {"seeds": len(results), "falsified": sum(r["found"] for r in results),
+           "median_evaluations": _median(results, "evaluations", budget + 1),
+           "median_cpu": _median(results, "cpu", math.inf)}
+    if results and "simulations" in next((r for r in results if r["found"]), {}):
+        out.update(median_simulations=_median(results, "simulations", budget + 1),
+                   median_rankings=_median(results, "rankings", 0))
+    return out
 
 
 def _median(results, key, cap):
@@ -409,6 +430,7 @@ def confirm_time(config, found: dict) -> None:
     _row(f"  Drake confirmation of the first one ({name}, {scenario.duration:.1f} s "
          "scenario), wall s", f"{confirm:.2f}", "<= 1", confirm <= 1.0)
     _row("    the whole scenario in Drake, wall s", f"{whole:.2f}", "", None)
+    return {"property": name, "wall": confirm, "whole_wall": whole}
 
 
 def fraction(n: int) -> None:
@@ -426,6 +448,8 @@ def fraction(n: int) -> None:
             upper = beta.ppf(0.975, k + 1, n - k)
             _row(f"{label}: {name} violated in {k} of {n} Sobol points; 95% upper bound",
                  f"{100.0 * k / n:.3f}%", "", None)
+            FIGURES.setdefault("fraction", {}).setdefault(label, {})[name] = {
+                "violating": k, "points": n, "upper_95": float(upper)}
             _row("  (Clopper-Pearson upper bound)", f"{100.0 * upper:.3f}%", "", None)
 
 
@@ -454,6 +478,9 @@ def costs(n: int = 512) -> None:
                                                          to_point(SPACE, points[0]))))
         _row(f"{label}: a simulation, its scenario built included, CPU ms", f"{sim * 1e3:.2f}",
              "", None)
+        FIGURES.setdefault("costs", {})[label] = {
+            "simulation_cpu_ms": sim * 1e3, "margins": margin / sim, "dangers": danger / sim,
+            "drake": drake / sim}
         for kind, each in (("margins", margin), ("dangers", danger), ("drake", drake)):
             _row(f"  {kind}: simulation-equivalents each (the budget's price: "
                  f"{COST[kind]:g})", f"{each / sim:.4g}", "", None)
@@ -471,6 +498,8 @@ def proof_time() -> None:
         total = time.perf_counter() - start
     _row(f"iso config: verify with 64 sims on 2 workers ({outcome.verdict})", f"{total:.1f} s",
          "", None)
+    FIGURES["proof"] = {"proof_alone_wall": alone, "proved": proof.proved,
+                        "verify_64_wall": total, "verdict": outcome.verdict}
 
 
 def main() -> None:
@@ -487,7 +516,10 @@ def main() -> None:
     parser.add_argument("--searches", default="ours,UniformRandom,DualAnnealing",
                         help="for search: ours and psy-taliro's UniformRandom,DualAnnealing")
     parser.add_argument("--fraction-points", type=int, default=16384)
+    parser.add_argument("--json", type=Path, default=None,
+                        help="also write the figures printed to this JSON file")
     args = parser.parse_args()
+    FIGURES.update(argv=sys.argv[1:], load_1min=os.getloadavg()[0])
     parts = set(args.parts.split(","))
     searches = args.searches.split(",")
     if any(x != "ours" for x in searches):
@@ -509,6 +541,9 @@ def main() -> None:
         fraction(args.fraction_points)
     if "costs" in parts:
         costs()
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(FIGURES, indent=1, default=float) + "\n")
 
 
 if __name__ == "__main__":

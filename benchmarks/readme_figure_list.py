@@ -175,7 +175,7 @@ FIGURES = (
     # Set-up: the first verify of a fresh clone compiles; the second is the run itself.
     Figure("first_verify_wall", r"the first `verify` below took " + NUM + " s of wall time",
            run("verify-iso", "wall"), TIME_NOISE),
-    Figure("first_verify_cpu", r"s of wall time \(" + NUM + " s of CPU\) on a fresh clone",
+    Figure("first_verify_cpu", r"s of wall time \(" + NUM + r" s of CPU\) on a fresh clone",
            run("verify-iso", "cpu"), TIME_NOISE),
     Figure("second_verify_wall", r"on a fresh clone and " + NUM + r" s \([0-9.]+ s of CPU\) "
            "the second time", run("verify-iso#2", "wall"), TIME_NOISE),
