@@ -122,3 +122,9 @@ def model_points(model: RobotModel, q: np.ndarray, v: np.ndarray | None = None,
     model_point_rows(model_arrays(model, chain=chain), float(tool_length), q_rows, v_rows,
                      *model_work(model), p, pv)
     return p.reshape(lead + (P, 3)), None if v is None else pv.reshape(lead + (P, 3))
+
+
+def tool0_position(model: RobotModel):
+    """A function q (..., n) -> tool0's position (..., 3) of ``model`` (for
+    ``braking.tool_stopping_distance``)."""
+    return lambda q: model_points(model, q)[0][..., model.tool0, :]
