@@ -25,7 +25,7 @@ from numba.extending import overload
 
 from safety_systems.cell.chain_kinematics import _point, body_poses_one
 from safety_systems.cell.robot_model import KIND_UR, RobotModel
-from safety_systems.cell.ur_kinematics import points_from_trig, trig_reusing
+from safety_systems.cell.ur_kinematics import points_from_trig, tool0_from_trig, trig_reusing
 
 
 def model_arrays(model: RobotModel, *, chain: bool = False) -> tuple:
@@ -91,6 +91,36 @@ def _model_points_one(arrays, tool_length, q, v, memo, poses, twists, p, pv):
         pv[t + 1, 0] = pv[t, 0] + tool_length * (w1 * z2 - w2 * z1)
         pv[t + 1, 1] = pv[t, 1] + tool_length * (w2 * z0 - w0 * z2)
         pv[t + 1, 2] = pv[t, 2] + tool_length * (w0 * z1 - w1 * z0)
+    return chain
+
+
+def model_tool0_one(arrays, q, v, memo, poses, twists):
+    """tool0's position and velocity (6 floats: p, then J(q) v) alone, of a model as
+    :func:`model_points_one` takes it: a UR's ``ur_kinematics.tool0_from_trig`` (P6 of
+    :func:`model_points_one`, bit for bit; ``ur5e.tool0_reusing_trig`` for the UR5e), a
+    chain's tool frame origin. Compiled code only (inlined); from Python, the same."""
+    return _model_tool0_from_python(arrays, q, v, memo, poses, twists)
+
+
+@numba.njit(cache=True)
+def _model_tool0_from_python(arrays, q, v, memo, poses, twists):
+    return model_tool0_one(arrays, q, v, memo, poses, twists)
+
+
+@overload(model_tool0_one, inline="always")  # no call (and array refcounts) per element
+def _model_tool0_one(arrays, q, v, memo, poses, twists):
+    if isinstance(arrays, types.BaseTuple) and len(arrays.types) == 1:  # a UR arm
+        def ur(arrays, q, v, memo, poses, twists):
+            return tool0_from_trig(trig_reusing(q, memo), v, arrays[0])
+        return ur
+
+    def chain(arrays, q, v, memo, poses, twists):
+        X_parent, axes, kinds, X_tool, bodies, local = arrays
+        body_poses_one(X_parent, axes, kinds, q, v, poses, twists)
+        n = kinds.size
+        out, out_v = np.empty(3), np.empty(3)
+        _point(poses, twists, n, X_tool[:3, 3], out, out_v)
+        return out[0], out[1], out[2], out_v[0], out_v[1], out_v[2]
     return chain
 
 

@@ -24,7 +24,9 @@ position in a body's frame; body 0 is the base): a UR's P_k is body k + 1's orig
 by the link lengths: for joint j, the part of the first offset after it that is not along
 its axis, then the lengths of the later offsets and of the tool frame's (a UR's: the sum
 of |a| and d2 ... d6, as the proofs have it). ``point_reach``: the same bound for every
-point but the tip (whose bound is tool0's plus the tool length).
+point but the tip (whose bound is tool0's plus the tool length). ``base_reach``: how far
+from the base origin any point but the tip gets (a UR's: ``reach_bound`` + d1, as the
+proofs have it; a chain's: the lengths of the offsets from the base to the point).
 """
 
 import dataclasses
@@ -81,6 +83,7 @@ class RobotModel:
     link_capsules: tuple[tuple[int, int, float, float, float], ...]
     reach_bound: float
     point_reach: np.ndarray
+    base_reach: float
     placeholder: str | None
 
     def __post_init__(self) -> None:
@@ -132,6 +135,15 @@ def reach_bounds(X_parent: np.ndarray, axes: np.ndarray, X_tool: np.ndarray,
     return out
 
 
+def base_reach(X_parent: np.ndarray, bodies: np.ndarray, local: np.ndarray) -> float:
+    """A bound on the points' distance from the base origin (``local`` positions in bodies
+    ``bodies``): the lengths of the joint offsets from the base to the body, then the
+    point's, the largest over the points, metres."""
+    lengths = [float(np.linalg.norm(X[:3, 3])) for X in X_parent]
+    return max(sum(lengths[:int(body)]) + float(np.linalg.norm(x))
+               for body, x in zip(bodies, local))
+
+
 def _ur_model(name: str) -> RobotModel:
     robot = ur_family.ur_robot(name)
     description = load_robot_description(robot.urdf, tool_frame="tool0")
@@ -140,6 +152,7 @@ def _ur_model(name: str) -> RobotModel:
     tool = np.array([description.X_tool[:3, 3]])
     reach = reach_bounds(description.X_parent, description.axes, description.X_tool,
                          np.r_[bodies, 6], np.r_[local, tool])
+    reach_bound = sum(abs(a) for a in robot.dh_a) + sum(robot.dh_d[1:])
     return RobotModel(
         name=name, urdf=robot.urdf, sha256=description.sha256, kind=KIND_UR,
         base_link=description.base_link, tool_frame="tool0", joint_names=ur_family.JOINT_NAMES,
@@ -148,8 +161,9 @@ def _ur_model(name: str) -> RobotModel:
         dh=ur_dh(robot.dh_d, robot.dh_a), X_parent=description.X_parent,
         axes=description.axes, kinds=description.kinds, X_tool=description.X_tool,
         point_bodies=bodies, point_local=local, link_names=UR_CAPSULE_NAMES,
-        link_capsules=rows, reach_bound=sum(abs(a) for a in robot.dh_a) + sum(robot.dh_d[1:]),
-        point_reach=reach, placeholder=name if name in PLACEHOLDER_STOPS else None)
+        link_capsules=rows, reach_bound=reach_bound, point_reach=reach,
+        base_reach=reach_bound + robot.dh_d[0],
+        placeholder=name if name in PLACEHOLDER_STOPS else None)
 
 
 def _chain_model(urdf: Path, tool_frame: str, name: str) -> RobotModel:
@@ -174,7 +188,10 @@ def _chain_model(urdf: Path, tool_frame: str, name: str) -> RobotModel:
         link_names=capsules.names,
         link_capsules=tuple((2 * j, 2 * j + 1, 0.0, 1.0, float(r))
                             for j, r in enumerate(capsules.radius)),
-        reach_bound=float(reach[-1]), point_reach=reach, placeholder=placeholder)
+        reach_bound=float(reach[-1]), point_reach=reach,
+        base_reach=base_reach(d.X_parent, np.r_[bodies, d.num_joints],
+                              np.r_[local, d.X_tool[None, :3, 3]]),
+        placeholder=placeholder)
 
 
 @functools.lru_cache(maxsize=16)

@@ -14,6 +14,7 @@ from safety_systems.cell.model_points import (
     model_arrays,
     model_points,
     model_points_one,
+    model_tool0_one,
     model_work,
 )
 from safety_systems.cell.robot_geometry import robot_points, robot_points_one_memo
@@ -130,3 +131,32 @@ def test_ur_closed_form_equals_its_chain(name):
 def test_wrong_joint_count_refused():
     with pytest.raises(ValueError, match=r"\(\.\.\., 7\) joint positions of the panda"):
         model_points(robot_model("panda"), np.zeros(6))
+
+
+@pytest.mark.parametrize("name", ["ur5e", "ur20", "panda"])
+def test_tool0_alone_is_the_points_tool0(name):
+    """model_tool0_one: tool0 without the other points, bit for bit a UR's P6 (the UR5e's
+    ur5e.tool0_reusing_trig), a chain's to round-off."""
+    import numba
+
+    model = robot_model(name)
+    arrays, (memo, poses, twists) = model_arrays(model), model_work(model)
+
+    @numba.njit
+    def tool0_rows(arrays, q, v, memo, poses, twists, out):
+        for row in range(q.shape[0]):
+            out[row] = model_tool0_one(arrays, q[row], v[row], memo, poses, twists)
+
+    rng = np.random.default_rng(8)
+    q, v = rng.uniform(-3.0, 3.0, (300, model.n)), rng.uniform(-2.0, 2.0, (300, model.n))
+    out = np.empty((300, 6))
+    tool0_rows(arrays, q, v, memo, poses, twists, out)
+    p, pv = model_points(model, q, v)
+    want = np.concatenate([p[:, model.tool0], pv[:, model.tool0]], axis=1)
+    if name == "panda":
+        np.testing.assert_allclose(out, want, rtol=0, atol=1e-15)
+    else:
+        assert np.array_equal(out, want)
+    if name == "ur5e":
+        t, tv = ur5e.tool0_position_and_velocity(q, v)
+        assert np.array_equal(out, np.concatenate([t, tv], axis=1))

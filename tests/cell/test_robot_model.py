@@ -126,6 +126,12 @@ def test_reach_bounds_hold(name):
     assert worst[model.tool0] <= model.reach_bound + 1e-12
     assert worst[model.tip] <= model.reach_bound + 0.2 + 1e-12
     assert worst[model.tool0] > 0.6 * model.reach_bound  # not a loose bound
+    far = np.linalg.norm(model_points(model, rng.uniform(
+        np.maximum(model.position_lower, -np.pi), np.minimum(model.position_upper, np.pi),
+        (2000, n)))[0][:, :-1], axis=-1)
+    assert far.max() <= model.base_reach + 1e-12 and far.max() > 0.6 * model.base_reach
+    if model.kind == KIND_UR:  # as the proofs bound it (REACH_BOUND + d1)
+        assert model.base_reach == model.reach_bound + model.dh[0]
 
 
 def test_unknown_name_missing_file_and_bad_tool_frame_refused(tmp_path):

@@ -80,8 +80,8 @@ def _edited(tmp_path: Path, source: Path, *edits: tuple[str, str]) -> Path:
 PANDA_PATH = "    - [-40.0, -10.0, 0.0, -120.0, 0.0, 110.0, 45.0]\n    - [-40.0, 15.0,"
 BAD = {
     "wrong joint count": (ROBOTS / "inspection_panda.yaml",
-                          [(PANDA_PATH, "    - [-40.0, -10.0, 0.0, -120.0, 0.0, 110.0]\n"
-                                        "    - [-40.0, 15.0,")],
+                          [(PANDA_PATH, ("    - [-40.0, -10.0, 0.0, -120.0, 0.0, 110.0]\n"
+                                        "    - [-40.0, 15.0,"))],
                           "robot.path.waypoints_deg[0]", "7 joint angles in deg"),
     "unknown model": (ROBOTS / "inspection_ur10e.yaml", [("model: ur10e", "model: ur11e")],
                       "robot.model: got 'ur11e'", "one of ur3e, ur5e, ur10e"),
@@ -89,13 +89,13 @@ BAD = {
                      [("urdf: ../../panda/panda.urdf", "urdf: no/such.urdf")],
                      "robot.urdf: got 'no/such.urdf'", "an existing URDF file"),
     "model and URDF": (ROBOTS / "inspection_panda.yaml",
-                       [("  urdf: ../../panda/panda.urdf", "  model: ur10e\n"
-                                                           "  urdf: ../../panda/panda.urdf")],
+                       [("  urdf: ../../panda/panda.urdf", ("  model: ur10e\n"
+                                                           "  urdf: ../../panda/panda.urdf"))],
                        "robot.urdf", "one of the two"),
     "seed-004 controller on the Panda": (ROBOTS / "inspection_panda.yaml",
                                          [("controller:\n", "controller:\n  type: erga\n")],
-                                         "controller.type: got 'erga'", "ssm_override on the "
-                                         "panda"),
+                                         "controller.type: got 'erga'", ("ssm_override on the "
+                                         "panda")),
     "zones on the UR10e": (ROBOTS / "inspection_ur10e.yaml",
                            [("controller:\n", "controller:\n  type: zones\n")],
                            "controller.type: got 'zones'", "ssm_override on the ur10e"),
@@ -104,21 +104,21 @@ BAD = {
                              ""),
     "outside the joint limits": (ROBOTS / "inspection_panda.yaml",
                                  [("[-40.0, 15.0, 0.0, -105.0", "[-40.0, 15.0, 0.0, 5.0")],
-                                 "robot.path.waypoints_deg[1]", "within the panda's joint "
-                                 "limits"),
+                                 "robot.path.waypoints_deg[1]", ("within the panda's joint "
+                                 "limits")),
     "too fast for the UR10e": (ROBOTS / "inspection_ur10e.yaml",
                                [("[0.8, 0.8, 1.5, 0.8, 0.8, 1.5]",
                                  "[0.8, 0.8, 0.8, 0.8, 0.8, 1.5]")],
-                               "robot.path.segment_durations", "its joint's speed limit "
-                               "(120, 120, 180"),
+                               "robot.path.segment_durations", ("its joint's speed limit "
+                               "(120, 120, 180")),
     "link radii of the UR5e on the Panda": (ROBOTS / "inspection_panda.yaml",
                                             [("    robot_geometry: capsules\n",
-                                              "    robot_geometry: capsules\n    link_radii: "
-                                              "[0.1, 0.1, 0.1, 0.1, 0.1, 0.1]\n")],
+                                              ("    robot_geometry: capsules\n    link_radii: "
+                                              "[0.1, 0.1, 0.1, 0.1, 0.1, 0.1]\n"))],
                                             "controller.safety.link_radii", "8 radii in m"),
     "a line on the UR10e": (ROBOTS / "inspection_ur10e.yaml",
-                            [("  path:\n    # Above", "  path:\n    line: {start: [0.5, 0, 0.3],"
-                              " goal: [0.6, 0, 0.3]}\n    # Above")],
+                            [("  path:\n    # Above", ("  path:\n    line: {start: [0.5, 0, 0.3],"
+                              " goal: [0.6, 0, 0.3]}\n    # Above"))],
                             "robot.path.line: got 'ur10e'", "on the ur5e only"),
 }
 
@@ -154,9 +154,9 @@ def test_a_urdf_robot_without_stopping_data_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "controller.braking.speed_fraction" in err[0], err
     assert "measured on the arm" in err[0]
-    measured = _edited(tmp_path, path, ("controller:\n", "controller:\n  braking:\n"
+    measured = _edited(tmp_path, path, ("controller:\n", ("controller:\n  braking:\n"
                                         "    speed_fraction: [1.0]\n    stopping_time: [0.5]\n"
-                                        "    stopping_distance: [0.3]\n"))
+                                        "    stopping_distance: [0.3]\n")))
     scenario = load_scenario(measured)
     assert robot_model_of(scenario.robot).placeholder is None
     assert braking_table(scenario.controller, robot_model_of(scenario.robot)).stopping_time[0] \
