@@ -1009,6 +1009,16 @@ def scenario_from_text(text: str) -> Scenario:
     return scenario
 
 
+_DEFAULT_ROBOT_CHOICE = "robot:\n  model: ''\n  urdf: ''\n  tool_frame: ''\n"
+
+
 def dump_scenario(scenario: Scenario) -> str:
-    """YAML text that :func:`scenario_from_text` loads back to an equal scenario."""
-    return yaml_dump_typed(scenario)
+    """YAML text that :func:`scenario_from_text` loads back to an equal scenario. The
+    robot's choice (``model``, ``urdf``, ``tool_frame``) is left out when it is the
+    default's (all empty: the UR5e), so a UR5e scenario is written as before robots could
+    be chosen."""
+    text = yaml_dump_typed(scenario)
+    r = scenario.robot
+    if not (r.model or r.urdf or r.tool_frame) and text.count(_DEFAULT_ROBOT_CHOICE) == 1:
+        text = text.replace(_DEFAULT_ROBOT_CHOICE, "robot:\n")
+    return text
