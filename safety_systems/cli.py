@@ -98,6 +98,7 @@ def _simulate(args: argparse.Namespace) -> int:
         MAX_DURATION,
         load_scenario,
         robot_model_of,
+        validate_robot,
         validate_robot_controller,
     )
     from safety_systems.config.configuration import braking_warning, placeholder_braking
@@ -111,7 +112,8 @@ def _simulate(args: argparse.Namespace) -> int:
         scenario = with_controller(scenario, config)
         if robot is not None:
             scenario = dataclasses.replace(scenario, robot=robot_config(robot, scenario.robot))
-        try:  # the configuration on the scenario's robot
+        try:  # the configuration (and the robot settings it certifies) on the robot
+            validate_robot(scenario.robot)
             validate_robot_controller(scenario.robot, scenario.controller, "config")
         except InputError as e:
             raise e.in_file(args.config) from None

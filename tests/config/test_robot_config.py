@@ -183,3 +183,15 @@ def test_robot_model_of_names_the_prefix():
     with pytest.raises(InputError, match=r"^space\.robot\.model: got 'nope'"):
         robot_model_of(RobotConfig(model="nope"), "space.robot")
     assert robot_model_of(RobotConfig()).kind == KIND_UR
+
+
+def test_a_configuration_given_with_config_is_checked_on_the_robot(tmp_path, capsys):
+    panda = str(ROBOTS / "inspection_panda.yaml")
+    code = main(["simulate", panda, "--config", str(MODELS / "configs" / "erga.yaml"),
+                 "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "erga.yaml: config.type: got 'erga'" in err[0] and "on the panda" in err[0]
+    assert main(["simulate", panda, "--config", str(MODELS / "configs" / "iso.yaml"),
+                 "--duration", "1.0", "--out", str(tmp_path / "iso"), "--quiet"]) == 0
+    assert "placeholder for the panda" in capsys.readouterr().err
