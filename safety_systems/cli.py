@@ -76,12 +76,32 @@ def _whole(name: str, value: int | None, low: int, high: int) -> None:
         raise InputError(name, value, f"an integer, {low} <= {name.lstrip('-')} <= {high:,}")
 
 
+def _ur5e_only(robot, command: str, file: str) -> None:
+    """Refuses, in one line, a robot other than the UR5e for ``command`` (the verifier,
+    the tuner and the comparison of seed 001/004's measures model the UR5e only)."""
+    from safety_systems.cell.robot_model import is_ur5e
+    from safety_systems.config.scenario import robot_model_of
+
+    try:
+        model = robot_model_of(robot)
+    except InputError as e:
+        raise e.in_file(file) from None
+    if not is_ur5e(model):
+        raise InputError("robot.model", model.name, f"ur5e for {command} (another robot: "
+                         "simulate only, for now)", file=file)
+
+
 def _simulate(args: argparse.Namespace) -> int:
-    from safety_systems.cell.braking import PLACEHOLDER_WARNING
     from safety_systems.files.output_files import prepare_out
     from safety_systems.outputs.provenance import scenario_seeds
-    from safety_systems.config.scenario import MAX_DURATION, load_scenario
-    from safety_systems.config.configuration import placeholder_braking
+    from safety_systems.config.scenario import (
+        MAX_DURATION,
+        load_scenario,
+        robot_model_of,
+        validate_robot,
+        validate_robot_controller,
+    )
+    from safety_systems.config.configuration import braking_warning, placeholder_braking
 
     scenario = load_scenario(args.scenario)
     if args.config is not None:
@@ -92,6 +112,11 @@ def _simulate(args: argparse.Namespace) -> int:
         scenario = with_controller(scenario, config)
         if robot is not None:
             scenario = dataclasses.replace(scenario, robot=robot_config(robot, scenario.robot))
+        try:  # the configuration (and the robot settings it certifies) on the robot
+            validate_robot(scenario.robot)
+            validate_robot_controller(scenario.robot, scenario.controller, "config")
+        except InputError as e:
+            raise e.in_file(args.config) from None
     if args.mode is not None:
         scenario = dataclasses.replace(
             scenario, robot=dataclasses.replace(scenario.robot, mode=args.mode))
@@ -102,7 +127,7 @@ def _simulate(args: argparse.Namespace) -> int:
         scenario = dataclasses.replace(scenario, duration=args.duration)
     out = prepare_out(args.out)
     if placeholder_braking(scenario.controller):
-        _warn(PLACEHOLDER_WARNING)
+        _warn(braking_warning(robot_model_of(scenario.robot)))
     from safety_systems.outputs.run_files import write_outputs
     from safety_systems.diagrams.simulation import simulate
 
@@ -149,6 +174,7 @@ def _verify(args: argparse.Namespace) -> int:
 
     config, robot = _configuration(args.config, args.unverified)
     space = load_space(args.space)
+    _ur5e_only(space.robot, "verify", args.space)
     if robot is not None:
         from safety_systems.config.params_file import robot_config
 
@@ -209,7 +235,10 @@ def _tune(args: argparse.Namespace) -> int:
         raise InputError("--allow", args.allow, "passed with a space built around a "
                          "recording (the proofs decline recorded motion: its verdicts are "
                          "passed or falsified, never proved)")
+    _ur5e_only(space.robot, "tune", args.space)
     tasks = [load_scenario(path) for path in (args.tasks or TASKS)]
+    for path, task in zip(args.tasks or TASKS, tasks):
+        _ur5e_only(task.robot, "tune", path)
     try:
         check_block(block, config, control_period=1.0 / space.robot.control_rate_hz)
     except InputError as e:
@@ -259,6 +288,8 @@ def _compare(args: argparse.Namespace) -> int:
         if c not in CONTROLLER_TYPES:
             raise InputError("--controllers", c, allowed)
     scenarios = [load_scenario(path) for path in args.scenarios]
+    for path, s in zip(args.scenarios, scenarios):
+        _ur5e_only(s.robot, "compare", path)
     out = prepare_out(args.out)
     from safety_systems.outputs.compare import compare, markdown_table, write_comparison
 

@@ -202,28 +202,32 @@ def path_rate_step(
 
 def tool_stopping_distance(
     path, table: BrakingTable, *, rate: float = 1.0, period: float = 0.002,
-    starts: int = 400,
+    starts: int = 400, tool_position=None,
 ) -> float:
     """Worst tool travel while braking from path rate ``rate`` on ``path``, metres.
 
     Runs the braking model (a command of 0 from ``rate``) from ``starts`` evenly spaced
     points of one cycle at once and returns the longest distance the tool flange
     travels before it rests. It tells an integrator what stopping distance B the
-    braking table implies on their own path; it does not replace measurement.
+    braking table implies on their own path; it does not replace measurement. The tool
+    flange's position is ``tool_position(q)`` (q (..., n) -> (..., 3); None: the UR5e's
+    tool0, ``model_points.tool0_position`` gives any robot's).
     """
     from safety_systems.cell.joint_path import joint_path_state
-    from safety_systems.cell.ur5e import tool0_position
+
+    if tool_position is None:
+        from safety_systems.cell.ur5e import tool0_position as tool_position
 
     path = dataclasses.replace(path, cycles=2)  # a stop may run on into the next cycle
     s = np.linspace(0.0, path.cycle_time, starts, endpoint=False)
     sigma = np.full(starts, float(rate))
-    p = tool0_position(joint_path_state(path, s)[0])
+    p = tool_position(joint_path_state(path, s)[0])
     travelled = np.zeros(starts)
     while np.any(sigma != 0.0):
         new = path_rate_step(sigma, 0.0, period, table=table, acceleration_limit=1.0)
         s = s + 0.5 * (sigma + new) * period
         sigma = new
-        p_new = tool0_position(joint_path_state(path, s)[0])
+        p_new = tool_position(joint_path_state(path, s)[0])
         travelled += np.linalg.norm(p_new - p, axis=-1)
         p = p_new
     return float(travelled.max())

@@ -41,12 +41,12 @@ class JointPath:
     """A cyclic joint path; build it with :func:`make_joint_path`.
 
     Attributes:
-        waypoints: (M, 6) joint positions, radians.
+        waypoints: (M, n) joint positions, radians.
         durations: (M,) nominal segment durations, seconds.
         starts: (M,) nominal start time of each segment within a cycle, seconds.
         cycle_time: nominal time of one cycle, seconds.
         cycles: number of cycles in the task.
-        deltas: (M, 6) joint displacement of each segment, radians.
+        deltas: (M, n) joint displacement of each segment, radians.
     """
 
     waypoints: np.ndarray
@@ -54,7 +54,11 @@ class JointPath:
     starts: np.ndarray
     cycle_time: float
     cycles: int
-    deltas: np.ndarray  # (M, 6) joint displacement of each segment, radians
+    deltas: np.ndarray  # (M, n) joint displacement of each segment, radians
+
+    @property
+    def num_joints(self) -> int:
+        return int(self.waypoints.shape[1])
 
     @property
     def end(self) -> float:
@@ -72,16 +76,19 @@ def make_joint_path(
     durations: np.ndarray,
     *,
     cycles: int = 1,
-    joint_speed_limit: float = JOINT_VELOCITY_LIMIT,
+    joint_speed_limit: float | np.ndarray = JOINT_VELOCITY_LIMIT,
+    num_joints: int = 6,
 ) -> JointPath:
     """Checks and precomputes a cyclic joint path.
 
     Args:
-        waypoints_rad: (M, 6) joint positions in radians, M >= 2.
+        waypoints_rad: (M, n) joint positions in radians, M >= 2 (n: the robot's joints).
         durations: (M,) positive nominal durations in seconds; the last one closes the
             cycle from W_{M-1} back to W_0.
         cycles: how many cycles make the task (>= 1).
-        joint_speed_limit: radians per second; no joint may exceed it at nominal speed.
+        joint_speed_limit: radians per second, one for every joint or one per joint (n,);
+            no joint may exceed its own at nominal speed.
+        num_joints: n, the robot's joint count (6: a UR arm's).
 
     Raises:
         ValueError: naming the bad value (a segment too fast for the joint limit names
@@ -89,18 +96,30 @@ def make_joint_path(
     """
     w = np.array(waypoints_rad, dtype=float)
     d = np.array(durations, dtype=float)
-    if w.ndim != 2 or w.shape[0] < 2 or w.shape[1] != 6 or not np.all(np.isfinite(w)):
-        raise ValueError(f"waypoints has shape {w.shape}: need (M >= 2, 6) finite radians")
+    if (w.ndim != 2 or w.shape[0] < 2 or w.shape[1] != num_joints
+            or not np.all(np.isfinite(w))):
+        raise ValueError(f"waypoints has shape {w.shape}: need (M >= 2, {num_joints}) finite "
+                         "radians")
     if d.shape != (w.shape[0],) or not np.all(np.isfinite(d) & (d > 0.0)):
         raise ValueError(f"durations={d.tolist()}: need {w.shape[0]} positive seconds")
     if not (isinstance(cycles, int) and cycles >= 1):
         raise ValueError(f"cycles={cycles!r}: need an integer >= 1")
     deltas = np.roll(w, -1, axis=0) - w
-    shortest = _PEAK_BLEND_RATE * np.abs(deltas).max(axis=1) / joint_speed_limit
+    if np.ndim(joint_speed_limit) == 0:
+        shortest = _PEAK_BLEND_RATE * np.abs(deltas).max(axis=1) / joint_speed_limit
+        limit = f"{math.degrees(joint_speed_limit):.0f} deg/s"
+    else:
+        limits = np.asarray(joint_speed_limit, dtype=float)
+        if limits.shape != (w.shape[1],):
+            raise ValueError(f"joint_speed_limit has shape {limits.shape}: need one limit or "
+                             f"({w.shape[1]},), one per joint")
+        shortest = (_PEAK_BLEND_RATE * np.abs(deltas) / limits).max(axis=1)
+        limit = "its joint's speed limit (" + ", ".join(
+            f"{math.degrees(x):.0f}" for x in limits) + " deg/s)"
     for j in np.flatnonzero(d < shortest - 1e-12):
         raise ValueError(
             f"segment_durations[{j}]={d[j]}: the joint speed would exceed "
-            f"{math.degrees(joint_speed_limit):.0f} deg/s; allowed >= {shortest[j]:.4f} s"
+            f"{limit}; allowed >= {shortest[j]:.4f} s"
         )
     starts = np.concatenate([[0.0], np.cumsum(d)[:-1]])
     for a in (w, d, starts, deltas):
@@ -134,10 +153,14 @@ class SplinePath:
     path, ``safety_systems.cell.cartesian_path``).
     """
 
-    spline: CubicSpline  # u in [0, duration] -> q, shape (6,)
+    spline: CubicSpline  # u in [0, duration] -> q, shape (n,)
     duration: float
     cycles: int = 1
     there_and_back: bool = False
+
+    @property
+    def num_joints(self) -> int:
+        return int(self.spline.c.shape[2])
 
     @property
     def cycle_time(self) -> float:
@@ -166,15 +189,15 @@ def make_spline_path(s_samples: np.ndarray, q_samples: np.ndarray, *, rest_to_re
                      cycles: int = 1, there_and_back: bool = False,
                      joint_speed_limit: float = JOINT_VELOCITY_LIMIT) -> SplinePath:
     """A spline path through (s, q) samples (s in seconds of nominal time, increasing from
-    0; q (K, 6) radians). ``rest_to_rest``: zero joint speeds at both ends (clamped
+    0; q (K, n) radians). ``rest_to_rest``: zero joint speeds at both ends (clamped
     spline; needed there and back), else not-a-knot ends, so evenly spaced samples of a
     uniform motion give a uniform speed (the PathFollower starts and ends the motion)."""
     s = np.asarray(s_samples, dtype=float)
     q = np.asarray(q_samples, dtype=float)
     if s.ndim != 1 or s.size < 2 or s[0] != 0.0 or np.any(np.diff(s) <= 0.0):
         raise ValueError(f"s_samples: need an increasing sequence from 0, got {s.tolist()}")
-    if q.shape != (s.size, 6) or not np.all(np.isfinite(q)):
-        raise ValueError(f"q_samples has shape {q.shape}: need ({s.size}, 6) finite radians")
+    if q.ndim != 2 or q.shape[0] != s.size or not np.all(np.isfinite(q)):
+        raise ValueError(f"q_samples has shape {q.shape}: need ({s.size}, n) finite radians")
     if there_and_back and not rest_to_rest:
         raise ValueError("there_and_back: needs rest_to_rest (the path turns round at rest)")
     if not (isinstance(cycles, int) and cycles >= 1 and (cycles == 1 or there_and_back)):
@@ -190,7 +213,7 @@ def make_spline_path(s_samples: np.ndarray, q_samples: np.ndarray, *, rest_to_re
 def path_arrays(path: JointPath | SplinePath) -> tuple:
     """What compiled code reads a path from (see :func:`path_state_one`): a JointPath as
     (cycle_time, cycles, starts, durations, waypoints, deltas), a SplinePath as
-    (cycle_time, cycles, breakpoints, coefficients (4, m, 6), one-way duration,
+    (cycle_time, cycles, breakpoints, coefficients (4, m, n), one-way duration,
     there-and-back). Made once per path."""
     arrays = path.__dict__.get("_compiled_arrays")
     if arrays is None:
@@ -222,7 +245,7 @@ def _spline_piece(c, i, j, u):
 
 def path_state_one(s, arrays, q, dq, ddq):
     """q(s), dq/ds and d2q/ds2 at one path parameter s (clipped to [0, end]) into q, dq,
-    ddq (6,); compiled code only, ``arrays`` from :func:`path_arrays`.
+    ddq (n,); compiled code only, ``arrays`` from :func:`path_arrays`.
 
     A JointPath: its segment's minimum-jerk blend. A SplinePath: its cubic piece, the way
     back running the spline backwards (dq/ds negated), as ``SplinePath.state``. The kind
@@ -257,7 +280,7 @@ def _path_state_one(s, arrays, q, dq, ddq):
             # The piece breaks[i] <= u < breaks[i + 1]; the last one at the far end.
             i = min(max(np.searchsorted(breaks, u, side="right") - 1, 0), breaks.size - 2)
             offset = u - breaks[i]
-            for j in range(6):
+            for j in range(coeffs.shape[2]):
                 q[j], slope, ddq[j] = _spline_piece(coeffs, i, j, offset)
                 dq[j] = -slope if back else slope
         return spline
@@ -269,7 +292,7 @@ def _path_state_one(s, arrays, q, dq, ddq):
         T = durations[j]
         h, dh, ddh = _blend(min((phase - starts[j]) / T, 1.0))
         dh, ddh = dh / T, ddh / (T * T)
-        for i in range(6):
+        for i in range(waypoints.shape[1]):
             q[i] = waypoints[j, i] + h * deltas[j, i]
             dq[i] = dh * deltas[j, i]
             ddq[i] = ddh * deltas[j, i]
@@ -278,7 +301,7 @@ def _path_state_one(s, arrays, q, dq, ddq):
 
 @numba.njit(cache=True)
 def _joint_path_kernel(s, arrays, out):
-    """:func:`path_state_one` at every s (flat) into out (3, len(s), 6)."""
+    """:func:`path_state_one` at every s (flat) into out (3, len(s), n)."""
     for r in range(s.size):
         path_state_one(s[r], arrays, out[0, r], out[1, r], out[2, r])
 
@@ -288,12 +311,13 @@ def joint_path_state(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q(s), dq/ds and d2q/ds2 at path parameter(s) s (clipped to [0, end]).
 
-    ``s`` of shape ``S`` gives three arrays of shape ``S + (6,)``: radians, radians per
+    ``s`` of shape ``S`` gives three arrays of shape ``S + (n,)``: radians, radians per
     second of nominal time, and radians per second squared. Compiled (either kind of
     path; :func:`path_state_one`).
     """
     s = np.asarray(s, dtype=float)
-    out = np.empty((3, s.size, 6))
+    n = path.num_joints
+    out = np.empty((3, s.size, n))
     _joint_path_kernel(s.reshape(-1), path_arrays(path), out)
-    shape = s.shape + (6,)
+    shape = s.shape + (n,)
     return out[0].reshape(shape), out[1].reshape(shape), out[2].reshape(shape)

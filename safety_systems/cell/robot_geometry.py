@@ -24,86 +24,27 @@ negative = overlap). :func:`tool_point` keeps the seed's single point, bit for b
 
 import dataclasses
 import math
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numba
 import numpy as np
 
 from safety_systems.cell import ur5e
+from safety_systems.cell.model_points import model_arrays, model_points_one, model_work
+from safety_systems.cell.robot_model import RobotModel, default_model
+from safety_systems.cell.ur_capsules import RADIUS_STEP, fit_ur_link_capsules  # noqa: F401
+from safety_systems.cell.ur_kinematics import points_from_trig, trig_one, trig_reusing
 from safety_systems.ssm.formulas import separation_pair
-from safety_systems.cell.ur5e import _tool0_from_trig, trig_reusing
 
 CAPSULE_NAMES = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3", "tool")
 LINK_SEGMENTS = tuple((k, k + 1) for k in range(6))  # DH origin indices of each link
 NUM_POINTS = 8  # P0 ... P6 and the tool tip P7
-RADIUS_STEP = 0.0005  # m; fitted radii are rounded up to it
-_RIM_SAMPLES = 1 << 14  # per rim circle; the sampling error is bounded below
 
-
-
-def _rim_bounds(m, u, w, r, e):
-    """(lowest, highest projection onto unit e, largest squared distance from the line
-    through 0 along e) of the circle m + r (cos s u + sin s w). The squared distance is
-    g(s) = C + a1 cos s + b1 sin s + a2 cos 2s + b2 sin 2s, sampled every 2 pi / n; as
-    g' = 0 at its maximum and |g''| <= |(a1, b1)| + 4 |(a2, b2)|, the true maximum exceeds
-    the sampled one by at most that bound times (pi / n)^2 / 2, which is added."""
-    P = np.eye(3) - np.outer(e, e)
-    Pm, Pu, Pw = P @ m, P @ u, P @ w
-    a1, b1 = 2 * r * (Pm @ Pu), 2 * r * (Pm @ Pw)
-    a2, b2 = r * r * (Pu @ Pu - Pw @ Pw) / 2, r * r * (Pu @ Pw)
-    s = np.arange(_RIM_SAMPLES) * (2 * math.pi / _RIM_SAMPLES)
-    g = (Pm @ Pm + r * r * (Pu @ Pu + Pw @ Pw) / 2 + a1 * np.cos(s) + b1 * np.sin(s)
-         + a2 * np.cos(2 * s) + b2 * np.sin(2 * s))
-    g_max = g.max() + (math.hypot(a1, b1) + 4 * math.hypot(a2, b2)) * (
-        math.pi / _RIM_SAMPLES) ** 2 / 2
-    spread = r * math.hypot(u @ e, w @ e)
-    return m @ e - spread, m @ e + spread, g_max
 
 
 def _fit_link_capsules(urdf: Path) -> tuple[tuple[str, ...], tuple]:
-    """The moving links' names, from the base out, and their (a, b, t0, t1, radius): the
-    axis P_k -> P_{k+1} (in link k's URDF frame, DH frame {k} turned by joint k+1: from
-    the origin to the next joint's origin, which must be (a_k, 0, d_k)), extended over its
-    collision cylinders' projections, the radius the largest distance of their rim circles
-    from the axis (containing the rims contains the cylinders, their convex hulls),
-    rounded up to ``RADIUS_STEP`` (within 1 nm of a step counts as on it: round-off)."""
-    root = ET.parse(urdf).getroot()
-    links = {link.get("name"): link for link in root.findall("link")}
-    joint_of = {joint.find("parent").get("link"): joint for joint in root.findall("joint")}
-    names, fitted, name = [], [], "base_link"  # a chain: one child joint per link
-    for k in range(6):
-        name = joint_of[name].find("child").get("link")
-        names.append(name)
-        end = np.array([float(x) for x in joint_of[name].find("origin").get("xyz").split()])
-        if not np.allclose(end, [ur5e.DH_A[k], 0.0, ur5e.DH_D[k]], rtol=0.0, atol=1e-12):
-            raise ValueError(f"{urdf}: the joint after {name} is at {end}, not at (a, 0, d) "
-                             "of ur5e's DH data: regenerate the URDF")
-        length = float(np.linalg.norm(end))
-        e = end / length
-        low, high, g_max = 0.0, length, 0.0
-        for collision in links[name].iter("collision"):
-            cylinder = collision.find("geometry/cylinder")
-            if cylinder is None:
-                raise ValueError(f"{urdf}: a collision shape of {name} is not a cylinder")
-            origin = collision.find("origin")
-            c = np.array([float(x) for x in origin.get("xyz").split()])
-            roll, pitch, yaw = (float(x) for x in origin.get("rpy").split())
-            axis = np.array([math.cos(yaw) * math.sin(pitch) * math.cos(roll)
-                             + math.sin(yaw) * math.sin(roll),
-                             math.sin(yaw) * math.sin(pitch) * math.cos(roll)
-                             - math.cos(yaw) * math.sin(roll),
-                             math.cos(pitch) * math.cos(roll)])  # Rz Ry Rx e_z
-            r, half = float(cylinder.get("radius")), float(cylinder.get("length")) / 2
-            u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-            u /= np.linalg.norm(u)
-            for m in (c - half * axis, c + half * axis):
-                lo, hi, g = _rim_bounds(m, u, np.cross(axis, u), r, e)
-                low, high, g_max = min(low, lo), max(high, hi), max(g_max, g)
-        steps = math.ceil((math.sqrt(g_max) - 1e-9) / RADIUS_STEP)
-        fitted.append((k, k + 1, float(low / length), float(high / length),
-                       steps / round(1 / RADIUS_STEP)))
-    return tuple(names), tuple(fitted)
+    """``ur_capsules.fit_ur_link_capsules`` of a URDF written from the UR5e's DH data."""
+    return fit_ur_link_capsules(urdf, ur5e.DH_D, ur5e.DH_A)
 
 
 LINK_NAMES, _MODEL_LINK_CAPSULES = _fit_link_capsules(ur5e.UR5E_URDF)  # URDF link names
@@ -116,9 +57,10 @@ def model_link_capsules() -> tuple[tuple[int, int, float, float, float], ...]:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Capsules:
-    """K capsules (see the module docstring): point indices a, b (K,) into P0 ... P7,
-    axis fractions t0, t1 (K,), radii (K,) in metres, and the tool length (metres) that
-    places P7. Arrays are stored read-only."""
+    """K capsules (see the module docstring) of a robot ``model``
+    (``robot_model.RobotModel``; None: the UR5e's): point indices a, b (K,) into its
+    points (the UR's P0 ... P7), axis fractions t0, t1 (K,), radii (K,) in metres, and
+    the tool length (metres) that places its tip. Arrays are stored read-only."""
 
     names: tuple[str, ...]
     a: np.ndarray
@@ -127,6 +69,7 @@ class Capsules:
     t1: np.ndarray
     radius: np.ndarray
     tool_length: float = 0.0
+    model: RobotModel | None = None
 
     def __post_init__(self):
         for field, kind in (("a", np.int64), ("b", np.int64), ("t0", float), ("t1", float),
@@ -137,24 +80,31 @@ class Capsules:
             if x.size != len(self.names):
                 raise ValueError(f"Capsules.{field} has {x.size} values for "
                                  f"{len(self.names)} names: need one per capsule")
-        if np.any((self.a < 0) | (self.a >= NUM_POINTS) | (self.b < 0) | (self.b >= NUM_POINTS)):
-            raise ValueError(f"Capsules a = {self.a}, b = {self.b}: need indices in 0 ... 7")
+        if self.model is None:
+            object.__setattr__(self, "model", default_model())
+        P = self.model.num_points
+        if np.any((self.a < 0) | (self.a >= P) | (self.b < 0) | (self.b >= P)):
+            raise ValueError(f"Capsules a = {self.a}, b = {self.b}: need indices in 0 ... "
+                             f"{P - 1} (the {self.model.name}'s points)")
         object.__setattr__(self, "names", tuple(self.names))
         object.__setattr__(self, "tool_length", float(self.tool_length))
 
 
 def robot_capsules(*, link_radii=None, payload_radius: float,
-                   tool_length: float = 0.0) -> Capsules:
-    """The seven capsules of ``CAPSULE_NAMES``: the six fitted link capsules (with
-    ``link_radii``, 6 radii in metres, instead of the fitted ones if given) and the tool,
-    P6 -> P7 (``tool_length`` metres along tool0's z axis), of ``payload_radius`` metres."""
-    fitted = np.array(_MODEL_LINK_CAPSULES)
+                   tool_length: float = 0.0, model: RobotModel | None = None) -> Capsules:
+    """The capsules of ``model`` (None: the UR5e; ``CAPSULE_NAMES`` on a UR): its fitted
+    link capsules (with ``link_radii``, one radius in metres per link, instead of the
+    fitted ones if given) and the tool, tool0 -> tip (``tool_length`` metres along
+    tool0's z axis), of ``payload_radius`` metres."""
+    model = default_model() if model is None else model
+    fitted = np.array(model.link_capsules)
     radii = fitted[:, 4]
+    K = len(model.link_capsules)
     if link_radii is not None:
         radii = np.asarray(link_radii, dtype=float).reshape(-1)
-        if radii.size != 6:
-            raise ValueError(f"link_radii = {link_radii!r}: need 6 radii (metres), one per "
-                             f"link {CAPSULE_NAMES[:6]}, or None for the fitted ones")
+        if radii.size != K:
+            raise ValueError(f"link_radii = {link_radii!r}: need {K} radii (metres), one per "
+                             f"link {model.link_names}, or None for the fitted ones")
         if not np.all(np.isfinite(radii) & (radii > 0.0)):
             raise ValueError(f"link_radii = {link_radii!r}: every radius must be finite and "
                              "> 0 metres")
@@ -163,53 +113,25 @@ def robot_capsules(*, link_radii=None, payload_radius: float,
                          "metres")
     if not (math.isfinite(tool_length) and tool_length >= 0.0):
         raise ValueError(f"tool_length = {tool_length!r}: need a finite length >= 0 metres")
-    return Capsules(CAPSULE_NAMES, np.append(fitted[:, 0], 6), np.append(fitted[:, 1], 7),
-                    np.append(fitted[:, 2], 0.0), np.append(fitted[:, 3], 1.0),
-                    np.append(radii, payload_radius), tool_length)
+    return Capsules(model.link_names + ("tool",), np.append(fitted[:, 0], model.tool0),
+                    np.append(fitted[:, 1], model.tip), np.append(fitted[:, 2], 0.0),
+                    np.append(fitted[:, 3], 1.0), np.append(radii, payload_radius),
+                    tool_length, model)
 
 
-def tool_point() -> Capsules:
-    """One degenerate capsule, tool0 itself (radius 0): the seed's Eq. 8 robot point."""
-    return Capsules(("tool0",), [6], [6], [0.0], [0.0], [0.0], 0.0)
-
-
-@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def _turned(p, pv, k, c1, s1, v1, u, w, n, du, dw, dn, height):
-    """Row k of p, pv from (u, w, n) (horizontal, vertical, along joint 2's axis) in the
-    frame turned by q1, and their rates, as ur5e._tool0_from_trig maps them."""
-    p[k, 0], p[k, 1], p[k, 2] = c1 * u + s1 * n, s1 * u - c1 * n, height + w
-    pv[k, 0] = -s1 * v1 * u + c1 * du + c1 * v1 * n + s1 * dn
-    pv[k, 1] = c1 * v1 * u + s1 * du + s1 * v1 * n - c1 * dn
-    pv[k, 2] = dw
+def tool_point(model: RobotModel | None = None) -> Capsules:
+    """One degenerate capsule, tool0 itself (radius 0), of ``model`` (None: the UR5e):
+    the seed's Eq. 8 robot point."""
+    model = default_model() if model is None else model
+    return Capsules(("tool0",), [model.tool0], [model.tool0], [0.0], [0.0], [0.0], 0.0, model)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def _points_from_trig(trig, v, tool_length, p, pv):
     """:func:`robot_points_one` from trig = (cos, sin) of q1, q2, q2 + q3, q2 + q3 + q4,
-    q5, as ur5e._tool0_from_trig takes them (P6 is its result)."""
-    a2, a3, d1, d4, d5 = ur5e.DH_A[1], ur5e.DH_A[2], ur5e.DH_D[0], ur5e.DH_D[3], ur5e.DH_D[4]
-    c1, s1, c2, s2, c23, s23, c234, s234, c5, s5 = trig
-    v1, v2, v3, v4, v5 = v[0], v[1], v[2], v[3], v[4]
-    v23 = v2 + v3
-    v234 = v23 + v4
-    for i in range(3):  # P0, P1 = (0, 0, d1): on joint 1's axis, at rest
-        p[0, i], p[1, i], pv[0, i], pv[1, i] = 0.0, 0.0, 0.0, 0.0
-    p[1, 2] = d1
-    u, w, du, dw = a2 * c2, a2 * s2, -a2 * s2 * v2, a2 * c2 * v2  # P2
-    _turned(p, pv, 2, c1, s1, v1, u, w, 0.0, du, dw, 0.0, d1)
-    u, w, du, dw = u + a3 * c23, w + a3 * s23, du - a3 * s23 * v23, dw + a3 * c23 * v23
-    _turned(p, pv, 3, c1, s1, v1, u, w, 0.0, du, dw, 0.0, d1)
-    _turned(p, pv, 4, c1, s1, v1, u, w, d4, du, dw, 0.0, d1)
-    u, w = u + d5 * s234, w - d5 * c234  # P5
-    du, dw = du + d5 * c234 * v234, dw + d5 * s234 * v234
-    _turned(p, pv, 5, c1, s1, v1, u, w, d4, du, dw, 0.0, d1)
-    p[6, 0], p[6, 1], p[6, 2], pv[6, 0], pv[6, 1], pv[6, 2] = _tool0_from_trig(trig, v)
-    _turned(p, pv, 7, c1, s1, v1, -s5 * c234, -s5 * s234, c5,  # z6 (= z5) and its rate
-            s5 * s234 * v234 - c5 * c234 * v5, -c5 * s234 * v5 - s5 * c234 * v234,
-            -s5 * v5, 0.0)
-    for i in range(3):
-        p[7, i] = p[6, i] + tool_length * p[7, i]
-        pv[7, i] = pv[6, i] + tool_length * pv[7, i]
+    q5 (``ur_kinematics.points_from_trig`` with the UR5e's constants; P6 is
+    ur5e.tool0_one's, bit for bit)."""
+    points_from_trig(trig, v, tool_length, ur5e.UR5E_DH, p, pv)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -219,11 +141,7 @@ def robot_points_one(q, v, tool_length, p, pv):
     code. Closed form as ur5e.tool0_one (joints 2-4 parallel): P2 = P1 + a2 (c2, s2),
     P3 = P2 + a3 (c23, s23), P4 = P3 + d4 along joint 2's axis, P5 = P4 + d5 z4; P6 is
     tool0_one's, bit for bit; P7 = P6 + tool_length z6."""
-    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
-    _points_from_trig((math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2),
-                       math.cos(q2 + q3), math.sin(q2 + q3), math.cos(q2 + q3 + q4),
-                       math.sin(q2 + q3 + q4), math.cos(q5), math.sin(q5)), v, tool_length,
-                      p, pv)
+    _points_from_trig(trig_one(q), v, tool_length, p, pv)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -402,22 +320,25 @@ def nearest_capsule_one(p_B, v_B, r_B, ends, end_velocities, radius):
 
 
 @numba.njit(cache=True)
-def _end_rows(q, v, tool_length, a, b, t0, t1, p, pv, ends, end_velocities):
-    """Points (L, 8, 3) and capsule ends (L, K, 2, 3), with velocities, of rows q, v (L, 6)."""
+def _end_rows(arrays, q, v, tool_length, a, b, t0, t1, memo, poses, twists, p, pv, ends,
+              end_velocities):
+    """Points (L, P, 3) and capsule ends (L, K, 2, 3), with velocities, of rows q, v
+    (L, n) of a model (``model_points.model_arrays``, work arrays ``model_work``)."""
     for row in range(q.shape[0]):
-        robot_points_one(q[row], v[row], tool_length, p[row], pv[row])
+        model_points_one(arrays, tool_length, q[row], v[row], memo, poses, twists, p[row],
+                         pv[row])
         capsule_ends_one(p[row], pv[row], a, b, t0, t1, ends[row], end_velocities[row])
 
 
 @numba.njit(cache=True)
-def _pair_rows(q, v, tool_length, a, b, t0, t1, radius, p_B, v_B, r_B, every, out, index):
-    """Per row (q, v (L, 6); bodies p_B, v_B (L, N, 3), radii r_B (L, N)): every pair's
-    clearance into out (L, N, K) if ``every``, else :func:`nearest_capsule_one`'s figures
-    into out[:, :, :3] and index (L, N)."""
-    p, pv = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+def _pair_rows(arrays, q, v, tool_length, a, b, t0, t1, radius, p_B, v_B, r_B, every, out,
+               index, memo, poses, twists, p, pv):
+    """Per row (q, v (L, n) of a model, ``model_points.model_arrays``; bodies p_B, v_B
+    (L, N, 3), radii r_B (L, N)): every pair's clearance into out (L, N, K) if ``every``,
+    else :func:`nearest_capsule_one`'s figures into out[:, :, :3] and index (L, N)."""
     ends, end_velocities = np.empty((a.size, 2, 3)), np.empty((a.size, 2, 3))
     for row in range(q.shape[0]):
-        robot_points_one(q[row], v[row], tool_length, p, pv)
+        model_points_one(arrays, tool_length, q[row], v[row], memo, poses, twists, p, pv)
         capsule_ends_one(p, pv, a, b, t0, t1, ends, end_velocities)
         for i in range(p_B.shape[1]):
             if every:
@@ -431,91 +352,120 @@ def _pair_rows(q, v, tool_length, a, b, t0, t1, radius, p_B, v_B, r_B, every, ou
                                                       ends, end_velocities, radius)
 
 
-_NO_CAPSULES = Capsules((), [], [], [], [], [])
-
-
 def _flat(x, lead: tuple, tail: tuple) -> np.ndarray:
     return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), lead + tail)
                                 ).reshape((-1,) + tail)
 
 
-def _point_and_end_rows(q, v, tool_length: float, capsules: Capsules):
-    """(lead shape, points (2, L, 8, 3), ends (2, L, K, 2, 3)) at q, v (..., 6): positions
+def _model_of(capsules: Capsules | None, model: RobotModel | None) -> RobotModel:
+    """The robot of ``capsules`` (or ``model``; neither: the UR5e), refusing a ``model``
+    other than the capsules' own."""
+    if capsules is None:
+        return default_model() if model is None else model
+    if model is not None and model is not capsules.model:
+        raise ValueError(f"model {model.name}: the capsules are the {capsules.model.name}'s")
+    return capsules.model
+
+
+def _point_and_end_rows(q, v, tool_length: float, capsules: Capsules | None, model: RobotModel):
+    """(lead shape, points (2, L, P, 3), ends (2, L, K, 2, 3)) at q, v (..., n): positions
     [0] and velocities [1] (v None: not wanted, q stands in)."""
     q = np.asarray(q, dtype=float)
+    n = model.n
+    if q.shape[-1:] != (n,) or (v is not None and np.shape(v)[-1:] != (n,)):
+        raise ValueError(f"q has shape {q.shape}: need (..., {n}) joint positions of the "
+                         f"{model.name}")
     lead = q.shape[:-1] if v is None else np.broadcast_shapes(q.shape[:-1], np.shape(v)[:-1])
-    q_rows = _flat(q, lead, (6,))
-    v_rows = q_rows if v is None else _flat(v, lead, (6,))
-    L, c = q_rows.shape[0], capsules
-    p, ends = np.empty((2, L, NUM_POINTS, 3)), np.empty((2, L, c.radius.size, 2, 3))
-    _end_rows(q_rows, v_rows, float(tool_length), c.a, c.b, c.t0, c.t1, p[0], p[1], ends[0],
-              ends[1])
+    q_rows = _flat(q, lead, (n,))
+    v_rows = q_rows if v is None else _flat(v, lead, (n,))
+    L = q_rows.shape[0]
+    c = capsules if capsules is not None else Capsules((), [], [], [], [], [], 0.0, model)
+    p = np.empty((2, L, model.num_points, 3))
+    ends = np.empty((2, L, c.radius.size, 2, 3))
+    _end_rows(model_arrays(model), q_rows, v_rows, float(tool_length), c.a, c.b, c.t0, c.t1,
+              *model_work(model), p[0], p[1], ends[0], ends[1])
     return lead, p, ends
 
 
-def robot_points(q: np.ndarray, v: np.ndarray | None = None, tool_length: float = 0.0
-                 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """P0 ... P7 (..., 8, 3), metres, at joint positions q (..., 6), and their velocities
-    J(q) v (m/s) at joint velocities v (None when v is None)."""
-    lead, p, _ = _point_and_end_rows(q, v, tool_length, _NO_CAPSULES)
-    p = p.reshape((2,) + lead + (NUM_POINTS, 3))
+def robot_points(q: np.ndarray, v: np.ndarray | None = None, tool_length: float = 0.0, *,
+                 model: RobotModel | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The points of ``model`` (None: the UR5e's P0 ... P7), (..., P, 3), metres, at joint
+    positions q (..., n), and their velocities J(q) v (m/s) at joint velocities v (None
+    when v is None)."""
+    model = _model_of(None, model)
+    lead, p, _ = _point_and_end_rows(q, v, tool_length, None, model)
+    p = p.reshape((2,) + lead + (model.num_points, 3))
     return p[0], None if v is None else p[1]
 
 
-def capsule_ends(q: np.ndarray, capsules: Capsules, v: np.ndarray | None = None
-                 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """Capsule ends (..., K, 2, 3), metres, at joint positions q (..., 6), and their
-    velocities (m/s) at joint velocities v (None when v is None)."""
-    lead, _, ends = _point_and_end_rows(q, v, capsules.tool_length, capsules)
+def capsule_ends(q: np.ndarray, capsules: Capsules, v: np.ndarray | None = None, *,
+                 model: RobotModel | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Capsule ends (..., K, 2, 3), metres, at joint positions q (..., n) of the capsules'
+    robot (``model``, if given, must be it), and their velocities (m/s) at joint
+    velocities v (None when v is None)."""
+    model = _model_of(capsules, model)
+    lead, _, ends = _point_and_end_rows(q, v, capsules.tool_length, capsules, model)
     ends = ends.reshape((2,) + lead + ends.shape[2:])
     return ends[0], None if v is None else ends[1]
 
 
-def _pairs(q, v, capsules, p_bodies, v_bodies, body_radii, every):
+def _pairs(q, v, capsules, p_bodies, v_bodies, body_radii, every, model):
+    model = _model_of(capsules, model)
+    n = model.n
+    if np.shape(q)[-1:] != (n,):
+        raise ValueError(f"q has shape {np.shape(q)}: need (..., {n}) joint positions of "
+                         f"the {model.name}")
     p_B, r_B = np.asarray(p_bodies, dtype=float), np.asarray(body_radii, dtype=float)
     N = p_B.shape[-2]
     leads = [np.shape(q)[:-1], p_B.shape[:-2], r_B.shape[:-1]]
     leads += [] if v is None else [np.shape(v)[:-1], np.shape(v_bodies)[:-2]]
     lead = np.broadcast_shapes(*leads)
-    q_rows = _flat(q, lead, (6,))
-    v_rows = np.zeros_like(q_rows) if v is None else _flat(v, lead, (6,))
+    q_rows = _flat(q, lead, (n,))
+    v_rows = np.zeros_like(q_rows) if v is None else _flat(v, lead, (n,))
     pb_rows = _flat(p_B, lead, (N, 3))
     vb_rows = np.zeros_like(pb_rows) if v is None else _flat(v_bodies, lead, (N, 3))
     K = capsules.radius.size
     out = np.empty((pb_rows.shape[0], N, K if every else 3))
     index = np.empty((pb_rows.shape[0], N), dtype=np.int64)
-    _pair_rows(q_rows, v_rows, capsules.tool_length, capsules.a, capsules.b, capsules.t0,
-               capsules.t1, capsules.radius, pb_rows, vb_rows, _flat(r_B, lead, (N,)), every,
-               out, index)
+    _pair_rows(model_arrays(model), q_rows, v_rows, capsules.tool_length, capsules.a,
+               capsules.b, capsules.t0, capsules.t1, capsules.radius, pb_rows, vb_rows,
+               _flat(r_B, lead, (N,)), every, out, index, *model_work(model),
+               np.empty((model.num_points, 3)), np.empty((model.num_points, 3)))
     return lead, out, index
 
 
 def clearances(q: np.ndarray, capsules: Capsules, p_bodies: np.ndarray,
-               body_radii: np.ndarray | float) -> np.ndarray:
+               body_radii: np.ndarray | float, *, model: RobotModel | None = None
+               ) -> np.ndarray:
     """Clearance (metres; axis distance - capsule radius - body radius, negative =
     overlap) of every body (p_bodies (..., N, 3), radii (..., N) or scalar) to every
-    capsule at joint positions q (..., 6): shape (..., N, K)."""
-    lead, out, _ = _pairs(q, None, capsules, p_bodies, None, body_radii, True)
+    capsule at joint positions q (..., n) of the capsules' robot: shape (..., N, K)."""
+    lead, out, _ = _pairs(q, None, capsules, p_bodies, None, body_radii, True, model)
     return out.reshape(lead + out.shape[1:])
 
 
 def nearest_capsules(q: np.ndarray, v: np.ndarray, capsules: Capsules, p_bodies: np.ndarray,
-                     v_bodies: np.ndarray, body_radii: np.ndarray | float
+                     v_bodies: np.ndarray, body_radii: np.ndarray | float, *,
+                     model: RobotModel | None = None
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`nearest_capsule_one` of every body: (clearance, v_human_directed,
     v_robot_directed, index), each (..., N), at joint positions and velocities q, v
-    (..., 6), bodies at p_bodies moving at v_bodies (..., N, 3), radii (..., N)."""
-    lead, out, index = _pairs(q, v, capsules, p_bodies, v_bodies, body_radii, False)
+    (..., n) of the capsules' robot, bodies at p_bodies moving at v_bodies (..., N, 3),
+    radii (..., N)."""
+    lead, out, index = _pairs(q, v, capsules, p_bodies, v_bodies, body_radii, False, model)
     shape = lead + out.shape[1:2]
     return (out[..., 0].reshape(shape), out[..., 1].reshape(shape),
             out[..., 2].reshape(shape), index.reshape(shape))
 
 
 def min_clearance(q: np.ndarray, capsules: Capsules, p_bodies: np.ndarray,
-                  body_radii: np.ndarray | float) -> np.ndarray:
+                  body_radii: np.ndarray | float, *, model: RobotModel | None = None
+                  ) -> np.ndarray:
     """The smallest clearance (metres) of each body over the capsules, (..., N); NaN if
     any of the body's pairs is NaN."""
-    return nearest_capsules(q, np.zeros(6), capsules, p_bodies, np.zeros(3), body_radii)[0]
+    n = _model_of(capsules, model).n
+    return nearest_capsules(q, np.zeros(n), capsules, p_bodies, np.zeros(3), body_radii,
+                            model=model)[0]
 
 
 @numba.njit(cache=True)
@@ -526,3 +476,14 @@ def capsule_ends_at(q, tool_length, a, b, t0, t1, out):
     p, pv = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
     robot_points_one(q, np.zeros(6), tool_length, p, pv)
     capsule_ends_one(p, pv, a, b, t0, t1, out, np.empty_like(out))
+
+
+@numba.njit(cache=True)
+def model_capsule_ends_at(arrays, q, tool_length, a, b, t0, t1, memo, poses, twists, p, pv,
+                          out, out_velocities):
+    """:func:`capsule_ends_at` of any model (``model_points.model_arrays``, the work
+    arrays ``model_work``, p and pv (P, 3)): the ends into out (K, 2, 3) at joint
+    positions q (n,), their velocities at rest (zero) into out_velocities."""
+    v = np.zeros(q.size)
+    model_points_one(arrays, tool_length, q, v, memo, poses, twists, p, pv)
+    capsule_ends_one(p, pv, a, b, t0, t1, out, out_velocities)

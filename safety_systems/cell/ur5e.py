@@ -16,6 +16,12 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 
+from safety_systems.cell.ur_kinematics import (
+    tool0_from_trig,
+    trig_one,
+    trig_reusing,
+)
+
 UR5E_URDF = Path(__file__).resolve().parent.parent.parent / "models" / "ur5e" / "ur5e.urdf"
 
 # Universal Robots, "DH parameters for calculations of kinematics and dynamics", UR5e
@@ -49,6 +55,7 @@ JOINT_POSITION_LOWER = -JOINT_POSITION_UPPER
 JOINT_VELOCITY_LIMIT = math.pi  # radians per second
 JOINT_EFFORT_LIMITS = np.array([150.0, 150.0, 150.0, 28.0, 28.0, 28.0])  # newton metres
 NUM_JOINTS = 6
+UR5E_DH = (DH_D[0], DH_A[1], DH_A[2], DH_D[3], DH_D[4], DH_D[5])  # ur_kinematics' dh
 
 
 def AddUr5e(plant: MultibodyPlant, *, model_name: str = "ur5e") -> ModelInstanceIndex:
@@ -94,23 +101,9 @@ def dh_forward_kinematics(q: np.ndarray) -> np.ndarray:
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def _tool0_from_trig(trig, v):
-    """:func:`tool0_one` from trig = (cos, sin) of q1, q2, q2 + q3, q2 + q3 + q4, q5."""
-    a2, a3, d1, d4, d5, d6 = DH_A[1], DH_A[2], DH_D[0], DH_D[3], DH_D[4], DH_D[5]
-    c1, s1, c2, s2, c23, s23, c234, s234, c5, s5 = trig
-    u = a2 * c2 + a3 * c23 + d5 * s234 - d6 * s5 * c234
-    w = a2 * s2 + a3 * s23 - d5 * c234 - d6 * s5 * s234
-    n = d4 + d6 * c5
-    v1, v2, v3, v4, v5 = v[0], v[1], v[2], v[3], v[4]
-    v23 = v2 + v3
-    v234 = v23 + v4
-    du = -a2 * s2 * v2 - a3 * s23 * v23 + d5 * c234 * v234
-    du -= d6 * (c5 * c234 * v5 - s5 * s234 * v234)
-    dw = a2 * c2 * v2 + a3 * c23 * v23 + d5 * s234 * v234
-    dw -= d6 * (c5 * s234 * v5 + s5 * c234 * v234)
-    dn = -d6 * s5 * v5
-    return (c1 * u + s1 * n, s1 * u - c1 * n, d1 + w,
-            -s1 * v1 * u + c1 * du + c1 * v1 * n + s1 * dn,
-            c1 * v1 * u + s1 * du + s1 * v1 * n - c1 * dn, dw)
+    """:func:`tool0_one` from trig = (cos, sin) of q1, q2, q2 + q3, q2 + q3 + q4, q5
+    (``ur_kinematics.tool0_from_trig`` with the UR5e's constants)."""
+    return tool0_from_trig(trig, v, UR5E_DH)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -123,33 +116,7 @@ def tool0_one(q, v):
     - d5 c234 - d6 s5 s234 (vertical), n = d4 + d6 c5 (along joint 2's axis); then
     p = (c1 u + s1 n, s1 u - c1 n, d1 + w). The velocity is its time derivative.
     """
-    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
-    return _tool0_from_trig((math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2),
-                             math.cos(q2 + q3), math.sin(q2 + q3), math.cos(q2 + q3 + q4),
-                             math.sin(q2 + q3 + q4), math.cos(q5), math.sin(q5)), v)
-
-
-@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def _cos_sin(angle, memo, j):
-    """cos and sin of ``angle``, reusing those in memo[3 j: 3 j + 3] (angle, cos, sin)
-    when the angle is the same (not for 0: its sign would be lost)."""
-    if angle != memo[3 * j] or angle == 0.0:  # a NaN memo never matches
-        memo[3 * j], memo[3 * j + 1], memo[3 * j + 2] = angle, math.cos(angle), math.sin(angle)
-    return memo[3 * j + 1], memo[3 * j + 2]
-
-
-@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
-def trig_reusing(q, memo):
-    """(c1, s1, c2, s2, c23, s23, c234, s234, c5, s5): the cosines and sines of the
-    kinematics' five angles at q, each reused from ``memo`` (15,) while its angle stays
-    the same (:func:`_cos_sin`)."""
-    q1, q2, q3, q4, q5 = q[0], q[1], q[2], q[3], q[4]
-    c1, s1 = _cos_sin(q1, memo, 0)
-    c2, s2 = _cos_sin(q2, memo, 1)
-    c23, s23 = _cos_sin(q2 + q3, memo, 2)
-    c234, s234 = _cos_sin(q2 + q3 + q4, memo, 3)
-    c5, s5 = _cos_sin(q5, memo, 4)
-    return c1, s1, c2, s2, c23, s23, c234, s234, c5, s5
+    return _tool0_from_trig(trig_one(q), v)
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element

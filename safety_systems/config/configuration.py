@@ -10,6 +10,8 @@ from safety_systems.cell.braking import BrakingTable, default_braking_table, sto
 from safety_systems.cell.braking import stopping_time as table_stopping_time
 from safety_systems.cell.cartesian_path import line_path, polyline_path
 from safety_systems.cell.joint_path import (
+    DEFAULT_DURATIONS,
+    DEFAULT_WAYPOINTS_DEG,
     JointPath,
     SplinePath,
     default_joint_path,
@@ -17,16 +19,21 @@ from safety_systems.cell.joint_path import (
 )
 from safety_systems.cell.operator_paths import ScriptedOperator, make_operator_path
 from safety_systems.cell.recorded_operator import RecordedOperator
+from safety_systems.cell.braking import PLACEHOLDER_WARNING
+from safety_systems.cell.placeholder_stops import placeholder_braking_table, placeholder_warning
 from safety_systems.cell.robot_geometry import Capsules, robot_capsules, tool_point
-from safety_systems.config.scenario import (
+from safety_systems.cell.robot_model import RobotModel, is_ur5e, placeholder_name
+from safety_systems.config.scenario import (  # noqa: F401 (robot_model_of: its callers')
     BodyConfig,
     ControllerConfig,
     RobotConfig,
     Scenario,
     actual_sensor,
     body_names,
+    joint_speed_limit,
     operator_points,
     operator_posture,
+    robot_model_of,
 )
 from safety_systems.sensing.sensor_faults import fault_table
 from safety_systems.sensing.tracks import make_regions, make_rules
@@ -61,14 +68,15 @@ def sensor_faults(scenario: Scenario) -> np.ndarray:
         for f in actual_sensor(scenario).faults])
 
 
-def monitor_capsules(config: ControllerConfig) -> Capsules:
-    """The robot as the SeparationMonitor measures it: the UR5e's capsules with the
-    configured link radii (if any) and tool, or the seed's tool point."""
+def monitor_capsules(config: ControllerConfig, model: RobotModel | None = None) -> Capsules:
+    """The robot (``model``; None: the UR5e) as the SeparationMonitor measures it: its
+    capsules with the configured link radii (if any) and tool, or the seed's tool
+    point."""
     f = config.safety
     if f.robot_geometry == "tool_point":
-        return tool_point()
+        return tool_point(model)
     return robot_capsules(link_radii=f.link_radii or None, payload_radius=f.payload_radius,
-                          tool_length=f.tool_length)
+                          tool_length=f.tool_length, model=model)
 
 
 def body_dimensions(body: BodyConfig) -> dict:
@@ -128,37 +136,58 @@ def operator_postures(scenario: Scenario) -> np.ndarray:
 
 
 def contact_capsules(robot: RobotConfig, contact_geometry: str) -> Capsules:
-    """The real robot for the safety properties: the UR5e model's capsules with the cell's
-    real tool (``robot.payload_radius``, ``robot.tool_length``), or the tool point."""
+    """The real robot for the safety properties: the capsules of the robot's model
+    (``robot_model_of``) with the cell's real tool (``robot.payload_radius``,
+    ``robot.tool_length``), or its tool point."""
+    model = robot_model_of(robot)
     if contact_geometry == "tool_point":
-        return tool_point()
-    return robot_capsules(payload_radius=robot.payload_radius, tool_length=robot.tool_length)
+        return tool_point(model)
+    return robot_capsules(payload_radius=robot.payload_radius, tool_length=robot.tool_length,
+                          model=model)
 
 
 def placeholder_braking(config: ControllerConfig) -> bool:
-    """Whether ``config`` gives no stopping data, so the UR5 placeholder table is used."""
+    """Whether ``config`` gives no stopping data, so the robot's placeholder table is
+    used."""
     return not config.braking.speed_fraction
 
 
-def braking_table(config: ControllerConfig) -> BrakingTable:
-    """The configured stopping data, or the UR5 placeholder table when none is given."""
+def braking_table(config: ControllerConfig, model: RobotModel | None = None) -> BrakingTable:
+    """The configured stopping data, or, when none is given, the placeholder table of the
+    robot ``model`` (``placeholder_stops``; None or the UR5e: the UR5 table,
+    ``braking.default_braking_table``). A robot from a URDF has no placeholder: refused
+    (``InputError``), its measured data is needed."""
     b = config.braking
     if placeholder_braking(config):
-        return default_braking_table()
+        if model is None or is_ur5e(model):
+            return default_braking_table()
+        return placeholder_braking_table(placeholder_name(model))
     return BrakingTable(np.array(b.speed_fraction), np.array(b.stopping_time),
                         np.array(b.stopping_distance))
 
 
-def assumed_stopping(config: ControllerConfig) -> tuple[float, float]:
-    """(T_s, B) the monitor uses: the configured values, else the table's at full speed."""
-    table = braking_table(config)
+def braking_warning(model: RobotModel | None = None) -> str:
+    """The warning printed (and written to summary.json) beside a result computed with
+    the placeholder stopping data of ``model`` (None or the UR5e: the UR5's,
+    ``braking.PLACEHOLDER_WARNING``): it names the robot and the figures' source."""
+    if model is None or is_ur5e(model):
+        return PLACEHOLDER_WARNING
+    return placeholder_warning(placeholder_name(model))
+
+
+def assumed_stopping(config: ControllerConfig, model: RobotModel | None = None
+                     ) -> tuple[float, float]:
+    """(T_s, B) the monitor uses: the configured values, else the table's at full speed
+    (:func:`braking_table` of ``model``)."""
+    table = braking_table(config, model)
     t_s = config.safety.stopping_time
     b = config.safety.stopping_distance
     return (float(table_stopping_time(table, 1.0)) if t_s is None else t_s,
             float(stopping_distance(table, 1.0)) if b is None else b)
 
 
-def level_stops(config: ControllerConfig) -> tuple[np.ndarray, np.ndarray]:
+def level_stops(config: ControllerConfig, model: RobotModel | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """(T_s, B) the monitor uses at each speed level g / SPEED_LEVELS, g = 0..SPEED_LEVELS
     (``safety.stopping: by_speed``), from :func:`assumed_stopping`'s full-speed values and
     the braking table (interpolated linearly from (0, 0, 0)): the larger of
@@ -176,32 +205,33 @@ def level_stops(config: ControllerConfig) -> tuple[np.ndarray, np.ndarray]:
     a T_s or B below the table (unsafe at full speed, and the proofs say so) shrinks in
     proportion instead of going negative. With ``full_speed`` every level has the
     full-speed values."""
-    t_s, b = assumed_stopping(config)
+    t_s, b = assumed_stopping(config, model)
     levels = np.arange(SPEED_LEVELS + 1) / SPEED_LEVELS
     if config.safety.stopping != "by_speed":
         return np.full(levels.size, float(t_s)), np.full(levels.size, float(b))
-    table = braking_table(config)
+    table = braking_table(config, model)  # (of model: None, the UR5e)
     t_table = np.asarray(table_stopping_time(table, levels), dtype=float)
     d_table = np.asarray(stopping_distance(table, levels), dtype=float)
     return (np.maximum(t_s * t_table / t_table[-1], t_table + (t_s - t_table[-1])),
             np.maximum(b * d_table / d_table[-1], d_table + (b - d_table[-1])))
 
 
-def level_terms(config: ControllerConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(T_s + T_r, B + C + Z_r) at each speed level (:func:`level_stops`), as
+def level_terms(config: ControllerConfig, model: RobotModel | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(T_s + T_r, B + C + Z_r) at each speed level (:func:`level_stops` of ``model``), as
     ``separation.level_rows`` takes them."""
     f = config.safety
-    t_s, b = level_stops(config)
+    t_s, b = level_stops(config, model)
     return (np.ascontiguousarray(t_s + f.reaction_time),
             np.ascontiguousarray(b + f.intrusion_distance + f.robot_uncertainty))
 
 
-def monitor_terms(config: ControllerConfig) -> tuple:
+def monitor_terms(config: ControllerConfig, model: RobotModel | None = None) -> tuple:
     """The SeparationMonitor's S terms as ``separation.pair_separation`` takes them:
     (human-speed mode index, T_s + T_r, T_r, B + C + Z_r, v_iso, v_iso_reduced, robot
-    speed index), T_s and B by :func:`assumed_stopping`."""
+    speed index), T_s and B by :func:`assumed_stopping` of ``model``."""
     f = config.safety
-    t_s, b = assumed_stopping(config)
+    t_s, b = assumed_stopping(config, model)
     return (HUMAN_SPEED_MODES.index(f.human_speed), float(t_s + f.reaction_time),
             float(f.reaction_time), float(b + f.intrusion_distance + f.robot_uncertainty),
             float(f.iso_human_speed), float(f.iso_reduced_human_speed),
@@ -216,8 +246,8 @@ def frame_timeout(config: ControllerConfig) -> float:
 
 
 def joint_path(robot: RobotConfig) -> JointPath | SplinePath:
-    """The robot's path from the scenario: its line, its waypoints, or the default pick
-    and place cycle."""
+    """The robot's path from the scenario: its line, its waypoints (of its model's joints,
+    within their speeds), or the default pick and place cycle (a UR arm's)."""
     p = robot.path
     if p.task_path is not None:
         t = p.task_path
@@ -228,9 +258,15 @@ def joint_path(robot: RobotConfig) -> JointPath | SplinePath:
         return line_path(np.array(p.line.start), np.array(p.line.goal), speed=p.line.speed,
                          rpy=np.radians(p.line.rpy_deg), seed=np.radians(p.line.seed_deg))
     if not p.waypoints_deg:
-        return default_joint_path(cycles=robot.cycles)
+        model = robot_model_of(robot)
+        if is_ur5e(model):
+            return default_joint_path(cycles=robot.cycles)
+        return make_joint_path(np.radians(DEFAULT_WAYPOINTS_DEG), DEFAULT_DURATIONS,
+                               cycles=robot.cycles, joint_speed_limit=joint_speed_limit(model))
     return make_joint_path(np.radians(p.waypoints_deg), p.segment_durations,
-                           cycles=robot.cycles)
+                           cycles=robot.cycles,
+                           joint_speed_limit=joint_speed_limit(robot_model_of(robot)),
+                           num_joints=robot_model_of(robot).n)
 
 
 def scripted_operators(scenario: Scenario) -> list[ScriptedOperator]:

@@ -18,13 +18,14 @@ from pathlib import Path
 import numpy as np
 from pydrake.common.yaml import yaml_dump_typed
 
-from safety_systems.files.documents import load_document
+from safety_systems.files.documents import load_document, read_input
 from safety_systems.files.documents import parse_typed as _parse_typed
 from safety_systems.files.input_error import InputError
 from safety_systems.cell import human_body
 from safety_systems.cell.joint_path import make_joint_path
 from safety_systems.cell.operator_paths import make_operator_path
 from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
+from safety_systems.cell.robot_model import SHIPPED, KIND_UR, RobotModel, is_ur5e, robot_model
 from safety_systems.files.ranges import SEED_MAX, check_limits, number
 from safety_systems.sensing.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
 from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS, STOPPING_MODES
@@ -304,7 +305,13 @@ class PathConfig:
 
 @dc.dataclass
 class RobotConfig:
-    """The UR5e station. ``mode``: ``kinematic`` (fast) or ``dynamic`` (plant + PD).
+    """The robot station. ``model``: a shipped robot (``cell.robot_model.SHIPPED``: the
+    UR family ``ur3e``, ``ur5e``, ``ur10e``, ``ur16e``, ``ur20``, ``ur30``, and
+    ``panda``), empty for the UR5e; or ``urdf``: any serial arm's URDF file (relative to
+    the file that names it), its tool frame ``tool_frame`` (empty: tool0 on a UR, else the
+    chain's last link, ``cell.robot_description``). The path's joints are the robot's;
+    the default pick-and-place path is a UR arm's only.
+    ``mode``: ``kinematic`` (fast) or ``dynamic`` (plant + PD).
 
     ``acceleration_limit``: how fast the path speed may rise, in fractions of the
     nominal path speed per second (2.0: from rest to full speed in 0.5 s).
@@ -315,6 +322,9 @@ class RobotConfig:
     flange along its z axis; the properties measure contact against it.
     """
 
+    model: str = ""
+    urdf: str = ""
+    tool_frame: str = ""
     mode: str = "kinematic"
     control_rate_hz: float = number(500.0, ge=100.0, le=2000.0, unit="Hz")
     cycles: int = number(3, ge=1, le=1000)
@@ -568,7 +578,8 @@ def validate_controller(c: ControllerConfig, prefix: str = "controller") -> None
     _controller_rules(c, prefix)
 
 
-def _controller_rules(c: ControllerConfig, prefix: str) -> None:
+def _controller_rules(c: ControllerConfig, prefix: str, model: RobotModel | None = None
+                      ) -> None:
     validate_sensor(c.sensor, f"{prefix}.sensor")
     s = c.sensor
     t = c.tracker
@@ -585,8 +596,14 @@ def _controller_rules(c: ControllerConfig, prefix: str) -> None:
     f = c.safety
     _check(f.robot_geometry in ROBOT_GEOMETRIES, f"{prefix}.safety.robot_geometry",
            f.robot_geometry, " | ".join(ROBOT_GEOMETRIES))
-    _check(len(f.link_radii) in (0, 6), f"{prefix}.safety.link_radii", f.link_radii,
-           "empty (the UR5e model's capsules) or 6 radii in m, each 0 < r <= 0.5")
+    if model is None or is_ur5e(model):
+        _check(len(f.link_radii) in (0, 6), f"{prefix}.safety.link_radii", f.link_radii,
+               "empty (the UR5e model's capsules) or 6 radii in m, each 0 < r <= 0.5")
+    else:
+        K = len(model.link_capsules)
+        _check(len(f.link_radii) in (0, K), f"{prefix}.safety.link_radii", f.link_radii,
+               f"empty (the {model.name} model's capsules) or {K} radii in m "
+               f"({', '.join(model.link_names)}), each 0 < r <= 0.5")
     _check(f.human_speed in HUMAN_SPEED_MODES, f"{prefix}.safety.human_speed", f.human_speed,
            " | ".join(HUMAN_SPEED_MODES))
     _check(f.robot_speed in ROBOT_SPEED_TERMS, f"{prefix}.safety.robot_speed", f.robot_speed,
@@ -642,7 +659,7 @@ def validate_scenario(s: Scenario) -> None:
                                  and s.jerk_window[0] < s.jerk_window[1]),
            "jerk_window", s.jerk_window, "empty, or [first, last] samples with 2 <= first < last")
     validate_robot(s.robot)
-    _controller_rules(s.controller, "controller")
+    validate_robot_controller(s.robot, s.controller)
     if s.sensor is not None:
         validate_sensor(s.sensor, "sensor")
     _validate_operators(s.operators)
@@ -787,11 +804,34 @@ def _validate_sensor_bodies(s: Scenario) -> None:
                    f"{where}.faults[{i}].other", fault.other, f"another of {bodies}")
 
 
+def robot_model_of(r: RobotConfig, prefix: str = "robot") -> RobotModel:
+    """The model of the robot ``r`` names (``cell.robot_model.robot_model``: ``model`` or
+    ``urdf``, made once per process); raises :class:`ScenarioError` naming ``prefix``'s
+    field (a bad URDF: its file and its own field)."""
+    _check(not (r.model and r.urdf), f"{prefix}.urdf", r.urdf,
+           "empty when robot.model names a shipped robot (one of the two)")
+    try:
+        return robot_model(r.model, urdf=r.urdf, tool_frame=r.tool_frame)
+    except InputError as e:
+        if e.file is None and e.field.startswith("robot."):
+            e.field = prefix + e.field[len("robot"):]
+            e.args = (e._line(),)
+        raise
+
+
 def validate_robot(r: RobotConfig, prefix: str = "robot") -> None:
-    """Checks between a robot's fields (its mode, its path); raises
-    :class:`ScenarioError` naming ``prefix``'s fields."""
+    """Checks between a robot's fields (its model, its mode, its path: the model's joint
+    count, within its joint limits and speeds); raises :class:`ScenarioError` naming
+    ``prefix``'s fields."""
+    model = robot_model_of(r, prefix)
+    n, name = model.n, model.name
     _check(r.mode in ("kinematic", "dynamic"), f"{prefix}.mode", r.mode, "kinematic | dynamic")
     p = r.path
+    if p.line is not None or p.task_path is not None:
+        _check(is_ur5e(model), f"{prefix}.path." + ("line" if p.line is not None else
+                                                   "task_path"), name,
+               "a line or task path on the ur5e only (its inverse kinematics); give "
+               "waypoints_deg on another robot")
     if p.line is not None:
         _check(not p.waypoints_deg and not p.segment_durations, f"{prefix}.path.line", "line",
                "either a line or waypoints, not both")
@@ -811,19 +851,54 @@ def validate_robot(r: RobotConfig, prefix: str = "robot") -> None:
                f"{prefix}.path.task_path.points", t.points, "2 or more [x, y, z] points in m")
         _points(f"{prefix}.path.task_path.rpy_deg", t.rpy_deg, 3, "3 angles in deg")
         _points(f"{prefix}.path.task_path.seed_deg", t.seed_deg, 6, "6 joint angles in deg")
+    if p.line is None and p.task_path is None and not p.waypoints_deg:
+        _check(model.kind == KIND_UR, f"{prefix}.path.waypoints_deg", p.waypoints_deg,
+               f"waypoints of the {model.name}'s {n} joints (the default pick-and-place "
+               "path is a UR arm's)")
     if p.waypoints_deg or p.segment_durations:
         _check(len(p.waypoints_deg) >= 2, f"{prefix}.path.waypoints_deg", p.waypoints_deg,
-               "at least 2 waypoints of 6 joint angles")
+               f"at least 2 waypoints of {n} joint angles (the {model.name}'s joints)")
         for i, w in enumerate(p.waypoints_deg):
-            _points(f"{prefix}.path.waypoints_deg[{i}]", w, 6, "6 joint angles in deg")
+            _points(f"{prefix}.path.waypoints_deg[{i}]", w, n,
+                    f"{n} joint angles in deg (the {model.name}'s joints)")
+            inside = (np.radians(w) >= model.position_lower - 1e-12) & (
+                np.radians(w) <= model.position_upper + 1e-12)
+            _check(bool(np.all(inside)), f"{prefix}.path.waypoints_deg[{i}]", w,
+                   f"angles within the {model.name}'s joint limits: " + ", ".join(
+                       f"{math.degrees(a):.1f} ... {math.degrees(b):.1f}"
+                       for a, b in zip(model.position_lower, model.position_upper)) + " deg")
         _check(len(p.segment_durations) == len(p.waypoints_deg),
                f"{prefix}.path.segment_durations", p.segment_durations,
                f"{len(p.waypoints_deg)} durations (one per segment, the last closes the cycle)")
         try:
-            make_joint_path(np.radians(p.waypoints_deg), p.segment_durations, cycles=r.cycles)
+            make_joint_path(np.radians(p.waypoints_deg), p.segment_durations, cycles=r.cycles,
+                            joint_speed_limit=joint_speed_limit(model), num_joints=n)
         except ValueError as e:
             raise ScenarioError(f"{prefix}.path.segment_durations", p.segment_durations,
                                 str(e)) from None
+
+
+def joint_speed_limit(model: RobotModel) -> float | np.ndarray:
+    """The joint speed limit a path of ``model`` keeps: one number where every joint has
+    the same (the UR5e's 180 deg/s), else one per joint (rad/s)."""
+    limits = model.velocity_limit
+    return float(limits[0]) if np.all(limits == limits[0]) else limits
+
+
+def validate_robot_controller(r: RobotConfig, c: ControllerConfig,
+                              prefix: str = "controller") -> None:
+    """Checks between a robot and the controller configuration run on it (a scenario's, or
+    one given with ``--config``): the seed-004 controllers and the zones model the UR5e
+    only; ``safety.link_radii`` gives one radius per link of the robot."""
+    model = robot_model_of(r)
+    _controller_rules(c, prefix, model)
+    _check(c.type == "ssm_override" or is_ur5e(model), f"{prefix}.type", c.type,
+           f"ssm_override on the {model.name} (the seed-004 controllers and the zones model "
+           "the ur5e only)")
+    _check(bool(c.braking.speed_fraction) or model.placeholder is not None,
+           f"{prefix}.braking.speed_fraction", c.braking.speed_fraction,
+           f"the stopping data measured on the {model.name} (a robot from a URDF has no "
+           "built-in placeholder)")
 
 
 def actual_sensor(s: Scenario) -> SensorConfig:
@@ -847,6 +922,7 @@ def load_scenario(path: str | Path) -> Scenario:
     ``file`` and recorded operators' files are read here, relative to the scenario
     file."""
     def validate(scenario: Scenario) -> None:
+        read_robot_file(scenario.robot, Path(path).parent)
         read_task_path(scenario.robot, Path(path).parent)
         read_recordings(scenario, Path(path).parent)
         validate_scenario(scenario)
@@ -889,6 +965,19 @@ def read_recordings(scenario: Scenario, folder: Path) -> None:
                "offsets")
 
 
+def read_robot_file(robot: RobotConfig, folder: Path, prefix: str = "robot") -> None:
+    """Resolves a robot's ``urdf`` relative to ``folder`` (the file that names it), in
+    place, and records the robot's URDF among the inputs read (its SHA-256 in
+    ``provenance``; a shipped robot's when ``model`` names one)."""
+    if robot.urdf:
+        file = (folder / robot.urdf).resolve()
+        _check(file.is_file(), f"{prefix}.urdf", robot.urdf, f"an existing URDF file ({file})")
+        robot.urdf = str(file)
+        read_input(file)
+    elif robot.model in SHIPPED:
+        read_input(SHIPPED[robot.model])
+
+
 def read_task_path(robot: RobotConfig, folder: Path, prefix: str = "robot") -> None:
     """Fills a task path's points from its ``file`` (relative to ``folder``); an error
     in that file is reported at the field that names it, with the file's own error."""
@@ -920,6 +1009,16 @@ def scenario_from_text(text: str) -> Scenario:
     return scenario
 
 
+_DEFAULT_ROBOT_CHOICE = "robot:\n  model: ''\n  urdf: ''\n  tool_frame: ''\n"
+
+
 def dump_scenario(scenario: Scenario) -> str:
-    """YAML text that :func:`scenario_from_text` loads back to an equal scenario."""
-    return yaml_dump_typed(scenario)
+    """YAML text that :func:`scenario_from_text` loads back to an equal scenario. The
+    robot's choice (``model``, ``urdf``, ``tool_frame``) is left out when it is the
+    default's (all empty: the UR5e), so a UR5e scenario is written as before robots could
+    be chosen."""
+    text = yaml_dump_typed(scenario)
+    r = scenario.robot
+    if not (r.model or r.urdf or r.tool_frame) and text.count(_DEFAULT_ROBOT_CHOICE) == 1:
+        text = text.replace(_DEFAULT_ROBOT_CHOICE, "robot:\n")
+    return text

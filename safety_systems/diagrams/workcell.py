@@ -28,6 +28,7 @@ from safety_systems.config.configuration import (
     frame_timeout,
     is_recorded,
     joint_path,
+    robot_model_of,
     monitor_capsules,
     monitor_recipe,
     tracked_points,
@@ -62,7 +63,8 @@ from safety_systems.systems.separation_monitor import SeparationMonitor
 from safety_systems.systems.speed_override import SpeedOverride
 from safety_systems.systems.zones_controller import ZonesController
 from safety_systems.ssm.formulas import SPEED_LEVELS
-from safety_systems.cell.ur5e import AddUr5e
+from safety_systems.cell.robot_model import RobotModel
+from safety_systems.cell.robot_plant import AddRobot
 
 # Joint-space gains of the dynamic mode's inverse-dynamics controller: critically
 # damped, natural frequency 30 rad/s (own choice).
@@ -110,8 +112,10 @@ def body_roles(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
 
 def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, num_bodies: int,
                         control_period: float, path=None, operator_of=None,
-                        is_hand=None, points=None, operator_names=None) -> SafetyController:
-    """Adds the tracker and the controller ``config.type`` names.
+                        is_hand=None, points=None, operator_names=None,
+                        model: RobotModel | None = None) -> SafetyController:
+    """Adds the tracker and the controller ``config.type`` names, for the robot ``model``
+    (None: the UR5e).
 
     ``ssm_override`` (seed 000): RobotCapsules (the robot as
     ``configuration.monitor_capsules`` gives it), OperatorEnvelopes (every operator's
@@ -146,9 +150,9 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
             builder.Connect(tracker.GetOutputPort(name), speed.GetInputPort(name))
         return SafetyController(tracker, {"speed": speed},
                                 speed.GetOutputPort("path_speed_commanded"))
-    t_s, b = assumed_stopping(config)
+    t_s, b = assumed_stopping(config, model)
     by_speed = f.stopping == "by_speed"
-    capsules = monitor_capsules(config)
+    capsules = monitor_capsules(config, model)
     robot = builder.AddNamedSystem("robot_capsules", RobotCapsules(
         capsules=capsules, period_sec=control_period))
     if points is None:
@@ -166,7 +170,7 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
         human_uncertainty_sigmas=f.human_uncertainty_sigmas, iso_speed=f.iso_human_speed,
         iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed,
-        level_terms=level_terms(config) if by_speed else None))
+        level_terms=level_terms(config, model) if by_speed else None))
     override = builder.AddNamedSystem("override", SpeedOverride(
         num_bodies=m, delta_s=f.delta_s, d_min=f.d_min,
         levels=SPEED_LEVELS if by_speed else None))
@@ -211,24 +215,36 @@ def _sensor_intervals(scenario: Scenario) -> tuple[list, list]:
     return occlusions, [(d.start, d.end) for d in s.dropouts]
 
 
-def AddUr5eWithInverseDynamics(builder: DiagramBuilder, dt: float
-                               ) -> tuple[MultibodyPlant, InverseDynamicsController]:
-    """Adds the dynamic mode's UR5e plant (time step ``dt``) and its inverse-dynamics
-    controller (gains ``DYNAMIC_KP``, ``DYNAMIC_KD``), the plant's state fed back and the
+def AddRobotWithInverseDynamics(builder: DiagramBuilder, dt: float,
+                                model: RobotModel | None = None
+                                ) -> tuple[MultibodyPlant, InverseDynamicsController]:
+    """Adds the dynamic mode's plant of ``model`` (None: the UR5e; time step ``dt``,
+    ``cell.robot_plant.AddRobot``) and its inverse-dynamics controller (gains
+    ``DYNAMIC_KP``, ``DYNAMIC_KD`` on every joint), the plant's state fed back and the
     controller driving the actuators; left to connect: the controller's desired state and
     desired acceleration."""
+    from safety_systems.cell.robot_model import default_model
+
+    model = default_model() if model is None else model
     plant = builder.AddNamedSystem("plant", MultibodyPlant(time_step=dt))
-    AddUr5e(plant)
+    AddRobot(plant, model)
     plant.Finalize()
-    model = MultibodyPlant(time_step=dt)
-    AddUr5e(model)
-    model.Finalize()
+    reference = MultibodyPlant(time_step=dt)
+    AddRobot(reference, model)
+    reference.Finalize()
+    n = model.n
     controller = builder.AddNamedSystem("inverse_dynamics", InverseDynamicsController(
-        model, kp=np.full(6, DYNAMIC_KP), ki=np.zeros(6), kd=np.full(6, DYNAMIC_KD),
+        reference, kp=np.full(n, DYNAMIC_KP), ki=np.zeros(n), kd=np.full(n, DYNAMIC_KD),
         has_reference_acceleration=True))
     builder.Connect(plant.get_state_output_port(), controller.get_input_port_estimated_state())
     builder.Connect(controller.get_output_port_control(), plant.get_actuation_input_port())
     return plant, controller
+
+
+def AddUr5eWithInverseDynamics(builder: DiagramBuilder, dt: float
+                               ) -> tuple[MultibodyPlant, InverseDynamicsController]:
+    """:func:`AddRobotWithInverseDynamics` of the UR5e."""
+    return AddRobotWithInverseDynamics(builder, dt)
 
 
 def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollower,
@@ -237,14 +253,16 @@ def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollow
     if robot.mode == "kinematic":
         return (follower.GetOutputPort("joint_positions_desired"),
                 follower.GetOutputPort("joint_velocities_desired"), None)
-    plant, controller = AddUr5eWithInverseDynamics(builder, dt)
-    desired = builder.AddNamedSystem("desired_state", Multiplexer([6, 6]))
+    model = robot_model_of(robot)
+    n = model.n
+    plant, controller = AddRobotWithInverseDynamics(builder, dt, model)
+    desired = builder.AddNamedSystem("desired_state", Multiplexer([n, n]))
     builder.Connect(follower.GetOutputPort("joint_positions_desired"), desired.get_input_port(0))
     builder.Connect(follower.GetOutputPort("joint_velocities_desired"), desired.get_input_port(1))
     builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
     builder.Connect(follower.GetOutputPort("joint_accelerations_desired"),
                     controller.get_input_port_desired_acceleration())
-    split = builder.AddNamedSystem("joint_state", Demultiplexer([6, 6]))
+    split = builder.AddNamedSystem("joint_state", Demultiplexer([n, n]))
     builder.Connect(plant.get_state_output_port(), split.get_input_port())
     return split.get_output_port(0), split.get_output_port(1), plant
 
@@ -256,6 +274,7 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     signals to keep (``"q"``, ``"v"`` and ``"system.port"`` keys).
     """
     robot, config = scenario.robot, scenario.controller
+    model = robot_model_of(robot)
     dt = 1.0 / robot.control_rate_hz
     path = joint_path(robot)
     names = body_names(scenario)
@@ -266,7 +285,8 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     safety = AddSafetyController(builder, config=config, num_bodies=len(names),
                                  control_period=dt, path=path, operator_of=operator_of,
                                  is_hand=is_hand, points=tracked_points(scenario),
-                                 operator_names=[o.name for o in scenario.operators])
+                                 operator_names=[o.name for o in scenario.operators],
+                                 model=model)
     for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")
@@ -316,7 +336,8 @@ def _add_follower(builder: DiagramBuilder, scenario: Scenario, path, safety: Saf
     """The PathFollower, named ``follower``, driven by the safety controller's command."""
     robot, config = scenario.robot, scenario.controller
     follower = builder.AddNamedSystem("follower", PathFollower(
-        path=path, braking=braking_table(config), acceleration_limit=robot.acceleration_limit,
+        path=path, braking=braking_table(config, robot_model_of(robot)),
+        acceleration_limit=robot.acceleration_limit,
         braking_time_scale=robot.braking_time_scale, period_sec=1.0 / robot.control_rate_hz,
         max_rate=1.0 if speed is None else config.alteration.speed_limit
         / speed.preprogrammed_speed))

@@ -35,8 +35,9 @@ import math
 
 import numpy as np
 
-from safety_systems.config.configuration import contact_capsules, truth_recipe
-from safety_systems.cell.robot_geometry import capsule_ends
+from safety_systems.config.configuration import contact_capsules, robot_model_of, truth_recipe
+from safety_systems.cell.robot_geometry import capsule_ends, robot_points
+from safety_systems.cell.robot_model import is_ur5e
 from safety_systems.config.scenario import Scenario
 from safety_systems.ssm.separation import pair_figures
 from safety_systems.diagrams.simulation import Run
@@ -56,8 +57,14 @@ from safety_systems.ssm.true_measures import moving, permitted, true_segments
 
 
 def tool_state(run: Run) -> tuple[np.ndarray, np.ndarray]:
-    """True tool position (T, 3) and speed (T,) from the logged joint state."""
-    p, v = tool0_position_and_velocity(run["q"], run["v"])
+    """True tool position (T, 3) and speed (T,) from the logged joint state: tool0 (the
+    flange) of the scenario's robot."""
+    model = robot_model_of(run.scenario.robot)
+    if is_ur5e(model):
+        p, v = tool0_position_and_velocity(run["q"], run["v"])
+    else:
+        points, velocities = robot_points(run["q"], run["v"], model=model)
+        p, v = points[..., model.tool0, :], velocities[..., model.tool0, :]
     return p, np.linalg.norm(v, axis=-1)
 
 
@@ -129,8 +136,8 @@ def robot_stopping(scenario: Scenario) -> StoppingData:
 
     robot = scenario.robot
     return true_stopping(joint_path(robot), contact_capsules(robot, scenario.contact_geometry),
-                         braking_table(scenario.controller), robot.braking_time_scale,
-                         1.0 / robot.control_rate_hz)
+                         braking_table(scenario.controller, robot_model_of(robot)),
+                         robot.braking_time_scale, 1.0 / robot.control_rate_hz)
 
 
 def true_protective_args(scenario: Scenario) -> dict:
@@ -151,8 +158,8 @@ def robot_stops_by_rate(scenario: Scenario) -> StoppingByRate:
 
     robot = scenario.robot
     return stops_by_rate(joint_path(robot), contact_capsules(robot, scenario.contact_geometry),
-                         braking_table(scenario.controller), robot.braking_time_scale,
-                         1.0 / robot.control_rate_hz)
+                         braking_table(scenario.controller, robot_model_of(robot)),
+                         robot.braking_time_scale, 1.0 / robot.control_rate_hz)
 
 
 def true_protective_distances(scenario: Scenario, v_human_directed: np.ndarray,

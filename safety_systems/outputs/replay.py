@@ -6,13 +6,21 @@ import logging
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Cylinder, Meshcat, MeshcatVisualizer, Rgba, Sphere
+from pydrake.geometry import (
+    Cylinder,
+    Meshcat,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+    Rgba,
+    Role,
+    Sphere,
+)
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
-from safety_systems.cell.ur5e import AddUr5e
-from safety_systems.config.configuration import truth_recipe
+from safety_systems.cell.robot_plant import AddRobot
+from safety_systems.config.configuration import robot_model_of, truth_recipe
 from safety_systems.diagrams.simulation import Run
 from safety_systems.files.output_files import write_text
 from safety_systems.ssm.true_measures import true_segments
@@ -177,16 +185,21 @@ def replay_html(run: Run, *, meshcat: Meshcat | None = None) -> str:
     ``envelopes.segment_ends``) of the envelope's radius plus that segment's S (as the
     override used it, ``operator_figures.monitor_protective_distances``), shown while that S is
     positive: the robot's monitored capsules (the tool point, on ``robot_geometry:
-    tool_point``) stay outside it while the override lets the robot move. The robot is
-    drawn as Drake's visualizer draws it. Key frames are written only where a part
+    tool_point``) stay outside it while the override lets the robot move. The robot (the
+    scenario's model) is drawn as Drake's visualizer draws it: its visual geometry, or
+    its collision geometry where its URDF has none (the Panda's). Key frames are written only where a part
     moves (Meshcat interpolates between them), so a long run stays small and quick.
     """
     meshcat = meshcat or _quiet_meshcat()
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
-    AddUr5e(plant)
+    AddRobot(plant, robot_model_of(run.scenario.robot))
     plant.Finalize()
-    visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+    inspector = scene_graph.model_inspector()
+    drawn = Role.kIllustration if inspector.NumGeometriesWithRole(Role.kIllustration) else (
+        Role.kProximity)
+    visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,
+                                                MeshcatVisualizerParams(role=drawn))
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     plant_context = plant.GetMyMutableContextFromRoot(context)

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 
-from safety_systems.cell.braking import PLACEHOLDER_WARNING
 from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.outputs.metrics import (
     first_frame_ticks,
@@ -22,7 +21,9 @@ from safety_systems.outputs.provenance import provenance, scenario_seeds
 from safety_systems.diagrams.simulation import Run
 from safety_systems.sensing.stops import REJECT_CAUSES, STOP_REASONS, STOP_SEPARATION
 from safety_systems.config.configuration import (
+    braking_warning,
     placeholder_braking,
+    robot_model_of,
 )
 from safety_systems.planning.zones import ZONE_NAMES
 from safety_systems.outputs.operator_figures import (
@@ -130,7 +131,7 @@ def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
     summary = summarize(run)
     if placeholder_braking(run.scenario.controller):
         summary["braking_data"] = "placeholder"
-        summary["braking_data_warning"] = PLACEHOLDER_WARNING
+        summary["braking_data_warning"] = braking_warning(robot_model_of(run.scenario.robot))
     else:
         summary["braking_data"] = "configured"
     summary["provenance"] = origin or provenance(scenario_seeds(run.scenario))

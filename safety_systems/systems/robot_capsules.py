@@ -10,7 +10,8 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from safety_systems.cell.robot_geometry import Capsules, capsule_ends_at
+from safety_systems.cell.model_points import model_arrays, model_work
+from safety_systems.cell.robot_geometry import Capsules, model_capsule_ends_at
 
 
 class RobotCapsules(LeafSystem):
@@ -33,6 +34,9 @@ class RobotCapsules(LeafSystem):
         - capsule_ends
         - capsule_velocities
 
+    ``joint_positions`` has one entry per joint of the capsules' robot
+    (``capsules.model``).
+
     Args:
         capsules: the robot's capsules (K of them; outputs of size 6 K).
         period_sec: control period in seconds.
@@ -45,7 +49,11 @@ class RobotCapsules(LeafSystem):
         self._dt = float(period_sec)
         c = self._capsules = capsules
         size = 6 * c.radius.size
-        self._q = self.DeclareVectorInputPort("joint_positions", 6)
+        model = c.model
+        self._arrays, self._work = model_arrays(model), model_work(model)
+        self._points = (np.empty((model.num_points, 3)), np.empty((model.num_points, 3)))
+        self._unused = np.empty((c.radius.size, 2, 3))
+        self._q = self.DeclareVectorInputPort("joint_positions", model.n)
         self._previous = self.DeclareDiscreteState(np.full(size, np.nan))
         self.DeclarePeriodicDiscreteUpdateEvent(period_sec=period_sec, offset_sec=0.0,
                                                 update=self._store)
@@ -65,9 +73,9 @@ class RobotCapsules(LeafSystem):
     def _calc_ends(self, context: Context, value: AbstractValue) -> None:
         c = self._capsules
         out = value.get_mutable_value().reshape(-1, 2, 3)
-        capsule_ends_at(np.asarray(self._q.Eval(context), dtype=float), c.tool_length, c.a, c.b,
-                        c.t0,
-              c.t1, out)
+        model_capsule_ends_at(self._arrays, np.asarray(self._q.Eval(context), dtype=float),
+                              c.tool_length, c.a, c.b, c.t0, c.t1, *self._work, *self._points,
+                              out, self._unused)
 
     def _store(self, context: Context, discrete_state: DiscreteValues) -> None:
         discrete_state.set_value(self._previous, self._ends.Eval(context))
