@@ -43,9 +43,11 @@ class Refused(Exception):
 
 
 def _configuration(path: str, unverified: bool):
-    """(controller configuration, certified robot or None) of a configuration file or a
-    params.yaml; a params.yaml must pass its certificate check, unless ``unverified``
-    (then a warning says it is unverified)."""
+    """(controller configuration, (certified robot, params.yaml's folder) or None) of a
+    configuration file or a params.yaml; a params.yaml must pass its certificate check,
+    unless ``unverified`` (then a warning says it is unverified)."""
+    from pathlib import Path
+
     from safety_systems.config.params_file import looks_like_params
     from safety_systems.config.scenario import load_controller_config
 
@@ -62,7 +64,7 @@ def _configuration(path: str, unverified: bool):
         _warn(f"UNVERIFIED parameters (--unverified): {result.line}")
     elif result.verdict == "passed":
         _warn(result.line)
-    return result.params.controller, result.params.robot
+    return result.params.controller, (result.params.robot, Path(path).parent)
 
 
 def _origin(argv: list[str], seeds: dict[str, int]) -> dict:
@@ -111,7 +113,8 @@ def _simulate(args: argparse.Namespace) -> int:
         config, robot = _configuration(args.config, args.unverified)
         scenario = with_controller(scenario, config)
         if robot is not None:
-            scenario = dataclasses.replace(scenario, robot=robot_config(robot, scenario.robot))
+            scenario = dataclasses.replace(scenario, robot=robot_config(
+                robot[0], scenario.robot, robot[1]))
         try:  # the configuration (and the robot settings it certifies) on the robot
             validate_robot(scenario.robot)
             validate_robot_controller(scenario.robot, scenario.controller, "config")
@@ -178,7 +181,8 @@ def _verify(args: argparse.Namespace) -> int:
     if robot is not None:
         from safety_systems.config.params_file import robot_config
 
-        space = dataclasses.replace(space, robot=robot_config(robot, space.robot))
+        space = dataclasses.replace(space, robot=robot_config(robot[0], space.robot,
+                                                              robot[1]))
     _whole("--budget", args.budget, 1, MAX_BUDGET)
     _whole("--workers", args.workers, 1, MAX_WORKERS)
     _whole("--seed", args.seed, 0, SEED_MAX)
@@ -348,14 +352,15 @@ def _export(args: argparse.Namespace) -> int:
     report = read_report(args.report)
     tune = read_tune(args.tune) if args.tune is not None else None
     params, certificate, space = build(config, args.config, report, Path(args.report), tune,
-                                       args.tune)
+                                       args.tune, Path(args.out))
     out = prepare_out(args.out)
     written = write_export(params, certificate, space, report, Path(args.report).parent,
                            args.config, out)
     if written["braking_data"]["origin"] == "placeholder":
-        from safety_systems.cell.braking import PLACEHOLDER_WARNING
+        from safety_systems.config.configuration import braking_warning
+        from verification.deploy.certificate import params_model
 
-        _warn(PLACEHOLDER_WARNING)
+        _warn(braking_warning(params_model(params, Path(args.out))))
     if written["verdict"] not in ("proved", "passed"):
         _warn(f"the verdict is {written['verdict']}: check refuses these parameters")
     if not args.quiet:

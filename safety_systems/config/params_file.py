@@ -34,6 +34,7 @@ This module must not use ``from __future__ import annotations`` (the YAML loader
 """
 
 import dataclasses as dc
+import os
 import re
 import typing
 from pathlib import Path
@@ -55,8 +56,11 @@ from safety_systems.config.scenario import (
 SCHEMA_VERSION = 1  # of params.yaml; a file of another version is refused
 NODE = "safety_controller"  # the ROS 2 node the parameters are for
 PARAMETERS = "ros__parameters"
-ROBOT_FIELDS = ("control_rate_hz", "acceleration_limit", "payload_radius", "tool_length",
-                "path")
+ROBOT_FIELDS = ("model", "urdf", "tool_frame", "control_rate_hz", "acceleration_limit",
+                "payload_radius", "tool_length", "path")
+# The robot's choice (RobotConfig: a shipped model or a URDF): left out of params.yaml
+# where empty (the UR5e), as a scenario leaves them out.
+ROBOT_CHOICE = ("model", "urdf", "tool_frame")
 _NODE_NAME = re.compile(r"/?[A-Za-z_][A-Za-z0-9_/]*|/\*\*")
 _ITEM = re.compile(r"item(0|[1-9][0-9]{0,6})")
 
@@ -73,8 +77,9 @@ DeployedRobot = dc.make_dataclass(
     "DeployedRobot", [(f.name, f.type, _same_field(f)) for f in dc.fields(RobotConfig)
                       if f.name in ROBOT_FIELDS])
 DeployedRobot.__module__ = __name__
-DeployedRobot.__doc__ = ("The robot a configuration was verified for: control rate (Hz), "
-                         "acceleration limit (1/s), the real tool (m) and the path.")
+DeployedRobot.__doc__ = ("The robot a configuration was verified for: which robot (a "
+                         "shipped model, or a URDF relative to params.yaml), control rate "
+                         "(Hz), acceleration limit (1/s), the real tool (m) and the path.")
 
 
 @dc.dataclass
@@ -87,17 +92,20 @@ class Params:
     robot: DeployedRobot = dc.field(default_factory=DeployedRobot)
 
 
-def deployed_robot(robot: RobotConfig) -> DeployedRobot:
+def deployed_robot(robot: RobotConfig, folder: Path | None = None) -> DeployedRobot:
     """The certified part of ``robot``, its path written out: the default pick-and-place
-    cycle as its waypoints, a task path's points inline (its file already read)."""
+    cycle as its waypoints, a task path's points inline (its file already read); a URDF
+    robot's file relative to ``folder`` (where params.yaml goes; None: as it is)."""
     path = dc.replace(robot.path)
     if path.line is None and path.task_path is None and not path.waypoints_deg:
         path.waypoints_deg = [list(map(float, w)) for w in DEFAULT_WAYPOINTS_DEG]
         path.segment_durations = [float(d) for d in DEFAULT_DURATIONS]
     if path.task_path is not None and path.task_path.points:
         path.task_path = dc.replace(path.task_path, file="")
-    return DeployedRobot(**{name: getattr(robot, name) for name in ROBOT_FIELDS[:-1]},
-                         path=path)
+    fields = {name: getattr(robot, name) for name in ROBOT_FIELDS[:-1]}
+    if robot.urdf and folder is not None:
+        fields["urdf"] = os.path.relpath(Path(robot.urdf).resolve(), Path(folder).resolve())
+    return DeployedRobot(**fields, path=path)
 
 
 def deployed_controller(config: ControllerConfig) -> ControllerConfig:
@@ -108,9 +116,15 @@ def deployed_controller(config: ControllerConfig) -> ControllerConfig:
                                  for name in UNUSED_BLOCKS.get(config.type, ())})
 
 
-def robot_config(deployed: DeployedRobot, base: RobotConfig) -> RobotConfig:
-    """``base`` (a scenario's or a space's robot) with the certified settings."""
-    return dc.replace(base, **{name: getattr(deployed, name) for name in ROBOT_FIELDS})
+def robot_config(deployed: DeployedRobot, base: RobotConfig,
+                 folder: Path | None = None) -> RobotConfig:
+    """``base`` (a scenario's or a space's robot) with the certified settings: the robot
+    itself too (a params.yaml brings its robot), its URDF resolved relative to ``folder``
+    (params.yaml's; None: as written)."""
+    robot = dc.replace(base, **{name: getattr(deployed, name) for name in ROBOT_FIELDS})
+    if robot.urdf and folder is not None and not Path(robot.urdf).is_absolute():
+        robot.urdf = str((Path(folder) / robot.urdf).resolve())
+    return robot
 
 
 # ----------------------------------------------------------------------------- writing
@@ -179,7 +193,9 @@ def flat_parameters(params: Params) -> dict[str, str]:
     _flatten(params, Params, "", None, flat)
     unused = tuple(f"controller.{name}." for name in UNUSED_BLOCKS.get(
         params.controller.type, ()))
-    return {key: text for key, text in flat.items() if not key.startswith(unused)}
+    empty = {f"robot.{name}" for name in ROBOT_CHOICE if not getattr(params.robot, name)}
+    return {key: text for key, text in flat.items()
+            if not key.startswith(unused) and key not in empty}
 
 
 def params_text(params: Params, header: list[str] = ()) -> str:
@@ -339,7 +355,7 @@ def params_from_text(text: str, file: str | Path) -> Params:
         if task is not None and task.file:
             raise InputError("robot.path.task_path.file", task.file,
                              "empty: a params file holds its path's points inline")
-        validate_robot(robot_config(params.robot, RobotConfig()), "robot")
+        validate_robot(robot_config(params.robot, RobotConfig(), file.parent), "robot")
     except InputError as e:
         raise e.in_file(file) from None
     return params

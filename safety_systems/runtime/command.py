@@ -106,8 +106,15 @@ def run(args: argparse.Namespace, origin) -> int:
             start = float(options.get("start", 0.0))
             length = float(options.get("duration", recording.times[-1] - start))
             duration = max(length, 0.0) + REPLAY_TAIL + 0.1
+    from safety_systems.cell.robot_model import KIND_UR
+    from safety_systems.config.scenario import robot_model_of
+
+    model = robot_model_of(params.robot)
+    if robot_address.kind != "none" and model.kind != KIND_UR:
+        raise InputError("--robot", args.robot, f"none for the {model.name} (RTDE drives "
+                         "UR arms only; another arm: --robot none, the monitor alone)")
     out = prepare_out(args.log)
-    loop = SafetyLoop(params.controller, points, [o.name for o in mapping.operators])
+    loop = SafetyLoop(params.controller, points, [o.name for o in mapping.operators], model)
     server = None
     robot = None
     try:

@@ -50,13 +50,14 @@ def load_certified_params(path: str | Path, *, unverified: bool = False) -> Cert
     result = check(path)
     if result.code == 0:
         return CertifiedParams(result.params.controller,
-                               robot_config(result.params.robot, RobotConfig()), True,
+                               robot_config(result.params.robot, RobotConfig(), path.parent), True,
                                result.line, result.verdict)
     if not unverified:
         raise NotCertified(result.line + " (--unverified runs it anyway)", result.code)
     if result.params is not None:
         return CertifiedParams(result.params.controller,
-                               robot_config(result.params.robot, RobotConfig()), False,
+                               robot_config(result.params.robot, RobotConfig(), path.parent),
+                               False,
                                result.line)
     from safety_systems.config.params_file import looks_like_params
     from safety_systems.config.scenario import load_controller_config

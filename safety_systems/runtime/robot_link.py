@@ -38,7 +38,8 @@ from safety_systems.cell.braking import path_follower_step
 from safety_systems.cell.braking import stopping_time as table_stopping_time
 from safety_systems.files.input_error import InputError
 from safety_systems.cell.joint_path import joint_path_state
-from safety_systems.config.scenario import ControllerConfig, RobotConfig
+from safety_systems.cell.robot_model import KIND_UR
+from safety_systems.config.scenario import ControllerConfig, RobotConfig, robot_model_of
 from safety_systems.config.configuration import braking_table, joint_path
 
 ROBOT_TIMEOUT = 0.02  # s without a new RTDE sample before the robot counts as lost
@@ -86,7 +87,7 @@ class ModelRobot:
     name = "none (model of the verified path)"
 
     def __init__(self, robot: RobotConfig, config: ControllerConfig):
-        table = braking_table(config)
+        table = braking_table(config, robot_model_of(robot))
         self.path = joint_path(robot)
         self._brakes = (table.speed_fraction, table.deceleration, robot.acceleration_limit)
         self._dt = 1.0 / robot.control_rate_hz
@@ -94,7 +95,7 @@ class ModelRobot:
         self.sent = math.nan  # what the robot was last told
 
     def read(self) -> tuple[np.ndarray, float]:
-        """(joint positions (6,), the robot's time of them)."""
+        """(joint positions (n,), the robot's time of them)."""
         return np.array(joint_path_state(self.path, self.s)[0]), self.time
 
     def command(self, k: float) -> None:
@@ -227,5 +228,9 @@ def _keep_alive(interface) -> None:
 def connect_robot(address: RobotAddress, robot: RobotConfig, config: ControllerConfig):
     if address.kind == "none":
         return ModelRobot(robot, config)
-    window = float(table_stopping_time(braking_table(config), 1.0))
+    model = robot_model_of(robot)
+    if model.kind != KIND_UR:  # (RTDE speaks to Universal Robots' controllers only)
+        raise InputError("--robot", f"{address.kind}://", f"none for the {model.name} (RTDE "
+                         "drives UR arms only; another arm: --robot none, the monitor alone)")
+    window = float(table_stopping_time(braking_table(config, model), 1.0))
     return UrRtdeRobot(address, robot.control_rate_hz, window)

@@ -7,8 +7,9 @@ the order the Drake diagram calls them (no copy of any rule lives here).
   bounded from its tracked bodies' estimates, a hidden body's region grown at
   ``safety.occlusion_speed``; a function of the tracker's outputs, which change only
   with a frame);
-- the robot: ``robot_capsules.capsule_ends_at`` (RobotCapsules' forward kinematics) and
-  Eq. 5, (ends - previous ends) / dt over the robot's own sample times;
+- the robot: ``robot_geometry.model_capsule_ends_at`` (RobotCapsules' forward
+  kinematics, any robot's model) and Eq. 5, (ends - previous ends) / dt over the robot's
+  own sample times;
 - a decision at time t: ``tracks.tracker_fault`` (the frame's fault, else stale after
   the frame timeout), ``separation.separation_rows`` over the segments
   (SeparationMonitor, Eqs. 6-11) and ``ssm.speed_override_command`` over the segments'
@@ -26,7 +27,9 @@ import math
 import numpy as np
 
 from safety_systems.cell.human_body import envelope_rows
-from safety_systems.cell.robot_geometry import capsule_ends_at
+from safety_systems.cell.model_points import model_arrays, model_work
+from safety_systems.cell.robot_geometry import model_capsule_ends_at
+from safety_systems.cell.robot_model import RobotModel, default_model
 from safety_systems.config.configuration import (
     frame_timeout,
     level_terms,
@@ -57,7 +60,7 @@ class SafetyLoop:
     ``nearest`` (M,)."""
 
     def __init__(self, config: ControllerConfig, points: list[list[str]],
-                 names: list[str] | None = None):
+                 names: list[str] | None = None, model: RobotModel | None = None):
         if config.type != "ssm_override":
             raise ValueError(f"controller.type: got {config.type!r}; the runtime runs "
                              "ssm_override only")
@@ -65,13 +68,17 @@ class SafetyLoop:
         n = self.n = sum(len(o) for o in points)
         self.rules, self.regions = tracker_rules(config), tracker_regions(config)
         self.timeout = frame_timeout(config)
-        self.capsules = monitor_capsules(config)
+        self.model = default_model() if model is None else model
+        self.capsules = monitor_capsules(config, self.model)
+        self._arrays = model_arrays(self.model)
+        self._work = model_work(self.model)
+        self._points = np.empty((2, self.model.num_points, 3))
         self.recipe = monitor_recipe(config, [list(o) for o in points], names)
         self.operator_names = [str(x) for x in (names or range(len(points)))]
         self.segment_names = list(self.recipe.names)
         self.envelope_terms = (float(config.body.tracking_allowance),
                                float(f.occlusion_speed))
-        self.monitor = monitor_terms(config)
+        self.monitor = monitor_terms(config, self.model)
         self.z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas))
         self.delta_s, self.d_min = f.delta_s, f.d_min
         self.tracks = np.zeros((n, TRACK_SLOT))
@@ -92,7 +99,7 @@ class SafetyLoop:
         self._robot_time = math.nan
         self.out = np.full((4, m), np.nan)  # d, S, v_human, v_robot per segment
         self.nearest = np.full(m, -1, dtype=np.int64)
-        self.levels = level_terms(config) if f.stopping == "by_speed" else None
+        self.levels = level_terms(config, self.model) if f.stopping == "by_speed" else None
         if self.levels is not None:  # S at each level, (G + 1, M)
             self.level_out = np.full((self.levels[0].size, m), np.nan)
         self._warm_up()
@@ -104,7 +111,7 @@ class SafetyLoop:
                  self.frame_fault, self.ends.copy(), self.end_velocities.copy(),
                  self._robot_time)
         self.frame(0.0, np.zeros((0, 3)), np.zeros(0), np.zeros(0))
-        self.robot(np.zeros(6), 0.0)
+        self.robot(np.zeros(self.model.n), 0.0)
         self.decide(0.0)
         (self.tracks, self.t_good, self.rejected, self.frame_fault, self.ends,
          self.end_velocities, self._robot_time) = saved
@@ -135,13 +142,15 @@ class SafetyLoop:
         return self.frame_fault
 
     def robot(self, q: np.ndarray, t: float) -> None:
-        """The robot's joint positions q (6,) at its time t (a repeated t changes
+        """The robot's joint positions q (n,) at its time t (a repeated t changes
         nothing)."""
         if t == self._robot_time:
             return
         c = self.capsules
         ends = np.empty_like(self.ends)
-        capsule_ends_at(np.asarray(q, dtype=float), c.tool_length, c.a, c.b, c.t0, c.t1, ends)
+        model_capsule_ends_at(self._arrays, np.asarray(q, dtype=float), c.tool_length, c.a,
+                              c.b, c.t0, c.t1, *self._work, self._points[0], self._points[1],
+                              ends, np.empty_like(ends))
         self.end_velocities = (ends - self.ends) / (t - self._robot_time)
         self.ends, self._robot_time = ends, t
 

@@ -112,8 +112,13 @@ def _cell(params: Params, space: ScenarioSpace, certificate: dict) -> str:
     else:
         shape = f"a task-space path of {len(path.task_path.points)} points"
     b = certificate["braking_data"]
-    rows = [["robot", "UR5e, kinematic model (the proofs cover the kinematic robot: the real "
-             "robot is trusted to follow its braked reference)"],
+    robot = certificate.get("robot") or {"model": "ur5e", "joints": [None] * 6}
+    name = "UR5e" if robot["model"] == "ur5e" else robot["model"]
+    rows = [["robot", _e(f"{name} ({len(robot['joints'])} joints"
+                         + (f", {robot['urdf']} SHA-256 {robot['urdf_sha256'][:12]}..."
+                            if "urdf_sha256" in robot else "")
+                         + "), kinematic model (the proofs cover the kinematic robot: the "
+                         "real robot is trusted to follow its braked reference)")],
             ["control rate", f"{r.control_rate_hz:g} Hz"],
             ["path", _e(shape)],
             ["tool (real)", f"payload radius {r.payload_radius:g} m, length {r.tool_length:g} m"],
@@ -129,8 +134,10 @@ def _cell(params: Params, space: ScenarioSpace, certificate: dict) -> str:
                                  f"{_g(b['stopping_distance'])} m")]]
     out = _table(None, rows)
     if b["origin"] == "placeholder":
+        source = ("UR5/CB3 figures" if robot["model"] == "ur5e" else
+                  f"published figures for the {name} (models/README.md)")
         out = ('<p class="warning">The stopping data is the built-in PLACEHOLDER derived '
-               "from UR5/CB3 figures, not data measured on this cell. Enter the measured "
+               f"from {_e(source)}, not data measured on this cell. Enter the measured "
                "stopping times and distances before relying on this report.</p>\n" + out)
     return out
 

@@ -6,8 +6,10 @@ SHA-256 of the canonical form (:func:`canonical`: JSON, keys sorted, no spaces, 
 in their shortest exact spelling) of four parts: the parameters (the controller
 configuration without its stopping data), the braking table as the robot uses it (the
 configured rows, or the built-in placeholder's, with its origin), the path and robot
-settings verified, and the assumptions (the scenario space, the assumptions in words and
-the proof's box). Any change to a safety setting changes it; layout and comments do not.
+settings verified, the robot itself (its model's name, joints and the SHA-256 of its URDF:
+an edited robot description voids the certificate) and the assumptions (the scenario
+space, the assumptions in words and the proof's box). Any change to a safety setting
+changes it; layout and comments do not.
 
 Two more digests make any edit of either file visible (they detect edits, they are not
 signatures: whoever can write the files can write new digests):
@@ -32,13 +34,22 @@ from pathlib import Path
 
 from safety_systems.files.documents import decode_text, read_input
 from safety_systems.files.input_error import InputError
-from safety_systems.config.params_file import Params, flat_parameters, params_from_text
+from safety_systems.cell.robot_model import RobotModel
+from safety_systems.config.params_file import (
+    Params,
+    flat_parameters,
+    params_from_text,
+    robot_config,
+)
+from safety_systems.config.scenario import RobotConfig, robot_model_of
 from safety_systems.files.ranges import type_hints
 from safety_systems.config.configuration import braking_table, placeholder_braking
 from verification.verdicts import EXIT_REQUIREMENT, VERDICTS
 
 SCHEMA = "safety-systems certificate"
-SCHEMA_VERSION = 2  # 2: ``evaluations`` by kind, as report.json's (was model_evaluations)
+# 2: ``evaluations`` by kind, as report.json's (was model_evaluations); 3: ``robot`` (the
+# model, its joints and its URDF's SHA-256), in the checksum too
+SCHEMA_VERSION = 3
 DIGEST = "certificate_sha256"
 _ZEROS = "0" * 64
 _DIGEST_TEXT = re.compile(r'"certificate_sha256": "([0-9a-f]{64})"')
@@ -51,7 +62,7 @@ FIELDS = {  # every key of a certificate and the type of its value
     "premises": list, "cell": dict, "braking_data": dict, "assumptions": dict,
     "simulations": int, "evaluations": dict, "counts_meaning": str,
     "min_robustness": dict, "counterexamples": list, "versions": dict, "parameters": dict,
-    "sources": dict, "exported": str, DIGEST: str,
+    "sources": dict, "exported": str, "robot": dict, DIGEST: str,
 }
 EXIT_NOT_CERTIFIED = 1
 EXIT_UNREADABLE = 2
@@ -82,11 +93,26 @@ def canonical(data: typing.Any) -> bytes:
                       allow_nan=False).encode("ascii")
 
 
-def braking_data(params: Params) -> dict:
+def params_model(params: Params, folder: str | Path | None) -> RobotModel:
+    """The model of the robot params.yaml certifies (a URDF relative to ``folder``, the
+    params file's)."""
+    return robot_model_of(robot_config(params.robot, RobotConfig(),
+                                       None if folder is None else Path(folder)))
+
+
+def robot_identity(model: RobotModel) -> dict:
+    """The robot as the certificate names it: its model, joints, URDF and the URDF's
+    SHA-256."""
+    return {"model": model.name, "joints": list(model.joint_names), "urdf": model.urdf.name,
+            "urdf_sha256": model.sha256}
+
+
+def braking_data(params: Params, model: RobotModel | None = None) -> dict:
     """The braking table the robot uses and its origin: ``measured`` (the configuration's
-    rows, entered as measured on the cell) or ``placeholder`` (the built-in UR5/CB3
-    figures, ``safety_systems.cell.braking``)."""
-    table = braking_table(params.controller)
+    rows, entered as measured on the cell) or ``placeholder`` (the built-in placeholder
+    of ``model``'s robot, None: the UR5e's UR5/CB3 figures,
+    ``safety_systems.cell.placeholder_stops``)."""
+    table = braking_table(params.controller, model)
     return {"origin": "placeholder" if placeholder_braking(params.controller) else "measured",
             "stop_category": int(params.controller.braking.stop_category),
             "speed_fraction": [float(x) for x in table.speed_fraction],
@@ -94,17 +120,21 @@ def braking_data(params: Params) -> dict:
             "stopping_distance": [float(x) for x in table.stopping_distance]}
 
 
-def checksum_parts(params: Params, assumptions: dict) -> dict:
-    """What the safety checksum covers (see the module docstring)."""
+def checksum_parts(params: Params, assumptions: dict, folder: str | Path | None = None
+                   ) -> dict:
+    """What the safety checksum covers (see the module docstring); ``folder``: the params
+    file's, which a URDF robot's file is relative to."""
     parameters = plain(params.controller)
     del parameters["braking"]
+    model = params_model(params, folder)
     return {"schema_version": SCHEMA_VERSION, "parameters": parameters,
-            "braking": braking_data(params), "path": plain(params.robot),
-            "assumptions": assumptions}
+            "braking": braking_data(params, model), "path": plain(params.robot),
+            "robot": robot_identity(model), "assumptions": assumptions}
 
 
-def safety_checksum(params: Params, assumptions: dict) -> str:
-    return hashlib.sha256(canonical(checksum_parts(params, assumptions))).hexdigest()
+def safety_checksum(params: Params, assumptions: dict, folder: str | Path | None = None
+                    ) -> str:
+    return hashlib.sha256(canonical(checksum_parts(params, assumptions, folder))).hexdigest()
 
 
 def short(checksum: str) -> str:
@@ -237,7 +267,14 @@ def check(params_path: str | Path, certificate_path: str | Path | None = None, *
         return _fail(f"{certificate_path}: {DIGEST}: got {cert[DIGEST][:12]}...; allowed: the "
                      "SHA-256 of this file as export wrote it (the certificate was altered)",
                      params=params)
-    checksum = safety_checksum(params, cert["assumptions"])
+    model = params_model(params, params_path.parent)
+    certified = cert.get("robot", {})
+    if model.sha256 != certified.get("urdf_sha256"):
+        return _fail(f"{model.urdf}: urdf_sha256: got {model.sha256[:12]}...; allowed: the "
+                     f"certified {str(certified.get('urdf_sha256'))[:12]}... (the robot's "
+                     f"description is not the one verified: {certified.get('model')})",
+                     params=params)
+    checksum = safety_checksum(params, cert["assumptions"], params_path.parent)
     if hashlib.sha256(raw).hexdigest() != cert["params_file_sha256"]:
         return _fail(_what_changed(params, params_path, cert, checksum), params=params,
                      checksum=checksum)

@@ -45,12 +45,15 @@ from verification.deploy.certificate import (
     SCHEMA_VERSION,
     braking_data,
     certificate_text,
+    params_model,
     plain,
     read_json,
+    robot_identity,
     safety_checksum,
     short,
 )
 from safety_systems.cell.human_body import DIMENSION_NAMES
+from safety_systems.cell.robot_model import RobotModel
 from verification.properties import PROPERTIES
 from verification.spaces.box import ScenarioSpace
 from verification.spaces.space import load_space, tracked_bodies
@@ -163,13 +166,14 @@ def premises(report: dict) -> list[dict]:
     return list(out.values())
 
 
-def whole_cell(params: Params, space: ScenarioSpace) -> dict:
+def whole_cell(params: Params, space: ScenarioSpace, model: RobotModel | None = None) -> dict:
     """The whole-cell settings the premises speak of, as figures: the robot as the
     monitor measures it (its capsules' radii) against the real robot the properties
     measure, the robot's speed in S, the operators' body model, how hidden bodies are kept and
     how frames are gated (the proofs' premises say whether each suffices)."""
     c, f, t = params.controller, params.controller.safety, params.controller.tracker
-    mine, real = monitor_capsules(c), contact_capsules(space.robot, space.contact_geometry)
+    mine, real = monitor_capsules(c, model), contact_capsules(space.robot,
+                                                               space.contact_geometry)
     return {
         "monitor": {"robot_geometry": f.robot_geometry, "capsules": list(mine.names),
                     "radii": [float(r) for r in mine.radius],
@@ -220,22 +224,26 @@ def counterexamples(report: dict, tune: dict | None) -> list[dict]:
 
 
 def build(config: ControllerConfig, config_path: str, report: dict, report_path: Path,
-          tune: dict | None = None, tune_path: str | None = None
+          tune: dict | None = None, tune_path: str | None = None, out: Path | None = None
           ) -> tuple[Params, dict, ScenarioSpace]:
     """(params, certificate without its file digests, space) of a configuration and the
-    report of its verification."""
+    report of its verification, for ``out`` (params.yaml's folder: a URDF robot's file is
+    written relative to it; None: the current folder)."""
+    out = Path(".") if out is None else Path(out)
     sha = hashlib.sha256(read_text(config_path).encode()).hexdigest()
     if report["config_sha256"] != sha:
         raise InputError("config_sha256", report["config_sha256"][:12] + "...",
                          f"the SHA-256 of {config_path} ({sha[:12]}...): this report is of "
                          "another configuration", file=report_path)
     space, space_path, space_sha = _space(report, report_path)
-    params = Params(controller=deployed_controller(config), robot=deployed_robot(space.robot))
+    params = Params(controller=deployed_controller(config),
+                    robot=deployed_robot(space.robot, out))
+    model = params_model(params, out)
     assumptions = {"space_file": space_path, "space_sha256": space_sha, "space": plain(space),
                    "assumptions": report["assumptions"], "box": report["box"],
                    "free_parameters": report["free_parameters"],
                    "robot_mode": report["robot_mode"]}
-    checksum = safety_checksum(params, assumptions)
+    checksum = safety_checksum(params, assumptions, out)
     properties = {name: {"verdict": p["verdict"], "min_robustness": p["min_robustness"],
                          "proved": p["proof"]["proved"], "method": p["proof"]["method"],
                          "margin_at_worst_corner": p["proof"]["margin_at_worst_corner"],
@@ -264,8 +272,9 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
         "verdict": report["verdict"], "verdict_meaning": VERDICT_MEANING[report["verdict"]],
         "method": report["method"], "robot_mode": report["robot_mode"],
         "properties": properties, "premises": premises(report),
-        "cell": whole_cell(params, space),
-        "braking_data": braking_data(params), "assumptions": assumptions,
+        "cell": whole_cell(params, space, model),
+        "braking_data": braking_data(params, model), "assumptions": assumptions,
+        "robot": robot_identity(model),
         "simulations": int(report["simulations"]), "evaluations": evaluations,
         "counts_meaning": COUNTS_MEANING,
         "min_robustness": {n: p["min_robustness"] for n, p in report["properties"].items()},

@@ -16,7 +16,7 @@ from safety_systems.config.configuration import (
     joint_path,
     level_stops,
 )
-from safety_systems.config.scenario import ControllerConfig
+from safety_systems.config.scenario import ControllerConfig, robot_model_of
 from safety_systems.ssm.formulas import SPEED_LEVELS, level_at_or_above
 from verification.proof.robot_bounds import (
     robot_acceleration_bound,
@@ -114,19 +114,21 @@ def speed_levels(config: ControllerConfig, space: ScenarioSpace) -> Levels:
     deceleration over the space's shortest braking time scale times the period."""
     f, p = config.safety, space.parameters
     h = 1.0 / space.robot.control_rate_hz
+    model = robot_model_of(space.robot)
     if f.stopping == "by_speed":
         level = np.arange(1, SPEED_LEVELS + 1)
         rate = np.array([level_rate(int(g)) for g in level])
-        drop = float(np.max(braking_table(config).deceleration)) \
+        drop = float(np.max(braking_table(config, model).deceleration)) \
             / p.braking_time_scale.min * h
         previous = np.minimum(1.0, rate + drop)
-        t_all, b_all = level_stops(config)
+        t_all, b_all = level_stops(config, model)
         t_s, b = np.asarray(t_all[1:], dtype=float), np.asarray(b_all[1:], dtype=float)
     else:
         level, rate, previous = np.array([SPEED_LEVELS]), np.ones(1), np.ones(1)
-        t_s, b = (np.array([float(x)]) for x in assumed_stopping(config))
+        t_s, b = (np.array([float(x)]) for x in assumed_stopping(config, model))
     bounds = robot_bounds_by_rate(joint_path(space.robot), config, period=h,
-                                  braking_time_scale=p.braking_time_scale.max, rates=rate)
+                                  braking_time_scale=p.braking_time_scale.max, rates=rate,
+                                  model=model)
     return Levels(level, rate, previous, t_s, b, np.array([x.stop_time for x in bounds]),
                   np.array([x.stop_travel for x in bounds]), bounds[0].tool_speed,
                   f.stopping == "by_speed")

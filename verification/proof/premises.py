@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from safety_systems.cell import human_body
-from safety_systems.cell.ur5e import DH_D
+from safety_systems.cell.robot_model import KIND_UR, is_ur5e
 from safety_systems.config.configuration import (
     body_dimensions,
     contact_capsules,
@@ -16,14 +16,14 @@ from safety_systems.config.configuration import (
     monitor_capsules,
     placeholder_braking,
 )
-from safety_systems.config.scenario import ControllerConfig
+from safety_systems.config.scenario import ControllerConfig, robot_model_of
 from safety_systems.ssm.formulas import SPEED_LEVELS
 from verification.proof.margins import (
     least_level_separation,
 )
 from verification.proof.robot_bounds import (
-    REACH_BOUND,
     braking_is_monotone,
+    revolute_only,
 )
 from verification.proof.tracking_error import ERROR_HORIZON, estimate_error_coefficients
 from verification.spaces.box import ScenarioSpace
@@ -53,7 +53,7 @@ def operators_reach(space: ScenarioSpace) -> float:
     if space.recording is not None:
         return recorded_reach(space)
     p = space.parameters
-    robot = REACH_BOUND + DH_D[0] + space.robot.tool_length
+    robot = robot_model_of(space.robot).base_reach + space.robot.tool_length
     return (robot + p.start_distance.max + p.retreat_distance.max + p.overshoot.max
             + posture_reach(space))
 
@@ -94,7 +94,7 @@ def monitor_covers_contact(config: ControllerConfig, space: ScenarioSpace) -> bo
         return True
     if f.robot_geometry == "tool_point":
         return False
-    mine = monitor_capsules(config)
+    mine = monitor_capsules(config, robot_model_of(robot))
     real = contact_capsules(robot, space.contact_geometry)
     return bool(np.all(mine.radius >= real.radius) and mine.tool_length >= real.tool_length)
 
@@ -116,6 +116,7 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     gate_widest = ((t.gate_speed + v_max) * p.outlier_frames.max * period + t.gate_width
                    + f.human_uncertainty + e_worst + math.sqrt(3.0) * noise)
     placeholder = placeholder_braking(config)
+    model = robot_model_of(space.robot)
     checked = model_premises(config, space) + [
         ("the space's operators are bodies the monitor's model allows (every posture's "
          "segments within the configuration's body dimensions and lean limits, the "
@@ -149,7 +150,7 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
         checked.append(("a braking step preserves the order of speeds"
                         + (" (so a stop from a lower speed level takes no longer and travels "
                            "no farther)" if by_speed else ""),
-                        braking_is_monotone(config, h, scale)))
+                        braking_is_monotone(config, h, scale, model)))
     if by_speed:
         least = least_level_separation(config, space)
         checked.append((f"d >= dS S_max(g) gives d >= S_max(g) at every speed level: dS = 1 "
@@ -162,8 +163,11 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
          + (" from every speed (S by speed uses its rows below full speed)"
             if by_speed else "") + ", times within "
          f"{p.braking_time_scale.min:g} to {scale:g} of it"
-         + (" (THE BUILT-IN PLACEHOLDER DERIVED FROM UR5/CB3 DATA, NOT MEASURED ON THIS "
-            "CELL)" if placeholder else " (the configuration's braking table)")),
+         + ((" (THE BUILT-IN PLACEHOLDER DERIVED FROM UR5/CB3 DATA, NOT MEASURED ON THIS "
+             "CELL)" if is_ur5e(model) else
+             f" (THE BUILT-IN PLACEHOLDER FOR THE {model.name.upper()}, DERIVED FROM "
+             "PUBLISHED FIGURES (models/README.md), NOT MEASURED ON THIS CELL)")
+            if placeholder else " (the configuration's braking table)")),
         f"no point of any operator's body moves faster than v_max = {v_max:g} m/s (ISO "
         "13855: 2.0 m/s for hands and arms)",
         "every operator's body is within the monitor's model (cell/human_body.py): segment "
@@ -177,8 +181,12 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
         "passes it",
         "the real robot follows its braked reference as exactly as the kinematic model "
         "does (its tracking error is not covered)",
-        "the UR5e model's capsules contain the real arm (they contain its collision "
-        "geometry: tests/test_robot_geometry.py) and the tool fits its payload capsule",
+        ("the UR5e model's capsules contain the real arm (they contain its collision "
+         "geometry: tests/test_robot_geometry.py) and the tool fits its payload capsule"
+         if is_ur5e(model) else
+         f"the {model.name} model's capsules contain the real arm (they contain its "
+         f"URDF's collision geometry, {model.urdf.name}: tests/cell/test_capsule_fit.py) "
+         "and the tool fits its payload capsule"),
         "bodies come into the cell only through its exits and are tracked before they "
         "come near the robot (the space's operators stand still for the settle time)",
     ]
@@ -213,4 +221,8 @@ def model_premises(config: ControllerConfig, space: ScenarioSpace) -> list[tuple
         ("the monitor's robot contains the one contact is measured against "
          f"({f.robot_geometry} against {space.contact_geometry})",
          monitor_covers_contact(config, space)),
-    ]
+    ] + ([] if robot_model_of(space.robot).kind == KIND_UR else [
+        # (a UR's closed form is six revolute joints by construction: nothing to check)
+        (f"every joint of the {robot_model_of(space.robot).name} turns (the bound on a "
+         "capsule point's acceleration is a revolute chain's)",
+         revolute_only(robot_model_of(space.robot)))])

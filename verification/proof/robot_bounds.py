@@ -14,16 +14,18 @@ import numpy as np
 from safety_systems.cell.braking import braking_deceleration
 from safety_systems.cell.joint_path import JointPath, SplinePath, joint_path_state
 from safety_systems.cell.robot_geometry import Capsules, capsule_ends
+from safety_systems.cell.robot_model import KIND_UR, RobotModel, default_model
 from safety_systems.cell.stopping import stop_from
 from safety_systems.cell.ur5e import DH_A, DH_D
 from safety_systems.config.configuration import (
     braking_table,
     monitor_capsules,
 )
-from safety_systems.config.scenario import ControllerConfig
+from safety_systems.config.scenario import ControllerConfig, robot_model_of
 from verification.spaces.box import ScenarioSpace
 
-# Longest distance from any joint axis to the tool flange, bounded by the link lengths.
+# The UR5e's longest distance from any joint axis to the tool flange, bounded by the link
+# lengths (every model has its own: ``RobotModel.reach_bound``; this is the UR5e's).
 REACH_BOUND = sum(abs(a) for a in DH_A) + sum(DH_D[1:])
 
 
@@ -70,41 +72,70 @@ def joint_rate_bounds(path: JointPath | SplinePath) -> tuple[np.ndarray, np.ndar
 def tool_acceleration_bound(path: JointPath | SplinePath, reach: float = REACH_BOUND) -> float:
     """Bound on |d2p/ds2| at nominal speed of a rigid point of the arm within ``reach``
     of every joint axis, m/s^2 (revolute chain: the sum of joint accelerations plus twice
-    the squared sum of joint speeds, times the reach; :func:`joint_rate_bounds`)."""
+    the squared sum of joint speeds, times the reach; :func:`joint_rate_bounds`; a
+    prismatic joint is not covered: :func:`revolute_only` is the theorems' premise)."""
     rate, accel = joint_rate_bounds(path)
     return float(reach * np.max(accel + 2.0 * rate**2))
 
 
+def revolute_only(model: RobotModel) -> bool:
+    """Whether every joint of ``model``'s chain turns (the acceleration bound's premise)."""
+    return bool(np.all(np.asarray(model.kinds) == 0))
+
+
+def _ur_lengths(model: RobotModel) -> tuple[np.ndarray, np.ndarray]:
+    """A UR's standard DH a and d (6 each) from its closed form's constants (d1, a2, a3,
+    d4, d5, d6): every UR has a1 = a4 = a5 = a6 = 0 and d2 = d3 = 0."""
+    d1, a2, a3, d4, d5, d6 = (float(x) for x in model.dh)
+    return np.array([0.0, a2, a3, 0.0, 0.0, 0.0]), np.array([d1, 0.0, 0.0, d4, d5, d6])
+
+
 def capsule_reach(capsules: Capsules) -> float:
-    """A bound on any capsule end's distance from any joint axis, m: the link lengths,
-    the tool, and the longest extension of a link's axis past its joints."""
-    lengths = np.hypot(np.r_[DH_A, 0.0], np.r_[DH_D, capsules.tool_length])  # P_k -> P_k+1
-    length = lengths[np.minimum(capsules.a, 6)]
-    overhang = np.maximum(np.maximum(-capsules.t0, capsules.t1 - 1.0), 0.0) * length
-    return REACH_BOUND + capsules.tool_length + float(np.max(overhang, initial=0.0))
+    """A bound on any capsule end's distance from any joint axis, m. A UR's: the link
+    lengths, the tool, and the longest extension of a link's axis past its joints (for
+    the UR5e exactly as before robots could be chosen). A chain's (its capsules' ends are
+    rigid points of their links, ``RobotModel.point_reach``, the tip tool0's plus the
+    tool length): the larger of a capsule's two points' bounds plus its extension past
+    them (0 for the fitted links: their ends are the points themselves)."""
+    model = capsules.model or default_model()
+    if model.kind == KIND_UR:
+        dh_a, dh_d = _ur_lengths(model)
+        lengths = np.hypot(np.r_[dh_a, 0.0], np.r_[dh_d, capsules.tool_length])
+        length = lengths[np.minimum(capsules.a, 6)]
+        overhang = np.maximum(np.maximum(-capsules.t0, capsules.t1 - 1.0), 0.0) * length
+        return model.reach_bound + capsules.tool_length + float(np.max(overhang, initial=0.0))
+    reach = np.r_[model.point_reach, model.point_reach[-1] + capsules.tool_length]
+    span = 2.0 * (model.base_reach + capsules.tool_length)  # any two points' distance
+    extension = np.maximum(np.maximum(-capsules.t0, capsules.t1 - 1.0), 0.0)
+    ends = np.maximum(reach[capsules.a], reach[capsules.b])
+    return float(np.max(ends + extension * span, initial=0.0))
 
 
 def robot_bounds(path: JointPath, config: ControllerConfig, *, period: float,
                  braking_time_scale: float, capsules: Capsules | None = None,
-                 cells: int = 20000, rate: float = 1.0) -> RobotBounds:
+                 cells: int = 20000, rate: float = 1.0,
+                 model: RobotModel | None = None) -> RobotBounds:
     """V_R, T_stop and D for ``path`` under the configured table scaled by
     ``braking_time_scale``, over the axis ends of ``capsules`` (None: the configuration's
-    monitor capsules; see the module docstring), the stop commanded at path rate
-    ``rate`` (1: from full speed) and D over the tick before it at that rate."""
+    monitor capsules on ``model``, None: the UR5e; see the module docstring), the stop
+    commanded at path rate ``rate`` (1: from full speed) and D over the tick before it at
+    that rate."""
     return robot_bounds_by_rate(path, config, period=period,
                                 braking_time_scale=braking_time_scale, capsules=capsules,
-                                cells=cells, rates=(rate,))[0]
+                                cells=cells, rates=(rate,), model=model)[0]
 
 
 def robot_bounds_by_rate(path: JointPath, config: ControllerConfig, *, period: float,
                          braking_time_scale: float, rates, capsules: Capsules | None = None,
-                         cells: int = 20000) -> list[RobotBounds]:
+                         cells: int = 20000, model: RobotModel | None = None
+                         ) -> list[RobotBounds]:
     """:func:`robot_bounds` at each path rate of ``rates``, the path covered once: V_R (at
     nominal rate, the same for all), T_stop the ticks of a stop commanded at the rate (as
-    the PathFollower runs it) and D the largest travel of any capsule axis point over a
-    window of path parameter as long as that stop's plus one tick at the rate."""
-    capsules = monitor_capsules(config) if capsules is None else capsules
-    table = braking_table(config)
+    the PathFollower runs it, the robot's stopping data: the capsules' robot's) and D the
+    largest travel of any capsule axis point over a window of path parameter as long as
+    that stop's plus one tick at the rate."""
+    capsules = monitor_capsules(config, model) if capsules is None else capsules
+    table = braking_table(config, capsules.model)
     delta = path.cycle_time / cells
     s = np.arange(cells + 1) * delta
     q, dq, _ = joint_path_state(dataclasses.replace(path, cycles=2), s)
@@ -130,18 +161,21 @@ def robot_acceleration_bound(path: JointPath | SplinePath, config: ControllerCon
     |d2p/ds2| sigma^2 + |dp/ds| |d sigma/dt| with sigma <= ``rate`` and the path rate changing
     no faster than the robot's acceleration limit or the brakes' fastest deceleration
     (at the space's shortest braking time scale); ``tool_speed`` bounds |dp/ds|."""
-    capsules = monitor_capsules(config)
+    model = robot_model_of(space.robot)
+    capsules = monitor_capsules(config, model)
     rate_change = max(space.robot.acceleration_limit,
-                      float(np.max(braking_table(config).deceleration))
+                      float(np.max(braking_table(config, model).deceleration))
                       / space.parameters.braking_time_scale.min)
     return (tool_acceleration_bound(path, capsule_reach(capsules)) * rate * rate
             + tool_speed * rate_change)
 
 
-def braking_is_monotone(config: ControllerConfig, period: float, scale: float) -> bool:
-    """One braking step preserves the order of path speeds (so a stop from a lower
-    speed takes no longer and travels no farther than one from full speed)."""
+def braking_is_monotone(config: ControllerConfig, period: float, scale: float,
+                        model: RobotModel | None = None) -> bool:
+    """One braking step of ``model``'s stopping data (None: the UR5e's) preserves the
+    order of path speeds (so a stop from a lower speed takes no longer and travels no
+    farther than one from full speed)."""
     sigma = np.linspace(0.0, 1.0, 10001)
-    after = np.maximum(sigma - braking_deceleration(braking_table(config), sigma)
+    after = np.maximum(sigma - braking_deceleration(braking_table(config, model), sigma)
                        / scale * period, 0.0)
     return bool(np.all(np.diff(after) >= -1e-15))

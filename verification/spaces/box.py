@@ -15,7 +15,6 @@ import dataclasses as dc
 import math
 import typing
 
-from safety_systems.cell.robot_geometry import CAPSULE_NAMES
 from safety_systems.config.scenario import (MAX_DURATION, MAX_SCRIPTED_SPEED, RobotConfig,
                                              ScenarioError)
 from safety_systems.files.ranges import number
@@ -145,12 +144,16 @@ class ScenarioSpace:
 NAMES = tuple(f.name for f in dc.fields(SpaceParameters))
 
 
+# target_link indexes the space's robot's capsules (its links', then the tool's): at most
+# the robot's count less one (checked on the robot, ``spaces.space.validate_space``; the
+# UR family has 7: ``robot_geometry.CAPSULE_NAMES``), and never above this.
+MAX_TARGET_LINK = 63.0
 LIMITS = {  # allowed ranges of each parameter
     "azimuth_deg": (-360.0, 360.0), "elevation_deg": (-80.0, 80.0),
     "start_distance": (0.2, 10.0), "peak_speed": (0.01, MAX_SCRIPTED_SPEED),
     "acceleration": (0.1, 100.0),
     "onset_phase": (0.0, 1.0), "target_phase": (0.0, 1.0),
-    "target_link": (0.0, len(CAPSULE_NAMES) - 1.0), "target_along": (0.0, 1.0),
+    "target_link": (0.0, MAX_TARGET_LINK), "target_along": (0.0, 1.0),
     "retreat_distance": (0.0, 5.0), "overshoot": (0.0, 2.0), "operators": (1.0, 5.0),
     "posture": (0.0, NUM_POSTURES - 1.0), "heads": (0.0, 1.0), "noise_std": (0.0, 0.05),
     "latency": (0.0, 1.0), "dropout": (0.0, 5.0), "occlusion": (0.0, 60.0),

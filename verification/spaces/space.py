@@ -9,8 +9,9 @@ parameter) becomes a full :class:`safety_systems.config.scenario.Scenario`:
   fraction of its cycle), so the tracker has settled.
 - The operator's *lead* point (the hand, or the elbow, the shoulder, the head, as its
   posture says) heads for the *target*: a point of the robot at ``target_phase`` of its
-  cycle, on the link ``target_link`` (an index into ``robot_geometry.CAPSULE_NAMES``:
-  shoulder, upper arm, forearm, the three wrist links, the tool) at the fraction
+  cycle, on the link ``target_link`` (an index into the robot's capsules,
+  :func:`target_capsules`: on a UR the shoulder, upper arm, forearm, the three wrist
+  links, the tool) at the fraction
   ``target_along`` from the link's inner joint to its outer one (for the tool: from the
   flange to the tool tip). The start point lies ``start_distance`` from the target in
   the direction (``azimuth_deg``, ``elevation_deg``); extra operators come from azimuths
@@ -57,7 +58,8 @@ import numpy as np
 from safety_systems.cell import human_body
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.cell.operator_paths import segment_profile
-from safety_systems.cell.robot_geometry import CAPSULE_NAMES, LINK_SEGMENTS, robot_points
+from safety_systems.cell.robot_geometry import LINK_SEGMENTS, robot_points
+from safety_systems.cell.robot_model import RobotModel
 from safety_systems.config.configuration import joint_path
 from safety_systems.config.scenario import (
     ROBOT_GEOMETRIES,
@@ -71,7 +73,9 @@ from safety_systems.config.scenario import (
     SensorFault,
     PosturePoint,
     Waypoint,
+    read_robot_file,
     read_task_path,
+    robot_model_of,
     validate_scenario,
 )
 from safety_systems.files.documents import load_document
@@ -126,13 +130,27 @@ POSTURES = (
 POSTURE_NAMES = tuple(name for name, _, _ in POSTURES)
 # The tracked bodies of a space's operator: (name, the body point it marks).
 TRACKED = (("hand", "hand_right"), ("other_hand", "hand_left"), ("head", "head"))
-TARGET_SEGMENTS = LINK_SEGMENTS + ((6, 7),)  # each capsule's points, the tool's last
+TARGET_SEGMENTS = LINK_SEGMENTS + ((6, 7),)  # the UR5e's capsules' points, the tool's last
+
+
+def target_capsules(model: RobotModel) -> tuple[tuple[str, ...], tuple[tuple[int, int], ...]]:
+    """(names, (a, b) point pairs) of the capsules a space's approaches may aim at on
+    ``model``: each link's capsule (between its two points), then the tool (tool0 to the
+    tip); ``target_link`` indexes them (the UR family's: ``TARGET_SEGMENTS``)."""
+    names = tuple(model.link_names) + ("tool",)
+    pairs = tuple((int(a), int(b)) for a, b, *_ in model.link_capsules)
+    return names, pairs + ((model.tool0, model.tip),)
 
 
 def validate_space(space: ScenarioSpace) -> None:
     """Range checks; raises ScenarioError naming the field."""
     check_limits(space)
     check_ranges(space.parameters, LIMITS, WHOLE, "parameters")
+    names, _ = target_capsules(robot_model_of(space.robot))
+    if space.parameters.target_link.max > len(names) - 1:
+        raise ScenarioError("parameters.target_link.max", space.parameters.target_link.max,
+                            f"0 <= target_link <= {len(names) - 1} (the capsules of the "
+                            f"{robot_model_of(space.robot).name}: {', '.join(names)})")
     if space.robot.mode not in ("kinematic", "dynamic"):  # checked before any search
         raise ScenarioError("robot.mode", space.robot.mode, "kinematic | dynamic")
     if space.contact_geometry not in ROBOT_GEOMETRIES:
@@ -150,6 +168,7 @@ def load_space(path: str | Path) -> ScenarioSpace:
     """Load and validate a space file (its task path's ``file``, and a recording block's
     files, relative to it)."""
     def validate(space: ScenarioSpace) -> None:
+        read_robot_file(space.robot, Path(path).parent)
         read_task_path(space.robot, Path(path).parent)
         if space.recording is not None:
             read_recording_block(space.recording, Path(path).parent)
@@ -208,8 +227,9 @@ def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
     p = space.parameters
     heads = " and a helmet" if p.heads.max >= 1 else ""
     postures = ", ".join(POSTURE_NAMES[int(p.posture.min):int(p.posture.max) + 1])
-    links = sorted({CAPSULE_NAMES[int(i)] for i in range(int(p.target_link.min),
-                                                          int(p.target_link.max) + 1)})
+    names, _ = target_capsules(robot_model_of(space.robot))
+    links = sorted({names[int(i)] for i in range(int(p.target_link.min),
+                                                 int(p.target_link.max) + 1)})
     occluded = ", ".join(hidden_bodies(space, p.heads.max >= 1, int(p.occluded_bodies.max)))
     lines = [
         f"{how_many(p.operators, 'operator')}, each a whole body "
@@ -252,8 +272,9 @@ def approach_times(peak_speed: float, acceleration: float, length: float) -> flo
 def target_point(space: ScenarioSpace, values: dict[str, float], path) -> np.ndarray:
     """The point a space's approaches aim at (see the module docstring), m."""
     q = joint_path_state(path, values["target_phase"] * path.cycle_time)[0]
-    points = robot_points(q, tool_length=space.robot.tool_length)[0]
-    a, b = TARGET_SEGMENTS[int(round(values["target_link"]))]
+    model = robot_model_of(space.robot)
+    points = robot_points(q, tool_length=space.robot.tool_length, model=model)[0]
+    a, b = target_capsules(model)[1][int(round(values["target_link"]))]
     return points[a] + values["target_along"] * (points[b] - points[a])
 
 

@@ -43,11 +43,13 @@ from pydrake.common.yaml import yaml_dump_typed
 from safety_systems.files.documents import read_text
 from safety_systems.files.input_error import InputError
 from safety_systems.files.output_files import write_text
+from safety_systems.cell.robot_model import RobotModel
 from safety_systems.config.scenario import (
     ControllerConfig,
     Scenario,
     load_controller_config,
     load_scenario,
+    robot_model_of,
     validate_controller,
 )
 from safety_systems.ssm.formulas import monitor_protective_distances
@@ -113,14 +115,14 @@ REFINE_SEEDS = 3  # proved candidates of the lowest proxy that are refined
 REFINE_STEPS = 6  # bisections per number
 
 
-def level_distances(config: ControllerConfig) -> np.ndarray:
+def level_distances(config: ControllerConfig, model: RobotModel | None = None) -> np.ndarray:
     """Beyond what distance a still operator lets the robot (at rest) run at each speed
     level g / SPEED_LEVELS: ΔS times the monitor's S (Eqs. 9-11) for a body and a robot at
     rest with that level's stop (``configuration.level_stops``; every level's is the
     full-speed stop under ``stopping: full_speed``), at least d_min (the human speed by
-    the configuration's mode)."""
+    the configuration's mode; the stops ``model``'s, None: the UR5e's)."""
     f = config.safety
-    t_s, b = level_stops(config)
+    t_s, b = level_stops(config, model)
     s = np.array([float(monitor_protective_distances(
         np.zeros(1), np.zeros(1), mode=f.human_speed, reaction_time=f.reaction_time,
         stopping_time=float(t), stopping_distance=float(d),
@@ -130,17 +132,17 @@ def level_distances(config: ControllerConfig) -> np.ndarray:
     return np.maximum(f.delta_s * np.maximum(s, 0.0), f.d_min)
 
 
-def full_speed_distance(config: ControllerConfig) -> float:
+def full_speed_distance(config: ControllerConfig, model: RobotModel | None = None) -> float:
     """Beyond what distance a still operator lets the robot (at rest) run at full speed
     (:func:`level_distances` at the top level)."""
-    return float(level_distances(config)[-1])
+    return float(level_distances(config, model)[-1])
 
 
-def proxy_distance(config: ControllerConfig) -> float:
+def proxy_distance(config: ControllerConfig, model: RobotModel | None = None) -> float:
     """The proxy that orders candidates: the mean of :func:`level_distances` (the
     full-speed distance under ``stopping: full_speed``; lower under ``by_speed``, where
     the robot runs slower instead of standing nearer than that)."""
-    return float(np.mean(level_distances(config)))
+    return float(np.mean(level_distances(config, model)))
 
 
 def config_text(config: ControllerConfig, header: list[str]) -> str:
@@ -170,6 +172,7 @@ class Tuner:
         self.counts = {"screened": 0, "proofs": 0, "counterexample_replays": 0,
                        "task_runs": 0, "verifications": 0, "simulations": 0}
         self.control_period = 1.0 / space.robot.control_rate_hz
+        self.model = robot_model_of(space.robot)
 
     def say(self, line: str) -> None:
         self.progress.write(line, self._say)
@@ -289,7 +292,7 @@ class Tuner:
                 return None
             self.counts["proofs"] += 2
             proofs = (prove(config, self.space), prove_separation(config, self.space))
-            return (all(x.proved for x in proofs), round(proxy_distance(config), 12),
+            return (all(x.proved for x in proofs), round(proxy_distance(config, self.model), 12),
                     min(x.margin_at_worst_corner for x in proofs))
 
         def judged(trial: dict) -> tuple | None:  # (proxy, -least margin) if both prove
@@ -315,7 +318,8 @@ class Tuner:
             if isinstance(values[p.name], int):
                 continue  # (a count: not bisected)
             ends = {end: round(proxy_distance(with_values(
-                self.config, dict(values, **{p.name: end}))), 12) for end in (p.min, p.max)}
+                self.config, dict(values, **{p.name: end})), self.model), 12)
+                for end in (p.min, p.max)}
             if min(ends.values()) < key[0]:
                 target = min(ends, key=ends.get)
             elif all(v == key[0] for v in ends.values()):  # the proxy does not depend on it
@@ -340,7 +344,8 @@ class Tuner:
             return None
         out = Candidate(index, values, self.build(values))
         out.proved = {"contact": True, "separation": True}
-        out.proxy, out.full_speed = proxy_distance(out.config), full_speed_distance(out.config)
+        out.proxy = proxy_distance(out.config, self.model)
+        out.full_speed = full_speed_distance(out.config, self.model)
         return out
 
     def run(self) -> dict:
@@ -362,8 +367,8 @@ class Tuner:
             for c in valid:
                 if c.status == "screened":
                     self.prove(c)
-                    c.proxy = proxy_distance(c.config)
-                    c.full_speed = full_speed_distance(c.config)
+                    c.proxy = proxy_distance(c.config, self.model)
+                    c.full_speed = full_speed_distance(c.config, self.model)
                 bar.step()
             if self.allow == "proved":  # the proofs are the constraint: descend on them
                 seeds = sorted((c for c in pool if c.status == "screened"),

@@ -10,6 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from verification.deploy.certificate import (
+    SCHEMA_VERSION,
     certificate_text,
     check,
     own_digest_holds,
@@ -161,9 +162,10 @@ def test_each_reason_is_named(exported, tmp_path, cli):
     assert code == 0 and "weaker than proved" in out
     code, _, err = cli(["check", params, "--require", "proved"])
     assert code == EXIT_REQUIREMENT and "weaker than proved" in err
-    _rewrite(folder, schema_version=3)
+    _rewrite(folder, schema_version=SCHEMA_VERSION + 1)
     code, _, err = cli(["check", params])
-    assert code == 2 and "schema_version: got 3" in err and "another" in err
+    assert code == 2 and f"schema_version: got {SCHEMA_VERSION + 1}" in err \
+        and "another" in err
     shutil.copy(exported / "export" / "certificate.json", folder)
     cert = json.loads((folder / "certificate.json").read_text())
     cert["extra"] = 1

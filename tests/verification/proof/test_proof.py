@@ -537,8 +537,8 @@ def test_low_levels_can_fail_where_the_full_speed_stop_proves(monkeypatch):
     # the full-speed S still proves, S by speed fails at level 1 only, and says so.
     import verification.proof.margins as proof_module
 
-    def short_at_level_1(config):
-        t_s, b = level_stops(config)
+    def short_at_level_1(config, model=None):
+        t_s, b = level_stops(config, model)
         t_s = t_s.copy()
         t_s[1] -= 0.02
         return t_s, b

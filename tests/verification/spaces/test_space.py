@@ -85,12 +85,30 @@ def test_bad_space_files_name_the_field(tmp_path, text, field):
 @given(name=st.sampled_from(NAMES), below=st.booleans(), by=st.floats(1e-3, 100.0))
 def test_ranges_outside_the_limits_are_rejected(name, below, by):
     lo, hi = LIMITS[name]
+    if name == "target_link":  # (the robot's capsules: the UR5e's seven)
+        hi = 6.0
     bad = Range(lo - by, hi) if below else Range(lo, hi + by)
     space = dc.replace(SPACE, parameters=dc.replace(SPACE.parameters, **{name: bad}))
     with pytest.raises(ScenarioError, match=f"parameters.{name}"):
         validate_space(space)
     validate_space(dc.replace(SPACE, parameters=dc.replace(SPACE.parameters,
                                                            **{name: Range(lo, hi)})))
+
+
+@pytest.mark.parametrize("space, capsules", [
+    ("models/spaces/default.yaml", 7), ("models/spaces/robots/default_ur10e.yaml", 7),
+    ("models/spaces/robots/default_panda.yaml", 9)])
+def test_target_link_indexes_the_space_robot_s_capsules(space, capsules):
+    """Approaches aim at any of the space's robot's capsules (its links', then the
+    tool's): the last index is accepted, the one after it refused naming them."""
+    space = load_space(ROOT / space)
+    last = dc.replace(space, parameters=dc.replace(
+        space.parameters, target_link=Range(0.0, capsules - 1.0)))
+    validate_space(last)
+    over = dc.replace(space, parameters=dc.replace(
+        space.parameters, target_link=Range(0.0, float(capsules))))
+    with pytest.raises(ScenarioError, match=f"0 <= target_link <= {capsules - 1} .*tool"):
+        validate_space(over)
 
 
 @FIXED
