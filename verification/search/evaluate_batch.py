@@ -474,6 +474,33 @@ def _operator_spheres(h_ends, axes, h_radius, h_std, operator, spheres):
 
 
 @numba.njit(cache=True)
+def _segment_travel(h_ends, h_radius, prev_ends, prev_radius, travel, kept):
+    """At a tracker update, how far each scenario's segments (their envelopes, (B, M, 2,
+    3) ends and (B, M) radii) have gone since the last (``prev_ends``, ``prev_radius``,
+    then set to these) added to ``travel`` (B, M): its farther end's displacement (every
+    axis point moves at most that far) plus its radius' growth, by which its clearance
+    to any capsule can have fallen. Where a segment is NaN now or was, its ``kept``
+    clearance bound goes (-inf)."""
+    for b in range(h_ends.shape[0]):
+        for m in range(h_ends.shape[1]):
+            top_sq = 0.0
+            for e in range(2):
+                x0 = h_ends[b, m, e, 0] - prev_ends[b, m, e, 0]
+                x1 = h_ends[b, m, e, 1] - prev_ends[b, m, e, 1]
+                x2 = h_ends[b, m, e, 2] - prev_ends[b, m, e, 2]
+                sq = x0 * x0 + x1 * x1 + x2 * x2
+                top_sq = sq if not sq <= top_sq else top_sq  # (keeps a NaN)
+                for x in range(3):
+                    prev_ends[b, m, e, x] = h_ends[b, m, e, x]
+            grow = h_radius[b, m] - prev_radius[b, m]
+            prev_radius[b, m] = h_radius[b, m]
+            if math.isnan(top_sq) or math.isnan(grow):
+                kept[b, m] = -np.inf
+            else:
+                travel[b, m] += np.sqrt(top_sq) + max(grow, 0.0)
+
+
+@numba.njit(cache=True)
 def _envelope_batch(regions, candidates, radius, operator, slots, est_p, est_v, status, std,
                     unseen, allowance, occlusion_speed, h_ends, h_velocities, h_radius,
                     h_status, h_std):
@@ -500,8 +527,8 @@ def _separation_floor(sep_min, margin):
 def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_velocities,
              h_radius, h_status, h_std, op_spheres, h_axes, frames, timeout, monitor, z_d_terms,
              delta_s, d_min, truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps,
-             truth_segments, reach, truth_memo, end, brake_scale, brakes, s, rate, ends_prev,
-             s_last, memo, hint, trig, min_sep, sep_min, sep_time):
+             truth_segments, reach, truth_memo, monitor_memo, end, brake_scale, brakes, s, rate,
+             ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
     ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (:func:`_envelope_batch` of the
@@ -574,7 +601,12 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     still bounds the clearance (by the triangle inequality a sum of steps is at least
     the displacement between any two of its ticks). An operator is first tried without
     its point: its path's peak speed (``reach``'s third, (B, K)) times the time since
-    its last look bounds how far it went since.
+    its last look bounds how far it went since. The monitor's relaxed sweep keeps each
+    segment's least clearance bound to its capsules the same way (``monitor_memo`` =
+    (bounds (B, M), how far each segment's envelope has gone, summed over the tracker
+    updates by :func:`_segment_travel` (B, M), how far the monitor's capsule ends have
+    gone, summed over the ticks (B,))): where it is larger than the bound through the
+    robot's sphere, a segment is skipped by it.
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
@@ -586,6 +618,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     seg_a, seg_b, seg_r = truth_segments
     op_reach, seg_mid, op_speed = reach
     kept, seg_kept, op_kept, last_x, last_ends, travel = truth_memo
+    m_seg_kept, seg_travel, m_travel = monitor_memo
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
@@ -709,7 +742,10 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         x2 = m_ends[j, e, 2] - ends_prev[b, j, e, 2]
                         sq = x0 * x0 + x1 * x1 + x2 * x2
                         top_sq = sq if not sq <= top_sq else top_sq  # (max would drop a NaN)
-                v_end = np.sqrt(top_sq) / dt
+                step = np.sqrt(top_sq)
+                v_end = step / dt
+                if not math.isnan(ends_prev[b, 0, 0, 0]):  # (the first tick: none yet)
+                    m_travel[b] += step  # how far the monitor's capsule ends have gone
                 # Each operator through its sphere (its segments share its status): its
                 # clearance bounded below, its S above (the fastest end for v_R).
                 for o in range(K if not by_speed else 0):  # (by_speed: not read)
@@ -799,17 +835,28 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                     y0, y1, y2, half, sP, sQ = (
                                         h_axes[b, i, 0], h_axes[b, i, 1], h_axes[b, i, 2],
                                         h_axes[b, i, 3], h_axes[b, i, 4], h_axes[b, i, 5])
+                                    # how far the segment and the robot have gone: its
+                                    # clearance bound kept less this bounds it now
+                                    shift = seg_travel[b, i] + m_travel[b]
                                     if relaxed:  # the segment against the whole robot
                                         ub = _s_bound(max(sP, sQ), v_end, z, mode, t_sr, t_r,
                                                       const, iso, iso_reduced)
                                         g0, g1, g2 = (m_sphere[0] - y0, m_sphere[1] - y1,
                                                       m_sphere[2] - y2)
-                                        lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - half - r_H
-                                              - m_sphere[3] - _MARGIN)
+                                        fresh = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - half
+                                                 - r_H - m_sphere[3] - _MARGIN)
+                                        lb = fresh  # (or the kept bound, where larger)
+                                        if m_seg_kept[b, i] - shift > fresh:  # (NaN: not)
+                                            lb = m_seg_kept[b, i] - shift
                                         if lb > closest and (ub <= top or speed_scale_eq12(
                                                 closest, ub, delta_s, d_min) == k_top):
                                             bound = max(bound, ub)
+                                            if fresh + shift > m_seg_kept[b, i]:
+                                                m_seg_kept[b, i] = fresh + shift
                                             continue
+                                    # the least clearance bound over its capsules, kept
+                                    # where every pair is seen (NaN: none kept)
+                                    least = d[i] - _MARGIN
                                     segment = segment_of(h_ends[b], h_velocities[b], i)
                                     P, Q, vP, vQ = segment
                                     for j in range(ma.size):
@@ -819,8 +866,11 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                         g1 = m_mid[j, 1] - y1
                                         g2 = m_mid[j, 2] - y2
                                         apart = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
-                                        if apart - half - r_H - m_half[j] - m_radius[j] \
-                                                - _MARGIN > closest:
+                                        lb = apart - half - r_H - m_half[j] - m_radius[j] \
+                                            - _MARGIN
+                                        if least == least and not lb >= least:
+                                            least = lb  # (a NaN, once met, is kept)
+                                        if lb > closest:
                                             ub = _s_bound(max(sP, sQ), m_fast[j], z, mode,
                                                           t_sr, t_r, const, iso, iso_reduced)
                                             if not (ub <= top or (relaxed and speed_scale_eq12(
@@ -853,6 +903,9 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                         near = k_top == 0.0
                                         if near:
                                             break  # k = 0 for good
+                                    if relaxed and not (near or faulty) and least < np.inf \
+                                            and least + shift > m_seg_kept[b, i]:
+                                        m_seg_kept[b, i] = least + shift
                         for o in range(K):  # each operator's nearest segment, for next time
                             best = np.inf
                             for i in range(o * (N // K), (o + 1) * (N // K)):
@@ -1138,6 +1191,12 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                   np.full((B, c.K, truth_segments[2].size), -np.inf),
                   np.full((B, c.K), -np.inf), last_x,
                   np.full((B, truth_caps.radius.size, 2, 3), np.nan), np.zeros(B))
+    # each segment's least clearance bound to the monitor's capsules when last bounded,
+    # plus how far the segment (its envelope, summed over the tracker updates) and the
+    # capsule ends (over the ticks) had gone by then: less how far they have gone now,
+    # a bound now (:func:`_segment_travel`)
+    monitor_memo = (np.full((B, M), -np.inf), np.zeros((B, M)), np.zeros(B))
+    prev_ends, prev_radius = np.full((B, M, 2, 3), np.nan), np.full((B, M), np.nan)
     allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
     min_sep = np.full(B, np.inf)
     sep_min = np.full(B, np.inf)
@@ -1154,7 +1213,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                  h_ends, h_velocities, h_radius, h_status, h_std, op_spheres, h_axes, frames,
                  timeout,
                  monitor, z_d_terms, f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates,
-                 monitor_caps, contact_caps, truth_segments, reach, truth_memo, c.end,
+                 monitor_caps, contact_caps, truth_segments, reach, truth_memo, monitor_memo,
+                 c.end,
                  c.brake_scale,
                  brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min,
                  sep_time)
@@ -1166,6 +1226,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                         recipe.slots, est_p, est_v, status, std, unseen, allowance,
                         occlusion_speed, h_ends, h_velocities, h_radius, h_status, h_std)
         _segment_axes(h_ends, h_velocities, h_axes)
+        _segment_travel(h_ends, h_radius, prev_ends, prev_radius, monitor_memo[1],
+                        monitor_memo[0])
         _operator_spheres(h_ends, h_axes, h_radius, h_std, recipe.operator, op_spheres)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
