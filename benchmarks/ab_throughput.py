@@ -3,7 +3,8 @@
     python benchmarks/ab_throughput.py 177f5a8 9273221 . [--rounds 5] [--batch 512]
         [--kinds busy,iso,tool] [--trees DIR] [--cpu N]
 
-Each commit's code (``.`` is this working tree, uncommitted changes included) is checked
+Each commit's code (``.`` is this working tree, uncommitted changes included; a folder
+holding a copy of the project's packages and benchmarks is measured as it is) is checked
 out in a git worktree (under ``--trees``, kept there for the next run, since numba
 compiles a fresh tree's code for minutes; by default a temporary folder, removed after)
 and measured in a child process by its own ``benchmarks/bench_verify.py``'s scenarios
@@ -94,6 +95,9 @@ def trees_for(commits: list[str], where: Path) -> dict[str, Path]:
         if c == ".":
             trees[c] = ROOT
             continue
+        if Path(c).is_dir():  # a tree as it is (a copy with an experiment, say)
+            trees[c] = Path(c).resolve()
+            continue
         full = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short=7", c],
                               capture_output=True, text=True, check=True).stdout.strip()
         tree = where / f"ab-{full}"
@@ -106,7 +110,7 @@ def trees_for(commits: list[str], where: Path) -> dict[str, Path]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("commits", nargs="+", help="commits ('.': this working tree); "
+    parser.add_argument("commits", nargs="+", help="commits ('.': this working tree; or folders); "
                         "the first is the reference of the ratios")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--batch", type=int, default=512)

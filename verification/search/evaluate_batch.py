@@ -31,7 +31,7 @@ import numpy as np
 
 from safety_systems.sensing import stops
 from safety_systems.cell.braking import path_follower_step
-from safety_systems.cell.human_body import KIND_DIRECT, NUM_POINTS, envelope_rows
+from safety_systems.cell.human_body import KIND_DIRECT, NUM_POINTS, envelope_batch
 from safety_systems.config.configuration import (
     contact_capsules,
     monitor_capsules,
@@ -500,18 +500,6 @@ def _segment_travel(h_ends, h_radius, prev_ends, prev_radius, travel, kept):
                 travel[b, m] += np.sqrt(top_sq) + max(grow, 0.0)
 
 
-@numba.njit(cache=True)
-def _envelope_batch(regions, candidates, radius, operator, slots, est_p, est_v, status, std,
-                    unseen, allowance, occlusion_speed, h_ends, h_velocities, h_radius,
-                    h_status, h_std):
-    """The OperatorEnvelopes' outputs of every scenario (``human_body.envelope_rows``)
-    from its tracker's outputs; compiled."""
-    for b in range(est_p.shape[0]):
-        envelope_rows(regions, candidates, radius, operator, slots, est_p[b], est_v[b],
-                      status[b], std[b], unseen[b], allowance, occlusion_speed, h_ends[b],
-                      h_velocities[b], h_radius[b], h_status[b], h_std[b])
-
-
 @numba.njit(cache=True, inline="always")
 def _separation_floor(sep_min, margin):
     """Below this a true pair's margin could change a separation figure at this tick: the
@@ -531,7 +519,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
              ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
-    ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (:func:`_envelope_batch` of the
+    ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (``human_body.envelope_batch`` of the
     tracker's outputs), and the tracker's ``frames`` state are fixed meanwhile); compiled,
     from the product's compiled
     functions. At each tick:
@@ -1222,7 +1210,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         if k > last:
             break
         c.update(u, frames, tracks, rules, regions, est_p, est_v, status, std, unseen)
-        _envelope_batch(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
+        envelope_batch(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
                         recipe.slots, est_p, est_v, status, std, unseen, allowance,
                         occlusion_speed, h_ends, h_velocities, h_radius, h_status, h_std)
         _segment_axes(h_ends, h_velocities, h_axes)
