@@ -474,13 +474,13 @@ def _operator_spheres(h_ends, axes, h_radius, h_std, operator, spheres):
 
 
 @numba.njit(cache=True)
-def _segment_travel(h_ends, h_radius, prev_ends, prev_radius, travel, kept):
+def _segment_travel(h_ends, h_radius, prev_ends, prev_radius, travel, kept, pair_kept):
     """At a tracker update, how far each scenario's segments (their envelopes, (B, M, 2,
     3) ends and (B, M) radii) have gone since the last (``prev_ends``, ``prev_radius``,
     then set to these) added to ``travel`` (B, M): its farther end's displacement (every
     axis point moves at most that far) plus its radius' growth, by which its clearance
     to any capsule can have fallen. Where a segment is NaN now or was, its ``kept``
-    clearance bound goes (-inf)."""
+    clearance bound goes (-inf), and its pairs' (``pair_kept`` (B, M, capsules))."""
     for b in range(h_ends.shape[0]):
         for m in range(h_ends.shape[1]):
             top_sq = 0.0
@@ -496,6 +496,8 @@ def _segment_travel(h_ends, h_radius, prev_ends, prev_radius, travel, kept):
             prev_radius[b, m] = h_radius[b, m]
             if math.isnan(top_sq) or math.isnan(grow):
                 kept[b, m] = -np.inf
+                for j in range(pair_kept.shape[2]):
+                    pair_kept[b, m, j] = -np.inf
             else:
                 travel[b, m] += np.sqrt(top_sq) + max(grow, 0.0)
 
@@ -593,8 +595,9 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     segment's least clearance bound to its capsules the same way (``monitor_memo`` =
     (bounds (B, M), how far each segment's envelope has gone, summed over the tracker
     updates by :func:`_segment_travel` (B, M), how far the monitor's capsule ends have
-    gone, summed over the ticks (B,))): where it is larger than the bound through the
-    robot's sphere, a segment is skipped by it.
+    gone, summed over the ticks (B,), and each pair's bound (B, M, capsules), exact where
+    measured): where larger than the bounds through the spheres, a segment or a pair is
+    skipped by it.
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
@@ -606,7 +609,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     seg_a, seg_b, seg_r = truth_segments
     op_reach, seg_mid, op_speed = reach
     kept, seg_kept, op_kept, last_x, last_ends, travel = truth_memo
-    m_seg_kept, seg_travel, m_travel = monitor_memo
+    m_seg_kept, seg_travel, m_travel, m_kept = monitor_memo
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
@@ -854,10 +857,11 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                         g1 = m_mid[j, 1] - y1
                                         g2 = m_mid[j, 2] - y2
                                         apart = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
-                                        lb = apart - half - r_H - m_half[j] - m_radius[j] \
+                                        fresh = apart - half - r_H - m_half[j] - m_radius[j] \
                                             - _MARGIN
-                                        if least == least and not lb >= least:
-                                            least = lb  # (a NaN, once met, is kept)
+                                        lb = fresh  # (or the pair's kept bound, if larger)
+                                        if m_kept[b, i, j] - shift > fresh:  # (NaN: not)
+                                            lb = m_kept[b, i, j] - shift
                                         if lb > closest:
                                             ub = _s_bound(max(sP, sQ), m_fast[j], z, mode,
                                                           t_sr, t_r, const, iso, iso_reduced)
@@ -875,6 +879,10 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                             if ub <= top or (relaxed and speed_scale_eq12(
                                                     closest, ub, delta_s, d_min) == k_top):
                                                 bound = max(bound, ub)
+                                                if least == least and not lb >= least:
+                                                    least = lb  # (a NaN, once met, is kept)
+                                                if fresh + shift > m_kept[b, i, j]:
+                                                    m_kept[b, i, j] = fresh + shift
                                                 continue  # can lower neither figure
                                         c_j, s_j, _, _ = monitor_pair(
                                             segment, r_H, z, m_ends, m_velocities, m_radius, j,
@@ -883,6 +891,9 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                             faulty = True  # (the override stops)
                                             d[i], s_row[i] = np.nan, np.nan
                                             break
+                                        m_kept[b, i, j] = (c_j - _MARGIN) + shift
+                                        if least == least and not c_j - _MARGIN >= least:
+                                            least = c_j - _MARGIN
                                         if c_j < d[i]:
                                             d[i], hint[b, i] = c_j, j
                                         s_row[i] = max(s_row[i], s_j)
@@ -1183,7 +1194,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     # plus how far the segment (its envelope, summed over the tracker updates) and the
     # capsule ends (over the ticks) had gone by then: less how far they have gone now,
     # a bound now (:func:`_segment_travel`)
-    monitor_memo = (np.full((B, M), -np.inf), np.zeros((B, M)), np.zeros(B))
+    monitor_memo = (np.full((B, M), -np.inf), np.zeros((B, M)), np.zeros(B),
+                    np.full((B, M, caps.radius.size), -np.inf))
     prev_ends, prev_radius = np.full((B, M, 2, 3), np.nan), np.full((B, M), np.nan)
     allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
     min_sep = np.full(B, np.inf)
@@ -1215,7 +1227,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                         occlusion_speed, h_ends, h_velocities, h_radius, h_status, h_std)
         _segment_axes(h_ends, h_velocities, h_axes)
         _segment_travel(h_ends, h_radius, prev_ends, prev_radius, monitor_memo[1],
-                        monitor_memo[0])
+                        monitor_memo[0], monitor_memo[3])
         _operator_spheres(h_ends, h_axes, h_radius, h_std, recipe.operator, op_spheres)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
