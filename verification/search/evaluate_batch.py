@@ -746,6 +746,14 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     g0, g1, g2 = c0 - m_sphere[0], c1 - m_sphere[1], c2 - m_sphere[2]
                     op_lb[o] = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_r - m_sphere[3] \
                         - _MARGIN
+                    # or its segments' least kept bound, where larger (a NaN sphere: not)
+                    least = np.inf
+                    for i in range(o * (N // K), (o + 1) * (N // K)):
+                        lb = m_seg_kept[b, i] - (seg_travel[b, i] + m_travel[b])
+                        if least == least and not lb >= least:
+                            least = lb  # (a NaN, once met, is kept)
+                    if least > op_lb[o]:
+                        op_lb[o] = least
                 # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
                 far = bound_monitor and not by_speed and not math.isnan(v_end) \
                     and tracker_stop(h_status[b], fault) == stops.STOP_NONE
