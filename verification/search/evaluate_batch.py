@@ -597,7 +597,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     updates by :func:`_segment_travel` (B, M), how far the monitor's capsule ends have
     gone, summed over the ticks (B,), and each pair's bound (B, M, capsules), exact where
     measured): where larger than the bounds through the spheres, a segment or a pair is
-    skipped by it.
+    skipped by it, and an operator's least segment bound is its clearance bound in the
+    far test and the sweeps.
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
