@@ -159,7 +159,8 @@ def main() -> None:
         if "tool" in kinds:
             for k in ("busy", "iso"):
                 if k in kinds:
-                    print(f"{c:>8s} {k}/tool (best) {max(o[k] for o in runs[c]) / max(o['tool'] for o in runs[c]):.3f}")
+                    ratio = max(o[k] for o in runs[c]) / max(o["tool"] for o in runs[c])
+                    print(f"{c:>8s} {k}/tool (best) {ratio:.3f}")
 
 
 if __name__ == "__main__":
