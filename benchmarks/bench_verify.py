@@ -15,7 +15,10 @@ Prints, each beside its goal:
    the same whole-cell measure of the three-ball operator (two gloves and a head: its
    last commit, checked out in a temporary git worktree and measured in a child process
    right after) with the whole operator's price as the ratio of the two (issue 31:
-   at most 2x);
+   at most 2x), and of issue 33's reference commit (177f5a8, three balls too) with this
+   code's ratio to it (issue 33: above 1); each commit's figure beside its ratio to its
+   own tool point and to this run's Drake diagram (those ratios carry from machine to
+   machine, the absolute figures move about 30%);
 2. the wall time to prove the iso configuration over the default space (the proof
    alone, and ``verify`` with a 64-simulation cross-check on 2 workers);
 3. time to the first counterexample (``search``), at verify's default budget (200) and
@@ -137,14 +140,19 @@ def _rate(batch: int, **kind) -> tuple[float, float]:
     return rate, float(np.mean(np.isposinf(result.robustness)))
 
 
-# The last commit whose operator is three balls (two gloves and a head): the whole
-# operator's price is measured against it, in the same run.
+# Earlier commits measured beside this code, in the same run: the last commit whose
+# operator is three balls (two gloves and a head; the whole operator's price is measured
+# against it), and the commit whose figure issue 33 compared (three balls too: A/B on one
+# machine 2-3% faster than 9273221 on the busier batch, the cost of the by-speed branches
+# 0dd7d00 added to the compiled ticks; ``ab_throughput.py`` measures any commits).
 THREE_BALL_COMMIT = "9273221"
+ISSUE_33_COMMIT = "177f5a8"
 
-_THREE_BALL_CHILD = """
+_COMMIT_CHILD = """
 import dataclasses, json, math, sys, time
 sys.path.insert(0, "benchmarks")
 import bench_verify as b
+import safety_systems
 BEST_RATE
 def rate(**kind):
     b.evaluate_many(b._ten_second_scenarios(4, 2, **kind))  # (not timed)
@@ -154,41 +162,50 @@ cell = {"space": b.SPACE, "config": b.ISO_MOVING, "operators": 2.0, "heads": 1.0
 busy = dataclasses.replace(b.ISO_MOVING, safety=dataclasses.replace(
     b.ISO_MOVING.safety, human_speed="estimated"))
 iso = rate(**cell)
-print(json.dumps({"iso": iso, "busy": rate(**dict(cell, config=busy)), "module": b.__file__}))
+print(json.dumps({"iso": iso, "busy": rate(**dict(cell, config=busy)),
+                  "tool": rate(space=b.FLANGE, config=b.SEED, operators=1.0),
+                  "module": b.__file__, "package": safety_systems.__file__}))
 """
 
 
-def three_ball_rates(batch: int) -> dict | None:
-    """The whole-cell throughput of the three-ball operator (``THREE_BALL_COMMIT``: its
-    code, its default space), measured as :func:`throughput` measures this one's, in a
-    child process on a temporary git worktree of that commit, right after this one's
-    (same machine, same core). None where git or that commit is not there."""
+def commit_rates(commit: str, batch: int) -> dict | None:
+    """The whole-cell and tool-point throughputs of ``commit``'s code (its own
+    ``bench_verify`` scenarios: for the three-ball commits, their default space),
+    measured as :func:`throughput` measures this one's, in a child process on a
+    temporary git worktree of that commit, right after this one's (same machine, same
+    core). None where git or that commit is not there. (A fresh worktree's compiled code
+    is built first, for minutes, and not timed.)"""
     with tempfile.TemporaryDirectory() as tmp:
-        tree = Path(tmp) / "three_ball"
+        tree = Path(tmp) / commit
         made = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree),
-                               THREE_BALL_COMMIT], capture_output=True, text=True, check=False)
+                               commit], capture_output=True, text=True, check=False)
         if made.returncode != 0:
-            print(f"the three-ball commit {THREE_BALL_COMMIT} could not be checked out: "
-                  f"{made.stderr.strip()}")
+            print(f"commit {commit} could not be checked out: {made.stderr.strip()}")
             return None
         try:
             run = subprocess.run(
-                [sys.executable, "-c", _THREE_BALL_CHILD.replace(
+                [sys.executable, "-c", _COMMIT_CHILD.replace(
                     "BEST_RATE", inspect.getsource(_best_rate)).replace(
                     "BATCH", str(batch)).replace("REPEATS", str(REPEATS))],
                 cwd=tree, env={**os.environ, "PYTHONPATH": str(tree)}, capture_output=True,
                 text=True, check=False)
             if run.returncode != 0:
-                print(f"the three-ball measure failed: {run.stderr.strip().splitlines()[-1:]}")
+                print(f"the measure of {commit} failed: {run.stderr.strip().splitlines()[-1:]}")
                 return None
             rates = json.loads(run.stdout.strip().splitlines()[-1])
-            if not rates["module"].startswith(str(tree)):  # (not this tree's code)
-                print(f"the three-ball measure ran {rates['module']}, not the worktree's")
-                return None
+            for key in ("module", "package"):
+                if not rates[key].startswith(str(tree)):  # (not this tree's code)
+                    print(f"the measure of {commit} ran {rates[key]}, not the worktree's")
+                    return None
             return rates
         finally:
             subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
                            capture_output=True, check=False)
+
+
+def three_ball_rates(batch: int) -> dict | None:
+    """:func:`commit_rates` of the three-ball operator's last commit."""
+    return commit_rates(THREE_BALL_COMMIT, batch)
 
 
 def throughput(batch: int) -> None:
@@ -218,18 +235,36 @@ def throughput(batch: int) -> None:
     _row("  of them never moving near a body (the seed's configuration)",
          f"{100 * tool_vacuous:.0f}%", "", None)
     _row("  ratio capsules / tool point", f"{cell_rate / tool_rate:.2f}x", "", None)
-    three = three_ball_rates(batch)
-    if three is not None:
-        three_rate = min(three["iso"], three["busy"])
-        _row(f"  the three-ball operator (commit {THREE_BALL_COMMIT}), the same measure",
-             f"{three_rate:.0f}", "", None)
-        _row("    iso.yaml's contact terms / with estimated human speeds",
-             f"{three['iso']:.0f} / {three['busy']:.0f}", "", None)
-        _row("  price of the whole operator (three-ball / whole, the lower figures)",
-             f"{three_rate / cell_rate:.2f}x", "<= 2x", three_rate / cell_rate <= 2.0)
     _row("Drake diagram, capsules, 2 operators x 12 segments, 10 s scenarios/s/core",
          f"{drake_rate:.2f}", "", None)
     _row("  ratio batched / Drake", f"{cell_rate / drake_rate:.0f}x", "", None)
+    # Earlier commits' code, measured right after (A/B on this machine): each figure
+    # beside its ratios to its own tool point and to this run's Drake diagram, which
+    # carry from machine to machine where the absolute figures do not.
+    _row("this code: whole cell / tool point, / Drake (the lower figure above)",
+         f"{cell_rate / tool_rate:.3f} {cell_rate / drake_rate:.0f}x", "", None)
+    three = None
+    for commit, what in ((THREE_BALL_COMMIT, "the three-ball operator's last commit"),
+                         (ISSUE_33_COMMIT, "issue 33's three-ball reference")):
+        rates = commit_rates(commit, batch)
+        if rates is None:
+            continue
+        low = min(rates["iso"], rates["busy"])
+        _row(f"{what} ({commit}), the same measure", f"{low:.0f}", "", None)
+        _row("    iso.yaml's contact terms / with estimated human speeds",
+             f"{rates['iso']:.0f} / {rates['busy']:.0f}", "", None)
+        _row("    its tool point; whole cell / tool point, / this run's Drake",
+             f"{rates['tool']:.0f}; {low / rates['tool']:.3f} {low / drake_rate:.0f}x", "", None)
+        if commit == THREE_BALL_COMMIT:
+            three = low
+            _row(f"  this code / {commit} (whole cell, the lower figures)",
+                 f"{cell_rate / low:.3f}x", "", None)
+        else:
+            _row(f"  this code / {commit}: above its figure (issue 33)",
+                 f"{cell_rate / low:.3f}x", "> 1x", cell_rate > low)
+    if three is not None:
+        _row("  price of the whole operator (three-ball / whole, the lower figures)",
+             f"{three / cell_rate:.2f}x", "<= 2x", three / cell_rate <= 2.0)
 
 
 def _first(log, objectives) -> dict | None:

@@ -377,26 +377,16 @@ def ellipsoid_capsule(c_A, c_B, total):
             b)
 
 
-@numba.njit(cache=True)
-def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, std, unseen,
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per row
+def _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status, std, unseen,
                   allowance, occlusion_speed, ends, end_velocities, out_radius, out_status,
-                  out_std):
-    """Every segment's envelope (see the module docstring) from the tracked bodies'
-    estimates p, v (N, 3), status (N,), std (N,) and time unseen (N,): capsule ends and
-    their velocities (M, 2, 3), radius (M,), the operator's status (M,) and the largest
-    std of the bodies the envelope was taken from (M,); compiled.
-
-    A body's region radius is ``allowance``, plus, while hidden, its ball's radius
-    (``formulas.hidden_ball_radius``: ``occlusion_speed`` times its time unseen). An
-    operator's status (``sensing.tracks``), which all its segments take: tracking when
-    every body is tracked, hidden when some are hidden and the rest tracked, none when no
-    body was ever seen or all have left, and lost otherwise: a lost body, or some bodies
-    seen and others not (an operator is seen whole before the robot may move, and a body
-    is never forgotten while its companions are here). Unusable operators' segments are
-    NaN. A NaN in the used estimates gives NaN ends."""
+                  out_std, op_status, centre, grow, best, chosen):
+    """:func:`envelope_rows` of row b of every tracker output and envelope array (one
+    more leading axis each), with its working arrays given (``op_status`` (K,),
+    ``centre`` (regions, 3), ``grow`` (regions,), ``best`` (M,), ``chosen`` (M,) int):
+    a batch allocates them once, not per row."""
     none, tracking, hidden, lost = TRACK_NONE, TRACK_TRACKING, TRACK_HIDDEN, TRACK_LOST
     K = slots.shape[0]
-    op_status = np.empty(K)
     for k in range(K):
         n_none, n_lost, n_hidden, n = 0, 0, 0, 0
         for j in range(slots.shape[1]):
@@ -404,11 +394,11 @@ def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, st
             if i < 0:
                 continue
             n += 1
-            if status[i] == none:
+            if status[b, i] == none:
                 n_none += 1
-            elif status[i] == hidden:
+            elif status[b, i] == hidden:
                 n_hidden += 1
-            elif status[i] != tracking:
+            elif status[b, i] != tracking:
                 n_lost += 1
         if n_none == n:
             op_status[k] = none
@@ -419,28 +409,28 @@ def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, st
         else:
             op_status[k] = tracking
     for m in range(radius.size):
-        out_status[m] = op_status[operator[m]]
-        out_std[m] = np.nan
-        out_radius[m] = np.nan
+        out_status[b, m] = op_status[operator[m]]
+        out_std[b, m] = np.nan
+        out_radius[b, m] = np.nan
         for e in range(2):
             for x in range(3):
-                ends[m, e, x] = np.nan
-                end_velocities[m, e, x] = np.nan
+                ends[b, m, e, x] = np.nan
+                end_velocities[b, m, e, x] = np.nan
     # Each region's centre and radius once (candidates share them).
-    centre, grow = np.empty((regions.shape[0], 3)), np.empty(regions.shape[0])
     for ra in range(regions.shape[0]):
         i = int(regions[ra, 0])
         grow[ra] = allowance
-        if status[i] == hidden:
-            grow[ra] += hidden_ball_radius(unseen[i], occlusion_speed)
+        if status[b, i] == hidden:
+            grow[ra] += hidden_ball_radius(unseen[b, i], occlusion_speed)
         for x in range(3):
-            centre[ra, x] = p[i, x] + regions[ra, 1 + x]
+            centre[ra, x] = p[b, i, x] + regions[ra, 1 + x]
     # The smallest candidate of each segment, by its size alone (its axis' length and
     # radius, without its ends); then its ends, once.
-    best, chosen = np.full(radius.size, np.inf), np.full(radius.size, -1)
+    for m in range(radius.size):
+        best[m], chosen[m] = np.inf, -1
     for c in range(candidates.shape[0]):
         m = int(candidates[c, 0])
-        if not (out_status[m] == tracking or out_status[m] == hidden):
+        if not (out_status[b, m] == tracking or out_status[b, m] == hidden):
             continue
         ra, rb = int(candidates[c, 1]), int(candidates[c, 2])
         kind = candidates[c, 4]
@@ -479,11 +469,53 @@ def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, st
         else:
             end_a, end_b, r = ellipsoid_capsule(c_a, c_b, candidates[c, 3] + grow[ra]
                                                 + grow[rb])
-        out_radius[m] = r + radius[m]
-        out_std[m] = max(std[ia], std[ib])
+        out_radius[b, m] = r + radius[m]
+        out_std[b, m] = max(std[b, ia], std[b, ib])
         for x in range(3):
-            ends[m, 0, x], ends[m, 1, x] = end_a[x], end_b[x]
-            end_velocities[m, 0, x], end_velocities[m, 1, x] = v[ia, x], v[ib, x]
+            ends[b, m, 0, x], ends[b, m, 1, x] = end_a[x], end_b[x]
+            end_velocities[b, m, 0, x], end_velocities[b, m, 1, x] = v[b, ia, x], v[b, ib, x]
+
+
+@numba.njit(cache=True)
+def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, std, unseen,
+                  allowance, occlusion_speed, ends, end_velocities, out_radius, out_status,
+                  out_std):
+    """Every segment's envelope (see the module docstring) from the tracked bodies'
+    estimates p, v (N, 3), status (N,), std (N,) and time unseen (N,): capsule ends and
+    their velocities (M, 2, 3), radius (M,), the operator's status (M,) and the largest
+    std of the bodies the envelope was taken from (M,); compiled.
+
+    A body's region radius is ``allowance``, plus, while hidden, its ball's radius
+    (``formulas.hidden_ball_radius``: ``occlusion_speed`` times its time unseen). An
+    operator's status (``sensing.tracks``), which all its segments take: tracking when
+    every body is tracked, hidden when some are hidden and the rest tracked, none when no
+    body was ever seen or all have left, and lost otherwise: a lost body, or some bodies
+    seen and others not (an operator is seen whole before the robot may move, and a body
+    is never forgotten while its companions are here). Unusable operators' segments are
+    NaN. A NaN in the used estimates gives NaN ends."""
+    K, R, M = slots.shape[0], regions.shape[0], radius.size
+    _envelope_row(0, regions, candidates, radius, operator, slots, p[np.newaxis],
+                  v[np.newaxis], status[np.newaxis], std[np.newaxis], unseen[np.newaxis],
+                  allowance, occlusion_speed, ends[np.newaxis], end_velocities[np.newaxis],
+                  out_radius[np.newaxis], out_status[np.newaxis], out_std[np.newaxis],
+                  np.empty(K), np.empty((R, 3)), np.empty(R), np.empty(M),
+                  np.empty(M, dtype=np.int64))
+
+
+@numba.njit(cache=True)
+def envelope_batch(regions, candidates, radius, operator, slots, p, v, status, std, unseen,
+                   allowance, occlusion_speed, ends, end_velocities, out_radius, out_status,
+                   out_std):
+    """:func:`envelope_rows` of every row of the tracker's outputs p, v (B, N, 3), status,
+    std, unseen (B, N) into ends, end_velocities (B, M, 2, 3), out_radius, out_status,
+    out_std (B, M), the same numbers; compiled, its working arrays made once."""
+    K, R, M = slots.shape[0], regions.shape[0], radius.size
+    op_status, centre, grow = np.empty(K), np.empty((R, 3)), np.empty(R)
+    best, chosen = np.empty(M), np.empty(M, dtype=np.int64)
+    for b in range(p.shape[0]):
+        _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status, std,
+                      unseen, allowance, occlusion_speed, ends, end_velocities, out_radius,
+                      out_status, out_std, op_status, centre, grow, best, chosen)
 
 
 # An upright operator relative to its head, in its facing frame (forward f, left l, up z),

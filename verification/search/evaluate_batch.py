@@ -31,7 +31,7 @@ import numpy as np
 
 from safety_systems.sensing import stops
 from safety_systems.cell.braking import path_follower_step
-from safety_systems.cell.human_body import KIND_DIRECT, NUM_POINTS, envelope_rows
+from safety_systems.cell.human_body import KIND_DIRECT, NUM_POINTS, envelope_batch
 from safety_systems.config.configuration import (
     contact_capsules,
     monitor_capsules,
@@ -323,7 +323,6 @@ def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, 
 
 
 _MARGIN = 1e-9  # m: the bounds below skip work only when rounding could not matter
-_DRIFT = 0.1  # m: an anchor of the kept clearance bounds is renewed beyond this
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
@@ -475,15 +474,32 @@ def _operator_spheres(h_ends, axes, h_radius, h_std, operator, spheres):
 
 
 @numba.njit(cache=True)
-def _envelope_batch(regions, candidates, radius, operator, slots, est_p, est_v, status, std,
-                    unseen, allowance, occlusion_speed, h_ends, h_velocities, h_radius,
-                    h_status, h_std):
-    """The OperatorEnvelopes' outputs of every scenario (``human_body.envelope_rows``)
-    from its tracker's outputs; compiled."""
-    for b in range(est_p.shape[0]):
-        envelope_rows(regions, candidates, radius, operator, slots, est_p[b], est_v[b],
-                      status[b], std[b], unseen[b], allowance, occlusion_speed, h_ends[b],
-                      h_velocities[b], h_radius[b], h_status[b], h_std[b])
+def _segment_travel(h_ends, h_radius, prev_ends, prev_radius, travel, kept, pair_kept):
+    """At a tracker update, how far each scenario's segments (their envelopes, (B, M, 2,
+    3) ends and (B, M) radii) have gone since the last (``prev_ends``, ``prev_radius``,
+    then set to these) added to ``travel`` (B, M): its farther end's displacement (every
+    axis point moves at most that far) plus its radius' growth, by which its clearance
+    to any capsule can have fallen. Where a segment is NaN now or was, its ``kept``
+    clearance bound goes (-inf), and its pairs' (``pair_kept`` (B, M, capsules))."""
+    for b in range(h_ends.shape[0]):
+        for m in range(h_ends.shape[1]):
+            top_sq = 0.0
+            for e in range(2):
+                x0 = h_ends[b, m, e, 0] - prev_ends[b, m, e, 0]
+                x1 = h_ends[b, m, e, 1] - prev_ends[b, m, e, 1]
+                x2 = h_ends[b, m, e, 2] - prev_ends[b, m, e, 2]
+                sq = x0 * x0 + x1 * x1 + x2 * x2
+                top_sq = sq if not sq <= top_sq else top_sq  # (keeps a NaN)
+                for x in range(3):
+                    prev_ends[b, m, e, x] = h_ends[b, m, e, x]
+            grow = h_radius[b, m] - prev_radius[b, m]
+            prev_radius[b, m] = h_radius[b, m]
+            if math.isnan(top_sq) or math.isnan(grow):
+                kept[b, m] = -np.inf
+                for j in range(pair_kept.shape[2]):
+                    pair_kept[b, m, j] = -np.inf
+            else:
+                travel[b, m] += np.sqrt(top_sq) + max(grow, 0.0)
 
 
 @numba.njit(cache=True, inline="always")
@@ -501,11 +517,11 @@ def _separation_floor(sep_min, margin):
 def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_velocities,
              h_radius, h_status, h_std, op_spheres, h_axes, frames, timeout, monitor, z_d_terms,
              delta_s, d_min, truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps,
-             truth_segments, reach, truth_memo, end, brake_scale, brakes, s, rate, ends_prev,
-             s_last, memo, hint, trig, min_sep, sep_min, sep_time):
+             truth_segments, reach, truth_memo, monitor_memo, end, brake_scale, brakes, s, rate,
+             ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
-    ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (:func:`_envelope_batch` of the
+    ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (``human_body.envelope_batch`` of the
     tracker's outputs), and the tracker's ``frames`` state are fixed meanwhile); compiled,
     from the product's compiled
     functions. At each tick:
@@ -565,14 +581,24 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     Each true pair's, segment's and operator's clearance bound (exact where measured,
     through the spheres where skipped) is kept across ticks (``truth_memo`` = (pair
     bounds (B, K, segments, capsules), segment bounds (B, K, segments), operator bounds
-    (B, K), each operator's anchor point and its time (B, K, 4), the robot's anchor
-    capsule ends (B, capsules, 2, 3))): a clearance falls by at most how far its two
-    sides moved, and a rigid operator's points all move as its point does and a capsule
-    axis' points at most as far as its farther end, so a bound kept less the
-    displacements from the anchors (at its tick and now) still bounds it; an anchor
-    farther than ``_DRIFT`` is renewed and the bounds it held go. An operator is first
-    tried without its point: its path's peak speed (``reach``'s third, (B, K)) times the
-    time since its anchor bounds how far it went.
+    (B, K), each operator's point at its last look, that time and how far it has gone
+    (B, K, 5), the robot's capsule ends at the last look (B, capsules, 2, 3) and how far
+    they have gone (B,))): a clearance falls by at most how far its two sides moved, a
+    rigid operator's points all move as its point does and a capsule axis' points at
+    most as far as its farther end; so each side's travel is summed, step by step, from
+    one look to the next (the operator's point's displacement; the farthest capsule
+    end's), and a bound is kept plus both sums at its tick: less both sums now, it
+    still bounds the clearance (by the triangle inequality a sum of steps is at least
+    the displacement between any two of its ticks). An operator is first tried without
+    its point: its path's peak speed (``reach``'s third, (B, K)) times the time since
+    its last look bounds how far it went since. The monitor's relaxed sweep keeps each
+    segment's least clearance bound to its capsules the same way (``monitor_memo`` =
+    (bounds (B, M), how far each segment's envelope has gone, summed over the tracker
+    updates by :func:`_segment_travel` (B, M), how far the monitor's capsule ends have
+    gone, summed over the ticks (B,), and each pair's bound (B, M, capsules), exact where
+    measured): where larger than the bounds through the spheres, a segment or a pair is
+    skipped by it, and an operator's least segment bound is its clearance bound in the
+    far test and the sweeps.
     """
     mode, t_sr, t_r, const, iso, iso_reduced, robot_speed = monitor
     # safety.stopping: by_speed: S at every speed level, and S_true's stop by the rate
@@ -583,7 +609,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     z_d_base, z_d_sigmas = z_d_terms
     seg_a, seg_b, seg_r = truth_segments
     op_reach, seg_mid, op_speed = reach
-    kept, seg_kept, op_kept, anchor_x, anchor_ends = truth_memo
+    kept, seg_kept, op_kept, last_x, last_ends, travel = truth_memo
+    m_seg_kept, seg_travel, m_travel, m_kept = monitor_memo
     fractions, deceleration, acceleration = brakes
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
@@ -598,7 +625,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     d, s_row, included = np.empty(N), np.empty(N), np.empty(N, dtype=np.bool_)
     c_fast, c_reach, c_mid = np.empty(ca.size), np.empty(ca.size), np.empty((ca.size, 3))
     c_half = np.empty(ca.size)
-    pair_ub, c_drift = np.empty(ca.size), np.empty(ca.size)
+    pair_ub = np.empty(ca.size)
     m_fast, m_half, m_mid = np.empty(ma.size), np.empty(ma.size), np.empty((ma.size, 3))
     m_end_speed, c_end_speed = np.empty((ma.size, 2)), np.empty((ca.size, 2))
     op_lb, op_ub = np.empty(enter.shape[1]), np.empty(enter.shape[1])
@@ -707,7 +734,10 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         x2 = m_ends[j, e, 2] - ends_prev[b, j, e, 2]
                         sq = x0 * x0 + x1 * x1 + x2 * x2
                         top_sq = sq if not sq <= top_sq else top_sq  # (max would drop a NaN)
-                v_end = np.sqrt(top_sq) / dt
+                step = np.sqrt(top_sq)
+                v_end = step / dt
+                if not math.isnan(ends_prev[b, 0, 0, 0]):  # (the first tick: none yet)
+                    m_travel[b] += step  # how far the monitor's capsule ends have gone
                 # Each operator through its sphere (its segments share its status): its
                 # clearance bounded below, its S above (the fastest end for v_R).
                 for o in range(K if not by_speed else 0):  # (by_speed: not read)
@@ -717,6 +747,14 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     g0, g1, g2 = c0 - m_sphere[0], c1 - m_sphere[1], c2 - m_sphere[2]
                     op_lb[o] = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_r - m_sphere[3] \
                         - _MARGIN
+                    # or its segments' least kept bound, where larger (a NaN sphere: not)
+                    least = np.inf
+                    for i in range(o * (N // K), (o + 1) * (N // K)):
+                        lb = m_seg_kept[b, i] - (seg_travel[b, i] + m_travel[b])
+                        if least == least and not lb >= least:
+                            least = lb  # (a NaN, once met, is kept)
+                    if least > op_lb[o]:
+                        op_lb[o] = least
                 # k = 1? Only where the tracker does not hold the robot (tracks.tracker_stop)
                 far = bound_monitor and not by_speed and not math.isnan(v_end) \
                     and tracker_stop(h_status[b], fault) == stops.STOP_NONE
@@ -797,17 +835,28 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                     y0, y1, y2, half, sP, sQ = (
                                         h_axes[b, i, 0], h_axes[b, i, 1], h_axes[b, i, 2],
                                         h_axes[b, i, 3], h_axes[b, i, 4], h_axes[b, i, 5])
+                                    # how far the segment and the robot have gone: its
+                                    # clearance bound kept less this bounds it now
+                                    shift = seg_travel[b, i] + m_travel[b]
                                     if relaxed:  # the segment against the whole robot
                                         ub = _s_bound(max(sP, sQ), v_end, z, mode, t_sr, t_r,
                                                       const, iso, iso_reduced)
                                         g0, g1, g2 = (m_sphere[0] - y0, m_sphere[1] - y1,
                                                       m_sphere[2] - y2)
-                                        lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - half - r_H
-                                              - m_sphere[3] - _MARGIN)
+                                        fresh = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - half
+                                                 - r_H - m_sphere[3] - _MARGIN)
+                                        lb = fresh  # (or the kept bound, where larger)
+                                        if m_seg_kept[b, i] - shift > fresh:  # (NaN: not)
+                                            lb = m_seg_kept[b, i] - shift
                                         if lb > closest and (ub <= top or speed_scale_eq12(
                                                 closest, ub, delta_s, d_min) == k_top):
                                             bound = max(bound, ub)
+                                            if fresh + shift > m_seg_kept[b, i]:
+                                                m_seg_kept[b, i] = fresh + shift
                                             continue
+                                    # the least clearance bound over its capsules, kept
+                                    # where every pair is seen (NaN: none kept)
+                                    least = d[i] - _MARGIN
                                     segment = segment_of(h_ends[b], h_velocities[b], i)
                                     P, Q, vP, vQ = segment
                                     for j in range(ma.size):
@@ -817,8 +866,12 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                         g1 = m_mid[j, 1] - y1
                                         g2 = m_mid[j, 2] - y2
                                         apart = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
-                                        if apart - half - r_H - m_half[j] - m_radius[j] \
-                                                - _MARGIN > closest:
+                                        fresh = apart - half - r_H - m_half[j] - m_radius[j] \
+                                            - _MARGIN
+                                        lb = fresh  # (or the pair's kept bound, if larger)
+                                        if m_kept[b, i, j] - shift > fresh:  # (NaN: not)
+                                            lb = m_kept[b, i, j] - shift
+                                        if lb > closest:
                                             ub = _s_bound(max(sP, sQ), m_fast[j], z, mode,
                                                           t_sr, t_r, const, iso, iso_reduced)
                                             if not (ub <= top or (relaxed and speed_scale_eq12(
@@ -835,6 +888,10 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                             if ub <= top or (relaxed and speed_scale_eq12(
                                                     closest, ub, delta_s, d_min) == k_top):
                                                 bound = max(bound, ub)
+                                                if least == least and not lb >= least:
+                                                    least = lb  # (a NaN, once met, is kept)
+                                                if fresh + shift > m_kept[b, i, j]:
+                                                    m_kept[b, i, j] = fresh + shift
                                                 continue  # can lower neither figure
                                         c_j, s_j, _, _ = monitor_pair(
                                             segment, r_H, z, m_ends, m_velocities, m_radius, j,
@@ -843,6 +900,9 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                             faulty = True  # (the override stops)
                                             d[i], s_row[i] = np.nan, np.nan
                                             break
+                                        m_kept[b, i, j] = (c_j - _MARGIN) + shift
+                                        if least == least and not c_j - _MARGIN >= least:
+                                            least = c_j - _MARGIN
                                         if c_j < d[i]:
                                             d[i], hint[b, i] = c_j, j
                                         s_row[i] = max(s_row[i], s_j)
@@ -851,6 +911,9 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                         near = k_top == 0.0
                                         if near:
                                             break  # k = 0 for good
+                                    if relaxed and not (near or faulty) and least < np.inf \
+                                            and least + shift > m_seg_kept[b, i]:
+                                        m_seg_kept[b, i] = least + shift
                         for o in range(K):  # each operator's nearest segment, for next time
                             best = np.inf
                             for i in range(o * (N // K), (o + 1) * (N // K)):
@@ -887,27 +950,26 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
             allowed = is_permitted(k_override) and k <= last[b]
             if moving or allowed:  # (they count only then)
                 closest, margin = np.inf, np.inf
-                # How far each capsule's axis moved since the anchor (its ends' farthest
-                # displacement bounds every axis point's); far: a new anchor, and the
-                # pairs' kept bounds go.
-                drift_far = math.isnan(anchor_ends[b, 0, 0, 0])
-                for j in range(ca.size):
-                    c_drift[j] = 0.0
-                    for e in range(2):
-                        g0 = c_ends[j, e, 0] - anchor_ends[b, j, e, 0]
-                        g1 = c_ends[j, e, 1] - anchor_ends[b, j, e, 1]
-                        g2 = c_ends[j, e, 2] - anchor_ends[b, j, e, 2]
-                        c_drift[j] = max(c_drift[j], np.sqrt(g0 * g0 + g1 * g1 + g2 * g2))
-                    drift_far = drift_far or not c_drift[j] <= _DRIFT
-                if drift_far:
+                # How far the robot's capsule axes have gone: each look adds the
+                # farthest capsule end's displacement since the last (it bounds every
+                # axis point's). A NaN sum skips nothing from then on.
+                top_sq = np.inf  # (the first look: the ends kept, nothing gone yet)
+                if not math.isnan(last_ends[b, 0, 0, 0]):
+                    top_sq = 0.0
                     for j in range(ca.size):
-                        c_drift[j] = 0.0
+                        for e in range(2):
+                            g0 = c_ends[j, e, 0] - last_ends[b, j, e, 0]
+                            g1 = c_ends[j, e, 1] - last_ends[b, j, e, 1]
+                            g2 = c_ends[j, e, 2] - last_ends[b, j, e, 2]
+                            sq = g0 * g0 + g1 * g1 + g2 * g2
+                            top_sq = sq if not sq <= top_sq else top_sq  # (keeps a NaN)
+                    travel[b] += np.sqrt(top_sq)
+                if top_sq != 0.0:  # (where they moved: a robot at rest keeps them)
+                    for j in range(ca.size):
                         for e in range(2):
                             for i in range(3):
-                                anchor_ends[b, j, e, i] = c_ends[j, e, i]
-                    for o in range(K):
-                        anchor_x[b, o, 0] = np.nan  # (its bounds go with it, below)
-                c_drift_max = np.max(c_drift)
+                                last_ends[b, j, e, i] = c_ends[j, e, i]
+                robot_travel = travel[b]
                 stop_t, stop_b = truth_t[b], truth_b[b]  # (full speed: the upper bounds')
                 if by_speed:  # the stop from the rate now (metrics.true_protective_distances)
                     g = level_at_or_above(rate[b], truth_rt.shape[1] - 1)
@@ -920,10 +982,10 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     separation_floor = _separation_floor(sep_min[b], margin) if allowed \
                         else -np.inf
                     # Before its point: the operator's least kept bound less how far it can
-                    # have gone since its anchor at its fastest (``op_speed``: its path's
-                    # peak speed; NaN, no skip, where the anchor went)
-                    lb = (op_kept[b, o] - op_speed[b, o] * (t - anchor_x[b, o, 3])
-                          - c_drift_max)
+                    # have gone by now, at its fastest (``op_speed``: its path's peak speed)
+                    # since its last look (NaN before the first: no skip)
+                    lb = op_kept[b, o] - ((last_x[b, o, 4] + op_speed[b, o] * (
+                        t - last_x[b, o, 3])) + robot_travel)
                     if lb > contact_floor and lb - _s_bound(
                             op_speed[b, o], speed, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
                             iso_reduced) > separation_floor:
@@ -933,23 +995,21 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         b * K + o, t)
                     v_H = (w0, w1, w2)
                     h = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)  # S_true's upper bounds
-                    g0, g1, g2 = x0 - anchor_x[b, o, 0], x1 - anchor_x[b, o, 1], \
-                        x2 - anchor_x[b, o, 2]
-                    h_drift = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)  # (the body is rigid)
-                    if not h_drift <= _DRIFT:  # a new anchor: the kept bounds go
-                        anchor_x[b, o, 0], anchor_x[b, o, 1], anchor_x[b, o, 2] = x0, x1, x2
-                        anchor_x[b, o, 3] = t
-                        h_drift = 0.0
-                        op_kept[b, o] = -np.inf
-                        for i in range(seg_r.size):
-                            seg_kept[b, o, i] = -np.inf
-                            for j in range(ca.size):
-                                kept[b, o, i, j] = -np.inf
+                    # how far it has gone: its point's displacement since its last look
+                    # added (the body is rigid)
+                    if not math.isnan(last_x[b, o, 3]):
+                        g0, g1, g2 = x0 - last_x[b, o, 0], x1 - last_x[b, o, 1], \
+                            x2 - last_x[b, o, 2]
+                        last_x[b, o, 4] += np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+                    last_x[b, o, 0], last_x[b, o, 1], last_x[b, o, 2] = x0, x1, x2
+                    last_x[b, o, 3] = t
+                    # a bound kept less this (how far both sides have gone) bounds now
+                    shift = last_x[b, o, 4] + robot_travel
                     s_true_ub = _s_bound(h, speed, 0.0, mode, truth_t[b], t_r, truth_b[b], iso,
                                          iso_reduced)
                     # the operator's least kept bound (its segments'), less how far both
                     # have moved
-                    lb = op_kept[b, o] - h_drift - c_drift_max
+                    lb = op_kept[b, o] - shift
                     if lb > contact_floor and lb - s_true_ub > separation_floor:
                         continue  # no segment of it can lower either figure
                     if bound_contact:  # the whole operator, through its reach about x
@@ -957,7 +1017,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         lb = (np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - op_reach[b, o]
                               - c_sphere[3] - _MARGIN)
                         if lb > contact_floor and lb - s_true_ub > separation_floor:
-                            lb -= h_drift + c_drift_max  # (kept for later ticks)
+                            lb += shift  # (kept for later ticks)
                             if lb > op_kept[b, o]:
                                 op_kept[b, o] = lb
                             continue  # no segment of it can lower either figure
@@ -968,7 +1028,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     for i in range(seg_r.size):
                         r_H = seg_r[i]
                         # the segment's least kept bound, less how far both have moved
-                        lb = seg_kept[b, o, i] - h_drift - c_drift_max
+                        lb = seg_kept[b, o, i] - shift
                         if lb > contact_floor and lb - s_true_ub > separation_floor:
                             op_least = min(op_least, seg_kept[b, o, i])
                             continue  # can lower neither figure
@@ -980,7 +1040,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             g0, g1, g2 = c_sphere[0] - y0, c_sphere[1] - y1, c_sphere[2] - y2
                             lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_sphere[3] - out
                             if lb > contact_floor and lb - s_true_ub > separation_floor:
-                                lb -= h_drift + c_drift_max  # (kept for later ticks)
+                                lb += shift  # (kept for later ticks)
                                 if lb > seg_kept[b, o, i]:
                                     seg_kept[b, o, i] = lb
                                 op_least = min(op_least, seg_kept[b, o, i])
@@ -993,8 +1053,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         least = np.inf
                         for j in range(ca.size):
                             # the pair's clearance when last bounded, less how far both
-                            # have moved since (from the anchors, both ways)
-                            lb = kept[b, o, i, j] - h_drift - c_drift[j]
+                            # have moved since
+                            lb = kept[b, o, i, j] - shift
                             if lb > contact_floor and lb - pair_ub[j] > separation_floor:
                                 least = min(least, kept[b, o, i, j])
                                 continue  # this pair can lower neither figure
@@ -1015,7 +1075,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                                          truth_b[b], iso, iso_reduced) \
                                         > separation_floor
                                 if skip:
-                                    lb -= h_drift + c_drift[j]  # (kept for later ticks)
+                                    lb += shift  # (kept for later ticks)
                                     if lb > kept[b, o, i, j]:
                                         kept[b, o, i, j] = lb
                                     least = min(least, kept[b, o, i, j])
@@ -1024,7 +1084,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             axis, vh_true, vr_true = segments_pair(P, Q, v_H, v_H, end_a, end_b,
                                                                    vel_a, vel_b)
                             sep = axis - c_radius[j] - r_H
-                            kept[b, o, i, j] = sep - h_drift - c_drift[j] - _MARGIN
+                            kept[b, o, i, j] = (sep - _MARGIN) + shift
                             least = min(least, kept[b, o, i, j])
                             closest = min(closest, sep)
                             contact_floor = min(contact_floor, closest) if moving else -np.inf
@@ -1130,14 +1190,22 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     # each operator's fastest: its path's peak speed (no point of a rigid operator is faster)
     op_speed = c.stack_arrays[3].max(axis=1, initial=0.0).reshape(B, c.K)
     reach = (op_reach, np.ascontiguousarray(seg_mid), op_speed)
-    # each true pair's clearance when last measured, less the drifts from the anchors
-    # (each operator's point, the robot's capsule ends) then: a lower bound while neither
-    # has moved more than _DRIFT from its anchor
+    # each true pair's clearance bound when last measured, plus how far both sides had
+    # gone by then (each operator's point, the robot's capsule ends: summed from look to
+    # look, kept with their last positions): less how far they have gone now, a bound now
+    last_x = np.full((B, c.K, 5), np.nan)  # the point at the last look, its time, gone
+    last_x[:, :, 4] = 0.0
     truth_memo = (np.full((B, c.K, truth_segments[2].size, truth_caps.radius.size), -np.inf),
                   np.full((B, c.K, truth_segments[2].size), -np.inf),
-                  np.full((B, c.K), -np.inf),
-                  np.full((B, c.K, 4), np.nan),
-                  np.full((B, truth_caps.radius.size, 2, 3), np.nan))
+                  np.full((B, c.K), -np.inf), last_x,
+                  np.full((B, truth_caps.radius.size, 2, 3), np.nan), np.zeros(B))
+    # each segment's least clearance bound to the monitor's capsules when last bounded,
+    # plus how far the segment (its envelope, summed over the tracker updates) and the
+    # capsule ends (over the ticks) had gone by then: less how far they have gone now,
+    # a bound now (:func:`_segment_travel`)
+    monitor_memo = (np.full((B, M), -np.inf), np.zeros((B, M)), np.zeros(B),
+                    np.full((B, M, caps.radius.size), -np.inf))
+    prev_ends, prev_radius = np.full((B, M, 2, 3), np.nan), np.full((B, M), np.nan)
     allowance, occlusion_speed = float(cfg.body.tracking_allowance), float(f.occlusion_speed)
     min_sep = np.full(B, np.inf)
     sep_min = np.full(B, np.inf)
@@ -1154,7 +1222,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                  h_ends, h_velocities, h_radius, h_status, h_std, op_spheres, h_axes, frames,
                  timeout,
                  monitor, z_d_terms, f.delta_s, f.d_min, truth_t, truth_b, levels, truth_rates,
-                 monitor_caps, contact_caps, truth_segments, reach, truth_memo, c.end,
+                 monitor_caps, contact_caps, truth_segments, reach, truth_memo, monitor_memo,
+                 c.end,
                  c.brake_scale,
                  brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min,
                  sep_time)
@@ -1162,10 +1231,12 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         if k > last:
             break
         c.update(u, frames, tracks, rules, regions, est_p, est_v, status, std, unseen)
-        _envelope_batch(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
+        envelope_batch(recipe.regions, recipe.candidates, recipe.radius, recipe.operator,
                         recipe.slots, est_p, est_v, status, std, unseen, allowance,
                         occlusion_speed, h_ends, h_velocities, h_radius, h_status, h_std)
         _segment_axes(h_ends, h_velocities, h_axes)
+        _segment_travel(h_ends, h_radius, prev_ends, prev_radius, monitor_memo[1],
+                        monitor_memo[0], monitor_memo[3])
         _operator_spheres(h_ends, h_axes, h_radius, h_std, recipe.operator, op_spheres)
         j += 1
     return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,

@@ -36,6 +36,7 @@ import numpy as np
 
 from safety_systems.cell.braking import path_follower_step
 from safety_systems.cell.human_body import NUM_POINTS as BODY_POINTS
+from safety_systems.cell.human_body import envelope_batch
 from safety_systems.config.configuration import (
     contact_capsules,
     monitor_capsules,
@@ -70,7 +71,6 @@ from safety_systems.config.configuration import (
 )
 from verification.search.counts import Tally
 from verification.search.evaluate_batch import (
-    _envelope_batch,
     _truth_segments,
     delivered_frames,
     dropout_table,
@@ -508,11 +508,11 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
             m = r.radius.size
             out = (np.empty((idx.size, m, 2, 3)), np.empty((idx.size, m, 2, 3)),
                    np.empty((idx.size, m)), np.empty((idx.size, m)), np.empty((idx.size, m)))
-            _envelope_batch(r.regions, r.candidates, r.radius, r.operator, r.slots,
-                            np.ascontiguousarray(p_m[idx]), np.ascontiguousarray(v_m[idx]),
-                            status[idx], np.zeros((idx.size, N)), unseen[idx],
-                            float(config.body.tracking_allowance), float(f.occlusion_speed),
-                            *out)
+            envelope_batch(r.regions, r.candidates, r.radius, r.operator, r.slots,
+                           np.ascontiguousarray(p_m[idx]), np.ascontiguousarray(v_m[idx]),
+                           status[idx], np.zeros((idx.size, N)), unseen[idx],
+                           float(config.body.tracking_allowance), float(f.occlusion_speed),
+                           *out)
             h_ends[idx, :m], h_vel[idx, :m], h_radius[idx, :m], h_status[idx, :m] = out[:4]
         p_now, v_now = operators_at(np.full(n, now))
         points_now = p_now[:, :, None, :] + postures  # (n, K, 10, 3)

@@ -1,0 +1,78 @@
+"""A hash of the batched evaluator's results on fixed batches: an optimisation of the
+evaluator is exact when it leaves these unchanged.
+
+    python benchmarks/results_hash.py [--batch 512]
+
+Batches (``bench_verify._ten_second_scenarios``, seed 0, and a second seed-3 batch of
+each whole-cell kind): the whole cell with estimated human speeds (``busy``, the
+throughput's figure), on iso.yaml's contact terms (``iso``), iso.yaml itself with its Z_r
+(``iso_zr``), the tool point (``tool``), and the whole cell with the human speed's
+floor and sigmas (``floor``), with the robot's fastest point (``fastest``) and with S by
+speed (``by_speed``). For each, every field of every scenario's
+``BatchResult`` (their float64 bytes) is hashed; printed one line per batch and one for
+all, with the count of scenarios violating each property (a change that moved no figure
+keeps every line).
+"""
+
+import argparse
+import dataclasses
+import hashlib
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+import bench_verify as b  # noqa: E402
+
+
+def digest(result) -> str:
+    h = hashlib.sha256()
+    for f in dataclasses.fields(result):
+        h.update(np.ascontiguousarray(getattr(result, f.name), dtype=np.float64).tobytes())
+    return h.hexdigest()[:16]
+
+
+def batches(n: int) -> dict:
+    cell = {"space": b.SPACE, "config": b.ISO_MOVING, "operators": 2.0, "heads": 1.0}
+    busy = dataclasses.replace(b.ISO_MOVING, safety=dataclasses.replace(
+        b.ISO_MOVING.safety, human_speed="estimated"))
+
+    def safety(**kw):
+        return dataclasses.replace(b.ISO_MOVING, safety=dataclasses.replace(
+            b.ISO_MOVING.safety, **kw))
+
+    return {
+        "busy": b._ten_second_scenarios(n, 0, **dict(cell, config=busy)),
+        "busy_seed3": b._ten_second_scenarios(n, 3, **dict(cell, config=busy)),
+        "iso": b._ten_second_scenarios(n, 0, **cell),
+        "iso_seed3": b._ten_second_scenarios(n, 3, **cell),
+        "iso_zr": b._ten_second_scenarios(n, 0, **dict(cell, config=b.ISO)),
+        "tool": b._ten_second_scenarios(n, 0, space=b.FLANGE, config=b.SEED, operators=1.0),
+        "floor": b._ten_second_scenarios(n, 0, **dict(cell, config=safety(
+            human_speed="estimated_with_floor", human_uncertainty_sigmas=2.0))),
+        "fastest": b._ten_second_scenarios(n, 0, **dict(cell, config=safety(
+            human_speed="estimated", robot_speed="fastest_point"))),
+        "by_speed": b._ten_second_scenarios(n, 0, **dict(cell, config=safety(
+            stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
+            intrusion_distance=0.0, robot_uncertainty=0.1))),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--batch", type=int, default=512)
+    args = parser.parse_args()
+    whole = hashlib.sha256()
+    for name, scenarios in batches(args.batch).items():
+        r = b.evaluate_many(scenarios, batch_size=args.batch)
+        h = digest(r)
+        whole.update(h.encode())
+        print(f"{name:12s} {h}  contact violated {int(np.sum(r.robustness < 0))}, "
+              f"separation violated {int(np.sum(r.separation < 0))}, "
+              f"min separation {np.min(r.min_separation_while_moving):+.6f}", flush=True)
+    print(f"{'all':12s} {whole.hexdigest()[:16]}")
+
+
+if __name__ == "__main__":
+    main()
