@@ -238,6 +238,10 @@ def throughput(batch: int) -> None:
     _row("Drake diagram, capsules, 2 operators x 12 segments, 10 s scenarios/s/core",
          f"{drake_rate:.2f}", "", None)
     _row("  ratio batched / Drake", f"{cell_rate / drake_rate:.0f}x", "", None)
+    figures = FIGURES["throughput"] = {
+        "batch": batch, "iso": iso_rate, "busy": busy_rate, "whole_cell": cell_rate,
+        "vacuous_iso": cell_vacuous, "vacuous_busy": busy_vacuous, "tool_point": tool_rate,
+        "vacuous_tool_point": tool_vacuous, "drake": drake_rate, "commits": {}}
     # Earlier commits' code, measured right after (A/B on this machine): each figure
     # beside its ratios to its own tool point and to this run's Drake diagram, which
     # carry from machine to machine where the absolute figures do not.
@@ -250,6 +254,9 @@ def throughput(batch: int) -> None:
         if rates is None:
             continue
         low = min(rates["iso"], rates["busy"])
+        figures["commits"][commit] = {"what": what, **{k: rates[k] for k in
+                                                        ("iso", "busy", "tool")},
+                                      "whole_cell": low}
         _row(f"{what} ({commit}), the same measure", f"{low:.0f}", "", None)
         _row("    iso.yaml's contact terms / with estimated human speeds",
              f"{rates['iso']:.0f} / {rates['busy']:.0f}", "", None)

@@ -93,6 +93,18 @@ def _ur5e_only(robot, command: str, file: str) -> None:
                          "simulate only, for now)", file=file)
 
 
+def _same_robot(robot, reference, file: str, reference_file: str) -> None:
+    """Refuses, in one line, a task scenario whose robot is not the space's (tune times
+    the tasks of the robot it verifies)."""
+    from safety_systems.config.scenario import robot_model_of
+
+    mine, theirs = robot_model_of(robot), robot_model_of(reference)
+    if (mine.name, mine.sha256) != (theirs.name, theirs.sha256):
+        raise InputError("robot", mine.name, f"the space's robot, {theirs.name} "
+                         f"({reference_file}): --tasks on the robot that is verified",
+                         file=file)
+
+
 def _simulate(args: argparse.Namespace) -> int:
     from safety_systems.files.output_files import prepare_out
     from safety_systems.outputs.provenance import scenario_seeds
@@ -159,7 +171,6 @@ def simulate_line(summary: dict) -> str:
 
 
 def _verify(args: argparse.Namespace) -> int:
-    from safety_systems.cell.braking import PLACEHOLDER_WARNING
     from safety_systems.files.documents import read_text
     from safety_systems.files.output_files import prepare_out
     from verification.report import (
@@ -167,6 +178,7 @@ def _verify(args: argparse.Namespace) -> int:
         disagreement_lines,
         first_words,
         metres,
+        placeholder_words,
         vacuous_warnings,
         write_report,
     )
@@ -177,7 +189,6 @@ def _verify(args: argparse.Namespace) -> int:
 
     config, robot = _configuration(args.config, args.unverified)
     space = load_space(args.space)
-    _ur5e_only(space.robot, "verify", args.space)
     if robot is not None:
         from safety_systems.config.params_file import robot_config
 
@@ -196,7 +207,7 @@ def _verify(args: argparse.Namespace) -> int:
     report = write_report(outcome, out, config_path=args.config, space_path=args.space,
                           origin=_origin(args.argv, {"search": args.seed}))
     if report["braking_data"] == "placeholder":
-        _warn(PLACEHOLDER_WARNING)
+        _warn(placeholder_words(report))
     for line in vacuous_warnings(report):
         _warn(line)
     for line in disagreement_lines(report):
@@ -239,10 +250,9 @@ def _tune(args: argparse.Namespace) -> int:
         raise InputError("--allow", args.allow, "passed with a space built around a "
                          "recording (the proofs decline recorded motion: its verdicts are "
                          "passed or falsified, never proved)")
-    _ur5e_only(space.robot, "tune", args.space)
     tasks = [load_scenario(path) for path in (args.tasks or TASKS)]
     for path, task in zip(args.tasks or TASKS, tasks):
-        _ur5e_only(task.robot, "tune", path)
+        _same_robot(task.robot, space.robot, path, args.space)
     try:
         check_block(block, config, control_period=1.0 / space.robot.control_rate_hz)
     except InputError as e:
@@ -271,7 +281,10 @@ def _tune(args: argparse.Namespace) -> int:
                   f"{seconds(row['total_task_time'])}, lost {seconds(row['total_lost_time'])}")
         reduction = result["lost_time_reduction_vs_iso"]
         if reduction is not None:
-            print(f"time lost: {100.0 * reduction:.1f}% less than iso.yaml")
+            iso = next(r for r in result["table"] if r["configuration"] == "iso.yaml")
+            print(f"time lost: {100.0 * reduction:.1f}% less than iso.yaml"
+                  + ("" if iso["verdict"] == "proved" else
+                     f" (which is {iso['verdict']}, not proved, over this space)"))
         print(f"-> {out / 'tune.md'}")
     if result["chosen"] is None:
         print(f"safety-systems: tune: no candidate was {args.allow}", file=sys.stderr)

@@ -118,6 +118,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str,
         "verdict": o.verdict,
         "method": o.method,
         "robot_mode": o.robot_mode,
+        **({"robot": o.robot} if o.robot else {}),
         "properties": properties,
         "config": config_path,
         "config_sha256": o.config_sha256,
@@ -354,8 +355,13 @@ def markdown(report: dict) -> str:
                                           for name, p in report["properties"].items()),
              f"- simulations: {report['simulations']} (budget {report['budget']}, seed "
              f"{report['seed']})", *evaluation_lines(report), ""]
+    if report.get("robot"):
+        r = report["robot"]
+        lines.insert(lines.index(f"- method: {report['method']}"),
+                     f"- robot: {r['model']} ({len(r['joints'])} joints, {r['urdf']}, "
+                     f"SHA-256 {r['urdf_sha256'][:12]}...)")
     if report["braking_data"] == "placeholder":
-        lines += [f"**{PLACEHOLDER_WARNING}**", ""]
+        lines += [f"**{placeholder_words(report)}**", ""]
     lines += [f"**{w}**\n" for w in vacuous_warnings(report)]
     lines += ["## Assumptions", ""]
     lines += [f"- {a}" for a in report["assumptions"]]
@@ -364,6 +370,19 @@ def markdown(report: dict) -> str:
         lines += _property_markdown(name, p, report["robot_mode"])
     lines += ["![robustness](robustness.png)", ""]
     return "\n".join(lines)
+
+
+def placeholder_words(report: dict) -> str:
+    """The built-in stopping data's warning for the report's robot (the UR5e's where the
+    report names none)."""
+    if not report.get("robot"):
+        return PLACEHOLDER_WARNING
+    from safety_systems.cell.robot_model import robot_model
+    from safety_systems.config.configuration import braking_warning
+
+    # (only a shipped robot has a placeholder: a robot from another URDF must configure
+    # its stopping data, so its report never says placeholder)
+    return braking_warning(robot_model(report["robot"]["model"]))
 
 
 def write_report(o: Outcome, out: Path, *, config_path: str, space_path: str,

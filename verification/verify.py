@@ -34,7 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from safety_systems.files.output_files import write_text
-from safety_systems.config.scenario import ControllerConfig, dump_scenario
+from safety_systems.cell.robot_model import is_ur5e
+from safety_systems.config.scenario import ControllerConfig, dump_scenario, robot_model_of
 from verification.search.counts import Tally
 from verification.search.evaluate_drake import cut_short, evaluate_drake
 from verification.proof.theorems import Proof, prove, prove_separation
@@ -110,6 +111,9 @@ class Outcome:
     evaluations: dict = dataclasses.field(default_factory=dict)
     stopped_at_first: str | None = None  # the property confirmed first (--stop-at-first)
     unchecked: list = dataclasses.field(default_factory=list)  # properties left unchecked
+    # the space's robot where it is not the UR5e (its model, joints, URDF and the URDF's
+    # SHA-256: ``deploy.certificate.robot_identity``); None: the UR5e
+    robot: dict | None = None
 
     def _all(self, field: str) -> list:
         return [x for p in self.properties.values() for x in getattr(p, field)]
@@ -209,7 +213,17 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
                    free_parameters(space), seed, budget,
                    hashlib.sha256(config_text.encode()).hexdigest(), space.contact_geometry,
                    space.robot.mode, tally.snapshot(), stopped,
-                   [n for n in names if n not in results])
+                   [n for n in names if n not in results], _robot(space))
+
+
+def _robot(space: ScenarioSpace) -> dict | None:
+    """The space's robot as a report names it, None for the UR5e (the default robot, named
+    by omission as a scenario file names it)."""
+    model = robot_model_of(space.robot)
+    if is_ur5e(model):
+        return None
+    return {"model": model.name, "joints": list(model.joint_names), "urdf": model.urdf.name,
+            "urdf_sha256": model.sha256}
 
 
 def first_counterexample(log: SearchLog, j: int, confirmed: dict | None) -> dict | None:

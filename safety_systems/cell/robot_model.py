@@ -31,6 +31,7 @@ proofs have it; a chain's: the lengths of the offsets from the base to the point
 
 import dataclasses
 import functools
+import hashlib
 from pathlib import Path
 
 import numpy as np
@@ -176,9 +177,11 @@ def _chain_model(urdf: Path, tool_frame: str, name: str) -> RobotModel:
                          np.r_[local, d.X_tool[None, :3, 3]])
     name = name or d.name or urdf.stem
     shipped = SHIPPED.get(name)
+    # A shipped robot's placeholder serves its own description only: the same file's text
+    # (by SHA-256, wherever it was copied to) and its tool frame.
     placeholder = (name if name in PLACEHOLDER_STOPS and shipped is not None
-                   and shipped.resolve() == urdf and tool_frame in ("", d.tool_frame)
-                   else None)
+                   and hashlib.sha256(shipped.read_bytes()).hexdigest() == d.sha256
+                   and tool_frame in ("", d.tool_frame) else None)
     return RobotModel(
         name=name, urdf=urdf, sha256=d.sha256, kind=KIND_CHAIN, base_link=d.base_link,
         tool_frame=d.tool_frame, joint_names=d.joint_names, position_lower=d.position_lower,
@@ -195,7 +198,9 @@ def _chain_model(urdf: Path, tool_frame: str, name: str) -> RobotModel:
 
 
 @functools.lru_cache(maxsize=16)
-def _cached(name: str, urdf: str, tool_frame: str) -> RobotModel:
+def _cached(name: str, urdf: str, tool_frame: str, sha256: str = "") -> RobotModel:
+    """The model (made once per name, file, tool frame and the file's SHA-256: a file
+    edited since is read again)."""
     if not urdf:
         if name in ur_family.UR_ROBOTS:
             if tool_frame not in ("", "tool0"):
@@ -222,7 +227,7 @@ def robot_model(name: str = "", *, urdf: str | Path = "", tool_frame: str = "") 
     file = Path(urdf).resolve()
     if not file.is_file():
         raise InputError("robot.urdf", str(urdf), "an existing URDF file")
-    return _cached(name, str(file), tool_frame)
+    return _cached(name, str(file), tool_frame, hashlib.sha256(file.read_bytes()).hexdigest())
 
 
 def default_model() -> RobotModel:

@@ -9,7 +9,7 @@ MocapSensor's capture (:func:`_capture`; the unit noise of each capture index dr
 by the sensor's rule, ``delivery.unit_noise``, and kept for a sweep's next batches)
 and the KalmanTracker's rows (``kalman_tracker._track_rows``, Eqs. 2-4), and
 between two updates every control tick of every scenario in :func:`_advance`: the
-joint path (``joint_path.path_state_one``), tool0 (``ur5e.tool0_reusing_trig``), Eq. 5,
+joint path (``joint_path.path_state_one``), the robot (``model_points``), Eq. 5,
 the monitor and the override (``ssm``: Eqs. 6-12), the properties on the operators'
 truth (``operator_paths.path_point_one``) and the follower's braked step
 (``braking.path_follower_step``). Event order follows the diagram: a tracker update at time
@@ -49,13 +49,22 @@ from safety_systems.cell.operator_paths import (
     path_point_one,
     stack_operator_paths,
 )
-from safety_systems.cell.robot_geometry import NUM_POINTS as ROBOT_POINTS
+from safety_systems.cell.model_points import (
+    model_arrays,
+    model_points_one,
+    model_tool0_one,
+    model_work,
+)
 from safety_systems.cell.robot_geometry import (
     capsule_ends_one,
-    robot_points_one_memo,
     segments_pair,
 )
-from safety_systems.config.scenario import Scenario, actual_sensor, operator_points
+from safety_systems.config.scenario import (
+    Scenario,
+    actual_sensor,
+    operator_points,
+    robot_model_of,
+)
 from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_faults
 from safety_systems.ssm.separation import (
     capsule_axis,
@@ -81,7 +90,6 @@ from safety_systems.sensing.tracks import (
     tracker_stop,
     usable,
 )
-from safety_systems.cell.ur5e import tool0_reusing_trig
 from safety_systems.config.configuration import (
     braking_table,
     frame_timeout,
@@ -170,7 +178,8 @@ class _Cells:
         self.path = joint_path(dataclasses.replace(robot, cycles=cycles))
         self.end = np.array([self.path.cycle_time * s.robot.cycles for s in scenarios])
         self.brake_scale = np.array([s.robot.braking_time_scale for s in scenarios])
-        self.table = braking_table(self.config)
+        self.model = robot_model_of(robot)
+        self.table = braking_table(self.config, self.model)
         self.ticks = np.array([math.floor(s.duration / self.dt + 1e-9) for s in scenarios])
         sensors = [actual_sensor(s) for s in scenarios]
         self.period = _common(scenarios, lambda s: 1.0 / actual_sensor(s).rate_hz, "sensor rate")
@@ -518,7 +527,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
              h_radius, h_status, h_std, op_spheres, h_axes, frames, timeout, monitor, z_d_terms,
              delta_s, d_min, truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps,
              truth_segments, reach, truth_memo, monitor_memo, end, brake_scale, brakes, s, rate,
-             ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time):
+             ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time, robot, work,
+             sizes):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
     ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (``human_body.envelope_batch`` of the
@@ -528,8 +538,11 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
 
     - the robot from the PathFollower's state (s, sigma): q and dq/ds by
       ``path_state_one`` (``path`` from ``joint_path.path_arrays``), the robot's points
-      and their velocities J(q) dq/ds sigma by ``robot_geometry.robot_points_one_memo``
-      (each scenario's trigonometry kept in ``trig``) and the capsule ends by
+      and their velocities J(q) dq/ds sigma by ``model_points.model_points_one`` of the
+      robot's model (``robot``: ``model_points.model_arrays``, its work arrays ``work``
+      and ``sizes`` = (joints, points, tool0's point); a UR's trigonometry kept per
+      scenario in ``trig``, its points ``robot_geometry.robot_points_one_memo``'s, bit for
+      bit) and the capsule ends by
       ``capsule_ends_one``: the monitor's capsules (``monitor_caps`` = (a, b, t0, t1,
       radius, tool length)) and the real robot's for the properties (``contact_caps``),
       once per distinct (s, sigma) at a tick (scenarios go in order of s; all start at
@@ -617,8 +630,11 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     ca, cb, ct0, ct1, c_radius, c_tool = contact_caps
     N, K = h_radius.shape[1], enter.shape[1]
     op_first_segment = np.arange(K) * (N // K)  # each operator's first segment
-    q, dq, ddq, v_joint = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-    points, point_v = np.empty((ROBOT_POINTS, 3)), np.empty((ROBOT_POINTS, 3))
+    n_joints, n_points, tool0 = sizes
+    poses, twists = work
+    q, dq, ddq = np.empty(n_joints), np.empty(n_joints), np.empty(n_joints)
+    v_joint = np.empty(n_joints)
+    points, point_v = np.empty((n_points, 3)), np.empty((n_points, 3))
     m_ends, m_unused = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
     m_velocities = np.empty((ma.size, 2, 3))
     c_ends, c_velocities = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
@@ -632,12 +648,12 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     speed = 0.0
     m_sphere, c_sphere = (0.0, 0.0, 0.0, np.inf), (0.0, 0.0, 0.0, np.inf)
     memo[:, 1] = np.nan  # the tracker's outputs may have changed: no k to reuse
-    # Both robots the tool point only: tool0 alone (P6, bit for bit), not all 8 points.
+    # Both robots the tool point only: tool0 alone (bit for bit), not all the points.
     tool_only = True
     for j in range(ma.size):
-        tool_only = tool_only and ma[j] == 6 and mb[j] == 6
+        tool_only = tool_only and ma[j] == tool0 and mb[j] == tool0
     for j in range(ca.size):
-        tool_only = tool_only and ca[j] == 6 and cb[j] == 6
+        tool_only = tool_only and ca[j] == tool0 and cb[j] == tool0
     # The monitor's capsules on the real robot's axes (only the radii differ): their ends
     # are the same numbers, computed once.
     same_axes = ma.size == ca.size and m_tool == c_tool
@@ -663,13 +679,15 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                 continue
             if not (s[b] == s_before and rate[b] == rate_before):  # else the robot as before
                 path_state_one(s[b], path, q, dq, ddq)
-                for j in range(6):
+                for j in range(n_joints):
                     v_joint[j] = dq[j] * rate[b]
                 if tool_only:
-                    (points[6, 0], points[6, 1], points[6, 2], point_v[6, 0], point_v[6, 1],
-                     point_v[6, 2]) = tool0_reusing_trig(q, v_joint, trig[b])
+                    (points[tool0, 0], points[tool0, 1], points[tool0, 2], point_v[tool0, 0],
+                     point_v[tool0, 1], point_v[tool0, 2]) = model_tool0_one(
+                        robot, q, v_joint, trig[b], poses, twists)
                 else:
-                    robot_points_one_memo(q, v_joint, m_tool, trig[b], points, point_v)
+                    model_points_one(robot, m_tool, q, v_joint, trig[b], poses, twists, points,
+                                     point_v)
                 if same_axes:
                     capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
                     for j in range(ma.size):
@@ -679,7 +697,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                 else:
                     capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_unused)
                     if c_tool != m_tool and not tool_only:
-                        robot_points_one_memo(q, v_joint, c_tool, trig[b], points, point_v)
+                        model_points_one(robot, c_tool, q, v_joint, trig[b], poses, twists,
+                                         points, point_v)
                     capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_velocities)
                 speed = 0.0  # the robot's: its fastest capsule end
                 for j in range(ca.size):
@@ -1130,12 +1149,13 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     B, N, dt = c.B, c.N, c.dt
     cfg = c.config
     f, tr = cfg.safety, cfg.tracker
-    monitor = monitor_terms(cfg)
+    model = c.model
+    monitor = monitor_terms(cfg, model)
     timeout = frame_timeout(cfg)
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
     truth_t, truth_b = true_stopping_terms(scenarios, f)
     by_speed = f.stopping == "by_speed"
-    levels = level_terms(cfg) if by_speed else (np.empty(0), np.empty(0))
+    levels = level_terms(cfg, model) if by_speed else (np.empty(0), np.empty(0))
     truth_rates = true_stopping_by_rate(scenarios, f) if by_speed else (np.empty((B, 1)),
                                                                           np.empty((B, 1)))
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
@@ -1143,7 +1163,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas))
     rules, regions = tracker_rules(cfg), tracker_regions(cfg)
 
-    caps = monitor_capsules(cfg)
+    caps = monitor_capsules(cfg, model)
     contact = _common(scenarios, lambda s: (s.contact_geometry, s.robot.payload_radius,
                                             s.robot.tool_length), "contact geometry")
     truth_caps = contact_capsules(scenarios[0].robot, contact[0])
@@ -1166,7 +1186,10 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     # each segment's capsule nearest at its last look, then each operator's nearest segment
     hint = np.zeros((B, M + c.K), dtype=np.int64)
     hint[:, M:] = np.arange(c.K) * (M // c.K)
-    trig = np.full((B, 15), np.nan)  # robot_points_one_memo's memory
+    trig = np.full((B, 15), np.nan)  # a UR's trigonometry, kept per scenario
+    robot_arrays = model_arrays(model)
+    work = model_work(model)[1:]  # (poses, twists): a chain's
+    sizes = (model.n, model.num_points, model.tool0)
     tracks = np.zeros((B * N, TRACK_SLOT))
     frames = np.zeros((B, 7))  # _F_*: no frame yet, none good
     frames[:, _F_NUMBER], frames[:, _F_GOOD] = -1.0, -np.inf
@@ -1226,7 +1249,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                  c.end,
                  c.brake_scale,
                  brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min,
-                 sep_time)
+                 sep_time, robot_arrays, work, sizes)
         k = stop
         if k > last:
             break

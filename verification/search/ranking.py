@@ -46,13 +46,12 @@ from safety_systems.config.configuration import (
 )
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.cell.operator_paths import stack_paths, stacked_position_velocity
+from safety_systems.cell.model_points import model_arrays, model_points_one, model_work
 from safety_systems.cell.robot_geometry import (
-    NUM_POINTS,
     capsule_ends_one,
-    robot_points_one,
     segments_pair,
 )
-from safety_systems.config.scenario import ControllerConfig, actual_sensor
+from safety_systems.config.scenario import ControllerConfig, actual_sensor, robot_model_of
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_NONE, TRACK_TRACKING, usable
 from safety_systems.ssm.separation import (
     capsule_axis,
@@ -224,11 +223,14 @@ def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.nda
 @numba.njit(cache=True)
 def _score_rows(q, v_joint, mine, real, h_ends, h_vel, h_radius, h_status, truth, truth_v,
                 present, r_real, monitor, truth_t, truth_b, z_d, delta_s, d_min, free,
-                levels, rate, truth_rates, k_out, gap_out, margin_out, moving_out):
+                levels, rate, truth_rates, k_out, gap_out, margin_out, moving_out, robot,
+                work):
     """The reduced model's monitor and measure at one time for every candidate c,
     compiled, through the product's compiled functions: the robot's capsules
     (``robot_geometry``; ``mine`` the monitor's, ``real`` the contact geometry's, each
-    (a, b, t0, t1, radius, tool length)) at q, v_joint (n, 6); k (Eq. 12 by
+    (a, b, t0, t1, radius, tool length)) at q, v_joint (n, joints), its points by
+    ``model_points.model_points_one`` (``robot`` its ``model_arrays``, ``work`` its work
+    arrays, the points and their velocities); k (Eq. 12 by
     ``ssm.speed_scale_eq12`` over the usable segments (``h_status``), the monitor's
     envelopes h_ends, h_vel (n, M, 2, 3), radii h_radius, Z_d ``z_d``, d and S of each by
     ``separation.segment_separation``; 1 with no usable segment, 0 on a NaN or a lost
@@ -258,11 +260,12 @@ def _score_rows(q, v_joint, mine, real, h_ends, h_vel, h_radius, h_status, truth
     s_levels = np.empty((max(level_t_sr.size, 1), n_bodies))
     d_row = np.empty(n_bodies)
     included = np.empty(n_bodies, np.bool_)
-    points, point_v = np.empty((NUM_POINTS, 3)), np.empty((NUM_POINTS, 3))
+    memo, poses, twists, points, point_v = work
     m_ends, m_vel = np.empty((ma.size, 2, 3)), np.empty((ma.size, 2, 3))
     c_ends, c_vel = np.empty((ca.size, 2, 3)), np.empty((ca.size, 2, 3))
     for c in range(q.shape[0]):
-        robot_points_one(q[c], v_joint[c], m_tool, points, point_v)
+        memo[:] = np.nan  # (a UR's trigonometry: each candidate's own q)
+        model_points_one(robot, m_tool, q[c], v_joint[c], memo, poses, twists, points, point_v)
         capsule_ends_one(points, point_v, ma, mb, mt0, mt1, m_ends, m_vel)
         d, top, any_tracked, faulty = np.inf, -np.inf, False, False
         for i in range(n_bodies):
@@ -294,7 +297,8 @@ def _score_rows(q, v_joint, mine, real, h_ends, h_vel, h_radius, h_status, truth
             g = level_at_or_above(rate[c], truth_rt.shape[1] - 1)
             stop_t, stop_b = truth_rt[c, g], truth_rb[c, g]
         if c_tool != m_tool:
-            robot_points_one(q[c], v_joint[c], c_tool, points, point_v)
+            model_points_one(robot, c_tool, q[c], v_joint[c], memo, poses, twists, points,
+                             point_v)
         capsule_ends_one(points, point_v, ca, cb, ct0, ct1, c_ends, c_vel)
         speed, gap, margin = 0.0, np.inf, np.inf
         for j in range(ca.size):
@@ -367,7 +371,8 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     end = path.cycle_time * cycles
     dt = 1.0 / space.robot.control_rate_hz
     ticks = max(1, round(step / dt))
-    table = braking_table(config)
+    model = robot_model_of(space.robot)
+    table = braking_table(config, model)
     t = np.arange(0.0, duration + step, ticks * dt)
     f, tr = config.safety, config.tracker
     # Every candidate's operators (padded to the most by repeating its first, absent) and
@@ -398,7 +403,8 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     delay = (1.0 / config.sensor.rate_hz + latency)[:, None]
     lag = 0.0 if f.human_speed == "iso" else ESTIMATE_LAG
     drops = dropout_table(sensors)
-    mine, real = monitor_capsules(config), contact_capsules(space.robot, space.contact_geometry)
+    mine = monitor_capsules(config, model)
+    real = contact_capsules(space.robot, space.contact_geometry)
     # The monitor's envelopes, by the candidates' tracked points (a recipe per kind), and
     # each operator's true segments (the same for every candidate: 12 per operator).
     groups: dict = {}
@@ -464,12 +470,15 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
                          | rejected[None, :])
         return out
 
-    monitor = monitor_terms(config)
+    monitor = monitor_terms(config, model)
+    robot_arrays = model_arrays(model)
+    work = (*model_work(model), np.empty((model.num_points, 3)),
+            np.empty((model.num_points, 3)))  # (memo, poses, twists, points, velocities)
     mine_arrays = (mine.a, mine.b, mine.t0, mine.t1, mine.radius, mine.tool_length)
     real_arrays = (real.a, real.b, real.t0, real.t1, real.radius, real.tool_length)
     truth_t, truth_b = true_stopping_terms(scenarios, f)
     by_speed = f.stopping == "by_speed"
-    levels = level_terms(config) if by_speed else (np.empty(0), np.empty(0))
+    levels = level_terms(config, model) if by_speed else (np.empty(0), np.empty(0))
     truth_rates = true_stopping_by_rate(scenarios, f) if by_speed \
         else (np.empty((n, 1)), np.empty((n, 1)))
     ends = np.array([sc.duration for sc in scenarios])
@@ -528,7 +537,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
         _score_rows(q, v_joint, mine_arrays, real_arrays, h_ends, h_vel, h_radius, h_status,
                     truth, truth_v, seg_present, r_real, monitor, truth_t, truth_b,
                     float(f.human_uncertainty), f.delta_s, f.d_min, free, levels, rate,
-                    truth_rates, k_ssm, gap, margin, moving)
+                    truth_rates, k_ssm, gap, margin, moving, robot_arrays, work)
         command_now = np.where(lost, 0.0, k_ssm if ssm_only else 1.0)
         closest = np.where(moving & inside, np.minimum(closest, gap), closest)
         smallest = np.minimum(smallest, margin)

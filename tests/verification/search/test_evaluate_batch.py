@@ -160,3 +160,35 @@ def test_unit_noise_table_is_the_sensors_draws_kept_and_grown():
     for k in (0, 3, 8):
         np.testing.assert_array_equal(longer[k].ravel(), unit_noise(12345, k, 3))
     assert unit_noise_table(12345, 3, 2).shape[0] >= 2  # a shorter need reuses it
+
+
+ROBOT_SPACES = {"ur10e": "models/spaces/robots/default_ur10e.yaml",
+                "panda": "models/spaces/robots/default_panda.yaml"}
+
+
+@pytest.mark.parametrize("robot", list(ROBOT_SPACES))
+@pytest.mark.parametrize("config", [
+    _config("seed_estimated", payload_radius=0.07, tool_length=0.12),
+    _config("iso", payload_radius=0.07, tool_length=0.12, robot_uncertainty=0.6),
+    _config("iso", stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
+            robot_uncertainty=0.1, payload_radius=0.07, tool_length=0.12),
+], ids=["estimated", "iso", "by_speed"])
+def test_batch_agrees_with_drake_on_other_robots(robot, config):
+    """Any robot (issue 35): a UR10e (the UR family's closed form from its DH constants)
+    and the Panda (a chain from its URDF), their capsules, stopping data and paths, in
+    the batched evaluator as in the Drake diagram."""
+    space = load_space(ROBOT_SPACES[robot])
+    space = dataclasses.replace(space, parameters=dataclasses.replace(
+        space.parameters, latency=Range(0.0, 0.03), noise_std=Range(0.0, 0.005),
+        braking_time_scale=Range(1.0, 1.8), occlusion=Range(0.0, 0.4),
+        start_distance=Range(0.4, 4.5)))
+    rng = np.random.default_rng(20261127)
+    d = len(free_parameters(space))
+    points = [to_point(space, rng.uniform(size=d)) for _ in range(3)]
+    points[0]["start_distance"] = space.parameters.start_distance.max
+    scenarios = [make_scenario(space, config, p, name=f"s{i}") for i, p in enumerate(points)]
+    batch = evaluate_many(scenarios)
+    assert np.isfinite(batch.robustness).any()  # the robot moved near someone
+    for i, scenario in enumerate(scenarios):
+        drake, _ = evaluate_drake(scenario)
+        _assert_agree(drake, batch, i)
