@@ -163,18 +163,6 @@ def test_a_urdf_robot_without_stopping_data_is_refused(tmp_path, capsys):
         == 0.5
 
 
-def test_verify_refuses_another_robot_in_one_line(tmp_path, capsys):
-    space = tmp_path / "space.yaml"
-    text = (MODELS / "spaces" / "default.yaml").read_text()
-    assert "\nrobot:\n" in text
-    space.write_text(text.replace("\nrobot:\n", "\nrobot:\n  model: ur10e\n", 1))
-    code = main(["verify", str(MODELS / "configs" / "iso.yaml"), "--space", str(space),
-                 "--out", str(tmp_path / "out"), "--quiet"])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and len(err) == 1, err
-    assert "robot.model: got 'ur10e'" in err[0] and "ur5e for verify" in err[0]
-
-
 def test_robot_model_of_names_the_prefix():
     from safety_systems.config.scenario import RobotConfig
 
