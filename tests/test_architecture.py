@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-MATHS = {"cell", "sensing", "ssm", "speed_alteration", "planning"}
+MATHS = {"cell", "sensing", "ssm", "pfl", "speed_alteration", "planning"}
 PRODUCT = MATHS | {"files", "config", "systems", "diagrams", "outputs"}
 # The verifier's rooms in order: each may import the product's rooms and the ones above it.
 # ``verification`` is its top (properties.py, verdicts.py); ``verification.verify`` the
@@ -192,3 +192,10 @@ def test_the_documented_table_lists_the_verifiers_rooms_in_order():
             if line.startswith("| `verification")]
     named = [row.removesuffix(".py").strip("/").replace("/", ".") for row in rows]
     assert named == list(VERIFIER), rows
+
+
+def test_the_documented_maths_rooms_are_the_rules():
+    # docs/architecture.md's sentence "The maths rooms (`cell`, ...) are plain functions"
+    text = " ".join((ROOT / "docs" / "architecture.md").read_text().split())
+    sentence = text.split("The maths rooms (", 1)[1].split(")", 1)[0]
+    assert set(sentence.replace("`", "").split(", ")) == MATHS, sentence
