@@ -13,7 +13,8 @@ not known (our interpretation, from the segments' points in ``human_body.py``):
   front, the back and shoulders behind;
 - ``lower_trunk`` (mid-sternum to the hip joints' midpoint): the abdomen, the lower half
   of the sternum (chest), the pelvis, the lower back (its fifth lumbar vertebra is a
-  back location in Table A.2);
+  back location in Table A.2) and the tops of the thighs about the hip joints (the
+  operator has no leg segments: the thighs' and lower legs' regions serve no other);
 - ``shoulder_*`` (neck base to shoulder joint): the back and shoulders (the shoulder joint
   is one of its locations) and the top of the sternum (chest) at the neck base;
 - ``upper_arm_*`` (shoulder to elbow): the upper arm and elbow, and the shoulder joint at
@@ -47,7 +48,7 @@ SEGMENT_REGIONS = (
     ("skull_forehead", "face"),  # head
     ("neck",),  # neck
     _TRUNK_UP,  # upper_trunk
-    ("abdomen", "chest", "pelvis", "back_shoulders"),  # lower_trunk
+    ("abdomen", "chest", "pelvis", "back_shoulders", "thighs_knees"),  # lower_trunk
     _SHOULDER, _SHOULDER,  # shoulder_left, shoulder_right
     _UPPER_ARM, _UPPER_ARM,  # upper_arm_left, upper_arm_right
     _FOREARM, _FOREARM,  # forearm_left, forearm_right
