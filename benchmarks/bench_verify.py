@@ -380,18 +380,24 @@ def first_counterexamples(seeds: int, budgets: list[int], which: list[str],
                 rows[search] = results
             _table(f"{label}, budget {budget}", rows, budget, GOALS[key])
             FIGURES.setdefault("search", {}).setdefault(key, {})[str(budget)] = {
-                search: _summary(results, budget) for search, results in rows.items()}
+                search: _summary(results, budget, rows.get("ours") if search != "ours"
+                                 else None) for search, results in rows.items()}
             if "ours" in rows and any(r["found"] for r in rows["ours"]):
                 confirm = confirm_time(config, next(r for r in rows["ours"] if r["found"]))
                 FIGURES["search"][key][str(budget)]["confirm"] = confirm
 
 
-def _summary(results: list[dict], budget: int) -> dict:
+def _summary(results: list[dict], budget: int, mine: list[dict] | None = None) -> dict:
     """A search's figures over the seeds, as the table prints them (medians; a search
-    that found nothing counts as budget + 1 evaluations and inf CPU seconds)."""
+    that found nothing counts as budget + 1 evaluations and inf CPU seconds); beside
+    this project's results ``mine``, the seeds it falsified within this project's CPU
+    time on the same seed (``within_ours_cpu``)."""
     out = {"seeds": len(results), "falsified": sum(r["found"] for r in results),
            "median_evaluations": _median(results, "evaluations", budget + 1),
            "median_cpu": _median(results, "cpu", math.inf)}
+    if mine is not None:
+        out["within_ours_cpu"] = sum(t["found"] and t["cpu"] <= o["cpu"]
+                                     for t, o in zip(results, mine))
     if results and "simulations" in next((r for r in results if r["found"]), {}):
         out.update(median_simulations=_median(results, "simulations", budget + 1),
                    median_rankings=_median(results, "rankings", 0))
@@ -456,7 +462,7 @@ def _table(label: str, rows: dict, budget: int, goal: float) -> None:
                          None)
 
 
-def confirm_time(config, found: dict) -> None:
+def confirm_time(config, found: dict) -> dict:
     """Wall seconds to confirm a counterexample in the Drake diagram, building the
     diagram included (the run stops a quarter second after the violation shows),
     beside the full run's."""

@@ -14,7 +14,7 @@ import typing
 from pathlib import Path
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
-NUM = r"(?P<v>[-+]?[0-9][0-9,]*(?:\.[0-9]+)?)"
+NUM = r"(?P<v>[-+]?[0-9](?:[0-9,]*[0-9])?(?:\.[0-9]+)?)"  # a comma after it is not its own
 TIME_NOISE = 0.5  # wall and CPU seconds: another run on a machine with other work on it
 
 
@@ -169,7 +169,121 @@ TUNE, TEXT = "bench_tune", r"(?P<v>[a-z_]+)"
 # The benchmarks ``run --only NAME`` runs (argv after the interpreter; ``--json`` added).
 BENCHES = {
     "bench_tune": ["benchmarks/bench_tune.py", "--workers", "1"],
+    "bench_verify": ["benchmarks/bench_verify.py"],
+    "bench_simulate": ["benchmarks/bench_simulate.py"],
+    "bench_runtime": ["benchmarks/bench_runtime.py"],
 }
+VERIFY, SIMULATE, RUNTIME = "bench_verify", "bench_simulate", "bench_runtime"
+THREE_BALL, ISSUE_33 = "9273221", "177f5a8"  # bench_verify's commits, measured beside
+
+
+def ratio(a, b) -> typing.Callable[[dict], float]:
+    """``a``'s figure over ``b``'s."""
+    return _source(lambda data: a(data) / b(data), *a.sources, *b.sources)
+
+
+def search(config: str, budget: int, who: str, what: str) -> typing.Callable[[dict], float]:
+    """bench_verify's first-counterexample figure: ``config`` (seed, subtle, contact) at
+    ``budget``, ``who`` (ours, UniformRandom, DualAnnealing), ``what`` (falsified,
+    median_evaluations, median_cpu, within_ours_cpu)."""
+    return bench(VERIFY, f"search/{config}/{budget}/{who}/{what}")
+
+
+def _speed_figures() -> tuple:
+    """The figures of the README's "Speed", from bench_verify, bench_simulate and
+    bench_runtime (each ``--json``), and bench_tune's reduction."""
+    cell = bench(VERIFY, "throughput/whole_cell")
+    ref = bench(VERIFY, f"throughput/commits/{ISSUE_33}/whole_cell")
+    three = bench(VERIFY, f"throughput/commits/{THREE_BALL}/whole_cell")
+    drake = bench(VERIFY, "throughput/drake")
+    out = [
+        Figure("speed_iso_rate", r"The batched evaluator runs " + NUM + " scenarios per second "
+               "on iso.yaml's contact terms", bench(VERIFY, "throughput/iso"), TIME_NOISE),
+        Figure("speed_busy_rate", r"on iso.yaml's contact terms and " + NUM + " with estimated "
+               "human speeds", bench(VERIFY, "throughput/busy"), TIME_NOISE),
+        Figure("speed_tool_rate", r"one operator's two hands against the tool\) " + NUM + ";",
+               bench(VERIFY, "throughput/tool_point"), TIME_NOISE),
+        Figure("speed_drake_rate", r"Drake diagram " + NUM + " per second, so the batch",
+               drake, TIME_NOISE),
+        Figure("speed_batch_over_drake", r"so the batch runs " + NUM + " times the diagram",
+               ratio(cell, drake)),
+        Figure("speed_issue_33_rate", r"177f5a8 gives " + NUM + " there", ref, TIME_NOISE),
+        Figure("speed_issue_33_ratio", r"this code runs \*\*" + NUM + r"x\*\* of it",
+               ratio(cell, ref)),
+        Figure("speed_three_ball_rate", r"last commit \(9273221\) gives " + NUM + ", so",
+               three, TIME_NOISE),
+        Figure("speed_price", r"the whole operator's price is " + NUM + r"x \(issue 31",
+               ratio(three, cell)),
+        Figure("speed_kinematic", r"the inspection scenario, best of three\): " + NUM
+               + "x real time", bench(SIMULATE, "real_time_kinematic"), TIME_NOISE),
+        Figure("speed_dynamic", r"\(goal 100x\) and " + NUM + "x in `dynamic` mode",
+               bench(SIMULATE, "real_time_dynamic"), TIME_NOISE),
+        Figure("speed_kinematic_10s", r"its first ten seconds " + NUM + "x in `kinematic` mode",
+               bench(SIMULATE, "real_time_kinematic_10s"), TIME_NOISE),
+        Figure("speed_floor_idle", r"the loop's parts at that rate\) run " + NUM
+               + "x real time", bench(SIMULATE, "floor_idle_4"), TIME_NOISE),
+        Figure("speed_floor_plant", r"controller beside those four " + NUM + "x",
+               bench(SIMULATE, "floor_plant_4"), TIME_NOISE),
+        Figure("speed_monitor_us", r"segments against the 7 capsules take " + NUM
+               + " us per tick", bench(SIMULATE, "monitor_us_7_capsules"), TIME_NOISE),
+        Figure("speed_confirm", r"a quarter second after the violation, took " + NUM
+               + r" s of wall time \(goal 1 s\)", bench(VERIFY, "search/subtle/200/confirm/wall"),
+               TIME_NOISE),
+        Figure("speed_proof", r"iso.yaml's proof over the default space took " + NUM + " s",
+               bench(VERIFY, "proof/proof_alone_wall"), TIME_NOISE),
+        Figure("speed_tune_reduction", r"`bench_tune.py`: " + NUM + "% less time lost",
+               bench(TUNE, "reduction"), scale=100.0),
+        Figure("speed_runtime_policy", r"20 s\), scheduled `" + TEXT + "`",
+               bench(RUNTIME, "scheduling/policy"), "text"),
+        Figure("speed_tick_p50", r"a tick started late by " + NUM + " ms at p50",
+               bench(RUNTIME, "tick_late_p50"), TIME_NOISE, 1e3),
+        Figure("speed_tick_p99", r"late by [0-9.]+ ms at p50 and " + NUM + " ms at p99",
+               bench(RUNTIME, "tick_late_p99"), TIME_NOISE, 1e3),
+        Figure("speed_tick_max", r"the largest " + NUM + " ms, which the overrun",
+               bench(RUNTIME, "tick_late_max"), TIME_NOISE, 1e3),
+        Figure("speed_frame_p50", r"arrival to its new k took " + NUM + " ms at p50",
+               bench(RUNTIME, "frame_to_k_p50"), TIME_NOISE, 1e3),
+        Figure("speed_frame_p99", r"new k took [0-9.]+ ms at p50 and " + NUM + " ms at p99",
+               bench(RUNTIME, "frame_to_k_p99"), TIME_NOISE, 1e3),
+    ]
+    for kind, what in (("margins", "a margin scoring"), ("dangers", "a reduced-model score"),
+                       ("drake", "a whole Drake run")):
+        out.append(Figure(f"speed_cost_{kind}", what + " " + NUM + r"(\s+simulations)?,",
+                          bench(VERIFY, f"costs/iso/{kind}"), TIME_NOISE))
+    out.append(Figure("speed_cost_simulation", r"a simulation " + NUM + " ms of CPU",
+                      bench(VERIFY, "costs/iso/simulation_cpu_ms"), TIME_NOISE))
+    anchors = {"subtle": ("this project falsified it on", "psy-taliro's UniformRandom on"),
+               "contact": ("this project found contact on",
+                           "psy-taliro's UniformRandom found it on")}
+    for config, (mine, theirs) in anchors.items():
+        at = f"`benchmarks/{config}_unsafe.yaml`.{{0,900}}?"
+        out += [
+            Figure(f"speed_{config}_200_ours", at + mine + " " + NUM + " of 10 seeds at budget",
+                   search(config, 200, "ours", "falsified")),
+            Figure(f"speed_{config}_200_evaluations", at + "at budget 200, after a median "
+                   + NUM + " simulation-equivalents",
+                   search(config, 200, "ours", "median_evaluations")),
+            Figure(f"speed_{config}_200_cpu", at + "simulation-equivalents and " + NUM
+                   + r" s of\s+CPU \(goal 1 s\)", search(config, 200, "ours", "median_cpu"),
+                   TIME_NOISE),
+            Figure(f"speed_{config}_4096_ours", at + r"\(goal 1 s\), and on " + NUM
+                   + " of 10 seeds at 4096", search(config, 4096, "ours", "falsified")),
+            Figure(f"speed_{config}_4096_cpu", at + r"of 10 seeds at 4096 \(a median " + NUM
+                   + " s", search(config, 4096, "ours", "median_cpu"), TIME_NOISE),
+            Figure(f"speed_{config}_200_uniform", at + theirs + " " + NUM,
+                   search(config, 200, "UniformRandom", "falsified")),
+            Figure(f"speed_{config}_200_annealing", at + "DualAnnealing (?:found it )?on " + NUM
+                   + " of 10 seeds at 200", search(config, 200, "DualAnnealing", "falsified")),
+            Figure(f"speed_{config}_4096_uniform", at + "of 10 seeds at 200, on " + NUM
+                   + " and", search(config, 4096, "UniformRandom", "falsified")),
+            Figure(f"speed_{config}_4096_annealing", at + "of 10 seeds at 200, on [0-9]+ and "
+                   + NUM + " of 10 at 4096", search(config, 4096, "DualAnnealing", "falsified")),
+            Figure(f"speed_{config}_4096_uniform_cpu", at + "on the same seed on " + NUM
+                   + " and", search(config, 4096, "UniformRandom", "within_ours_cpu")),
+            Figure(f"speed_{config}_4096_annealing_cpu", at + "on the same seed on [0-9]+ and "
+                   + NUM + " of", search(config, 4096, "DualAnnealing", "within_ours_cpu")),
+        ]
+    return tuple(out)
 
 FIGURES = (
     # Set-up: the first verify of a fresh clone compiles; the second is the run itself.
@@ -193,10 +307,10 @@ FIGURES = (
            run("verify-iso#2", "wall"), TIME_NOISE),
     Figure("verify_previous_exit", r"the other two falsify the previous behaviour \(exit "
            + NUM + " each", both(run("verify-elbow", "exit"), run("verify-occluded", "exit"))),
-    Figure("verify_elbow_wall", r"with contact while the robot moves \(" + NUM + " s here "
-           "once compiled", run("verify-elbow", "wall"), TIME_NOISE),
-    Figure("verify_occluded_wall", r"compiles its own variant of the per-tick maths first, "
-           + NUM + " s the first time here", run("verify-occluded", "wall"), TIME_NOISE),
+    Figure("verify_occluded_wall", r"right after the first `verify`: " + NUM + " s for the "
+           "first, the occluded", run("verify-occluded", "wall"), TIME_NOISE),
+    Figure("verify_elbow_wall", r"s for the first, the occluded approach, and " + NUM
+           + " s for the elbow", run("verify-elbow", "wall"), TIME_NOISE),
     # Export, check and load: the certified parameters on the inspection task.
     Figure("deployed_held", r"the certified parameters hold the robot still for " + NUM
            + " s", run("inspection-deployed-100", f"{SUMMARY}/stopped_time")),
@@ -226,7 +340,7 @@ FIGURES = (
            + " m", run("verify-recording-iso", f"{CONTACT}/min_robustness")),
     Figure("recording_iso_separation", r"`iso.yaml` passes both \(smallest robustness "
            r"[0-9.]+ m and " + NUM + " m", run("verify-recording-iso",
-                                                f"{SEPARATION}.min_robustness")),
+                                                f"{SEPARATION}/min_robustness")),
     Figure("recording_iso_vacuous", r"m and [0-9.]+ m; " + NUM + "% of the scenarios vacuous",
            run("verify-recording-iso", f"{CONTACT}/vacuous/evaluated/share"), scale=100.0),
     # tune: bench_tune's run and the configuration it chose (shipped as tuned.yaml).
@@ -244,10 +358,12 @@ FIGURES = (
            chosen("safety.robot_speed"), "text"),
     Figure("chosen_frame_timeout", r"fastest_point`, frame timeout " + NUM + " s, T_r",
            chosen("tracker.frame_timeout")),
-    Figure("chosen_reaction_time", r"frame timeout [0-9.]+ s, T_r " + NUM + " s, C", chosen("safety.reaction_time")),
+    Figure("chosen_reaction_time", r"frame timeout [0-9.]+ s, T_r " + NUM + " s, C",
+           chosen("safety.reaction_time")),
     Figure("chosen_intrusion", r"s, T_r [0-9.]+ s, C " + NUM + ", Z_r",
            chosen("safety.intrusion_distance")),
-    Figure("chosen_z_r", r", C [0-9.]+, Z_r " + NUM + " m, ΔS", chosen("safety.robot_uncertainty")),
+    Figure("chosen_z_r", r", C [0-9.]+, Z_r " + NUM + " m, ΔS",
+           chosen("safety.robot_uncertainty")),
     Figure("chosen_delta_s", r"m, ΔS " + NUM + ", d_min", chosen("safety.delta_s")),
     Figure("chosen_d_min", r", d_min " + NUM + " m, velocity process noise",
            chosen("safety.d_min")),
@@ -296,11 +412,32 @@ FIGURES = (
            + " m", probe("screen_example_distance")),
     Figure("export_s", r"while the technician works near it \(S is " + NUM + " m",
            probe("iso_full_speed_distance")),
+    # The README's tune command, as walked through.
+    Figure("tune_run_minutes", r"The command above took " + NUM + " min of wall time",
+           scaled(run("tune", "wall"), 1.0 / 60.0), TIME_NOISE),
+    Figure("tune_run_lost", r"chose a proved configuration that loses " + NUM + " s",
+           run("tune", "files/tune/table/0/total_lost_time")),
+    Figure("tune_run_reduction", r"loses [0-9.]+ s over the two tasks \(" + NUM
+           + "% less than `iso.yaml`", run("tune", "files/tune/lost_time_reduction_vs_iso"),
+           scale=100.0),
+    # tune over the recording space (Drake runs only), the Panda's verify.
+    Figure("tune_recording_minutes", r"in the Drake diagram \(a recording space has no batched "
+           r"evaluator\), " + NUM + " min of wall time",
+           scaled(run("tune-recording", "wall"), 1.0 / 60.0), TIME_NOISE),
+    Figure("tune_recording_lost", r"It chose a configuration that loses " + NUM + " s",
+           run("tune-recording", "files/tune/table/0/total_lost_time")),
+    Figure("tune_recording_reduction", r"s over the two tasks, " + NUM + "% less than `iso.yaml`, "
+           "which is passed, not proved, over this space",
+           run("tune-recording", "files/tune/lost_time_reduction_vs_iso"), scale=100.0),
+    Figure("verify_panda_exit", r"It proves both properties \(exit " + NUM,
+           run("verify-panda", "exit")),
+    Figure("verify_panda_wall", r"It proves both properties \(exit 0\) in " + NUM + " s here",
+           run("verify-panda", "wall"), TIME_NOISE),
     # tune: the shipped tuned.yaml re-verified.
-    Figure("tuned_verify_minutes", r"--out DIR`, " + NUM + " min here",
-           scaled(run("verify-tuned", "wall"), 1.0 / 60.0), TIME_NOISE),
-    Figure("tuned_contact_margin", r"min here:\s+contact margin " + NUM + " m",
+    Figure("tuned_verify_seconds", r"--out DIR`, " + NUM + " s here",
+           run("verify-tuned", "wall"), TIME_NOISE),
+    Figure("tuned_contact_margin", r"s here:\s+contact margin " + NUM + " m",
            run("verify-tuned", f"{CONTACT}/proof/margin_at_worst_corner")),
-    Figure("tuned_separation_margin", r"min here:\s+contact margin [0-9.]+ m, separation "
+    Figure("tuned_separation_margin", r"s here:\s+contact margin [0-9.]+ m, separation "
            + NUM + " m", run("verify-tuned", f"{SEPARATION}/proof/margin_at_worst_corner")),
-)
+) + _speed_figures()

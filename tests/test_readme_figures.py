@@ -108,3 +108,11 @@ def test_the_figures_computed_in_process_come_out_of_this_code():
             f"{f.name}: the README says {match.group('v')}, this code {f.value(fresh)}")
         checked.append(f.name)
     assert len(checked) == len(listed.PROBES)
+
+
+def test_the_readme_tune_command_chose_what_bench_tune_chose():
+    """The README says its tune command makes the same choice as bench_tune."""
+    recorded = figures.records()
+    walked = recorded["runs"]["tune"]["files"]["tune"]["chosen"]["values"]
+    assert walked == recorded["bench_tune"]["chosen"]["values"]
+    assert "same choice as `bench_tune.py`" in " ".join(figures.README.read_text().split())
