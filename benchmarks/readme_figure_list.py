@@ -182,6 +182,11 @@ def ratio(a, b) -> typing.Callable[[dict], float]:
     return _source(lambda data: a(data) / b(data), *a.sources, *b.sources)
 
 
+def verdict(get, goal: float) -> typing.Callable[[dict], str]:
+    """"met" where ``get``'s figure is at most ``goal``, else "missed"."""
+    return _source(lambda data: "met" if get(data) <= goal else "missed", *get.sources)
+
+
 def search(config: str, budget: int, who: str, what: str) -> typing.Callable[[dict], float]:
     """bench_verify's first-counterexample figure: ``config`` (seed, subtle, contact) at
     ``budget``, ``who`` (ours, UniformRandom, DualAnnealing), ``what`` (falsified,
@@ -224,7 +229,7 @@ def _speed_figures() -> tuple:
                + "x real time", bench(SIMULATE, "floor_idle_4"), TIME_NOISE),
         Figure("speed_floor_plant", r"controller beside those four " + NUM + "x",
                bench(SIMULATE, "floor_plant_4"), TIME_NOISE),
-        Figure("speed_monitor_us", r"segments against the 7 capsules take " + NUM
+        Figure("speed_monitor_us", r"against the 7 capsules take " + NUM
                + " us per tick", bench(SIMULATE, "monitor_us_7_capsules"), TIME_NOISE),
         Figure("speed_confirm", r"a quarter second after the violation, took " + NUM
                + r" s of wall time \(goal 1 s\)", bench(VERIFY, "search/subtle/200/confirm/wall"),
@@ -235,6 +240,12 @@ def _speed_figures() -> tuple:
                bench(TUNE, "reduction"), scale=100.0),
         Figure("speed_runtime_policy", r"20 s\), scheduled `" + TEXT + "`",
                bench(RUNTIME, "scheduling/policy"), "text"),
+        Figure("speed_load", r"nothing else running \(the one-minute load " + NUM + " when",
+               bench(SIMULATE, "load_1min")),
+        Figure("speed_tick_verdict", r"\(goal p99 0.5 ms: " + TEXT + "; the largest",
+               verdict(bench(RUNTIME, "tick_late_p99"), 0.5e-3), "text"),
+        Figure("speed_frame_verdict", r"\(goal p99 1 ms: " + TEXT + r"\)",
+               verdict(bench(RUNTIME, "frame_to_k_p99"), 1e-3), "text"),
         Figure("speed_tick_p50", r"a tick started late by " + NUM + " ms at p50",
                bench(RUNTIME, "tick_late_p50"), TIME_NOISE, 1e3),
         Figure("speed_tick_p99", r"late by [0-9.]+ ms at p50 and " + NUM + " ms at p99",

@@ -220,7 +220,8 @@ def number(text: str) -> float:
 def agrees(printed: str, value: float, noise) -> bool:
     """Whether the README's ``printed`` figure is ``value`` within ``noise``: "exact"
     (equal at the precision printed, half a unit of its last digit) or a relative band
-    (a float: |printed - value| <= band * |value|)."""
+    (a float: |printed - value| <= band * |value|, or within the rounding to the digits
+    printed where that is wider)."""
     if noise == "text":
         return printed == value
     if value is None or not math.isfinite(value):
@@ -228,7 +229,9 @@ def agrees(printed: str, value: float, noise) -> bool:
     x = number(printed)
     if noise == "exact":
         return abs(x - value) <= 0.5 * 10.0 ** -decimals(printed) * (1 + 1e-9) + 1e-12
-    return abs(x - value) <= noise * abs(value)
+    # a band, and never less than the rounding of the digits printed
+    return abs(x - value) <= max(noise * abs(value),
+                                 0.5 * 10.0 ** -decimals(printed) * (1 + 1e-9))
 
 
 def compute_probes() -> dict:

@@ -126,7 +126,8 @@ SEGMENTS = (("head", "head", "head", "head_radius"),
             ("hand_right", "hand_right", "hand_right", "hand_radius"))
 SEGMENT_NAMES = tuple(s[0] for s in SEGMENTS)
 NUM_SEGMENTS = len(SEGMENTS)
-# ISO/TS 15066 Annex A's body regions each segment belongs to (for reports).
+# The body's default dimensions, metres and degrees (the module docstring says where each
+# comes from; the Annex A regions each segment may touch: pfl/segment_regions.py).
 DEFAULT_DIMENSIONS = {
     "neck": 0.20, "upper_trunk": 0.25, "lower_trunk": 0.38, "shoulder": 0.22,
     "upper_arm": 0.40, "forearm": 0.41, "head_shoulder": 0.32,
