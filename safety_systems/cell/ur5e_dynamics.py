@@ -8,7 +8,9 @@ from safety_systems.cell.ur5e import AddUr5e
 
 
 def inverse_dynamics_torques(q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """(T, 6) joint torques of the UR5e model for the given motion (gravity included)."""
+    """(T, 6) joint torques of the UR5e model for the given motion:
+    ``CalcInverseDynamics`` with no applied forces, so M(q) a + C(q, v) v without gravity
+    (the plant's force elements, gravity among them, are not evaluated into the forces)."""
     plant = MultibodyPlant(0.0)
     AddUr5e(plant)
     plant.Finalize()
