@@ -396,12 +396,17 @@ def _summary(results: list[dict], budget: int, mine: list[dict] | None = None) -
            "median_evaluations": _median(results, "evaluations", budget + 1),
            "median_cpu": _median(results, "cpu", math.inf)}
     if mine is not None:
-        out["within_ours_cpu"] = sum(t["found"] and t["cpu"] <= o["cpu"]
-                                     for t, o in zip(results, mine))
+        out["within_ours_cpu"] = _within(results, mine)
     if results and "simulations" in next((r for r in results if r["found"]), {}):
         out.update(median_simulations=_median(results, "simulations", budget + 1),
                    median_rankings=_median(results, "rankings", 0))
     return out
+
+
+def _within(results: list[dict], mine: list[dict]) -> int:
+    """At the same CPU time: the seeds a search falsified within the CPU this project
+    took on the same seed (to its first, or its whole run where it found none)."""
+    return sum(t["found"] and t["cpu"] <= o["cpu"] for t, o in zip(results, mine))
 
 
 def _median(results, key, cap):
@@ -435,10 +440,8 @@ def _table(label: str, rows: dict, budget: int, goal: float) -> None:
                  None)
         elif mine is not None:
             m_hits = sum(r["found"] for r in mine)
-            # at the same CPU time: the seeds it falsified within the CPU this project
-            # took on the same seed (to its first, or its whole run where it found none)
-            same = sum(t["found"] and t["cpu"] <= o["cpu"] for t, o in zip(results, mine))
-            _row("  falsified within this project's CPU time, seed by seed", f"{same}/{n}",
+            _row("  falsified within this project's CPU time, seed by seed",
+                 f"{_within(results, mine)}/{n}",
                  "", None)
             mine_e = _median(mine, "evaluations", budget + 1)
             # Where both find it at the first evaluation (the least any search can take),

@@ -56,8 +56,8 @@ def inverse_dynamics_torques(model: RobotModel, q: np.ndarray, v: np.ndarray,
                              a: np.ndarray) -> np.ndarray:
     """(T, n) joint torques of ``model``'s plant for the motion q, v, a (T, n), in the
     model's joint order: ``MultibodyPlant.CalcInverseDynamics`` with no applied forces,
-    as ``ur5e_dynamics.inverse_dynamics_torques`` computes the UR5e's: without gravity
-    (the force elements are not evaluated into the forces)."""
+    so M(q) a + C(q, v) v without gravity (the plant's force elements, gravity among
+    them, are not evaluated into the forces)."""
     plant = robot_plant(model)
     context = plant.CreateDefaultContext()
     forces = MultibodyForces(plant)

@@ -10,8 +10,8 @@ which the PathFollower makes follow the selection (and which every controller, t
 override included, has).
 
 The measures live beside this module: seed 004's danger index and jerk in
-``danger_and_jerk``, seed 001's metric in ``evaluation_of_run``, the UR5e's inverse
-dynamics in ``cell.ur5e_dynamics``. Each run is scored with seed 001's metric, whose
+``danger_and_jerk``, seed 001's metric in ``evaluation_of_run``, the robot's inverse
+dynamics in ``cell.robot_plant``. Each run is scored with seed 001's metric, whose
 contact gate counts as contact a danger index of 1 or more (seed 004's Eqs. 6-7, the
 scenario's ellipsoids) or a true separation below the scenario's contact distance while
 the robot moves (``metrics.contact_while_moving``). For seed 004's two simulations

@@ -6,8 +6,8 @@ import numpy as np
 
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.cell.ur5e import tool0_position_and_velocity
-from safety_systems.cell.ur5e_dynamics import inverse_dynamics_torques
-from safety_systems.config.configuration import joint_path
+from safety_systems.cell.robot_plant import inverse_dynamics_torques
+from safety_systems.config.configuration import joint_path, robot_model_of
 from safety_systems.diagrams.simulation import Run
 from safety_systems.outputs.metrics import task_time
 from safety_systems.planning.evaluation import Thresholds, evaluate
@@ -37,8 +37,8 @@ def evaluation_of_run(run: Run, *, contact: bool, every: int = 5) -> dict:
     s_ideal = np.arange(0.0, max(progress, dt), dt)
     q_ideal, _, a_ideal = joint_path_state(path, s_ideal)
     zones = run.scenario.controller.zones
-    return evaluate(time=run.time[rows], q=q, v=v, a=a,
-                    torques=inverse_dynamics_torques(q, v, a), progress=progress,
+    torques = inverse_dynamics_torques(robot_model_of(run.scenario.robot), q, v, a)
+    return evaluate(time=run.time[rows], q=q, v=v, a=a, torques=torques, progress=progress,
                     elapsed=elapsed, closest=d[pick, nearest],
                     closing_speed=(v_h + v_r)[pick, nearest], ideal_q=q_ideal,
                     ideal_a=a_ideal, ideal_duration=max(progress, dt), contact=contact,

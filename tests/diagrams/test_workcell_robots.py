@@ -15,7 +15,6 @@ import pytest
 
 from safety_systems.cell.robot_model import robot_model
 from safety_systems.cell.robot_plant import AddRobot, inverse_dynamics_torques, robot_plant
-from safety_systems.cell.ur5e_dynamics import inverse_dynamics_torques as ur5e_torques
 from safety_systems.config.scenario import load_scenario, robot_model_of
 from safety_systems.diagrams.simulation import simulate
 from safety_systems.diagrams.workcell import MakeWorkcell
@@ -100,6 +99,26 @@ def test_add_robot_welds_the_fingers_and_actuates_the_chain():
     AddRobot(ur10e, robot_model("ur10e"))
     ur10e.Finalize()
     assert ur10e.num_positions() == ur10e.num_actuators() == 6
+
+
+def ur5e_torques(q, v, a):
+    """The UR5e's inverse dynamics as computed before any robot (its own plant from
+    ``AddUr5e``, no applied forces)."""
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import MultibodyForces
+
+    from safety_systems.cell.ur5e import AddUr5e
+
+    plant = MultibodyPlant(0.0)
+    AddUr5e(plant)
+    plant.Finalize()
+    context, forces = plant.CreateDefaultContext(), MultibodyForces(plant)
+    out = np.empty_like(q)
+    for i in range(len(q)):
+        plant.SetPositions(context, q[i])
+        plant.SetVelocities(context, v[i])
+        out[i] = plant.CalcInverseDynamics(context, a[i], forces)
+    return out
 
 
 def test_inverse_dynamics_of_the_ur5e_as_before():

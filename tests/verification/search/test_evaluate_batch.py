@@ -40,6 +40,16 @@ def _config(name, **safety):
     return dataclasses.replace(config, safety=dataclasses.replace(config.safety, **safety))
 
 
+def _three_scenarios(space, config, seed: int) -> list:
+    """Three uniform points of ``space`` (``seed``), the first from as far as the space
+    goes: the robot must move near someone for a comparison to mean something."""
+    rng = np.random.default_rng(seed)
+    d = len(free_parameters(space))
+    points = [to_point(space, rng.uniform(size=d)) for _ in range(3)]
+    points[0]["start_distance"] = space.parameters.start_distance.max
+    return [make_scenario(space, config, p, name=f"s{i}") for i, p in enumerate(points)]
+
+
 @pytest.mark.parametrize("config", [
     _config("seed_estimated"),
     _config("iso"),
@@ -49,13 +59,7 @@ def _config(name, **safety):
     _config("seed_estimated", stopping="by_speed", delta_s=1.5),
 ], ids=["estimated", "iso", "floor_with_sigmas", "by_speed", "by_speed_estimated"])
 def test_batch_agrees_with_drake_on_random_scenarios(config):
-    rng = np.random.default_rng(20261122)
-    d = len(free_parameters(WIDE))
-    points = [to_point(WIDE, rng.uniform(size=d)) for _ in range(3)]
-    # one from as far as the space goes: the robot must move near someone for the
-    # comparison to mean something
-    points[0]["start_distance"] = WIDE.parameters.start_distance.max
-    scenarios = [make_scenario(WIDE, config, p, name=f"s{i}") for i, p in enumerate(points)]
+    scenarios = _three_scenarios(WIDE, config, 20261122)
     batch = evaluate_many(scenarios)
     assert np.isfinite(batch.robustness).any()  # the robot moved near someone
     assert np.isfinite(batch.separation).any()  # motion permitted near someone
@@ -182,11 +186,7 @@ def test_batch_agrees_with_drake_on_other_robots(robot, config):
         space.parameters, latency=Range(0.0, 0.03), noise_std=Range(0.0, 0.005),
         braking_time_scale=Range(1.0, 1.8), occlusion=Range(0.0, 0.4),
         start_distance=Range(0.4, 4.5)))
-    rng = np.random.default_rng(20261127)
-    d = len(free_parameters(space))
-    points = [to_point(space, rng.uniform(size=d)) for _ in range(3)]
-    points[0]["start_distance"] = space.parameters.start_distance.max
-    scenarios = [make_scenario(space, config, p, name=f"s{i}") for i, p in enumerate(points)]
+    scenarios = _three_scenarios(space, config, 20261127)
     batch = evaluate_many(scenarios)
     assert np.isfinite(batch.robustness).any()  # the robot moved near someone
     for i, scenario in enumerate(scenarios):
