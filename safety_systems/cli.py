@@ -503,10 +503,15 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--scheduler",
                        help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: "
                             "none, run on local processes)")
-    ver.add_argument("--property", default="both", choices=("contact", "separation", "both"),
+    ver.add_argument("--property", default="both",
+                     choices=("contact", "separation", "permitted_contact", "both"),
                      help="which property to verify: contact (stopped before contact), "
-                          "separation (distance never below S while motion is permitted) or "
-                          "both (default: %(default)s; the verdict is the weaker)")
+                          "separation (distance never below S while motion is permitted), "
+                          "permitted_contact (every contact while the robot moves within "
+                          "ISO/TS 15066's power and force limits) or both (the two of the "
+                          "configuration's safety.mode: contact and separation under ssm, "
+                          "permitted_contact and separation under ssm_pfl; default: "
+                          "%(default)s; the verdict is the weaker)")
     ver.add_argument("--seed", type=int, default=0,
                      help="seed of the search (default: %(default)s)")
     ver.add_argument("--require", default="none", choices=REQUIREMENTS,

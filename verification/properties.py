@@ -20,7 +20,22 @@ Contact is as the scenario's ``contact_geometry`` defines it
   S_true). Robustness = the smallest d_true - S_true over those ticks and every pair
   of a body present and a capsule of the real robot (+inf when motion is never
   permitted while a body is present); the time motion was permitted with some pair
-  inside S_true is reported beside it.
+  inside S_true is reported beside it. Under ``safety.mode: ssm_pfl`` it holds for the
+  speed and separation monitoring part only: a pair counts at the ticks where the
+  command exceeds its segment's power and force limiting cap in force
+  (``true_measures.is_ssm_permitted``); at or below it, contact is the permitted contact
+  property's to judge.
+- **Permitted contact** (ISO/TS 15066's power and force limiting,
+  ``safety_systems.pfl``): every contact while the robot moves touches a segment whose
+  body regions all permit transient contact, not clampable against a declared fixed
+  surface, at a relative speed (the robot's speed towards the segment at the pair's
+  nearest points, Eq. 7's v_R^d: ``pfl.speed_caps``) at or below the least permissible
+  speed of those regions (Annex A, for the robot's effective mass with the configured
+  payload). Robustness: over the contacts while the robot moves, the least of limit -
+  relative speed (m/s; minus infinity for the head, face or neck, or a clampable
+  segment); with no such contact, the stopped-before-contact figure (m: how far from any
+  contact the moving robot stayed). Under ``ssm`` it follows from stopped before contact;
+  ``verify`` checks it under ``ssm_pfl``, in place of stopped before contact.
 """
 
 import dataclasses
@@ -28,13 +43,22 @@ import dataclasses
 import numpy as np
 
 from safety_systems.outputs.metrics import min_separation_while_moving, separation_margins
-from safety_systems.ssm.true_measures import MOVING_SPEED
+from safety_systems.ssm.true_measures import MOVING_SPEED, moving
 
 __all__ = ["MOVING_SPEED", "PROPERTIES", "Robustness", "stopped_before_contact",
-           "separation_invariant"]
+           "separation_invariant", "permitted_contact", "mode_properties"]
 
-# The properties ``verify`` checks, by name, and the Robustness field of each.
-PROPERTIES = {"contact": "stopped_before_contact", "separation": "separation"}
+# The properties by name, and the Robustness field of each.
+PROPERTIES = {"contact": "stopped_before_contact", "separation": "separation",
+              "permitted_contact": "permitted_contact"}
+# The properties ``verify`` checks under each ``safety.mode``.
+MODE_PROPERTIES = {"ssm": ("contact", "separation"),
+                   "ssm_pfl": ("permitted_contact", "separation")}
+
+
+def mode_properties(mode: str) -> tuple[str, ...]:
+    """The properties a configuration of ``safety.mode`` ``mode`` is verified for."""
+    return MODE_PROPERTIES[mode]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,6 +69,7 @@ class Robustness:
     min_separation_while_moving: float  # m (inf if never moving near a body)
     separation: float  # m, smallest d_true - S_true while motion is permitted (inf: never)
     separation_violation_time: float  # s permitted with some pair inside S_true
+    permitted_contact: float = np.inf  # m/s at a contact, or m without one (see above)
 
     @property
     def safe(self) -> bool:
@@ -65,3 +90,22 @@ def separation_invariant(clearances: np.ndarray, s_true: np.ndarray, allowed: np
     whether the controller permits motion at each of the T ticks (period ``dt``)."""
     margins = separation_margins(clearances, s_true, allowed)
     return float(np.min(margins, initial=np.inf)), float(np.count_nonzero(margins < 0.0) * dt)
+
+
+def permitted_contact(clearances: np.ndarray, v_robot: np.ndarray, robot_speed: np.ndarray,
+                      limits: np.ndarray, clamped: np.ndarray, contact_distance: float
+                      ) -> float:
+    """Robustness of "permitted contact" from the (T, M, K) true clearances and the
+    robot's directed speeds towards the segments (NaN where a segment is absent), the
+    (T,) true robot speeds, each segment's permissible speed ``limits`` (M,) (0:
+    forbidden) and whether it is clampable at each tick ``clamped`` (T, M)."""
+    moving_now = moving(np.asarray(robot_speed))
+    touch = (np.nan_to_num(clearances, nan=np.inf) < contact_distance) \
+        & moving_now[:, None, None]
+    if not touch.any():
+        return stopped_before_contact(clearances.min(axis=-1), robot_speed,
+                                      contact_distance)
+    t, i, _ = np.nonzero(touch)
+    figure = np.where(clamped[t, i] | ~(limits[i] > 0.0), -np.inf,
+                      limits[i] - v_robot[touch])
+    return float(np.min(figure))

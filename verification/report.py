@@ -8,6 +8,7 @@ import numpy as np
 
 from safety_systems.cell.braking import PLACEHOLDER_WARNING  # noqa: F401 - named here too
 from safety_systems.files.output_files import save_figure, write_json, write_text
+from verification.search.runner import FIELDS
 from verification.verify import Outcome
 
 PROPERTY_TEXT = {
@@ -18,10 +19,26 @@ PROPERTY_TEXT = {
                   "ticks where the controller permits motion, every body and every capsule "
                   "of the robot ({geometry}); S_true is Eqs. 9-11 on the true speeds with "
                   "the simulated robot's own stopping data, without Z_d and Z_r (>= 0 safe)",
+    "permitted_contact": "permitted contact (ISO/TS 15066 power and force limiting): every "
+                         "contact between a body segment and the robot ({geometry}) while "
+                         "the robot moves is with a segment whose body regions permit "
+                         "transient contact (never the head, face or neck, never one that "
+                         "can be pressed against a declared fixed surface), at a relative "
+                         "speed (the robot's towards it) at or below its Annex A limit: "
+                         "robustness = the least limit - relative speed over those contacts "
+                         "(m/s; -inf for a forbidden or clampable segment), or, with no "
+                         "contact while moving, stopped before contact's clearance (m) "
+                         "(>= 0 safe)",
 }
+# Under safety.mode: ssm_pfl the separation invariant covers speed and separation
+# monitoring's part only.
+SSM_PART = (" (safety.mode ssm_pfl: speed and separation monitoring's part only, each "
+            "segment at the ticks the command exceeds its power and force limiting cap in "
+            "force; at or below it, contact is the permitted contact property's)")
 # What robustness +inf means for each property: the scenario tests nothing.
 VACUOUS = {"contact": "the robot never moved while a body was present",
-           "separation": "the robot was never let move while a body was present"}
+           "separation": "the robot was never let move while a body was present",
+           "permitted_contact": "the robot never moved while a body was present"}
 
 
 def _finite(x: float) -> float | None:
@@ -88,13 +105,14 @@ def _proof_dict(proof) -> dict:
 
 def report_dict(o: Outcome, *, config_path: str, space_path: str,
                 origin: dict | None = None) -> dict:
-    figures = np.array(o.log.figures) if o.log.figures else np.zeros((0, 4))
+    figures = np.array(o.log.figures) if o.log.figures else np.zeros((0, len(FIELDS)))
     properties = {}
     for name, p in o.properties.items():
         rho = figures[:, p.column]
         properties[name] = {
             "verdict": p.verdict,
-            "property": PROPERTY_TEXT[name].format(geometry=o.contact_geometry),
+            "property": PROPERTY_TEXT[name].format(geometry=o.contact_geometry)
+            + (SSM_PART if name == "separation" and o.safety_mode == "ssm_pfl" else ""),
             # null when +inf: never moving (let move) while a body was present
             "min_robustness": _finite(float(rho.min())) if rho.size else None,
             "simulations_violating": int(np.sum(rho < 0.0)),
@@ -118,6 +136,7 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str,
         "verdict": o.verdict,
         "method": o.method,
         "robot_mode": o.robot_mode,
+        "safety_mode": o.safety_mode,
         **({"robot": o.robot} if o.robot else {}),
         "properties": properties,
         "config": config_path,

@@ -38,8 +38,13 @@ from safety_systems.cell.robot_model import is_ur5e
 from safety_systems.config.scenario import ControllerConfig, dump_scenario, robot_model_of
 from verification.search.counts import Tally
 from verification.search.evaluate_drake import cut_short, evaluate_drake
-from verification.proof.theorems import Proof, prove, prove_separation
-from verification.properties import PROPERTIES
+from verification.proof.theorems import (
+    Proof,
+    prove,
+    prove_permitted_contact,
+    prove_separation,
+)
+from verification.properties import PROPERTIES, mode_properties
 from verification.search.runner import FIELDS, Runner
 from verification.search.strategies import SWEEPS, SearchLog, falsify, sweep
 from verification.spaces.box import ScenarioSpace
@@ -55,20 +60,25 @@ from verification.verdicts import VERDICT_ORDER
 METHODS = ("falsify",) + SWEEPS
 CONFIRM = 5  # counterexamples replayed in Drake per property, worst first
 CROSS_CHECK = 5  # further scenarios replayed in Drake, drawn at random from the search's
-PROPERTY_CHOICES = ("contact", "separation", "both")
-PROVERS = {"contact": prove, "separation": prove_separation}
+PROPERTY_CHOICES = ("contact", "separation", "permitted_contact", "both")
+PROVERS = {"contact": prove, "separation": prove_separation,
+           "permitted_contact": prove_permitted_contact}
 
 
-def selected_properties(choice: str) -> tuple[str, ...]:
-    """The properties a ``--property`` choice names."""
+def selected_properties(choice: str, mode: str = "ssm") -> tuple[str, ...]:
+    """The properties a ``--property`` choice names: ``both``, the two a configuration of
+    ``safety.mode`` ``mode`` is verified for (``properties.mode_properties``: under
+    ``ssm`` stopped before contact and the separation invariant, under ``ssm_pfl``
+    permitted contact and the invariant's SSM part)."""
     if choice not in PROPERTY_CHOICES:
         raise ValueError(f"property: got {choice!r}; allowed: {' | '.join(PROPERTY_CHOICES)}")
-    return tuple(PROPERTIES) if choice == "both" else (choice,)
+    return mode_properties(mode) if choice == "both" else (choice,)
 
 
 def column(name: str) -> int:
     """The column of a property's robustness in the runner's figures."""
-    return FIELDS.index({"contact": "robustness", "separation": "separation"}[name])
+    return FIELDS.index({"contact": "robustness", "separation": "separation",
+                         "permitted_contact": "permitted_contact"}[name])
 
 
 @dataclasses.dataclass
@@ -114,6 +124,7 @@ class Outcome:
     # the space's robot where it is not the UR5e (its model, joints, URDF and the URDF's
     # SHA-256: ``deploy.certificate.robot_identity``); None: the UR5e
     robot: dict | None = None
+    safety_mode: str = "ssm"  # the configuration's safety.mode
 
     def _all(self, field: str) -> list:
         return [x for p in self.properties.values() for x in getattr(p, field)]
@@ -143,7 +154,8 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
            stop_at_first: bool = False, candidates: int = 8192,
            properties: str = "both") -> Outcome:
     """Runs proofs and search for ``config`` over ``space``, for the ``properties``
-    chosen (``contact``, ``separation`` or ``both``); writes scenario files of confirmed
+    chosen (``contact``, ``separation``, ``permitted_contact`` or ``both``: the two of
+    the configuration's ``safety.mode``, :func:`selected_properties`); writes scenario files of confirmed
     counterexamples under ``out / "counterexamples"`` and of disagreements under
     ``out / "disagreements"``. ``stop_at_first``: the falsifier replays each violation
     it finds in the Drake diagram at once and returns at the first one Drake confirms
@@ -152,7 +164,7 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     evaluation of a model of the loop is counted (``Outcome.evaluations``)."""
     if method not in METHODS:
         raise ValueError(f"method: got {method!r}; allowed: {' | '.join(METHODS)}")
-    names = selected_properties(properties)
+    names = selected_properties(properties, config.safety.mode)
     tally = Tally()  # the clocks start here: proofs, search and replays all count
     out.mkdir(parents=True, exist_ok=True)
     proofs = {name: PROVERS[name](config, space) for name in names}
@@ -213,7 +225,8 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
                    free_parameters(space), seed, budget,
                    hashlib.sha256(config_text.encode()).hexdigest(), space.contact_geometry,
                    space.robot.mode, tally.snapshot(), stopped,
-                   [n for n in names if n not in results], _robot(space))
+                   [n for n in names if n not in results], _robot(space),
+                   config.safety.mode)
 
 
 def _robot(space: ScenarioSpace) -> dict | None:

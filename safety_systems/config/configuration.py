@@ -4,6 +4,7 @@ the Drake diagram, the batched verifier and the proof (never a copy in each)."""
 import dataclasses
 
 import numpy as np
+from pydrake.common.yaml import yaml_dump_typed
 
 from safety_systems.cell import human_body
 from safety_systems.cell.braking import BrakingTable, default_braking_table, stopping_distance
@@ -35,6 +36,10 @@ from safety_systems.config.scenario import (  # noqa: F401 (robot_model_of: its 
     operator_posture,
     robot_model_of,
 )
+from safety_systems.cell.path_speed import path_speed_bound
+from safety_systems.pfl.robot_masses import effective_mass
+from safety_systems.pfl.segment_regions import permitted_speeds
+from safety_systems.pfl.speed_caps import CLAMP_GAP, segment_caps, surface_boxes
 from safety_systems.sensing.sensor_faults import fault_table
 from safety_systems.sensing.tracks import make_regions, make_rules
 from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS, SPEED_LEVELS
@@ -313,3 +318,57 @@ def recorded_operators(scenario: Scenario) -> list[RecordedOperator]:
                              enter_time=o.enter_time, leave_time=o.leave_time,
                              yaw_deg=o.yaw_deg)
             for o in scenario.operators]
+
+
+@dataclasses.dataclass(frozen=True)
+class PflTerms:
+    """What power and force limiting (``safety.mode``, ``safety_systems.pfl.speed_caps``)
+    means for a scenario's loop and its properties."""
+
+    caps: np.ndarray  # (12,) each segment's path-rate cap (0: pure SSM); all 0 under ssm
+    limits: np.ndarray  # (12,) each segment's permissible relative speed, m/s (0: none)
+    boxes: np.ndarray  # (S, 2, 3) the declared fixed surfaces
+    reach: float  # m: a segment's envelope this close to a surface loses its cap
+    speed_bound: float  # V_R, m/s: no monitor capsule axis point is faster at rate 1
+    effective_mass: float  # m_R, kg (ISO/TS 15066 Eq. A.4, with the configured payload)
+
+    @property
+    def capped(self) -> bool:
+        """Whether some segment may hold the robot above rest (the override's caps)."""
+        return bool(np.any(self.caps > 0.0))
+
+
+_SPEED_BOUNDS: dict = {}  # V_R by the robot station and the monitor's capsules
+
+
+def _speed_bound(robot: RobotConfig, config: ControllerConfig) -> float:
+    f = config.safety
+    key = (yaml_dump_typed(robot), f.robot_geometry, tuple(f.link_radii), f.payload_radius,
+           f.tool_length)
+    if key not in _SPEED_BOUNDS:
+        if len(_SPEED_BOUNDS) > 64:
+            _SPEED_BOUNDS.clear()
+        _SPEED_BOUNDS[key] = path_speed_bound(joint_path(robot), monitor_capsules(
+            config, robot_model_of(robot)))
+    return _SPEED_BOUNDS[key]
+
+
+def pfl_terms(robot: RobotConfig, config: ControllerConfig) -> PflTerms:
+    """:class:`PflTerms` of the robot station ``robot`` under ``config``: the segments'
+    permissible speeds for the robot's effective mass with the configured payload (Annex
+    A: ``pfl.segment_regions``; trusted from the configuration, as the stopping data
+    are), the caps (``pfl.speed_caps.segment_caps``; under ``ssm`` all 0), V_R of the
+    monitor's capsules on the robot's path (computed only under ``ssm_pfl``; NaN
+    otherwise) and the clamping terms."""
+    f = config.safety
+    model = robot_model_of(robot)
+    m_r = effective_mass(model, f.payload_mass)
+    limits = permitted_speeds(m_r)
+    caps, bound = np.zeros(limits.shape), float("nan")
+    if f.mode == "ssm_pfl":
+        bound = _speed_bound(robot, config)
+        caps = segment_caps(limits, f.pfl_speed, bound)
+    for x in (caps, limits):
+        x.setflags(write=False)
+    return PflTerms(caps, limits, surface_boxes(f.fixed_surfaces), CLAMP_GAP + f.clamp_margin,
+                    bound, float(m_r))

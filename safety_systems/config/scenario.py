@@ -30,6 +30,7 @@ from safety_systems.files.ranges import SEED_MAX, check_limits, number
 from safety_systems.sensing.sensor_faults import BODY_FAULTS, FAULT_KINDS, SWAP
 from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS, STOPPING_MODES
 from safety_systems.sensing.tracks import HIDDEN_BODY_RULES
+from safety_systems.pfl.speed_caps import SAFETY_MODES
 
 ScenarioError = InputError  # the name this module's callers know
 
@@ -179,6 +180,17 @@ class SafetyConfig:
     by the braking table's shape; the commanded speed is then one of
     ``ssm.SPEED_LEVELS`` + 1 levels: ``ssm.formulas.by_speed_command``).
 
+    ``mode``: ``ssm`` (speed and separation monitoring: no contact while the robot
+    moves) or ``ssm_pfl`` (power and force limiting near the body regions ISO/TS 15066
+    permits transient contact with: ``safety_systems.pfl.speed_caps``). Under ``ssm_pfl``
+    each operator segment lets the robot keep a path rate at which no point of it moves
+    faster than the segment's permissible relative speed (Annex A, for the robot's
+    effective mass with ``payload_mass`` kg of tooling and workpiece), or than
+    ``pfl_speed`` m/s where lower (None: the segment's own); the head, face and neck keep
+    pure SSM, and so does a segment within ``pfl.speed_caps.CLAMP_GAP`` +
+    ``clamp_margin`` m of a ``fixed_surfaces`` box (tables, walls, fixtures it could be
+    pressed against, robot base frame).
+
     ``robot_speed``: the robot's speed in S (Eq. 11's S_R = v_R T_r): ``directed`` (the
     seed's and ISO/TS 15066's v_R^d, Eq. 7: the speed of the capsule's point nearest
     the body towards it, negative when it moves away) or ``fastest_point`` (the speed of
@@ -208,6 +220,11 @@ class SafetyConfig:
     occlusion_speed: float = number(0.0, ge=0.0, le=MAX_HUMAN_SPEED, unit="m/s")
     delta_s: float = number(2.0, ge=1.0, le=10.0)
     d_min: float = number(0.30, ge=0.0, le=5.0, unit="m")
+    mode: str = "ssm"
+    pfl_speed: typing.Optional[float] = number(None, gt=0.0, le=MAX_HUMAN_SPEED, unit="m/s")
+    payload_mass: float = number(0.0, ge=0.0, le=100.0, unit="kg")
+    fixed_surfaces: list[Box] = dc.field(default_factory=list)
+    clamp_margin: float = number(0.3, ge=0.0, le=2.0, unit="m")
 
 
 def _dimension(name: str) -> typing.Any:
@@ -610,6 +627,13 @@ def _controller_rules(c: ControllerConfig, prefix: str, model: RobotModel | None
            " | ".join(ROBOT_SPEED_TERMS))
     _check(f.stopping in STOPPING_MODES, f"{prefix}.safety.stopping", f.stopping,
            " | ".join(STOPPING_MODES))
+    _check(f.mode in SAFETY_MODES, f"{prefix}.safety.mode", f.mode, " | ".join(SAFETY_MODES))
+    for i, box in enumerate(f.fixed_surfaces):
+        _box(f"{prefix}.safety.fixed_surfaces[{i}]", box)
+    if f.mode == "ssm_pfl":
+        _check(f.robot_geometry == "capsules", f"{prefix}.safety.robot_geometry",
+               f.robot_geometry, "capsules under safety.mode: ssm_pfl (a contact's body "
+               "region needs the operator's segments against the robot's links)")
     _check(c.type in CONTROLLER_TYPES, f"{prefix}.type", c.type, " | ".join(CONTROLLER_TYPES))
     validate_alteration(c.alteration, f"{prefix}.alteration")
     z = c.zones

@@ -32,6 +32,7 @@ from safety_systems.config.configuration import (
     monitor_capsules,
     monitor_recipe,
     tracked_points,
+    pfl_terms,
     recorded_operators,
     scripted_operators,
     sensor_faults,
@@ -113,7 +114,7 @@ def body_roles(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
 def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, num_bodies: int,
                         control_period: float, path=None, operator_of=None,
                         is_hand=None, points=None, operator_names=None,
-                        model: RobotModel | None = None) -> SafetyController:
+                        model: RobotModel | None = None, pfl=None) -> SafetyController:
     """Adds the tracker and the controller ``config.type`` names, for the robot ``model``
     (None: the UR5e).
 
@@ -126,7 +127,9 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
     the body roles (``body_roles``); left to connect: their ``path_state``. ``zones``
     (seed 001) needs ``path``; left to connect: its ``path_state`` and ``gesture``.
     Always left to connect: the tracker's ``positions_measured``, ``valid``,
-    ``sample_time``, ``frame_number`` and ``body_ids``.
+    ``sample_time``, ``frame_number`` and ``body_ids``. ``pfl``: the scenario's
+    ``configuration.pfl_terms`` under ``safety.mode: ssm_pfl`` (the SpeedOverride's caps
+    and fixed surfaces), None under ``ssm``.
     """
     s, t, f = config.sensor, config.tracker, config.safety
     tracker = builder.AddNamedSystem("tracker", KalmanTracker(
@@ -171,9 +174,15 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         human_uncertainty_sigmas=f.human_uncertainty_sigmas, iso_speed=f.iso_human_speed,
         iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed,
         level_terms=level_terms(config, model) if by_speed else None))
+    capped = pfl is not None and f.mode == "ssm_pfl"
     override = builder.AddNamedSystem("override", SpeedOverride(
         num_bodies=m, delta_s=f.delta_s, d_min=f.d_min,
-        levels=SPEED_LEVELS if by_speed else None))
+        levels=SPEED_LEVELS if by_speed else None,
+        caps=np.tile(pfl.caps, m // pfl.caps.size) if capped else None,
+        surfaces=pfl.boxes if capped else None, clamp_reach=pfl.reach if capped else 0.0))
+    if capped and override.HasInputPort("segment_ends"):
+        for name in ("segment_ends", "segment_radii"):
+            builder.Connect(envelopes.GetOutputPort(name), override.GetInputPort(name))
     for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std",
                  "unseen_time"):
         builder.Connect(tracker.GetOutputPort(name), envelopes.GetInputPort(name))
@@ -286,7 +295,8 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
                                  control_period=dt, path=path, operator_of=operator_of,
                                  is_hand=is_hand, points=tracked_points(scenario),
                                  operator_names=[o.name for o in scenario.operators],
-                                 model=model)
+                                 model=model, pfl=pfl_terms(robot, config)
+                                 if config.safety.mode == "ssm_pfl" else None)
     for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")

@@ -195,9 +195,14 @@ def true_rate(run: Run) -> np.ndarray:
 def separation_margins(clearance: np.ndarray, s_true: np.ndarray,
                        allowed: np.ndarray) -> np.ndarray:
     """(T,) the smallest d_true - S_true over the pairs (T, M, K) (NaN where a segment is
-    absent) at ticks where motion is ``allowed`` (T,); +inf at the others and where no
-    operator is present."""
+    absent) at ticks where motion is ``allowed`` (T,), or over the segments where it is
+    allowed (T, M) (``true_measures.ssm_permitted``: speed and separation monitoring's
+    part under ``safety.mode: ssm_pfl``); +inf at the others and where no operator is
+    present."""
     gap = np.where(np.isnan(clearance) | np.isnan(s_true), np.inf, clearance - s_true)
+    if np.ndim(allowed) == 2:
+        gap = np.where(allowed[:, :, None], gap, np.inf)
+        allowed = np.asarray(allowed).any(axis=1)
     smallest = gap.reshape(gap.shape[0], math.prod(gap.shape[1:])).min(axis=1, initial=np.inf)
     return np.where(allowed, smallest, np.inf)
 

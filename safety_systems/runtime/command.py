@@ -114,7 +114,12 @@ def run(args: argparse.Namespace, origin) -> int:
         raise InputError("--robot", args.robot, f"none for the {model.name} (RTDE drives "
                          "UR arms only; another arm: --robot none, the monitor alone)")
     out = prepare_out(args.log)
-    loop = SafetyLoop(params.controller, points, [o.name for o in mapping.operators], model)
+    from safety_systems.config.configuration import pfl_terms
+
+    pfl = (pfl_terms(params.robot, params.controller)
+           if params.controller.safety.mode == "ssm_pfl" else None)
+    loop = SafetyLoop(params.controller, points, [o.name for o in mapping.operators], model,
+                      pfl)
     server = None
     robot = None
     try:

@@ -17,7 +17,10 @@ the order the Drake diagram calls them (no copy of any rule lives here).
   operator's segments are lost, a NaN stops); under ``safety.stopping: by_speed`` also
   ``separation.level_rows`` (S at every speed level) and
   ``ssm.by_speed_override_command``, given a bound on the robot's path rate now (the
-  robot link's ``rate_bound``).
+  robot link's ``rate_bound``). Under ``safety.mode: ssm_pfl`` (``pfl``: the robot's
+  ``configuration.pfl_terms``) the same with each segment's cap in force
+  (``pfl.speed_caps.clamp_caps`` of the envelopes) by ``ssm.capped_override_command`` or
+  ``ssm.capped_by_speed_command``.
 
 Times are the runtime's monotonic clock (capture times from ``mocap.FrameClock``).
 """
@@ -41,7 +44,13 @@ from safety_systems.config.configuration import (
 )
 from safety_systems.config.scenario import ControllerConfig
 from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
-from safety_systems.ssm.formulas import by_speed_override_command, speed_override_command
+from safety_systems.pfl.speed_caps import clamp_caps
+from safety_systems.ssm.formulas import (
+    by_speed_override_command,
+    capped_by_speed_command,
+    capped_override_command,
+    speed_override_command,
+)
 from safety_systems.ssm.separation import level_rows, separation_rows
 
 
@@ -60,7 +69,8 @@ class SafetyLoop:
     ``nearest`` (M,)."""
 
     def __init__(self, config: ControllerConfig, points: list[list[str]],
-                 names: list[str] | None = None, model: RobotModel | None = None):
+                 names: list[str] | None = None, model: RobotModel | None = None,
+                 pfl=None):
         if config.type != "ssm_override":
             raise ValueError(f"controller.type: got {config.type!r}; the runtime runs "
                              "ssm_override only")
@@ -102,6 +112,13 @@ class SafetyLoop:
         self.levels = level_terms(config, self.model) if f.stopping == "by_speed" else None
         if self.levels is not None:  # S at each level, (G + 1, M)
             self.level_out = np.full((self.levels[0].size, m), np.nan)
+        self.pfl = pfl if f.mode == "ssm_pfl" else None
+        if f.mode == "ssm_pfl" and pfl is None:
+            raise ValueError("pfl: safety.mode ssm_pfl needs the robot's "
+                             "configuration.pfl_terms")
+        self.caps = np.zeros(m)  # each segment's cap in force (0 under ssm)
+        if self.pfl is not None:
+            self._segment_caps = np.tile(self.pfl.caps, m // self.pfl.caps.size)
         self._warm_up()
 
     def _warm_up(self) -> None:
@@ -168,7 +185,14 @@ class SafetyLoop:
                             self.segment_ends, self.segment_velocities, self.segment_radius,
                             self.segment_status, self.segment_std, self.z_d_terms,
                             self.monitor, self.out, self.nearest)
+        if self.pfl is not None:
+            clamp_caps(self.segment_ends, self.segment_radius, self._segment_caps,
+                       self.pfl.boxes, self.pfl.reach, self.caps)
         if self.levels is None:
+            if self.pfl is not None:
+                return capped_override_command(self.out[0], self.out[1], self.segment_status,
+                                               self.fault(now), self.caps,
+                                               delta_s=self.delta_s, d_min=self.d_min)
             return speed_override_command(self.out[0], self.out[1], self.segment_status,
                                           self.fault(now), delta_s=self.delta_s,
                                           d_min=self.d_min)
@@ -177,6 +201,11 @@ class SafetyLoop:
                        self.segment_ends, self.segment_velocities, self.segment_radius,
                        self.segment_status, self.segment_std, self.z_d_terms, self.monitor,
                        self.levels[0], self.levels[1], self.level_out)
+        rate = rate if math.isfinite(rate) else 1.0
+        if self.pfl is not None:
+            return capped_by_speed_command(self.out[0], self.level_out, self.segment_status,
+                                           self.fault(now), rate, self.caps,
+                                           delta_s=self.delta_s, d_min=self.d_min)
         return by_speed_override_command(self.out[0], self.level_out, self.segment_status,
-                                         self.fault(now), rate if math.isfinite(rate)
-                                         else 1.0, delta_s=self.delta_s, d_min=self.d_min)
+                                         self.fault(now), rate, delta_s=self.delta_s,
+                                         d_min=self.d_min)

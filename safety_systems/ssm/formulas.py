@@ -341,6 +341,92 @@ def override_row(d, s, inc, delta_s, d_min):
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def held_by_tracker(k, status, fault):
+    """(k, stop reason) after the SpeedOverride's fail-safe stops: the reason a k of 0
+    has (the separation), and the tracker's stop rule (``tracks.tracker_stop``: its
+    fault, else a lost track), which holds the robot whatever k."""
+    reason = float(stops.STOP_SEPARATION if k <= 0.0 else stops.STOP_NONE)
+    held = tracker_stop(status, fault)
+    if held != stops.STOP_NONE:
+        k, reason = 0.0, held
+    return k, reason
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def level_top(s_levels, included, g):
+    """S_max(g): the largest S at level g (``s_levels`` (G + 1, N)) of the included
+    bodies, -inf with none."""
+    top = -np.inf
+    for i in range(included.size):
+        if included[i]:
+            top = max(top, s_levels[g, i])
+    return top
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def level_inclusion(d, s_levels, status, included):
+    """(any usable body, a usable body with a non-finite d or S at some level, the
+    closest finite d) of the bodies' d (N,) and S at every level (G + 1, N); their
+    usable flags (``tracks.usable``) into ``included``."""
+    any_included, faulty, closest = False, False, np.inf
+    for i in range(d.size):
+        included[i] = usable(status[i])
+        if not included[i]:
+            continue
+        any_included = True
+        if not np.isfinite(d[i]):
+            faulty = True
+        else:
+            closest = min(closest, d[i])
+        for g in range(s_levels.shape[0]):
+            if not np.isfinite(s_levels[g, i]):
+                faulty = True
+    return any_included, faulty, closest
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def override_row_caps(d, s, inc, caps, delta_s, d_min):
+    """(k, S_max) of one robot under ``safety.mode: ssm_pfl``: the least over the
+    included bodies i of max(Eq. 12(d_i, S_max), caps[i]), each body's Eq. 12 against
+    the largest S of all (as :func:`override_row`), held up at its power and force
+    limiting cap (``pfl.speed_caps``: a path rate, 0 for a body where no contact may
+    happen while the robot moves). No included body: k = 1; a non-finite d_i or S_i of
+    an included body: k = 0 whatever the caps (fail safe). With every cap 0 this is
+    :func:`override_row`'s k bit for bit (Eq. 12 is nondecreasing in d)."""
+    included, faulty = False, False
+    top = -np.inf
+    for i in range(d.size):
+        if not inc[i]:
+            continue
+        included = True
+        if not (np.isfinite(d[i]) and np.isfinite(s[i])):
+            faulty = True
+        else:
+            top = max(top, s[i])
+    if not included:
+        return 1.0, -np.inf
+    if faulty:
+        return 0.0, np.inf
+    k = 1.0
+    for i in range(d.size):
+        if inc[i]:
+            k = min(k, max(speed_scale_eq12(d[i], top, delta_s, d_min), caps[i]))
+    return k, top
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def override_command_caps(d, s, status, fault, delta_s, d_min, caps, included):
+    """:func:`override_command` under ``safety.mode: ssm_pfl``: k by
+    :func:`override_row_caps`, then the same fail-safe stops (the tracker's fault or a
+    lost track hold the robot whatever the caps)."""
+    for i in range(d.size):
+        included[i] = usable(status[i])
+    k, top = override_row_caps(d, s, included, caps, delta_s, d_min)
+    k, reason = held_by_tracker(k, status, fault)
+    return k, top, reason
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def override_command(d, s, status, fault, delta_s, d_min, included):
     """The SpeedOverride's (k, S_max, stop reason) of one robot, compiled: Eq. 12 over
     the bodies with a usable track (``tracks.usable``: tracking or hidden; their flags
@@ -350,10 +436,7 @@ def override_command(d, s, status, fault, delta_s, d_min, included):
     for i in range(d.size):
         included[i] = usable(status[i])
     k, top = override_row(d, s, included, delta_s, d_min)
-    reason = float(stops.STOP_SEPARATION if k <= 0.0 else stops.STOP_NONE)
-    held = tracker_stop(status, fault)
-    if held != stops.STOP_NONE:
-        k, reason = 0.0, held
+    k, reason = held_by_tracker(k, status, fault)
     return k, top, reason
 
 
@@ -407,46 +490,85 @@ def by_speed_command(d, s_levels, status, fault, rate, delta_s, d_min, included)
     linear ramp is not used: the levels replace it. S_max returned is S_max(g').
     Then the tracker's stop rule holds the robot as in :func:`override_command`."""
     levels = s_levels.shape[0] - 1
-    any_included, faulty, closest = False, False, np.inf
-    for i in range(d.size):
-        included[i] = usable(status[i])
-        if not included[i]:
-            continue
-        any_included = True
-        if not np.isfinite(d[i]):
-            faulty = True
-        else:
-            closest = min(closest, d[i])
-        for g in range(levels + 1):
-            if not np.isfinite(s_levels[g, i]):
-                faulty = True
+    any_included, faulty, closest = level_inclusion(d, s_levels, status, included)
     g_now = level_at_or_above(rate, levels)
     if not any_included:
         k, top = 1.0, -np.inf
     elif faulty:
         k, top = 0.0, np.inf
     else:
-        top_now = -np.inf
-        for i in range(d.size):
-            if included[i]:
-                top_now = max(top_now, s_levels[g_now, i])
+        top_now = level_top(s_levels, included, g_now)
         k, top = 0.0, top_now
         if closest >= d_min and closest >= top_now:
             for g in range(levels, 0, -1):
-                top_g = -np.inf
-                for i in range(d.size):
-                    if included[i]:
-                        top_g = max(top_g, s_levels[g, i])
+                top_g = level_top(s_levels, included, g)
                 if closest >= delta_s * top_g:
                     k = g / levels
                     if g > g_now:
                         top = top_g
                     break
-    reason = float(stops.STOP_SEPARATION if k <= 0.0 else stops.STOP_NONE)
-    held = tracker_stop(status, fault)
-    if held != stops.STOP_NONE:
-        k, reason = 0.0, held
+    k, reason = held_by_tracker(k, status, fault)
     return k, top, reason
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def by_speed_command_caps(d, s_levels, status, fault, rate, delta_s, d_min, caps, included):
+    """:func:`by_speed_command` under ``safety.mode: ssm_pfl``: each usable body i has its
+    own level k_i (the largest g / G with d_i >= dS S_max(g), given d_i >= S_max(g_now)
+    and d_i >= d_min; else 0), held up at its cap (``pfl.speed_caps``), and k is the
+    least over the bodies of max(k_i, caps[i]); the same fail-safe stops. Each k_i is
+    nondecreasing in d_i, so with every cap 0 the least is the closest body's: k and
+    S_max as :func:`by_speed_command` gives them, bit for bit. Whenever k > caps[i],
+    k_i >= k > 0, so d_i >= S_max(g') for g' = max(g_now, g_k) (the premise the proofs
+    take, now per body). S_max returned is S_max(g') with g_k the level at or above k."""
+    levels = s_levels.shape[0] - 1
+    any_included, faulty, _ = level_inclusion(d, s_levels, status, included)
+    g_now = level_at_or_above(rate, levels)
+    if not any_included:
+        k, top = 1.0, -np.inf
+    elif faulty:
+        k, top = 0.0, np.inf
+    else:
+        top_now = level_top(s_levels, included, g_now)
+        tops = np.empty(levels + 1)  # S_max(g) over the included bodies
+        for g in range(levels + 1):
+            tops[g] = level_top(s_levels, included, g)
+        k = 1.0
+        for i in range(d.size):
+            if not included[i]:
+                continue
+            k_i = 0.0
+            if d[i] >= d_min and d[i] >= top_now:
+                for g in range(levels, 0, -1):
+                    if d[i] >= delta_s * tops[g]:
+                        k_i = g / levels
+                        break
+            k = min(k, max(k_i, caps[i]))
+        top = top_now
+        g_k = level_at_or_above(k, levels)
+        if g_k > g_now and k > 0.0:
+            top = tops[g_k]
+    k, reason = held_by_tracker(k, status, fault)
+    return k, top, reason
+
+
+@numba.njit(cache=True)
+def _by_speed_command_caps(d, s_levels, status, fault, rate, delta_s, d_min, caps):
+    return by_speed_command_caps(d, s_levels, status, fault, rate, delta_s, d_min, caps,
+                                 np.empty(d.size, np.bool_))
+
+
+def capped_by_speed_command(distances: np.ndarray, level_distances: np.ndarray,
+                            status: np.ndarray, fault: float, rate: float, caps: np.ndarray,
+                            *, delta_s: float = 1.0, d_min: float = 0.30
+                            ) -> tuple[float, float, int]:
+    """:func:`by_speed_command_caps` of one robot from Python: (k, S_max, stop reason)."""
+    k, top, reason = _by_speed_command_caps(
+        np.ascontiguousarray(distances, dtype=float),
+        np.ascontiguousarray(level_distances, dtype=float),
+        np.ascontiguousarray(status, dtype=float), float(fault), float(rate), float(delta_s),
+        float(d_min), np.ascontiguousarray(caps, dtype=float))
+    return float(k), float(top), int(reason)
 
 
 @numba.njit(cache=True)
@@ -471,6 +593,25 @@ def by_speed_override_command(distances: np.ndarray, level_distances: np.ndarray
 @numba.njit(cache=True)
 def _override_command(d, s, status, fault, delta_s, d_min):
     return override_command(d, s, status, fault, delta_s, d_min, np.empty(d.size, np.bool_))
+
+
+@numba.njit(cache=True)
+def _override_command_caps(d, s, status, fault, delta_s, d_min, caps):
+    return override_command_caps(d, s, status, fault, delta_s, d_min, caps,
+                                 np.empty(d.size, np.bool_))
+
+
+def capped_override_command(distances: np.ndarray, protective_distances: np.ndarray,
+                            status: np.ndarray, fault: float, caps: np.ndarray, *,
+                            delta_s: float = 2.0, d_min: float = 0.30
+                            ) -> tuple[float, float, int]:
+    """:func:`override_command_caps` of one robot from Python: (k, S_max, stop reason)."""
+    k, top, reason = _override_command_caps(
+        np.ascontiguousarray(distances, dtype=float),
+        np.ascontiguousarray(protective_distances, dtype=float),
+        np.ascontiguousarray(status, dtype=float), float(fault), float(delta_s), float(d_min),
+        np.ascontiguousarray(caps, dtype=float))
+    return float(k), float(top), int(reason)
 
 
 def speed_override_command(distances: np.ndarray, protective_distances: np.ndarray,

@@ -35,6 +35,16 @@ def is_permitted(command):
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def is_ssm_permitted(command, cap):
+    """Whether the controller permits motion *by speed and separation monitoring* near a
+    segment whose power and force limiting cap in force is ``cap`` (a path rate,
+    ``pfl.speed_caps``; 0 under ``safety.mode: ssm``): a command above the cap (at or
+    below it the robot may run by the cap alone, where contact is permitted). With cap
+    0 this is :func:`is_permitted`."""
+    return is_permitted(command) and command > cap
+
+
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
 def true_margin(clearance, v_h, v_r, mode, t_stop, t_r, b_stop, iso, iso_reduced):
     """d_true - S_true of one pair: its clearance less Eqs. 9-11 on its true directed
     speeds (mode index, the robot's own stopping time ``t_stop`` and distance ``b_stop``
@@ -62,6 +72,22 @@ def moving(speed: np.ndarray) -> np.ndarray:
     speed = np.ascontiguousarray(speed, dtype=float)
     out = np.empty(speed.shape, dtype=bool)
     moving_rows(speed.reshape(-1), out.reshape(-1))
+    return out
+
+
+@numba.njit(cache=True)
+def _ssm_permitted_rows(command, caps, out):
+    for t in range(caps.shape[0]):
+        for i in range(caps.shape[1]):
+            out[t, i] = is_ssm_permitted(command[t], caps[t, i])
+
+
+def ssm_permitted(command: np.ndarray, caps: np.ndarray) -> np.ndarray:
+    """(T, M) :func:`is_ssm_permitted` of each tick's command (T,) against each segment's
+    cap in force (T, M)."""
+    caps = np.ascontiguousarray(caps, dtype=float)
+    out = np.empty(caps.shape, dtype=bool)
+    _ssm_permitted_rows(np.ascontiguousarray(command, dtype=float), caps, out)
     return out
 
 

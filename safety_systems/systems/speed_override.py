@@ -4,7 +4,13 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
-from safety_systems.ssm.formulas import by_speed_override_command, speed_override_command
+from safety_systems.pfl.speed_caps import clamp_caps
+from safety_systems.ssm.formulas import (
+    by_speed_override_command,
+    capped_by_speed_command,
+    capped_override_command,
+    speed_override_command,
+)
 
 
 class SpeedOverride(LeafSystem):
@@ -22,6 +28,7 @@ class SpeedOverride(LeafSystem):
         - path_speed_commanded
         - max_protective_distance
         - stop_reason
+        - segment_caps
 
     k is the smallest Eq. 12 value over the bodies with a usable track (tracking or
     hidden), and fail safe (:func:`safety_systems.ssm.formulas.override_command`): a tracker
@@ -35,15 +42,28 @@ class SpeedOverride(LeafSystem):
     of ``protective_distances``) and the path rate now (``path_state``, the
     PathFollower's [s, sigma, finished]); the same fail-safe stops.
 
+    With ``caps`` (``safety.mode: ssm_pfl``, ``safety_systems.pfl.speed_caps``) k is the
+    least over the usable segments of max(Eq. 12, cap_i) by
+    :func:`safety_systems.ssm.formulas.capped_override_command` (with ``levels``, of
+    max(the segment's level, cap_i): ``capped_by_speed_command``), with the same
+    fail-safe stops; a segment whose envelope (inputs ``segment_ends``, ``segment_radii``, declared
+    only when ``surfaces`` are) may lie within ``clamp_reach`` of a fixed surface has cap
+    0 (``pfl.speed_caps.clamp_caps``). ``segment_caps`` outputs the caps in force (all 0
+    without ``caps``).
+
     Args:
         num_bodies: registered body slots N.
         delta_s: dS of Eq. 12, dimensionless, >= 1 (seed: 2).
         d_min: minimum distance in metres below which the robot stops (seed: 0.30).
         levels: None (Eq. 12), or the number of speed levels G (by_speed).
+        caps: None (``ssm``), or each segment's cap, N path rates in [0, 1].
+        surfaces: the fixed surfaces, (S, 2, 3) boxes (min and max corners).
+        clamp_reach: metres, see above.
     """
 
     def __init__(self, *, num_bodies: int, delta_s: float = 2.0, d_min: float = 0.30,
-                 levels: int | None = None):
+                 levels: int | None = None, caps=None, surfaces=None,
+                 clamp_reach: float = 0.0):
         super().__init__()
         if not (np.isfinite(delta_s) and delta_s >= 1.0):
             raise ValueError(f"delta_s: got {delta_s}; allowed: a finite number >= 1")
@@ -62,10 +82,24 @@ class SpeedOverride(LeafSystem):
             self._path_state = self.DeclareVectorInputPort("path_state", 3)
         self._status = self.DeclareVectorInputPort("track_status", num_bodies)
         self._fault = self.DeclareVectorInputPort("fault", 1)
+        self._caps = None
+        if caps is not None:
+            self._caps = np.array(caps, dtype=float).reshape(-1)
+            if self._caps.size != num_bodies or not np.all(
+                    (self._caps >= 0.0) & (self._caps <= 1.0)):
+                raise ValueError(f"caps: got {self._caps.tolist()}; allowed: {num_bodies} "
+                                 "path rates in [0, 1]")
+        self._boxes = np.zeros((0, 2, 3)) if surfaces is None else np.array(
+            surfaces, dtype=float).reshape(-1, 2, 3)
+        self._reach = float(clamp_reach)
+        if self._caps is not None and self._boxes.shape[0] > 0:
+            self._ends = self.DeclareVectorInputPort("segment_ends", 6 * num_bodies)
+            self._radii = self.DeclareVectorInputPort("segment_radii", num_bodies)
         self._cache = self.DeclareCacheEntry(
             description="override",
             value_producer=ValueProducer(
-                allocate=AbstractValue.Make(np.zeros(3)).Clone, calc=self._calc_all
+                allocate=AbstractValue.Make(np.zeros(3 + num_bodies)).Clone,
+                calc=self._calc_all
             ),
             prerequisites_of_calc={self.all_input_ports_ticket()},
         )
@@ -75,15 +109,37 @@ class SpeedOverride(LeafSystem):
                 name, 1, lambda c, o, i=i: o.SetAtIndex(0, self._cache.Eval(c)[i]),
                 prerequisites_of_calc={self._cache.ticket()},
             )
+        self.DeclareVectorOutputPort(
+            "segment_caps", num_bodies, lambda c, o: o.SetFromVector(self._cache.Eval(c)[3:]),
+            prerequisites_of_calc={self._cache.ticket()})
 
     def _calc_all(self, context, value):
         out = value.get_mutable_value()
+        caps = out[3:]
+        if self._caps is not None:
+            if self._boxes.shape[0] > 0:
+                n = self._caps.size
+                clamp_caps(np.asarray(self._ends.Eval(context)).reshape(n, 2, 3),
+                           np.asarray(self._radii.Eval(context)), self._caps, self._boxes,
+                           self._reach, caps)
+            else:
+                caps[:] = self._caps
         if self._levels is not None:
             d = self._d.Eval(context)
-            out[0], out[1], out[2] = by_speed_override_command(
-                d, np.asarray(self._s.Eval(context)).reshape(self._levels + 1, d.size),
-                self._status.Eval(context), self._fault.Eval(context)[0],
-                self._path_state.Eval(context)[1], delta_s=self._delta_s, d_min=self._d_min)
+            s_levels = np.asarray(self._s.Eval(context)).reshape(self._levels + 1, d.size)
+            args = (d, s_levels, self._status.Eval(context), self._fault.Eval(context)[0],
+                    self._path_state.Eval(context)[1])
+            if self._caps is not None:
+                out[0], out[1], out[2] = capped_by_speed_command(
+                    *args, caps, delta_s=self._delta_s, d_min=self._d_min)
+            else:
+                out[0], out[1], out[2] = by_speed_override_command(
+                    *args, delta_s=self._delta_s, d_min=self._d_min)
+            return
+        if self._caps is not None:
+            out[0], out[1], out[2] = capped_override_command(
+                self._d.Eval(context), self._s.Eval(context), self._status.Eval(context),
+                self._fault.Eval(context)[0], caps, delta_s=self._delta_s, d_min=self._d_min)
             return
         out[0], out[1], out[2] = speed_override_command(
             self._d.Eval(context), self._s.Eval(context), self._status.Eval(context),

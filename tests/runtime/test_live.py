@@ -154,12 +154,14 @@ def _same_band(t_sim, k_sim, t_run, k_run, width):
     return out
 
 
-@pytest.mark.parametrize("config", ["iso export", "seed_estimated.yaml", "iso by_speed"])
+@pytest.mark.parametrize("config", ["iso export", "seed_estimated.yaml", "iso by_speed",
+                                    "seed ssm_pfl"])
 def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, config):
     """iso.yaml as exported (certified), the seed's configuration as a plain file run with
-    --unverified (its verification falsifies it: check refuses it), and iso.yaml with S
+    --unverified (its verification falsifies it: check refuses it), iso.yaml with S
     by speed (the model robot's rate into the override, as the simulator's path
-    follower gives it); the technician 1 m farther away in both (:func:`_far_mapping`).
+    follower gives it), and the seed's on the whole robot under safety.mode ssm_pfl
+    (each segment's power and force limiting cap); the technician 1 m farther away in both (:func:`_far_mapping`).
     The trace has simulate's columns: per operator the nearest segment's d and S, per
     body whether it was hidden (the left glove's gap)."""
     from safety_systems.runtime.params import load_certified_params
@@ -171,6 +173,12 @@ def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, 
         text = (MODELS / "configs" / "iso.yaml").read_text()
         params.write_text(text.replace("\nsafety:\n", "\nsafety:\n  stopping: by_speed\n"))
         assert load_controller_config(params).safety.stopping == "by_speed"
+    elif config == "seed ssm_pfl":  # power and force limiting's caps, on the whole robot
+        params, extra = tmp_path / "pfl.yaml", ("--unverified",)
+        text = (MODELS / "configs" / "seed_estimated.yaml").read_text()
+        params.write_text(text.replace("robot_geometry: tool_point", "robot_geometry: capsules")
+                          .replace("\nsafety:\n", "\nsafety:\n  mode: ssm_pfl\n"))
+        assert load_controller_config(params).safety.mode == "ssm_pfl"
     else:
         params, extra = MODELS / "configs" / config, ("--unverified",)
     loaded = load_certified_params(params, unverified=True)

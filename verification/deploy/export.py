@@ -54,7 +54,7 @@ from verification.deploy.certificate import (
 )
 from safety_systems.cell.human_body import DIMENSION_NAMES
 from safety_systems.cell.robot_model import RobotModel
-from verification.properties import PROPERTIES
+from verification.properties import MODE_PROPERTIES, mode_properties
 from verification.spaces.box import ScenarioSpace
 from verification.spaces.space import load_space, tracked_bodies
 
@@ -132,10 +132,14 @@ def read_report(path: str | Path) -> dict:
     _expect(report, REPORT, "", path)
     if report["verdict"] not in VERDICT_MEANING:
         raise InputError("verdict", report["verdict"], " | ".join(VERDICT_MEANING), file=path)
-    if sorted(report["properties"]) != sorted(PROPERTIES):
+    mode = report.get("safety_mode", "ssm")
+    if mode not in MODE_PROPERTIES:
+        raise InputError("safety_mode", mode, " | ".join(MODE_PROPERTIES), file=path)
+    if sorted(report["properties"]) != sorted(mode_properties(mode)):
         raise InputError("properties", sorted(report["properties"]), f"both properties "
-                         f"{sorted(PROPERTIES)} (verify --property both): a certificate "
-                         "carries the verdict of each", file=path)
+                         f"of safety.mode {mode}, {sorted(mode_properties(mode))} (verify "
+                         "--property both): a certificate carries the verdict of each",
+                         file=path)
     return report
 
 

@@ -155,6 +155,44 @@ envelopes take it in their allowance instead (an ellipsoid's width is not Lipsch
 its foci, so only an allowance on the foci, not a margin on the distance, makes an
 envelope of the estimates hold the true segment), so M no longer depends on the noise.
 
+Theorem 3 (what ``prove_permitted_contact`` checks, ``safety.mode: ssm_pfl``): every
+contact while the robot moves is with a segment that permits transient contact, not
+clampable against a declared fixed surface, at a relative speed (the robot's speed towards
+it) at or below its permissible speed v_i (``verification.properties``). The override's k
+is the least over the usable segments of max(k_i, c_i) (k_i Eq. 12's, or the segment's
+level under by_speed; c_i its cap in force: ``pfl.speed_caps``). Under Theorem 1's
+premises, if M >= 0 over the box, and
+
+- c_i V_R <= v_i for every segment (the caps are min(v_pfl, v_i) / V_R with V_R the
+  same Lipschitz cover; the head, face and neck have c_i = 0),
+- a command below the rate brings the rate down by the stop's own steps and never
+  below the command, and one at or above it never takes the rate past it
+  (``braking.rate_step_one``, checked on a grid of rates and commands),
+- with fixed surfaces declared: clamp_margin >= v_max (tau + T_stop + h),
+
+the property holds in every scenario of the box. Proof sketch. Take a contact with
+segment i at tick t_c while the robot moves. If k(t) <= c_i(t) at every tick up to t_c,
+the rate never exceeded max c_i (it rises only towards a command), so every axis point
+moved at most c_i V_R <= v_i (for c_i = 0 the robot would rest: no contact while
+moving). Else let t' be the last tick before t_c with k(t') > c_i(t'): then k_i(t') >=
+k(t') > 0, which is Theorem 1's premise for segment i (d_i >= S_max, or S_max(g') by
+speed), and after t' every command is at most the cap in force. If t_c - t' <= T_stop + h
+Theorem 1's argument gives the pair's clearance >= M + c > c at t_c: no contact.
+Otherwise the commands after t' bring the rate down by the stop's steps (braking
+preserves the order of rates) to at most the cap within T_stop of t': at t_c the rate is
+at most c_i, and the contact's relative speed at most c_i V_R <= v_i. For a clampable
+segment (its true capsule within ``CLAMP_GAP`` of a surface at t_c): its envelope at every
+frame of the last tau + T_stop + h held the true segment then, which moved at most v_max
+(tau + T_stop + h) <= clamp_margin since, so its cap in force was 0 at every tick of the
+last T_stop + h; the argument above with c_i = 0 over that window leaves the robot at
+rest at t_c or the clearance above c. Interpretation (ours): the relative speed is the
+robot's, Eq. 7's v_R^d at the pair's nearest points (``pfl.speed_caps``).
+
+Under ``ssm_pfl`` Theorem 2 is claimed for speed and separation monitoring's part only:
+at the ticks where k exceeds a segment's cap in force, for that segment's pairs. There
+k_i >= k > 0, so the segment's d_i >= S_max (S_max(g') by speed), which is all the proof
+of Theorem 2 takes of the override: its margin M_S is unchanged.
+
 A space built around a recording (``verification.spaces.recorded``) is declined: the
 margins are checked over scripted approaches' parameters only (:func:`_declined` lists
 what a proof over recorded motion would need, measured from the recording).
@@ -164,10 +202,16 @@ import dataclasses
 
 import numpy as np
 
+from safety_systems.cell.braking import path_rate_step
+from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.config.configuration import (
+    braking_table,
     frame_timeout,
+    pfl_terms,
     placeholder_braking,
 )
+from safety_systems.config.scenario import robot_model_of
+from safety_systems.pfl.segment_regions import SEGMENT_FORBIDDEN
 from safety_systems.config.scenario import ControllerConfig
 from safety_systems.ssm.formulas import SPEED_LEVELS
 from verification.proof.margins import (
@@ -178,7 +222,7 @@ from verification.proof.margins import (
     speed_levels,
     unsat_below_zero,
 )
-from verification.proof.premises import (
+from verification.proof.premises import (  # noqa: I001
     COVERED_MODE,
     Premise,
     model_premises,
@@ -204,7 +248,7 @@ class Proof:
     margin_at_worst_corner: float | None
     terms: dict
     placeholder_braking: bool = False  # the built-in stopping data, not measured data
-    property: str = "contact"  # the theorem: "contact" or "separation"
+    property: str = "contact"  # the theorem: "contact", "separation", "permitted_contact"
     # separation: how much larger Z_d + Z_r must be for M_S >= 0 over the box (0 when it
     # is; None when a premise fails)
     needed_allowance: float | None = None
@@ -359,3 +403,89 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     premises = premises + [_z3_premise("M_S", lv, holds, worst, i)]
     return Proof(holds, method, box, premises, worst, terms, placeholder, "separation",
                  0.0 if holds else max(-worst, 0.0))
+
+
+def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> Proof:
+    """Tries to prove "permitted contact" for ``config`` over ``space`` (Theorem 3 of the
+    module docstring). Under ``safety.mode: ssm`` stopped before contact implies it, and
+    its proof is Theorem 1's; under ``ssm_pfl`` Theorem 1's margin with the power and
+    force limiting premises (caps within the limits, the rate following commands by the
+    stop's steps, the clamping margin) checked, and Annex A's limits, the payload, the
+    fixed surfaces and the meaning of relative speed trusted."""
+    base = prove(config, space)
+    f = config.safety
+    if f.mode != "ssm_pfl":
+        return dataclasses.replace(base, property="permitted_contact", premises=base.premises + [
+            Premise("safety.mode is ssm: stopped before contact (proved here) leaves no "
+                    "contact while the robot moves, so every such contact is permitted",
+                    True, "checked")])
+    method = ("SSM/PFL permitted-contact theorem (verification.proof, Theorem 3): "
+              + base.method)
+    if space.recording is not None:
+        return dataclasses.replace(base, property="permitted_contact", method=method)
+    pfl = pfl_terms(space.robot, config)
+    h = 1.0 / space.robot.control_rate_hz
+    v_max = space.parameters.peak_speed.max
+    lv = speed_levels(config, space)
+    t_stop = float(np.max(lv.stop_time))
+    reach_needed = v_max * (frame_timeout(config) + t_stop + h)
+    limits = ", ".join(f"{name} {v:.3f}" for name, v in zip(SEGMENT_NAMES, pfl.limits))
+    checked = [
+        (f"each segment's cap keeps the robot at or below its permissible speed: c_i V_R <= "
+         f"v_i (V_R {pfl.speed_bound:.4f} m/s by the Lipschitz cover of the monitor's "
+         f"capsule axes, at least the proof's {lv.tool_speed:.4f}; v_i in m/s: {limits}; "
+         "head and neck 0)",
+         bool(np.all(pfl.caps * pfl.speed_bound <= pfl.limits * (1.0 + 1e-12)))
+         and pfl.speed_bound >= lv.tool_speed * (1.0 - 1e-12)
+         and not np.any(pfl.caps[SEGMENT_FORBIDDEN] > 0.0)),
+        ("a command below the path rate brings the rate down by the stop's own steps and "
+         "never below the command, and one at or above it never takes the rate past it "
+         "(braking.rate_step_one on a grid of rates and commands)",
+         follows_commands(config, h, space.parameters.braking_time_scale.max,
+                          robot_model_of(space.robot), space.robot.acceleration_limit)),
+    ]
+    if len(pfl.boxes):
+        checked.append((f"clamping: a segment's envelope loses its cap within clamp_margin "
+                        f"{f.clamp_margin:g} m + CLAMP_GAP of a fixed surface, at least how "
+                        f"far a body moves in tau + T_stop + h: v_max {v_max:g} m/s x "
+                        f"{frame_timeout(config) + t_stop + h:.3f} s = {reach_needed:.3f} m",
+                        f.clamp_margin >= reach_needed))
+    trusted = [
+        "ISO/TS 15066:2016 Annex A's transient contact limits (Table A.2) and its body "
+        "models' effective masses and spring constants (Table A.3) for every region a "
+        "segment may present (pfl.segment_regions), and its energy model (Eqs. A.3, A.4)",
+        f"the robot's effective mass {pfl.effective_mass:.2f} kg: half its moving mass (its "
+        f"URDF's inertials) plus the configured payload {f.payload_mass:g} kg, the real "
+        "tool and workpiece",
+        "the relative speed of a contact is the robot's speed towards the body at the "
+        "contact (Eq. 7's v_R^d; the operator's own speed is not counted: our reading of "
+        "Annex A)",
+        ("the declared fixed surfaces are every object in the cell a body region could be "
+         f"pressed against ({len(pfl.boxes)} declared)"),
+    ]
+    premises = (base.premises + [Premise(x, bool(ok), "checked") for x, ok in checked]
+                + [Premise(x, True, "trusted") for x in trusted])
+    proved = base.proved and all(x.holds for x in premises)
+    terms = dict(base.terms) | {"caps": pfl.caps.tolist(), "limits": pfl.limits.tolist(),
+                                "V_R_caps": pfl.speed_bound, "effective_mass": pfl.effective_mass,
+                                "clamp_reach_needed": reach_needed if len(pfl.boxes) else None}
+    return dataclasses.replace(base, proved=proved, method=method, premises=premises,
+                               terms=terms, property="permitted_contact")
+
+
+def follows_commands(config: ControllerConfig, period: float, scale: float, model=None,
+                     acceleration_limit: float = 2.0) -> bool:
+    """Whether one tick of the path rate (``braking.rate_step_one``, the configured
+    braking table at time scale ``scale``) towards a command c from a rate r is max(c,
+    the stop's step from r) at most when c < r, and at most c when c >= r (to 1e-12: the
+    step's rounding), on a grid of rates and commands in [0, 1]."""
+    table = braking_table(config, model)
+    rates = np.linspace(0.0, 1.0, 401)
+    r, c = np.meshgrid(rates, rates, indexing="ij")
+    step = path_rate_step(r.ravel(), c.ravel(), period, table=table,
+                          acceleration_limit=acceleration_limit, time_scale=scale)
+    stop = path_rate_step(r.ravel(), 0.0, period, table=table,
+                          acceleration_limit=acceleration_limit, time_scale=scale)
+    below = c.ravel() < r.ravel()
+    return bool(np.all(step[below] <= np.maximum(c.ravel()[below], stop[below]) + 1e-12)
+                and np.all(step[~below] <= c.ravel()[~below] + 1e-12))

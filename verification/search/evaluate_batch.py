@@ -76,11 +76,14 @@ from safety_systems.ssm.separation import (
 from safety_systems.ssm.formulas import (
     ISO_REDUCED_SPEED_THRESHOLD,
     by_speed_command,
+    by_speed_command_caps,
     level_at_or_above,
     override_command,
+    override_command_caps,
     speed_scale_eq12,
 )
 from safety_systems.ssm.true_measures import is_moving, is_permitted, true_margin
+from safety_systems.pfl.speed_caps import CLAMP_GAP, clamp_caps, clampable, contact_robustness
 from safety_systems.sensing.delivery import TIME_TOL, delivered_frame, unit_noise
 from safety_systems.sensing.tracks import (
     TRACK_SLOT,
@@ -97,6 +100,7 @@ from safety_systems.config.configuration import (
     joint_path,
     level_terms,
     monitor_terms,
+    pfl_terms,
 )
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
@@ -110,6 +114,7 @@ class BatchResult:
     min_separation_while_moving: np.ndarray
     separation: np.ndarray  # the separation invariant, m (>= 0 safe)
     separation_violation_time: np.ndarray  # s permitted with some pair inside S_true
+    permitted_contact: np.ndarray  # permitted contact (m/s at a contact, else m; >= 0 safe)
 
 
 def _common(scenarios: list[Scenario], get, what: str):
@@ -528,7 +533,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
              delta_s, d_min, truth_t, truth_b, levels, truth_rates, monitor_caps, contact_caps,
              truth_segments, reach, truth_memo, monitor_memo, end, brake_scale, brakes, s, rate,
              ends_prev, s_last, memo, hint, trig, min_sep, sep_min, sep_time, robot, work,
-             sizes):
+             sizes, caps_now, pfl_truth, pc):
     """Control ticks k0 <= k < k1 of every scenario, as the diagram runs them between two
     tracker updates (the operators' segments as the monitor bounds them, ``h_ends``,
     ``h_velocities``, ``h_radius``, ``h_status``, ``h_std`` (``human_body.envelope_batch`` of the
@@ -570,6 +575,18 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
       true_protective_args``) and the time some pair is inside S_true;
     - the PathFollower's update (``braking.path_follower_step``; ``brakes`` = speed
       fractions, decelerations, acceleration limit).
+
+    Under ``safety.mode: ssm_pfl`` (``pfl_truth``'s last, ``capped``) the override is
+    ``formulas.override_command_caps`` with each segment's cap in force ``caps_now``
+    (B, M; ``pfl.speed_caps.clamp_caps`` of the envelopes at the last tracker update) on
+    every usable segment's exact d and S (the sweeps' shortcuts take the closest d for
+    every segment, which the caps cannot); the separation invariant counts a true
+    segment's pairs only while the command exceeds its monitor segment's cap in force;
+    and the permitted contact property (``pc`` (B,), under either mode) takes, at every
+    pair within the contact distance (``pfl_truth``: limits (segments,), fixed surfaces
+    (S, 2, 3), contact distance (B,), capped) while the robot moves,
+    ``speed_caps.contact_robustness`` of its segment's limit and the pair's true
+    directed robot speed (so such pairs are never skipped while the robot moves).
 
     Work that cannot change a figure is skipped, and each skip is exact (the tests hold
     the figures to the diagram's and to a batch of one): the monitor's k is reused while
@@ -625,6 +642,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     kept, seg_kept, op_kept, last_x, last_ends, travel = truth_memo
     m_seg_kept, seg_travel, m_travel, m_kept = monitor_memo
     fractions, deceleration, acceleration = brakes
+    pfl_limits, pfl_boxes, contact_dist, capped = pfl_truth
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
     ca, cb, ct0, ct1, c_radius, c_tool = contact_caps
@@ -801,7 +819,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         if math.isnan(m_end_speed[j, 0]) or math.isnan(m_end_speed[j, 1]):
                             m_fast[j] = np.nan  # (max would drop it; a NaN bound skips nothing)
                     near = False
-                    if fault == 0.0 and not by_speed:
+                    if fault == 0.0 and not (by_speed or capped):
                         # Eq. 12 reads only the closest clearance and the largest S over
                         # the pairs, and is monotonic in both (``speed_scale_eq12``): once
                         # the pairs seen give k = 0, more can only keep it there. First each
@@ -944,7 +962,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     if near:
                         k_override = 0.0  # a clearance below d_min, or below S_max
                     else:
-                        if fault == 0.0 and by_speed:  # else the robot stops whatever d, S
+                        if fault == 0.0 and (by_speed or capped):  # else the robot stops
                             for i in range(N):
                                 if usable(h_status[b, i]):  # (the override reads only these)
                                     segment = segment_of(h_ends[b], h_velocities[b], i)
@@ -954,12 +972,21 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                         m_radius, monitor)
                                     if nearest >= 0:
                                         hint[b, i] = nearest
-                                    segment_levels(segment, h_radius[b, i], z, m_ends,
-                                                   m_velocities, m_radius, monitor, level_t_sr,
-                                                   level_const, s_levels, i)
-                        if by_speed:
+                                    if by_speed:
+                                        segment_levels(segment, h_radius[b, i], z, m_ends,
+                                                       m_velocities, m_radius, monitor,
+                                                       level_t_sr, level_const, s_levels, i)
+                        if by_speed and capped:
+                            k_override = by_speed_command_caps(
+                                d, s_levels, h_status[b], fault, rate[b], delta_s, d_min,
+                                caps_now[b], included)[0]
+                        elif by_speed:
                             k_override = by_speed_command(d, s_levels, h_status[b], fault,
                                                           rate[b], delta_s, d_min, included)[0]
+                        elif capped:
+                            k_override = override_command_caps(d, s_row, h_status[b], fault,
+                                                               delta_s, d_min, caps_now[b],
+                                                               included)[0]
                         else:
                             k_override = override_command(d, s_row, h_status[b], fault,
                                                           delta_s, d_min, included)[0]
@@ -997,7 +1024,8 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                     if not (t >= enter[b, o] and t < leave[b, o]):
                         continue
                     # Below these a pair could lower a figure (or come inside S_true).
-                    contact_floor = min(min_sep[b], closest) if moving else -np.inf
+                    contact_floor = max(min(min_sep[b], closest), contact_dist[b]) \
+                        if moving else -np.inf
                     separation_floor = _separation_floor(sep_min[b], margin) if allowed \
                         else -np.inf
                     # Before its point: the operator's least kept bound less how far it can
@@ -1046,9 +1074,13 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                               truth_b[b], iso, iso_reduced)
                     for i in range(seg_r.size):
                         r_H = seg_r[i]
+                        # the separation invariant's part: SSM's (above the cap in force)
+                        seg_allowed = allowed and not (
+                            capped and not k_override > caps_now[b, op_first_segment[o] + i])
+                        seg_floor = separation_floor if seg_allowed else -np.inf
                         # the segment's least kept bound, less how far both have moved
                         lb = seg_kept[b, o, i] - shift
-                        if lb > contact_floor and lb - s_true_ub > separation_floor:
+                        if lb > contact_floor and lb - s_true_ub > seg_floor:
                             op_least = min(op_least, seg_kept[b, o, i])
                             continue  # can lower neither figure
                         # (the segment's midpoint and half length, for the spheres below)
@@ -1058,7 +1090,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         if bound_contact:
                             g0, g1, g2 = c_sphere[0] - y0, c_sphere[1] - y1, c_sphere[2] - y2
                             lb = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2) - c_sphere[3] - out
-                            if lb > contact_floor and lb - s_true_ub > separation_floor:
+                            if lb > contact_floor and lb - s_true_ub > seg_floor:
                                 lb += shift  # (kept for later ticks)
                                 if lb > seg_kept[b, o, i]:
                                     seg_kept[b, o, i] = lb
@@ -1074,14 +1106,14 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             # the pair's clearance when last bounded, less how far both
                             # have moved since
                             lb = kept[b, o, i, j] - shift
-                            if lb > contact_floor and lb - pair_ub[j] > separation_floor:
+                            if lb > contact_floor and lb - pair_ub[j] > seg_floor:
                                 least = min(least, kept[b, o, i, j])
                                 continue  # this pair can lower neither figure
                             if bound_contact:  # the pair, through spheres around both
                                 g0, g1, g2 = c_mid[j, 0] - y0, c_mid[j, 1] - y1, c_mid[j, 2] - y2
                                 apart = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
                                 lb = apart - c_reach[j] - out
-                                skip = lb > contact_floor and lb - pair_ub[j] > separation_floor
+                                skip = lb > contact_floor and lb - pair_ub[j] > seg_floor
                                 if lb > contact_floor and not skip:
                                     # S_true by the directed speeds' bounds in the cone of
                                     # directions between the axes (:func:`_speed_bounds`;
@@ -1092,7 +1124,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                         c_velocities[j, 1], c_end_speed[j, 1], 0)
                                     skip = lb - _s_bound(h_ub, r_ub, 0.0, mode, truth_t[b], t_r,
                                                          truth_b[b], iso, iso_reduced) \
-                                        > separation_floor
+                                        > seg_floor
                                 if skip:
                                     lb += shift  # (kept for later ticks)
                                     if lb > kept[b, o, i, j]:
@@ -1106,13 +1138,20 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             kept[b, o, i, j] = (sep - _MARGIN) + shift
                             least = min(least, kept[b, o, i, j])
                             closest = min(closest, sep)
-                            contact_floor = min(contact_floor, closest) if moving else -np.inf
-                            margin = min(margin, true_margin(
-                                sep, vh_true, vr_true, mode, stop_t, t_r, stop_b, iso,
-                                iso_reduced))
+                            contact_floor = max(min(contact_floor, closest),
+                                                contact_dist[b]) if moving else -np.inf
+                            if moving and sep < contact_dist[b]:  # permitted contact
+                                pc[b] = min(pc[b], contact_robustness(
+                                    pfl_limits[i], vr_true, pfl_boxes.shape[0] > 0 and clampable(
+                                        P, Q, r_H, pfl_boxes, CLAMP_GAP)))
+                            if seg_allowed:
+                                margin = min(margin, true_margin(
+                                    sep, vh_true, vr_true, mode, stop_t, t_r, stop_b, iso,
+                                    iso_reduced))
                             # Below this a later pair could still lower a figure.
                             separation_floor = _separation_floor(sep_min[b], margin) \
                                 if allowed else -np.inf
+                            seg_floor = separation_floor if seg_allowed else -np.inf
                         seg_kept[b, o, i] = least if not math.isnan(least) else -np.inf
                         op_least = min(op_least, seg_kept[b, o, i])
                     op_kept[b, o] = op_least
@@ -1233,6 +1272,19 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     min_sep = np.full(B, np.inf)
     sep_min = np.full(B, np.inf)
     sep_time = np.zeros(B)
+    # Power and force limiting (safety.mode: ssm_pfl): each monitor segment's cap, in
+    # force by the envelopes at the last update (none yet: 0, as a NaN envelope gives);
+    # the permitted contact property's terms (computed under either mode).
+    pfl = pfl_terms(scenarios[0].robot, cfg)
+    segments_per_operator = truth_segments[2].size
+    if M != c.K * segments_per_operator or pfl.limits.size != segments_per_operator:
+        raise ValueError("evaluate_batch: the monitor's segments are not the true ones")
+    capped = cfg.safety.mode == "ssm_pfl"
+    segment_caps = np.tile(pfl.caps, c.K)
+    caps_now = np.zeros((B, M))
+    pfl_truth = (np.ascontiguousarray(pfl.limits), np.ascontiguousarray(pfl.boxes),
+                 np.array([sc.contact_distance for sc in scenarios], dtype=float), capped)
+    pc = np.full(B, np.inf)
     last = int(c.ticks.max())
     k, j = 0, 0
     while k <= last:
@@ -1249,7 +1301,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
                  c.end,
                  c.brake_scale,
                  brakes, s, rate, ends_prev, s_last, memo, hint, trig, min_sep, sep_min,
-                 sep_time, robot_arrays, work, sizes)
+                 sep_time, robot_arrays, work, sizes, caps_now, pfl_truth, pc)
         k = stop
         if k > last:
             break
@@ -1261,9 +1313,19 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         _segment_travel(h_ends, h_radius, prev_ends, prev_radius, monitor_memo[1],
                         monitor_memo[0], monitor_memo[3])
         _operator_spheres(h_ends, h_axes, h_radius, h_std, recipe.operator, op_spheres)
+        if capped:
+            _caps_in_force(h_ends, h_radius, segment_caps, pfl.boxes, pfl.reach, caps_now)
         j += 1
-    return BatchResult(min_sep - np.array([sc.contact_distance for sc in scenarios]), min_sep,
-                       sep_min, sep_time)
+    robustness = min_sep - pfl_truth[2]
+    return BatchResult(robustness, min_sep, sep_min, sep_time,
+                       np.where(pc < np.inf, pc, robustness))
+
+
+@numba.njit(cache=True)
+def _caps_in_force(h_ends, h_radius, caps, boxes, reach, out):
+    """``pfl.speed_caps.clamp_caps`` of every scenario's envelopes (B, M, 2, 3)."""
+    for b in range(h_ends.shape[0]):
+        clamp_caps(h_ends[b], h_radius[b], caps, boxes, reach, out[b])
 
 
 def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
@@ -1322,7 +1384,7 @@ def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> Batch
     evaluated in the robot mode it asks for and with the motion it gives."""
     from verification.search.evaluate_drake import evaluate_drake
 
-    out = np.zeros((4, len(scenarios)))
+    out = np.zeros((len(dataclasses.fields(BatchResult)), len(scenarios)))
     groups: dict[tuple, list[int]] = {}
     memo: dict = {}
     for i, s in enumerate(scenarios):

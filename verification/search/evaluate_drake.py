@@ -4,22 +4,26 @@ import gc
 
 import numpy as np
 
+from safety_systems.config.configuration import pfl_terms
 from safety_systems.outputs.metrics import (
     command_signal,
     commanded,
     robot_contact_state,
     robot_speed,
+    run_true_segments,
     true_pairs,
     true_protective_distances,
     true_rate,
 )
 from safety_systems.config.scenario import Scenario
-from safety_systems.ssm.true_measures import permitted
+from safety_systems.pfl.speed_caps import clampable_segments
+from safety_systems.ssm.true_measures import permitted, ssm_permitted
 from safety_systems.diagrams.simulation import Run, simulate_workcell
 from safety_systems.diagrams.workcell import MakeWorkcell
 from verification.properties import (
     PROPERTIES,
     Robustness,
+    permitted_contact,
     separation_invariant,
     stopped_before_contact,
 )
@@ -29,17 +33,36 @@ LOGGED = ("q", "v", "operators.points_true", "operators.point_velocities_true",
 
 
 def robustness_of_run(run: Run) -> Robustness:
-    """Both properties from a run's logs."""
+    """Every property from a run's logs (``properties``; under ``safety.mode: ssm_pfl``
+    the separation invariant over the ticks each segment's cap in force, logged as
+    ``override.segment_caps``, is exceeded)."""
     scenario = run.scenario
     speed = robot_speed(robot_contact_state(run)[1])
     clearance, v_h, v_r = true_pairs(run)
     dt = 1.0 / scenario.robot.control_rate_hz
     rho = stopped_before_contact(clearance.min(axis=-1), speed, scenario.contact_distance)
+    allowed = permitted(commanded(run))
+    if _capped(scenario):
+        allowed = ssm_permitted(commanded(run), run[CAPS_SIGNAL])
     separation, time = separation_invariant(
-        clearance, true_protective_distances(scenario, v_h, v_r, true_rate(run)),
-        permitted(commanded(run)),
-        dt)
-    return Robustness(rho, rho + scenario.contact_distance, separation, time)
+        clearance, true_protective_distances(scenario, v_h, v_r, true_rate(run)), allowed, dt)
+    pfl = pfl_terms(scenario.robot, scenario.controller)
+    m = clearance.shape[1]
+    limits = np.tile(pfl.limits, m // pfl.limits.size) if m else np.zeros(0)
+    ends, _, radius, _ = run_true_segments(run)
+    clamped = clampable_segments(ends, radius, pfl.boxes)
+    contact = permitted_contact(clearance, v_r, speed, limits, clamped,
+                                scenario.contact_distance)
+    return Robustness(rho, rho + scenario.contact_distance, separation, time, contact)
+
+
+CAPS_SIGNAL = "override.segment_caps"
+
+
+def _capped(scenario: Scenario) -> bool:
+    """Whether the scenario's SpeedOverride runs with power and force limiting's caps."""
+    c = scenario.controller
+    return c.type == "ssm_override" and c.safety.mode == "ssm_pfl"
 
 
 def evaluate_drake(scenario: Scenario, *, stop_on: str | None = None,
@@ -70,7 +93,8 @@ def collect_diagram_garbage() -> None:
 
 def _evaluate(scenario: Scenario, stop_on: str | None, margin: float
               ) -> tuple[Robustness, Run]:
-    logged = LOGGED + (command_signal(scenario.controller.type),)
+    logged = LOGGED + (command_signal(scenario.controller.type),) + (
+        (CAPS_SIGNAL,) if _capped(scenario) else ())
     until = None
     if stop_on is not None:
         field = PROPERTIES[stop_on]

@@ -26,15 +26,16 @@ from verification.search.counts import Tally
 from verification.search.evaluate_batch import evaluate_many
 
 FIELDS = ("robustness", "min_separation_while_moving", "separation",
-          "separation_violation_time")
+          "separation_violation_time", "permitted_contact")
 # Changes whenever FIELDS or what they measure change, so that a resumed run never
 # reads figures of another kind from an older evaluations.jsonl.
-FIGURES_VERSION = "2: contact, min separation, separation invariant, its violation time"
+FIGURES_VERSION = ("3: contact, min separation, separation invariant (SSM's part), its "
+                   "violation time, permitted contact")
 SCHEDULER_TIMEOUT = 5.0  # s to reach a Dask scheduler before giving up
 
 
 def _evaluate_chunk(scenarios: list[Scenario]) -> np.ndarray:
-    """(4, B) figures of a chunk (runs in a worker)."""
+    """(len(FIELDS), B) figures of a chunk (runs in a worker)."""
     r = evaluate_many(scenarios)
     return np.stack([getattr(r, f) for f in FIELDS])
 

@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from safety_systems.config.scenario import SensorFault, load_controller_config
+from safety_systems.config.scenario import Box, SensorFault, load_controller_config
 from verification.search.evaluate_batch import evaluate_batch, evaluate_many
 from verification.search.evaluate_drake import evaluate_drake
 from verification.spaces.box import Range
@@ -23,9 +23,10 @@ WIDE = dataclasses.replace(SPACE, parameters=dataclasses.replace(
 
 
 def _assert_agree(drake, batch, i):
-    """Both properties' figures of scenario i: the Drake run's and the batch's."""
+    """Every property's figures of scenario i: the Drake run's and the batch's."""
     for name, field in (("stopped_before_contact", "robustness"),
-                        ("separation", "separation")):
+                        ("separation", "separation"),
+                        ("permitted_contact", "permitted_contact")):
         ours, theirs = getattr(batch, field)[i], getattr(drake, name)
         if np.isinf(theirs):  # never moving (permitted) near a body
             assert ours == theirs, name
@@ -63,6 +64,38 @@ def test_batch_agrees_with_drake_on_random_scenarios(config):
     batch = evaluate_many(scenarios)
     assert np.isfinite(batch.robustness).any()  # the robot moved near someone
     assert np.isfinite(batch.separation).any()  # motion permitted near someone
+    for i, scenario in enumerate(scenarios):
+        drake, _ = evaluate_drake(scenario)
+        _assert_agree(drake, batch, i)
+
+
+TABLE = Box([-1.5, -1.5, -0.8], [1.5, 1.5, -0.3])  # a bench below the robot: the trunk
+# (its lower end) can be pressed against it, the hands reaching up cannot
+
+
+@pytest.mark.parametrize("config,contact", [
+    (_config("seed_estimated", mode="ssm_pfl", robot_geometry="capsules"), True),
+    (_config("seed_estimated", mode="ssm_pfl", robot_geometry="capsules", stopping="by_speed",
+             pfl_speed=0.3, fixed_surfaces=[TABLE], clamp_margin=0.1), False),
+    (_config("iso", mode="ssm_pfl", stopping="by_speed", robot_speed="fastest_point",
+             payload_mass=5.0), False),
+], ids=["seed_pfl", "seed_by_speed_pfl_table", "iso_by_speed_pfl"])
+def test_batch_agrees_with_drake_under_power_and_force_limiting(config, contact):
+    # Slow reaches with the right hand (posture 0), over the target (1) and elbow pushes
+    # (2) at the robot's links from near: under the seed's estimated speeds the robot runs
+    # on near them, and touches them at the caps (or above, where it had not slowed).
+    rng = np.random.default_rng(20261132)
+    d = len(free_parameters(SPACE))
+    scenarios = []
+    for i in range(4):
+        point = dict(to_point(SPACE, rng.uniform(size=d)),
+                     posture=float(rng.choice([0, 1, 2])), peak_speed=rng.uniform(0.3, 1.0),
+                     start_distance=rng.uniform(0.5, 1.5), operators=1.0)
+        scenarios.append(make_scenario(SPACE, config, point, name=f"s{i}"))
+    batch = evaluate_many(scenarios)
+    assert np.isfinite(batch.robustness).any()  # the robot moved near someone
+    if contact:
+        assert np.any(batch.robustness < 0.0)  # and touched them while it moved
     for i, scenario in enumerate(scenarios):
         drake, _ = evaluate_drake(scenario)
         _assert_agree(drake, batch, i)
