@@ -1,8 +1,10 @@
 """How much time ``safety-systems tune`` wins back from iso.yaml, still proved, in one run.
 
     python benchmarks/bench_tune.py [--budget 100] [--candidates 24] [--workers N] [--out DIR]
+                                    [--tune models/tune/ssm_pfl.yaml]
 
-Tunes ``models/configs/iso.yaml`` over ``models/tune/ssm.yaml``'s parameters on the
+Tunes ``models/configs/iso.yaml`` over ``models/tune/ssm.yaml``'s parameters (or
+``--tune``'s: ``ssm_pfl.yaml`` lets it choose power and force limiting) on the
 default space and the seed's two task scenarios (inspection, co-kitting), and prints,
 beside the goal (at least 30% less time lost to stops and slow-downs than iso.yaml, the
 verdict still proved):
@@ -104,11 +106,14 @@ def main() -> int:
                         help="keep the tune run's folder here (default: a temporary one)")
     parser.add_argument("--json", type=Path, default=None,
                         help="also write the figures printed to this JSON file")
+    parser.add_argument("--tune", type=Path, default=ROOT / "models" / "tune" / "ssm.yaml",
+                        help="the tunable parameters (default: models/tune/ssm.yaml; "
+                             "models/tune/ssm_pfl.yaml adds power and force limiting)")
     args = parser.parse_args()
     figures: dict = {"budget": args.budget, "candidates": args.candidates,
                      "workers": args.workers}
-    config, block = load_tunable(ROOT / "models" / "configs" / "iso.yaml",
-                                 ROOT / "models" / "tune" / "ssm.yaml")
+    config, block = load_tunable(ROOT / "models" / "configs" / "iso.yaml", args.tune)
+    figures["tune"] = str(args.tune.resolve().relative_to(ROOT))
     space_path = ROOT / "models" / "spaces" / "default.yaml"
     space = load_space(space_path)
     tasks = [load_scenario(p) for p in TASKS]

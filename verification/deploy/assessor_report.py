@@ -188,6 +188,11 @@ def _configuration(certificate: dict, params: Params) -> str:
     return _table(["parameter", "value", "unit", "term", "standard", "meaning"], rows) + note
 
 
+def _mode(params) -> str:
+    """The deployed configuration's ``safety.mode``."""
+    return params.controller.safety.mode
+
+
 def _properties(certificate: dict) -> str:
     out = []
     for name, p in certificate["properties"].items():
@@ -288,7 +293,9 @@ def assessor_html(certificate: dict, params: Params, space: ScenarioSpace,
         f'<meta http-equiv="Content-Security-Policy" content="{CSP}">',
         "<title>Safety parameters: assessment report</title>",
         f"<style>{STYLE}</style></head><body>",
-        "<h1>Speed and separation monitoring: parameters for deployment</h1>",
+        "<h1>Speed and separation monitoring"
+        + (" with power and force limiting" if _mode(params) == "ssm_pfl" else "")
+        + ": parameters for deployment</h1>",
         f'<p><span class="verdict {_e(verdict)}">{_e(verdict.upper())}</span> '
         f"{_e(certificate['verdict_meaning'])}.</p>",
         f"<p>Safety checksum: <span class=\"checksum\">{_e(certificate['checksum_short'])}"

@@ -91,6 +91,20 @@ TERMS = {
                        "speed beyond ΔS·S, a stop below S"),
     "safety.d_min": ("d_min", "seed 000 Eq. 12 (not an ISO term)", "a stop whenever a body "
                      "is nearer than this"),
+    "safety.mode": ("SSM / SSM + PFL", "ISO/TS 15066:2016, 5.5.4 (SSM) and 5.5.5 (PFL)",
+                    "ssm: no contact while the robot moves; ssm_pfl: near the arms, hands and "
+                    "trunk the robot may run at a speed whose contact stays within Annex A's "
+                    "limits (head, face and neck: SSM)"),
+    "safety.pfl_speed": ("v_PFL", "project (ISO/TS 15066 Annex A's permissible relative "
+                         "speed caps it per body region)", "the robot's speed cap near an "
+                         "operator under ssm_pfl (none: each region's own limit)"),
+    "safety.payload_mass": ("m_L", "ISO/TS 15066 Annex A, Eq. A.4", "the effective payload "
+                            "(tool and workpiece) in the robot's effective mass"),
+    "safety.fixed_surfaces": ("-", "ISO/TS 15066, 5.5.5 (clamping, quasi-static contact)",
+                              "the cell's objects a body region could be pressed against: "
+                              "near them the region keeps pure SSM"),
+    "safety.clamp_margin": ("-", "project", "how far beyond the 0.05 m clamping gap a "
+                            "segment's envelope loses its PFL cap"),
     "braking": ("T_s, S_s by speed", "ISO 10218-1 (stopping time and distance data)",
                 "the robot's stopping data by speed fraction, as measured on the cell"),
     "alteration": ("-", "seed 004 (not used by ssm_override)", "speed alteration settings"),

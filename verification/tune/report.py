@@ -6,7 +6,8 @@ from pathlib import Path
 from safety_systems.files.output_files import write_json, write_text
 
 VACUOUS_WORDS = {"contact": "the robot never moved while a body was present",
-                 "separation": "the robot was never let move while a body was present"}
+                 "separation": "the robot was never let move while a body was present",
+                 "permitted_contact": "the robot never moved while a body was present"}
 
 
 def _s(x: float | None) -> str:
@@ -49,15 +50,17 @@ def _comparison(result: dict) -> list[str]:
 def _vacuous(result: dict) -> list[str]:
     lines = ["## Vacuous share of the verification", "",
              "The share of the evaluated scenarios of the space in which the robot never "
-             "moved (contact) or was never let move (separation) while a body was present: "
-             "those scenarios test nothing. A configuration that is safe because it never "
-             "moves is not productive, and a proof over a mostly vacuous box says little.",
+             "moved (contact; permitted contact under safety.mode ssm_pfl) or was never let "
+             "move (separation) while a body was present: those scenarios test nothing. A "
+             "configuration that is safe because it never moves is not productive, and a "
+             "proof over a mostly vacuous box says little.",
              "", "| configuration | contact | separation |", "|---|---|---|"]
     warnings = []
     for row in result["table"]:
         v = row["vacuous"]
         lines.append(f"| {row['configuration']} | " + " | ".join(
-            _share(v[name]) if name in v else "-" for name in ("contact", "separation"))
+            _share(v[name]) if name in v else _share(v[other]) if other in v else "-"
+            for name, other in (("contact", "permitted_contact"), ("separation", "")))
             + " |")
         for name, share in v.items():
             if share["share"] is not None and share["share"] > 0.5:

@@ -54,8 +54,8 @@ from safety_systems.config.scenario import (
 )
 from safety_systems.ssm.formulas import monitor_protective_distances
 from safety_systems.config.configuration import frame_timeout, level_stops
-from verification.proof.theorems import prove, prove_separation
-from verification.search.runner import FIELDS, Runner
+from verification.properties import mode_properties
+from verification.search.runner import Runner
 from verification.search.strategies import sweep_points
 from verification.spaces.box import ScenarioSpace
 from verification.tune.tasks import TaskRun, lost_time, run_task, total
@@ -67,8 +67,22 @@ REFERENCES = {"iso.yaml": MODELS / "configs" / "iso.yaml",
 TASKS = (MODELS / "scenarios" / "inspection.yaml", MODELS / "scenarios" / "co_kitting.yaml")
 ALLOW = ("proved", "passed")
 SCREEN = 16  # screened points per simulated candidate
-PROPERTY_COLUMNS = {"contact": FIELDS.index("robustness"),
-                    "separation": FIELDS.index("separation")}
+
+
+def property_columns(config: ControllerConfig) -> dict:
+    """The properties a configuration is verified for (its ``safety.mode``'s:
+    ``properties.mode_properties``) and the runner's column of each."""
+    from verification.verify import column
+
+    return {name: column(name) for name in mode_properties(config.safety.mode)}
+
+
+def proofs_of(config: ControllerConfig, space: ScenarioSpace) -> dict:
+    """The proof of each property ``config`` is verified for (``verify.PROVERS``)."""
+    from verification.verify import PROVERS
+
+    return {name: PROVERS[name](config, space) for name in mode_properties(
+        config.safety.mode)}
 
 
 @dataclasses.dataclass
@@ -217,18 +231,18 @@ class Tuner:
         figures = runner.evaluate(scenarios)
         self.counts["counterexample_replays"] += len(jobs)
         for (c, k), row in zip(jobs, figures):
-            bad = [name for name, j in PROPERTY_COLUMNS.items() if row[j] < 0.0]
+            columns = property_columns(c.config)
+            bad = [name for name, j in columns.items() if row[j] < 0.0]
             if bad and c.status == "screened":
                 c.status = "counterexample"
-                c.reason = (f"violates {bad[0]} ({row[PROPERTY_COLUMNS[bad[0]]]:.4f} m) in "
+                c.reason = (f"violates {bad[0]} ({row[columns[bad[0]]]:.4f}) in "
                             f"{k.file}, kept from {k.found_for}")
         for c in candidates:
             c.checked = len(self.kept)
 
     def prove(self, c: Candidate) -> None:
-        proofs = {"contact": prove(c.config, self.space),
-                  "separation": prove_separation(c.config, self.space)}
-        self.counts["proofs"] += 2
+        proofs = proofs_of(c.config, self.space)
+        self.counts["proofs"] += len(proofs)
         c.proved = {name: p.proved for name, p in proofs.items()}
         if self.allow == "proved" and not all(c.proved.values()):
             name, p = next((n, p) for n, p in proofs.items() if not p.proved)
@@ -290,8 +304,8 @@ class Tuner:
                 config = self.build(trial)
             except InputError:
                 return None
-            self.counts["proofs"] += 2
-            proofs = (prove(config, self.space), prove_separation(config, self.space))
+            proofs = list(proofs_of(config, self.space).values())
+            self.counts["proofs"] += len(proofs)
             return (all(x.proved for x in proofs), round(proxy_distance(config, self.model), 12),
                     min(x.margin_at_worst_corner for x in proofs))
 
@@ -343,7 +357,7 @@ class Tuner:
         if not key[0] < round(c.proxy, 12):
             return None
         out = Candidate(index, values, self.build(values))
-        out.proved = {"contact": True, "separation": True}
+        out.proved = {name: True for name in mode_properties(out.config.safety.mode)}
         out.proxy = proxy_distance(out.config, self.model)
         out.full_speed = full_speed_distance(out.config, self.model)
         return out

@@ -1,0 +1,57 @@
+"""tune can choose power and force limiting (safety.mode ssm_pfl) and its speed cap, and
+export, check and the certificate carry them (issue 36)."""
+
+import json
+from pathlib import Path
+
+import yaml
+
+from tests.verification.conftest import MODELS, SMALL_SPACE, TUNE_BLOCK, run_cli
+
+PFL_BLOCK = TUNE_BLOCK + """\
+- {name: safety.mode, choices: [ssm_pfl]}
+- {name: safety.pfl_speed, min: 0.2, max: 1.0}
+"""
+
+
+def test_a_power_and_force_limiting_configuration_is_tuned_exported_and_checked(tmp_path):
+    (tmp_path / "tune.yaml").write_text(PFL_BLOCK)
+    task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
+    task["duration"], task["robot"]["cycles"] = 25.0, 3
+    (tmp_path / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
+    code, _, err = run_cli(["tune", MODELS / "configs" / "iso.yaml", "--tune",
+                            tmp_path / "tune.yaml", "--space", SMALL_SPACE, "--tasks",
+                            tmp_path / "task.yaml", "--out", tmp_path / "tune", "--budget",
+                            "6", "--candidates", "3", "--screen", "4", "--workers", "1",
+                            "--quiet"])
+    assert code == 0, err
+    result = json.loads((tmp_path / "tune" / "tune.json").read_text())
+    chosen = result["chosen"]
+    assert chosen["values"]["safety.mode"] == "ssm_pfl"
+    assert 0.2 <= chosen["values"]["safety.pfl_speed"] <= 1.0
+    report = json.loads(Path(chosen["report"]).read_text())
+    # verified for the mode's two properties, each proved with its premises listed
+    assert report["safety_mode"] == "ssm_pfl"
+    assert sorted(report["properties"]) == ["permitted_contact", "separation"]
+    assert report["verdict"] == "proved"
+    premises = report["properties"]["permitted_contact"]["proof"]["premises"]
+    assert any("c_i V_R <= v_i" in p["statement"] and p["holds"] for p in premises)
+    assert "speed and separation monitoring's part only" in \
+        report["properties"]["separation"]["property"]
+    code, _, err = run_cli(["export", chosen["config"], "--report", chosen["report"], "--tune",
+                            tmp_path / "tune" / "tune.json", "--out", tmp_path / "export",
+                            "--quiet"])
+    assert code == 0, err
+    exported = (tmp_path / "export" / "params.yaml").read_text()
+    assert 'controller.safety.mode: "ssm_pfl"' in exported
+    assert "controller.safety.pfl_speed: " in exported
+    page = (tmp_path / "export" / "report.html").read_text()
+    assert "with power and force limiting" in page and "Annex A" in page
+    code, _, err = run_cli(["check", tmp_path / "export" / "params.yaml"])
+    assert code == 0, err
+    # a mode edited in the exported file is another controller than the certified one
+    params = tmp_path / "export" / "params.yaml"
+    params.write_text(exported.replace('controller.safety.mode: "ssm_pfl"',
+                                       'controller.safety.mode: "ssm"'))
+    code, _, err = run_cli(["check", params])
+    assert code != 0
