@@ -40,7 +40,7 @@ from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.outputs.metrics import stop_reasons, true_separations
 from safety_systems.outputs.operator_figures import operator_figures
 from safety_systems.sensing.stops import STOP_SEPARATION
-from safety_systems.config.scenario import load_controller_config, load_scenario
+from safety_systems.config.scenario import Body, load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
 from verification.spaces.space import load_space
 from verification.tune.report import write_tune
@@ -49,6 +49,7 @@ from verification.tune.tunable import load_tunable, with_values
 
 ROOT = Path(__file__).parents[1]
 GOAL = 0.30  # less time lost than iso.yaml
+GOAL_PFL = 0.50  # with power and force limiting among the choices (issue 36)
 # The figure before every operator was 12 segments (three balls: two gloves and a head;
 # this benchmark at commit 9273221, budget 100, 24 candidates, one worker).
 THREE_BALL_FIGURE = 0.304
@@ -75,8 +76,10 @@ def exposure(task, distances: list[float]) -> list[float]:
 def held_on(task, config) -> tuple[float, dict[str, float], float]:
     """The chosen configuration on a task: the seconds the override held the robot on a
     separation stop, those seconds by the segment nearest in the monitor's measure (an
-    envelope where the segment's points are untracked), and the median true clearance of
-    the nearest true segment at those ticks."""
+    envelope where the segment's points are untracked; under safety.mode ssm_pfl the
+    nearest of those whose power and force limiting cap in force is 0, the head, the neck
+    or a clamped one: a capped segment cannot stop the robot), and the median true
+    clearance of the nearest true segment at those ticks."""
     run = simulate(with_controller(task, config))
     dt = np.diff(run.time, append=run.time[-1])
     held = stop_reasons(run) == STOP_SEPARATION
@@ -89,12 +92,54 @@ def held_on(task, config) -> tuple[float, dict[str, float], float]:
         nearest_measured = np.where(closer, op["d_measured"], nearest_measured)
         nearest_name = np.where(closer, op["nearest_measured"], nearest_name)
         true_least = np.fmin(true_least, op["d_true"])
+    if config.safety.mode == "ssm_pfl":  # the nearest uncapped segment
+        d = np.where(run["override.segment_caps"] > 0.0, np.inf, run["monitor.distances"])
+        d = np.where(np.isnan(d), np.inf, d)
+        nearest_name = np.where(np.isfinite(d.min(axis=1)),
+                                np.argmin(d, axis=1) % len(SEGMENT_NAMES), -1.0)
     for k in np.flatnonzero(held):
         name = SEGMENT_NAMES[int(nearest_name[k])] if nearest_name[k] >= 0 else "none"
         by_segment[name] = by_segment.get(name, 0.0) + float(dt[k])
     true_held = true_least[held & np.isfinite(true_least)]
     return (float(np.sum(dt[held])), by_segment,
             float(np.median(true_held)) if true_held.size else float("nan"))
+
+
+def task_scenarios(helmet: bool) -> list:
+    """The seed's two tasks; with ``helmet``, every operator also wears a tracked helmet
+    on its head, 0.45 m above the gloves' midpoint and 0.30 m behind it along x (the
+    tasks' operators reach towards the robot along -x: where the body model puts the head
+    of an operator seen by gloves alone), as the default space's operators do (heads: 1).
+    The seed tracked gloves only; from gloves alone the monitor must place the head
+    anywhere it can be, next to the hands."""
+    tasks = [load_scenario(p) for p in TASKS]
+    if helmet:
+        for task in tasks:
+            for o in task.operators:
+                gloves = np.mean([b.offset for b in o.bodies], axis=0)
+                o.bodies.append(Body(name=f"{o.name}_helmet", point="head", offset=[
+                    float(gloves[0]) + 0.30, float(gloves[1]), float(gloves[2]) + 0.45]))
+    return tasks
+
+
+def _tune(config, block, space_path: Path, args, out: Path | None) -> tuple[dict, float]:
+    """One tune run of ``config`` over ``block`` (its result and wall seconds); its folder
+    kept in ``out`` when given."""
+    space = load_space(space_path)
+    tasks = task_scenarios(args.helmet)
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = out or scratch
+        if out:
+            out.mkdir(parents=True, exist_ok=True)
+        start = time.perf_counter()
+        tuner = Tuner(config, block, space, tasks, Path(folder), space_path=str(space_path),
+                      budget=args.budget, candidates=args.candidates, workers=args.workers,
+                      say=lambda line: print("  " + line, flush=True))
+        result = tuner.run()
+        wall = time.perf_counter() - start
+        if out:
+            write_tune(result, out)
+    return result, wall
 
 
 def main() -> int:
@@ -109,26 +154,30 @@ def main() -> int:
     parser.add_argument("--tune", type=Path, default=ROOT / "models" / "tune" / "ssm.yaml",
                         help="the tunable parameters (default: models/tune/ssm.yaml; "
                              "models/tune/ssm_pfl.yaml adds power and force limiting)")
+    parser.add_argument("--helmet", action="store_true",
+                        help="every task operator also wears a tracked helmet (the seed "
+                             "tracked gloves only; the default space's operators wear one)")
     args = parser.parse_args()
+    figures_helmet = args.helmet
     figures: dict = {"budget": args.budget, "candidates": args.candidates,
                      "workers": args.workers}
     config, block = load_tunable(ROOT / "models" / "configs" / "iso.yaml", args.tune)
     figures["tune"] = str(args.tune.resolve().relative_to(ROOT))
+    figures["helmet"] = figures_helmet
+    pfl = any(p.name == "safety.mode" and "ssm_pfl" in p.choices for p in block)
+    goal = GOAL_PFL if pfl else GOAL
     space_path = ROOT / "models" / "spaces" / "default.yaml"
-    space = load_space(space_path)
-    tasks = [load_scenario(p) for p in TASKS]
-    with tempfile.TemporaryDirectory() as scratch:
-        folder = args.out or scratch
-        if args.out:
-            args.out.mkdir(parents=True, exist_ok=True)
-        start = time.perf_counter()
-        tuner = Tuner(config, block, space, tasks, Path(folder), space_path=str(space_path),
-                      budget=args.budget, candidates=args.candidates, workers=args.workers,
-                      say=lambda line: print("  " + line, flush=True))
-        result = tuner.run()
-        wall = time.perf_counter() - start
-        if args.out:
-            write_tune(result, args.out)
+    result, wall = _tune(config, block, space_path, args, args.out)
+    beside = None
+    if pfl:  # the SSM-only tuned figure, from this run too
+        ssm_config, ssm_block = load_tunable(ROOT / "models" / "configs" / "iso.yaml",
+                                             ROOT / "models" / "tune" / "ssm.yaml")
+        print("\n(and the SSM-only tune, models/tune/ssm.yaml, beside it)")
+        beside, beside_wall = _tune(ssm_config, ssm_block, space_path, args, None)
+        figures["ssm_only"] = {"reduction": beside["lost_time_reduction_vs_iso"],
+                               "chosen": beside["chosen"] and beside["chosen"]["verdict"],
+                               "wall": beside_wall}
+    tasks = task_scenarios(args.helmet)
     print(f"\n1. lost time against iso.yaml (default space, budget {args.budget}, "
           f"{args.candidates} candidates)")
     for row in result["table"]:
@@ -147,12 +196,19 @@ def main() -> int:
         chosen=chosen and {"verdict": chosen["verdict"], "values": chosen["values"],
                            "changed": chosen["changed"]})
     verdict = chosen["verdict"] if chosen else "none"
-    met = reduction is not None and reduction >= GOAL and verdict == "proved"
+    met = reduction is not None and reduction >= goal and verdict == "proved"
     if chosen:
         print("   chosen: " + ", ".join(f"{k} = {v}" for k, v in chosen["changed"].items()))
     print(f"   figure: {100.0 * (reduction or 0.0):.1f}% less lost time than iso.yaml, "
-          f"verdict {verdict}  (goal: >= {100.0 * GOAL:.0f}%, proved)  -> "
+          f"verdict {verdict}  (goal: >= {100.0 * goal:.0f}%, proved)  -> "
           f"{'MET' if met else 'NOT MET'}")
+    figures["goal"], figures["met"] = goal, met
+    if beside is not None:
+        other = beside["lost_time_reduction_vs_iso"]
+        print(f"   beside the SSM-only tune's {100.0 * (other or 0.0):.1f}% (verdict "
+              f"{beside['chosen']['verdict'] if beside['chosen'] else 'none'}): power and "
+              f"force limiting adds {100.0 * ((reduction or 0.0) - (other or 0.0)):+.1f} "
+              "points")
     if reduction is not None:
         print(f"   beside the three-ball operator's {100.0 * THREE_BALL_FIGURE:.1f}%: "
               f"{100.0 * (reduction - THREE_BALL_FIGURE):+.1f} points (from gloves alone the "

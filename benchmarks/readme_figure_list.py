@@ -169,6 +169,8 @@ TUNE, TEXT = "bench_tune", r"(?P<v>[a-z_]+)"
 # The benchmarks ``run --only NAME`` runs (argv after the interpreter; ``--json`` added).
 BENCHES = {
     "bench_tune": ["benchmarks/bench_tune.py", "--workers", "1"],
+    "bench_tune_pfl": ["benchmarks/bench_tune.py", "--tune", "models/tune/ssm_pfl.yaml",
+                       "--helmet", "--workers", "2"],
     "bench_verify": ["benchmarks/bench_verify.py"],
     "bench_simulate": ["benchmarks/bench_simulate.py"],
     "bench_runtime": ["benchmarks/bench_runtime.py"],
@@ -238,6 +240,13 @@ def _speed_figures() -> tuple:
                bench(VERIFY, "proof/proof_alone_wall"), TIME_NOISE),
         Figure("speed_tune_reduction", r"`bench_tune.py`: " + NUM + "% less time lost",
                bench(TUNE, "reduction"), scale=100.0),
+        Figure("pfl_tune_reduction", r"with power and force limiting among its choices, "
+               + NUM + "% less time lost", bench("bench_tune_pfl", "reduction"), scale=100.0),
+        Figure("pfl_tune_ssm_only", r"the SSM-only tune of the same run: " + NUM + "%",
+               bench("bench_tune_pfl", "ssm_only/reduction"), scale=100.0),
+        Figure("pfl_tune_goal", r"\(goal 50%: " + TEXT + r"\)",
+               _source(lambda data: "met" if data["bench_tune_pfl"]["met"] else "missed",
+                       ("bench", "bench_tune_pfl")), "text"),
         Figure("speed_runtime_policy", r"20 s\), scheduled `" + TEXT + "`",
                bench(RUNTIME, "scheduling/policy"), "text"),
         Figure("speed_load", r"nothing else running \(the one-minute load " + NUM + " when",

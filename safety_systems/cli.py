@@ -217,8 +217,10 @@ def _verify(args: argparse.Namespace) -> int:
         for name, p in report["properties"].items():
             first = p["simulations_to_first_counterexample"]
             vacuous = p["vacuous"]["evaluated"]["share"]
-            print(f"{name}: {p['verdict']}: the search's min robustness "
-                  f"{metres(p['min_robustness'])}"
+            figure = metres(p["min_robustness"])
+            if name == "permitted_contact" and figure.endswith(" m"):
+                figure = figure[:-2] + " (m/s at a contact; without one, m of clearance)"
+            print(f"{name}: {p['verdict']}: the search's min robustness {figure}"
                   + (f", {first_words(first)}" if first else "")
                   + (f", {100.0 * vacuous:.0f}% vacuous" if vacuous is not None else "")
                   + (f"; needs {p['proof']['needed_allowance']:.3f} m more Z_d + Z_r"

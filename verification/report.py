@@ -247,6 +247,13 @@ def _share(v: dict) -> str:
 
 
 def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
+    lines = _property_lines(name, p, robot_mode)
+    if name == "permitted_contact":  # its figure is m/s at a contact, m without one
+        lines = [x.replace("robustness [m]", "robustness [m/s, or m]") for x in lines]
+    return lines
+
+
+def _property_lines(name: str, p: dict, robot_mode: str) -> list:
     v = p["vacuous"]
     lines = [f"## {name}: {p['verdict'].upper()}", "", f"- property: {p['property']}",
              f"- smallest robustness the search found: {metres(p['min_robustness'])} (the "
