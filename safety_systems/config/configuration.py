@@ -37,6 +37,7 @@ from safety_systems.config.scenario import (  # noqa: F401 (robot_model_of: its 
     robot_model_of,
 )
 from safety_systems.cell.path_speed import path_speed_bound
+from safety_systems.files.input_error import InputError
 from safety_systems.pfl.robot_masses import effective_mass
 from safety_systems.pfl.segment_regions import permitted_speeds
 from safety_systems.pfl.speed_caps import CLAMP_GAP, segment_caps, surface_boxes
@@ -366,6 +367,11 @@ def pfl_terms(robot: RobotConfig, config: ControllerConfig) -> PflTerms:
     limits = permitted_speeds(m_r)
     caps, bound = np.zeros(limits.shape), float("nan")
     if f.mode == "ssm_pfl":
+        if not m_r > 0.0:  # no inertials and no payload: Annex A's speeds are unbounded
+            raise InputError("controller.safety.mode", f.mode, "ssm only for a robot whose "
+                             f"description gives no link masses ({model.name}: its moving "
+                             "mass is 0 kg, and no payload_mass): ssm_pfl needs the robot's "
+                             "effective mass (ISO/TS 15066 Eq. A.4)")
         bound = _speed_bound(robot, config)
         caps = segment_caps(limits, f.pfl_speed, bound)
     for x in (caps, limits):

@@ -141,3 +141,23 @@ def test_the_contact_figure():
     assert contact_robustness(1.2, 1.5, False) < 0.0
     assert contact_robustness(0.0, 0.0, False) == -np.inf  # head, neck: whatever the speed
     assert contact_robustness(1.2, 0.1, True) == -np.inf  # clampable
+
+
+def test_power_and_force_limiting_needs_the_robots_mass(monkeypatch):
+    """A description without link masses (and no payload) gives no effective mass, so no
+    permissible speed: ssm_pfl is refused (one line), ssm is not."""
+    import dataclasses
+
+    import pytest
+
+    import safety_systems.config.configuration as configuration
+    from safety_systems.config.scenario import ControllerConfig, RobotConfig
+    from safety_systems.files.input_error import InputError
+
+    monkeypatch.setattr(configuration, "effective_mass", lambda model, payload: 0.0)
+    config = ControllerConfig()
+    assert configuration.pfl_terms(RobotConfig(), config).limits.size == NUM_SEGMENTS
+    pfl = dataclasses.replace(config, safety=dataclasses.replace(config.safety,
+                                                                 mode="ssm_pfl"))
+    with pytest.raises(InputError, match="effective mass"):
+        configuration.pfl_terms(RobotConfig(), pfl)

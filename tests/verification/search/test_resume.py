@@ -98,10 +98,11 @@ def test_verify_survives_being_killed_at_any_point(tmp_path):
 
 def test_cache_drops_a_line_cut_short_and_appends_on_a_new_line(tmp_path):
     path = tmp_path / "evaluations.jsonl"
-    row = {"key": "a", "figures": [0.5, 1.0, 0.0, 0.0]}
+    figures = [0.5, 1.0] + [0.0] * (len(FIELDS) - 2)
+    row = {"key": "a", "figures": figures}
     path.write_text(json.dumps(row) + "\n" + '{"key": "b", "figures": [0.1, 0.')
     cache = EvaluationCache(path)
-    assert cache.values == {"a": [0.5, 1.0, 0.0, 0.0]}
+    assert cache.values == {"a": figures}
     cache.add("c", np.arange(len(FIELDS), dtype=float))
     again = EvaluationCache(path)
     assert set(again.values) == {"a", "c"}
@@ -110,9 +111,13 @@ def test_cache_drops_a_line_cut_short_and_appends_on_a_new_line(tmp_path):
 
 def test_cache_skips_rows_that_are_not_figures(tmp_path):
     path = tmp_path / "evaluations.jsonl"
-    path.write_text("\n".join(['{"key": "a", "figures": [1, 2, 3, 4]}', "[]", '{"key": 3}',
+    full = list(range(1, len(FIELDS) + 1))
+    short = full[:-1]  # a row of an older version's figures (one field fewer)
+    path.write_text("\n".join([json.dumps({"key": "a", "figures": full}), "[]", '{"key": 3}',
                                '{"key": "b", "figures": [1, 2]}',
-                               '{"key": "c", "figures": ["x", 2, 3, 4]}', "garbage"]) + "\n")
-    assert EvaluationCache(path).values == {"a": [1.0, 2.0, 3.0, 4.0]}
+                               json.dumps({"key": "c", "figures": ["x"] + full[1:]}),
+                               json.dumps({"key": "d", "figures": short}),
+                               "garbage"]) + "\n")
+    assert EvaluationCache(path).values == {"a": [float(x) for x in full]}
     os.remove(path)
     assert EvaluationCache(path).values == {}
