@@ -122,11 +122,11 @@ def task_scenarios(helmet: bool) -> list:
     return tasks
 
 
-def _tune(config, block, space_path: Path, args, out: Path | None) -> tuple[dict, float]:
-    """One tune run of ``config`` over ``block`` (its result and wall seconds); its folder
-    kept in ``out`` when given."""
+def _tune(config, block, space_path: Path, tasks: list, args, out: Path | None
+          ) -> tuple[dict, float]:
+    """One tune run of ``config`` over ``block`` on ``tasks`` (its result and wall
+    seconds); its folder kept in ``out`` when given."""
     space = load_space(space_path)
-    tasks = task_scenarios(args.helmet)
     with tempfile.TemporaryDirectory() as scratch:
         folder = out or scratch
         if out:
@@ -158,26 +158,25 @@ def main() -> int:
                         help="every task operator also wears a tracked helmet (the seed "
                              "tracked gloves only; the default space's operators wear one)")
     args = parser.parse_args()
-    figures_helmet = args.helmet
     figures: dict = {"budget": args.budget, "candidates": args.candidates,
                      "workers": args.workers}
     config, block = load_tunable(ROOT / "models" / "configs" / "iso.yaml", args.tune)
     figures["tune"] = str(args.tune.resolve().relative_to(ROOT))
-    figures["helmet"] = figures_helmet
+    figures["helmet"] = args.helmet
     pfl = any(p.name == "safety.mode" and "ssm_pfl" in p.choices for p in block)
     goal = GOAL_PFL if pfl else GOAL
     space_path = ROOT / "models" / "spaces" / "default.yaml"
-    result, wall = _tune(config, block, space_path, args, args.out)
+    tasks = task_scenarios(args.helmet)
+    result, wall = _tune(config, block, space_path, tasks, args, args.out)
     beside = None
     if pfl:  # the SSM-only tuned figure, from this run too
         ssm_config, ssm_block = load_tunable(ROOT / "models" / "configs" / "iso.yaml",
                                              ROOT / "models" / "tune" / "ssm.yaml")
         print("\n(and the SSM-only tune, models/tune/ssm.yaml, beside it)")
-        beside, beside_wall = _tune(ssm_config, ssm_block, space_path, args, None)
+        beside, beside_wall = _tune(ssm_config, ssm_block, space_path, tasks, args, None)
         figures["ssm_only"] = {"reduction": beside["lost_time_reduction_vs_iso"],
                                "chosen": beside["chosen"] and beside["chosen"]["verdict"],
                                "wall": beside_wall}
-    tasks = task_scenarios(args.helmet)
     print(f"\n1. lost time against iso.yaml (default space, budget {args.budget}, "
           f"{args.candidates} candidates)")
     for row in result["table"]:

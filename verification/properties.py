@@ -43,6 +43,7 @@ import dataclasses
 import numpy as np
 
 from safety_systems.outputs.metrics import min_separation_while_moving, separation_margins
+from safety_systems.pfl.segment_regions import permitted_contact_robustness
 from safety_systems.ssm.true_measures import MOVING_SPEED, moving
 
 __all__ = ["MOVING_SPEED", "PROPERTIES", "Robustness", "stopped_before_contact",
@@ -106,6 +107,5 @@ def permitted_contact(clearances: np.ndarray, v_robot: np.ndarray, robot_speed: 
         return stopped_before_contact(clearances.min(axis=-1), robot_speed,
                                       contact_distance)
     t, i, _ = np.nonzero(touch)
-    figure = np.where(clamped[t, i] | ~(limits[i] > 0.0), -np.inf,
-                      limits[i] - v_robot[touch])
-    return float(np.min(figure))
+    limit = np.where(clamped[t, i], 0.0, limits[i])  # a clampable segment: none
+    return float(np.min(permitted_contact_robustness(limit, v_robot[touch])))

@@ -247,14 +247,9 @@ def _share(v: dict) -> str:
 
 
 def _property_markdown(name: str, p: dict, robot_mode: str) -> list:
-    lines = _property_lines(name, p, robot_mode)
-    if name == "permitted_contact":  # its figure is m/s at a contact, m without one
-        lines = [x.replace("robustness [m]", "robustness [m/s, or m]") for x in lines]
-    return lines
-
-
-def _property_lines(name: str, p: dict, robot_mode: str) -> list:
     v = p["vacuous"]
+    # the robustness' unit (permitted contact's: m/s at a contact, m without one)
+    unit = "m/s, or m" if name == "permitted_contact" else "m"
     lines = [f"## {name}: {p['verdict'].upper()}", "", f"- property: {p['property']}",
              f"- smallest robustness the search found: {metres(p['min_robustness'])} (the "
              "Drake replays' figures, each beside the search's, are below; a violation's "
@@ -270,8 +265,8 @@ def _property_lines(name: str, p: dict, robot_mode: str) -> list:
                   "The evidence contradicts itself: one evaluator, or the proof, is wrong. "
                   "Each scenario file reproduces the disagreement: `safety-systems simulate "
                   "FILE --out DIR` runs it in the Drake diagram.", "",
-                  "| proof | search robustness [m] | Drake robustness [m] | what disagrees "
-                  "| scenario |", "|---|---|---|---|---|"]
+                  f"| proof | search robustness [{unit}] | Drake robustness [{unit}] | what "
+                  "disagrees | scenario |", "|---|---|---|---|---|"]
         lines += [f"| {d['proof']} | {_m(d['robustness'])} | {_m(d['drake_robustness'])} | "
                   f"{'; '.join(d['conflicts'])} | `{d['scenario']}` |"
                   for d in p["disagreements"]]
@@ -310,7 +305,8 @@ def _property_lines(name: str, p: dict, robot_mode: str) -> list:
     lines += ["", "### Drake replays (the search's figure beside the Drake diagram's)", "",
               "The worst violations (or, with none, the worst scenario) and scenarios drawn "
               "at random from the search's, replayed in the Drake diagram.", "",
-              "| why | simulation | search robustness [m] | Drake robustness [m] |",
+              f"| why | simulation | search robustness [{unit}] | Drake robustness "
+              f"[{unit}] |",
               "|---|---|---|---|"]
     lines += [f"| {r['why']} | {r['simulation']} | {_m(r['robustness'])} | "
               f"{_m(r['drake_robustness'])} |" for r in p["drake_replays"]]

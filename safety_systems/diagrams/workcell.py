@@ -174,7 +174,7 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         human_uncertainty_sigmas=f.human_uncertainty_sigmas, iso_speed=f.iso_human_speed,
         iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed,
         level_terms=level_terms(config, model) if by_speed else None))
-    capped = pfl is not None and f.mode == "ssm_pfl"
+    capped = pfl is not None
     override = builder.AddNamedSystem("override", SpeedOverride(
         num_bodies=m, delta_s=f.delta_s, d_min=f.d_min,
         levels=SPEED_LEVELS if by_speed else None,

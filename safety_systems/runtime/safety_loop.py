@@ -12,7 +12,7 @@ the order the Drake diagram calls them (no copy of any rule lives here).
   own sample times;
 - a decision at time t: ``tracks.tracker_fault`` (the frame's fault, else stale after
   the frame timeout), ``separation.separation_rows`` over the segments
-  (SeparationMonitor, Eqs. 6-11) and ``ssm.speed_override_command`` over the segments'
+  (SeparationMonitor, Eqs. 6-11) and ``ssm.override_decision`` over the segments'
   statuses (SpeedOverride, Eq. 12 and its fail-safe stops: a lost or partly seen
   operator's segments are lost, a NaN stops); under ``safety.stopping: by_speed`` also
   ``separation.level_rows`` (S at every speed level) and
@@ -45,12 +45,7 @@ from safety_systems.config.configuration import (
 from safety_systems.config.scenario import ControllerConfig
 from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
 from safety_systems.pfl.speed_caps import clamp_caps
-from safety_systems.ssm.formulas import (
-    by_speed_override_command,
-    capped_by_speed_command,
-    capped_override_command,
-    speed_override_command,
-)
+from safety_systems.ssm.formulas import override_decision
 from safety_systems.ssm.separation import level_rows, separation_rows
 
 
@@ -188,24 +183,15 @@ class SafetyLoop:
         if self.pfl is not None:
             clamp_caps(self.segment_ends, self.segment_radius, self._segment_caps,
                        self.pfl.boxes, self.pfl.reach, self.caps)
-        if self.levels is None:
-            if self.pfl is not None:
-                return capped_override_command(self.out[0], self.out[1], self.segment_status,
-                                               self.fault(now), self.caps,
-                                               delta_s=self.delta_s, d_min=self.d_min)
-            return speed_override_command(self.out[0], self.out[1], self.segment_status,
-                                          self.fault(now), delta_s=self.delta_s,
-                                          d_min=self.d_min)
-        if self.m:
-            level_rows(self.ends, self.end_velocities, self.capsules.radius,
-                       self.segment_ends, self.segment_velocities, self.segment_radius,
-                       self.segment_status, self.segment_std, self.z_d_terms, self.monitor,
-                       self.levels[0], self.levels[1], self.level_out)
-        rate = rate if math.isfinite(rate) else 1.0
-        if self.pfl is not None:
-            return capped_by_speed_command(self.out[0], self.level_out, self.segment_status,
-                                           self.fault(now), rate, self.caps,
-                                           delta_s=self.delta_s, d_min=self.d_min)
-        return by_speed_override_command(self.out[0], self.level_out, self.segment_status,
-                                         self.fault(now), rate, delta_s=self.delta_s,
-                                         d_min=self.d_min)
+        protective = self.out[1]
+        if self.levels is not None:
+            if self.m:
+                level_rows(self.ends, self.end_velocities, self.capsules.radius,
+                           self.segment_ends, self.segment_velocities, self.segment_radius,
+                           self.segment_status, self.segment_std, self.z_d_terms,
+                           self.monitor, self.levels[0], self.levels[1], self.level_out)
+            protective = self.level_out
+        return override_decision(self.out[0], protective, self.segment_status, self.fault(now),
+                                 rate=rate if math.isfinite(rate) else 1.0,
+                                 caps=None if self.pfl is None else self.caps,
+                                 delta_s=self.delta_s, d_min=self.d_min)

@@ -625,6 +625,30 @@ def speed_override_command(distances: np.ndarray, protective_distances: np.ndarr
     return float(k), float(top), int(reason)
 
 
+def override_decision(distances: np.ndarray, protective: np.ndarray, status: np.ndarray,
+                      fault: float, *, rate: float = 1.0, caps: np.ndarray | None = None,
+                      delta_s: float = 2.0, d_min: float = 0.30) -> tuple[float, float, int]:
+    """The SpeedOverride's (k, S_max, stop reason) of one robot from Python, by whichever
+    rule its configuration asks for: ``protective`` (N,), Eq. 12
+    (:func:`speed_override_command`); (G + 1, N), S at every speed level with ``rate``
+    the path rate now (``safety.stopping: by_speed``, :func:`by_speed_override_command`);
+    each with power and force limiting's ``caps`` (N,) under ``safety.mode: ssm_pfl``
+    (:func:`capped_override_command`, :func:`capped_by_speed_command`), None under
+    ``ssm``. The Drake SpeedOverride and the live runtime decide through it."""
+    protective = np.asarray(protective, dtype=float)
+    if protective.ndim == 2:
+        if caps is not None:
+            return capped_by_speed_command(distances, protective, status, fault, rate, caps,
+                                           delta_s=delta_s, d_min=d_min)
+        return by_speed_override_command(distances, protective, status, fault, rate,
+                                         delta_s=delta_s, d_min=d_min)
+    if caps is not None:
+        return capped_override_command(distances, protective, status, fault, caps,
+                                       delta_s=delta_s, d_min=d_min)
+    return speed_override_command(distances, protective, status, fault, delta_s=delta_s,
+                                  d_min=d_min)
+
+
 @numba.njit(cache=True)
 def _override_rows(d, s, inc, delta_s, d_min, k, s_max):
     """:func:`override_row` of every row (L, N)."""

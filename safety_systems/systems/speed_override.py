@@ -5,12 +5,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from safety_systems.pfl.speed_caps import clamp_caps
-from safety_systems.ssm.formulas import (
-    by_speed_override_command,
-    capped_by_speed_command,
-    capped_override_command,
-    speed_override_command,
-)
+from safety_systems.ssm.formulas import override_decision
 
 
 class SpeedOverride(LeafSystem):
@@ -124,23 +119,11 @@ class SpeedOverride(LeafSystem):
                            self._reach, caps)
             else:
                 caps[:] = self._caps
-        if self._levels is not None:
-            d = self._d.Eval(context)
-            s_levels = np.asarray(self._s.Eval(context)).reshape(self._levels + 1, d.size)
-            args = (d, s_levels, self._status.Eval(context), self._fault.Eval(context)[0],
-                    self._path_state.Eval(context)[1])
-            if self._caps is not None:
-                out[0], out[1], out[2] = capped_by_speed_command(
-                    *args, caps, delta_s=self._delta_s, d_min=self._d_min)
-            else:
-                out[0], out[1], out[2] = by_speed_override_command(
-                    *args, delta_s=self._delta_s, d_min=self._d_min)
-            return
-        if self._caps is not None:
-            out[0], out[1], out[2] = capped_override_command(
-                self._d.Eval(context), self._s.Eval(context), self._status.Eval(context),
-                self._fault.Eval(context)[0], caps, delta_s=self._delta_s, d_min=self._d_min)
-            return
-        out[0], out[1], out[2] = speed_override_command(
-            self._d.Eval(context), self._s.Eval(context), self._status.Eval(context),
-            self._fault.Eval(context)[0], delta_s=self._delta_s, d_min=self._d_min)
+        d, s = self._d.Eval(context), np.asarray(self._s.Eval(context))
+        rate = 1.0
+        if self._levels is not None:  # S at every speed level, and the path rate now
+            s, rate = s.reshape(self._levels + 1, d.size), self._path_state.Eval(context)[1]
+        out[0], out[1], out[2] = override_decision(
+            d, s, self._status.Eval(context), self._fault.Eval(context)[0], rate=rate,
+            caps=None if self._caps is None else caps, delta_s=self._delta_s,
+            d_min=self._d_min)
