@@ -1,7 +1,7 @@
 """How much time ``safety-systems tune`` wins back from iso.yaml, still proved, in one run.
 
     python benchmarks/bench_tune.py [--budget 100] [--candidates 24] [--workers N] [--out DIR]
-                                    [--tune models/tune/ssm_pfl.yaml]
+                                    [--tune models/tune/ssm_pfl.yaml] [--helmet]
 
 Tunes ``models/configs/iso.yaml`` over ``models/tune/ssm.yaml``'s parameters (or
 ``--tune``'s: ``ssm_pfl.yaml`` lets it choose power and force limiting) on the
@@ -19,13 +19,21 @@ verdict still proved):
    of an operator is within that distance of the robot's capsules in a run whose robot
    never stops (S = 0, d_min = 0). A configuration cannot lose much less time than its
    exposure: the robot is held whenever an operator stands that near;
-3. the wall time of the tune run.
+3. the wall time of the tune run;
+4. when the chosen configuration runs power and force limiting, what holds the rest of
+   its lost time, as what-ifs on the same tasks: the chosen with every permitted
+   segment's cap at 1 (a full-speed path rate near arms, hands and trunk: above Annex
+   A's limits, so no configuration can express it; a ceiling on what any cap rule could
+   give), the chosen with Z_r = 0 (the allowance only the separation invariant asks
+   for; both proofs' verdicts printed beside), and both, which leaves only the head and
+   neck's pure SSM.
 
 With ``--out DIR`` the tune run's folder is kept (``chosen.yaml``, the candidates'
 verifications, ``tune.md``), so the configuration behind the figure can be exported.
 """
 
 import argparse
+import contextlib
 import dataclasses
 import json
 import sys
@@ -35,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from safety_systems.config import configuration
 from safety_systems.config.configuration import with_controller
 from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.outputs.metrics import stop_reasons, true_separations
@@ -44,7 +53,8 @@ from safety_systems.config.scenario import Body, load_controller_config, load_sc
 from safety_systems.diagrams.simulation import simulate
 from verification.spaces.space import load_space
 from verification.tune.report import write_tune
-from verification.tune.tuner import TASKS, Tuner, full_speed_distance
+from verification.tune.tasks import lost_time, run_task, total
+from verification.tune.tuner import TASKS, Tuner, full_speed_distance, proofs_of
 from verification.tune.tunable import load_tunable, with_values
 
 ROOT = Path(__file__).parents[1]
@@ -103,6 +113,49 @@ def held_on(task, config) -> tuple[float, dict[str, float], float]:
     true_held = true_least[held & np.isfinite(true_least)]
     return (float(np.sum(dt[held])), by_segment,
             float(np.median(true_held)) if true_held.size else float("nan"))
+
+
+@contextlib.contextmanager
+def uncapped_permitted_segments():
+    """Within it, every segment with a permissible speed gets the cap 1 (a what-if: no
+    configuration gives a cap above c_i = min(v_pfl, v_i) / V_R); the head and neck keep
+    0. Patches the name ``configuration.pfl_terms`` calls, for runs in this process."""
+    original = configuration.segment_caps
+
+    def caps(limits, pfl_speed, speed_bound):
+        return np.where(original(limits, pfl_speed, speed_bound) > 0.0, 1.0, 0.0)
+
+    configuration.segment_caps = caps
+    try:
+        yield
+    finally:
+        configuration.segment_caps = original
+
+
+def lost_on(tasks: list, config) -> float:
+    """Total seconds ``config`` loses on ``tasks`` against its own runs with no operator
+    (as the tuner counts them), inf if a task did not finish."""
+    return total([lost_time(run_task(task, config), run_task(task, config, operators=False))
+                  for task in tasks])
+
+
+def what_remains(config, tasks: list, iso_lost: float, space) -> dict:
+    """Section 4 (module docstring) for the chosen PFL configuration ``config`` on
+    ``tasks``: ``uncapped`` (every permitted segment's cap at 1), ``z_r_0`` (Z_r = 0) and
+    ``z_r_0_uncapped`` (both), each one's total lost time and reduction against iso.yaml's
+    ``iso_lost``, and the proofs over ``space`` of ``z_r_0`` (per property: proved, and the
+    allowance it lacks)."""
+    no_zr = dataclasses.replace(config, safety=dataclasses.replace(config.safety,
+                                                                   robot_uncertainty=0.0))
+    proofs = {name: {"proved": p.proved, "needed_allowance": p.needed_allowance}
+              for name, p in proofs_of(no_zr, space).items()}
+    out = {"z_r_0": {"lost": lost_on(tasks, no_zr), "proofs": proofs}}
+    with uncapped_permitted_segments():
+        out["uncapped"] = {"lost": lost_on(tasks, config)}
+        out["z_r_0_uncapped"] = {"lost": lost_on(tasks, no_zr)}
+    for row in out.values():
+        row["reduction"] = 1.0 - row["lost"] / iso_lost
+    return out
 
 
 def task_scenarios(helmet: bool) -> list:
@@ -208,7 +261,7 @@ def main() -> int:
               f"{beside['chosen']['verdict'] if beside['chosen'] else 'none'}): power and "
               f"force limiting adds {100.0 * ((reduction or 0.0) - (other or 0.0)):+.1f} "
               "points")
-    if reduction is not None:
+    if reduction is not None and not args.helmet:  # its tasks: gloves only
         print(f"   beside the three-ball operator's {100.0 * THREE_BALL_FIGURE:.1f}%: "
               f"{100.0 * (reduction - THREE_BALL_FIGURE):+.1f} points (from gloves alone the "
               "monitor must place the arms and trunk anywhere they can reach: see the "
@@ -253,6 +306,25 @@ def main() -> int:
                   f"segment then {true_median:.2f} m away (median)")
     print(f"\n3. tune wall time: {wall:.0f} s ({result['counts']})")
     figures.update(wall=wall, counts=result["counts"])
+    if chosen and chosen_config.safety.mode == "ssm_pfl":
+        iso_row = next(r for r in result["table"] if r["configuration"] == "iso.yaml")
+        remains = what_remains(chosen_config, tasks, iso_row["total_lost_time"],
+                               load_space(space_path))
+        figures["remains"] = remains
+        verdicts = ", ".join(
+            f"{name} {'proved' if p['proved'] else 'not proved'}"
+            + (f" (lacks {p['needed_allowance']:.3f} m of Z_d + Z_r)"
+               if not p["proved"] and p["needed_allowance"] else "")
+            for name, p in remains["z_r_0"]["proofs"].items())
+        print("\n4. what holds the rest (what-ifs on the same tasks)")
+        print(f"   the chosen with every permitted segment's cap at 1 (above Annex A's "
+              f"limits): {100.0 * remains['uncapped']['reduction']:.1f}% less lost than "
+              "iso.yaml: no cap rule does better while the separation invariant holds")
+        print(f"   the chosen with Z_r = 0: {100.0 * remains['z_r_0']['reduction']:.1f}%; "
+              f"{verdicts}")
+        print(f"   both: {100.0 * remains['z_r_0_uncapped']['reduction']:.1f}%: what is left "
+              "is the head and neck's pure SSM (S from heads at up to v_max, the stopping "
+              "data and the sensing delay), which no cap rule changes")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(figures, indent=1, default=float) + "\n")
