@@ -8,7 +8,11 @@ each whole-cell kind): the whole cell with estimated human speeds (``busy``, the
 throughput's figure), on iso.yaml's contact terms (``iso``), iso.yaml itself with its Z_r
 (``iso_zr``), the tool point (``tool``), and the whole cell with the human speed's
 floor and sigmas (``floor``), with the robot's fastest point (``fastest``) and with S by
-speed (``by_speed``). For each, every field of every scenario's
+speed (``by_speed``); and under power and force limiting (``safety.mode: ssm_pfl``, as
+test_evaluate_batch's Drake comparisons configure it): the seed's configuration with the
+robot's capsules over the whole cell with one operator (``pfl``), the same stopping by
+speed with a bench below the robot (``pfl_table``, its clamping rule), and iso.yaml by
+speed with a payload (``iso_pfl``). For each, every field of every scenario's
 ``BatchResult`` (their float64 bytes) is hashed; printed one line per batch and one for
 all, with the count of scenarios violating each property (a change that moved no figure
 keeps every line).
@@ -24,6 +28,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 import bench_verify as b  # noqa: E402
+from safety_systems.config.scenario import Box  # noqa: E402
+
+TABLE = Box([-1.5, -1.5, -0.8], [1.5, 1.5, -0.3])  # test_evaluate_batch's bench
 
 
 def digest(result) -> str:
@@ -42,6 +49,11 @@ def batches(n: int) -> dict:
         return dataclasses.replace(b.ISO_MOVING, safety=dataclasses.replace(
             b.ISO_MOVING.safety, **kw))
 
+    def pfl(config, **kw):
+        return dataclasses.replace(config, safety=dataclasses.replace(
+            config.safety, mode="ssm_pfl", **kw))
+
+    one = {"space": b.SPACE, "operators": 1.0}
     return {
         "busy": b._ten_second_scenarios(n, 0, **dict(cell, config=busy)),
         "busy_seed3": b._ten_second_scenarios(n, 3, **dict(cell, config=busy)),
@@ -56,6 +68,13 @@ def batches(n: int) -> dict:
         "by_speed": b._ten_second_scenarios(n, 0, **dict(cell, config=safety(
             stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
             intrusion_distance=0.0, robot_uncertainty=0.1))),
+        "pfl": b._ten_second_scenarios(n, 0, **dict(one, config=pfl(
+            b.SEED, robot_geometry="capsules"))),
+        "pfl_table": b._ten_second_scenarios(n, 0, **dict(one, config=pfl(
+            b.SEED, robot_geometry="capsules", stopping="by_speed", pfl_speed=0.3,
+            fixed_surfaces=[TABLE], clamp_margin=0.1))),
+        "iso_pfl": b._ten_second_scenarios(n, 0, **dict(cell, config=pfl(
+            b.ISO, stopping="by_speed", robot_speed="fastest_point", payload_mass=5.0))),
     }
 
 
@@ -70,7 +89,9 @@ def main() -> None:
         whole.update(h.encode())
         print(f"{name:12s} {h}  contact violated {int(np.sum(r.robustness < 0))}, "
               f"separation violated {int(np.sum(r.separation < 0))}, "
-              f"min separation {np.min(r.min_separation_while_moving):+.6f}", flush=True)
+              f"min separation {np.min(r.min_separation_while_moving):+.6f}, "
+              f"permitted contact exceeded {int(np.sum(r.permitted_contact < 0))}",
+              flush=True)
     print(f"{'all':12s} {whole.hexdigest()[:16]}")
 
 
