@@ -42,17 +42,11 @@ def digest(result) -> str:
 
 def batches(n: int) -> dict:
     cell = {"space": b.SPACE, "config": b.ISO_MOVING, "operators": 2.0, "heads": 1.0}
-    busy = dataclasses.replace(b.ISO_MOVING, safety=dataclasses.replace(
-        b.ISO_MOVING.safety, human_speed="estimated"))
 
-    def safety(**kw):
-        return dataclasses.replace(b.ISO_MOVING, safety=dataclasses.replace(
-            b.ISO_MOVING.safety, **kw))
+    def safety(config=b.ISO_MOVING, **kw):
+        return dataclasses.replace(config, safety=dataclasses.replace(config.safety, **kw))
 
-    def pfl(config, **kw):
-        return dataclasses.replace(config, safety=dataclasses.replace(
-            config.safety, mode="ssm_pfl", **kw))
-
+    busy = safety(human_speed="estimated")
     one = {"space": b.SPACE, "operators": 1.0}
     return {
         "busy": b._ten_second_scenarios(n, 0, **dict(cell, config=busy)),
@@ -68,13 +62,14 @@ def batches(n: int) -> dict:
         "by_speed": b._ten_second_scenarios(n, 0, **dict(cell, config=safety(
             stopping="by_speed", robot_speed="fastest_point", reaction_time=0.1,
             intrusion_distance=0.0, robot_uncertainty=0.1))),
-        "pfl": b._ten_second_scenarios(n, 0, **dict(one, config=pfl(
-            b.SEED, robot_geometry="capsules"))),
-        "pfl_table": b._ten_second_scenarios(n, 0, **dict(one, config=pfl(
-            b.SEED, robot_geometry="capsules", stopping="by_speed", pfl_speed=0.3,
-            fixed_surfaces=[TABLE], clamp_margin=0.1))),
-        "iso_pfl": b._ten_second_scenarios(n, 0, **dict(cell, config=pfl(
-            b.ISO, stopping="by_speed", robot_speed="fastest_point", payload_mass=5.0))),
+        "pfl": b._ten_second_scenarios(n, 0, **dict(one, config=safety(
+            b.SEED, mode="ssm_pfl", robot_geometry="capsules"))),
+        "pfl_table": b._ten_second_scenarios(n, 0, **dict(one, config=safety(
+            b.SEED, mode="ssm_pfl", robot_geometry="capsules", stopping="by_speed",
+            pfl_speed=0.3, fixed_surfaces=[TABLE], clamp_margin=0.1))),
+        "iso_pfl": b._ten_second_scenarios(n, 0, **dict(cell, config=safety(
+            b.ISO, mode="ssm_pfl", stopping="by_speed", robot_speed="fastest_point",
+            payload_mass=5.0))),
     }
 
 
