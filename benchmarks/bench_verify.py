@@ -10,15 +10,18 @@ Prints, each beside its goal:
    (after a small warm-up batch has loaded the compiled code): the whole cell (the iso
    configuration, the robot as capsules, two operators of 12 segments each (gloves
    and helmet tracked, the rest bounded by their envelopes) over the default space)
-   beside the tool point (the seed's configuration, one operator's two hands over the
-   flange space), and the ratio to the Drake diagram on the whole-cell scenarios; and
+   beside the tool point (the seed's configuration, one operator of 12 segments with its
+   two gloves tracked, over the flange space), and the ratio to the Drake diagram on the
+   whole-cell scenarios; and
    the same whole-cell measure of the three-ball operator (two gloves and a head: its
    last commit, checked out in a temporary git worktree and measured in a child process
    right after) with the whole operator's price as the ratio of the two (issue 31:
    at most 2x), and of issue 33's reference commit (177f5a8, three balls too) with this
    code's ratio to it (issue 33: above 1); each commit's figure beside its ratio to its
    own tool point and to this run's Drake diagram (those ratios carry from machine to
-   machine, the absolute figures move about 30%);
+   machine, the absolute figures move about 30%); and this code's closed loop alone (a
+   copy whose batched evaluator never computes the true properties: the most any change
+   to their computation alone can give) beside issue 33's reference;
 2. the wall time to prove the iso configuration over the default space (the proof
    alone, and ``verify`` with a 64-simulation cross-check on 2 workers);
 3. time to the first counterexample (``search``), at verify's default budget (200) and
@@ -58,6 +61,7 @@ import inspect
 import json
 import math
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -131,6 +135,11 @@ def _best_rate(evaluate, scenarios: list, batch: int, repeats: int) -> tuple:
     return len(scenarios) / best, result
 
 
+# Its source as this process loaded it, for the children (read now: a later edit of this
+# file while a run goes on would otherwise hand them other lines).
+_BEST_RATE_SOURCE = inspect.getsource(_best_rate)
+
+
 def _rate(batch: int, **kind) -> tuple[float, float]:
     """(10 s scenarios per second, the share of them in which the robot never moved while
     a body was present)."""
@@ -168,13 +177,33 @@ print(json.dumps({"iso": iso, "busy": rate(**dict(cell, config=busy)),
 """
 
 
-def commit_rates(commit: str, batch: int) -> dict | None:
-    """The whole-cell and tool-point throughputs of ``commit``'s code (its own
+def tree_rates(tree: Path, what: str, batch: int) -> dict | None:
+    """The whole-cell and tool-point throughputs of the code in ``tree`` (its own
     ``bench_verify`` scenarios: for the three-ball commits, their default space),
-    measured as :func:`throughput` measures this one's, in a child process on a
-    temporary git worktree of that commit, right after this one's (same machine, same
-    core). None where git or that commit is not there. (A fresh worktree's compiled code
-    is built first, for minutes, and not timed.)"""
+    measured as :func:`throughput` measures this one's, in a child process, right after
+    this one's (same machine, same core). None, said, where the child fails or ran other
+    code than the tree's. (A fresh tree's compiled code is built first, for minutes, and
+    not timed.)"""
+    run = subprocess.run(
+        [sys.executable, "-c", _COMMIT_CHILD.replace(
+            "BEST_RATE", _BEST_RATE_SOURCE).replace(
+            "BATCH", str(batch)).replace("REPEATS", str(REPEATS))],
+        cwd=tree, env={**os.environ, "PYTHONPATH": str(tree)}, capture_output=True,
+        text=True, check=False)
+    if run.returncode != 0:
+        print(f"the measure of {what} failed: {run.stderr.strip().splitlines()[-1:]}")
+        return None
+    rates = json.loads(run.stdout.strip().splitlines()[-1])
+    for key in ("module", "package"):
+        if not rates[key].startswith(str(tree)):  # (not this tree's code)
+            print(f"the measure of {what} ran {rates[key]}, not the tree's")
+            return None
+    return rates
+
+
+def commit_rates(commit: str, batch: int) -> dict | None:
+    """:func:`tree_rates` of ``commit``'s code, checked out in a temporary git worktree.
+    None where git or that commit is not there."""
     with tempfile.TemporaryDirectory() as tmp:
         tree = Path(tmp) / commit
         made = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree),
@@ -183,29 +212,39 @@ def commit_rates(commit: str, batch: int) -> dict | None:
             print(f"commit {commit} could not be checked out: {made.stderr.strip()}")
             return None
         try:
-            run = subprocess.run(
-                [sys.executable, "-c", _COMMIT_CHILD.replace(
-                    "BEST_RATE", inspect.getsource(_best_rate)).replace(
-                    "BATCH", str(batch)).replace("REPEATS", str(REPEATS))],
-                cwd=tree, env={**os.environ, "PYTHONPATH": str(tree)}, capture_output=True,
-                text=True, check=False)
-            if run.returncode != 0:
-                print(f"the measure of {commit} failed: {run.stderr.strip().splitlines()[-1:]}")
-                return None
-            rates = json.loads(run.stdout.strip().splitlines()[-1])
-            for key in ("module", "package"):
-                if not rates[key].startswith(str(tree)):  # (not this tree's code)
-                    print(f"the measure of {commit} ran {rates[key]}, not the worktree's")
-                    return None
-            return rates
+            return tree_rates(tree, commit, batch)
         finally:
             subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
                            capture_output=True, check=False)
 
 
-def three_ball_rates(batch: int) -> dict | None:
-    """:func:`commit_rates` of the three-ball operator's last commit."""
-    return commit_rates(THREE_BALL_COMMIT, batch)
+# The batched evaluator's one test that opens the true properties at a tick (both of them
+# and permitted contact; they only observe the loop: nothing in it reads them).
+PROPERTIES_AT_A_TICK = "            if moving or allowed:  # (they count only then)\n"
+EVALUATOR = Path("verification") / "search" / "evaluate_batch.py"
+
+
+def loop_alone_rates(batch: int) -> dict | None:
+    """:func:`tree_rates` of a copy of this code (its packages, benchmarks and models, as
+    they are on disk) in which the batched evaluator never computes the true properties:
+    its test that opens them at a tick (:data:`PROPERTIES_AT_A_TICK`) made false. The
+    properties are observers (the sensor, tracker, envelopes, monitor, override and robot
+    read nothing of them), so the copy runs the same closed loop and what it saves is all
+    that the properties cost: its throughput is the most any change to their computation
+    alone can give. None where that test is not found once."""
+    source = (ROOT / EVALUATOR).read_text()
+    if source.count(PROPERTIES_AT_A_TICK) != 1:
+        print(f"{EVALUATOR}: the properties' test is not there once; the loop alone is not "
+              "measured")
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        tree = Path(tmp) / "loop_alone"
+        for folder in ("safety_systems", "verification", "benchmarks", "models"):
+            shutil.copytree(ROOT / folder, tree / folder,
+                            ignore=shutil.ignore_patterns("__pycache__", "results"))
+        (tree / EVALUATOR).write_text(source.replace(
+            PROPERTIES_AT_A_TICK, "            if False:  # the loop alone: no properties\n"))
+        return tree_rates(tree, "the loop alone", batch)
 
 
 def throughput(batch: int) -> None:
@@ -230,8 +269,8 @@ def throughput(batch: int) -> None:
     _row("  the same with estimated human speeds (the lower is the figure above)",
          f"{busy_rate:.0f}", "", None)
     _row("    of them never moving near a body", f"{100 * busy_vacuous:.0f}%", "", None)
-    _row("batched, tool point, 1 operator x 2 hands, 10 s scenarios/s/core", f"{tool_rate:.0f}",
-         "", None)
+    _row("batched, tool point, 1 operator x 12 segments (2 gloves tracked), 10 s scen./s/core",
+         f"{tool_rate:.0f}", "", None)
     _row("  of them never moving near a body (the seed's configuration)",
          f"{100 * tool_vacuous:.0f}%", "", None)
     _row("  ratio capsules / tool point", f"{cell_rate / tool_rate:.2f}x", "", None)
@@ -247,12 +286,14 @@ def throughput(batch: int) -> None:
     # carry from machine to machine where the absolute figures do not.
     _row("this code: whole cell / tool point, / Drake (the lower figure above)",
          f"{cell_rate / tool_rate:.3f} {cell_rate / drake_rate:.0f}x", "", None)
-    three = None
+    three, reference = None, None
     for commit, what in ((THREE_BALL_COMMIT, "the three-ball operator's last commit"),
                          (ISSUE_33_COMMIT, "issue 33's three-ball reference")):
         rates = commit_rates(commit, batch)
         if rates is None:
             continue
+        if commit == ISSUE_33_COMMIT:
+            reference = min(rates["iso"], rates["busy"])
         low = min(rates["iso"], rates["busy"])
         figures["commits"][commit] = {"what": what, **{k: rates[k] for k in
                                                         ("iso", "busy", "tool")},
@@ -272,6 +313,23 @@ def throughput(batch: int) -> None:
     if three is not None:
         _row("  price of the whole operator (three-ball / whole, the lower figures)",
              f"{three / cell_rate:.2f}x", "<= 2x", three / cell_rate <= 2.0)
+    # Where the whole operator's time goes: the same code without the true properties.
+    # If even that is below issue 33's reference, no change to the properties' computation
+    # alone can meet it.
+    alone = loop_alone_rates(batch)
+    if alone is not None:
+        low = min(alone["iso"], alone["busy"])
+        figures["loop_alone"] = {k: alone[k] for k in ("iso", "busy", "tool")}
+        figures["loop_alone"]["whole_cell"] = low
+        _row("this code without the true properties (the closed loop alone), the same measure",
+             f"{low:.0f}", "", None)
+        _row("    iso.yaml's contact terms / with estimated human speeds; its tool point",
+             f"{alone['iso']:.0f} / {alone['busy']:.0f}; {alone['tool']:.0f}", "", None)
+        _row("  the properties' share of this code's time (whole cell)",
+             f"{100 * (1 - cell_rate / low):.0f}%", "", None)
+        if reference is not None:
+            _row(f"  the loop alone / {ISSUE_33_COMMIT} (with its properties)",
+                 f"{low / reference:.3f}x", "", None)
 
 
 def _first(log, objectives) -> dict | None:

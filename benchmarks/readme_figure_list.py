@@ -202,13 +202,15 @@ def _speed_figures() -> tuple:
     cell = bench(VERIFY, "throughput/whole_cell")
     ref = bench(VERIFY, f"throughput/commits/{ISSUE_33}/whole_cell")
     three = bench(VERIFY, f"throughput/commits/{THREE_BALL}/whole_cell")
+    alone = bench(VERIFY, "throughput/loop_alone/whole_cell")
+    share = _source(lambda data: 100.0 * (1.0 - cell(data) / alone(data)), *cell.sources)
     drake = bench(VERIFY, "throughput/drake")
     out = [
         Figure("speed_iso_rate", r"The batched evaluator runs " + NUM + " scenarios per second "
                "on iso.yaml's contact terms", bench(VERIFY, "throughput/iso"), TIME_NOISE),
         Figure("speed_busy_rate", r"on iso.yaml's contact terms and " + NUM + " with estimated "
                "human speeds", bench(VERIFY, "throughput/busy"), TIME_NOISE),
-        Figure("speed_tool_rate", r"one operator's two hands against the tool\) " + NUM + ";",
+        Figure("speed_tool_rate", r"its 12 segments, against the tool\) " + NUM + ";",
                bench(VERIFY, "throughput/tool_point"), TIME_NOISE),
         Figure("speed_drake_rate", r"Drake diagram " + NUM + " per second, so the batch",
                drake, TIME_NOISE),
@@ -221,6 +223,12 @@ def _speed_figures() -> tuple:
                three, TIME_NOISE),
         Figure("speed_price", r"the whole operator's price is " + NUM + r"x \(issue 31",
                ratio(three, cell)),
+        Figure("speed_loop_alone_rate", r"measured in the same run\) runs " + NUM
+               + r" scenarios per second", alone, TIME_NOISE),
+        Figure("speed_loop_alone_ratio", r"\*\*" + NUM + r"x\*\* of 177f5a8's figure",
+               ratio(alone, ref)),
+        Figure("speed_properties_share", r"the properties take " + NUM + r"% of this code's",
+               share),
         Figure("speed_kinematic", r"the inspection scenario, best of three\): " + NUM
                + "x real time", bench(SIMULATE, "real_time_kinematic"), TIME_NOISE),
         Figure("speed_dynamic", r"\(goal 100x\) and " + NUM + "x in `dynamic` mode",
@@ -258,8 +266,10 @@ def _speed_figures() -> tuple:
                bench("bench_tune_pfl", "remains/z_r_0_uncapped/reduction"), scale=100.0),
         Figure("speed_runtime_policy", r"20 s\), scheduled `" + TEXT + "`",
                bench(RUNTIME, "scheduling/policy"), "text"),
-        Figure("speed_load", r"nothing else running \(the one-minute load " + NUM + " when",
+        Figure("speed_load", r"in an earlier run, the load " + NUM + " when",
                bench(SIMULATE, "load_1min")),
+        Figure("speed_verify_load", r"pinned to one core, its one-minute load " + NUM
+               + " at its start", bench(VERIFY, "load_1min")),
         Figure("speed_tick_verdict", r"\(goal p99 0.5 ms: " + TEXT + "; the largest",
                verdict(bench(RUNTIME, "tick_late_p99"), 0.5e-3), "text"),
         Figure("speed_frame_verdict", r"\(goal p99 1 ms: " + TEXT + r"\)",
