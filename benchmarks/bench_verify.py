@@ -292,8 +292,6 @@ def throughput(batch: int) -> None:
         rates = commit_rates(commit, batch)
         if rates is None:
             continue
-        if commit == ISSUE_33_COMMIT:
-            reference = min(rates["iso"], rates["busy"])
         low = min(rates["iso"], rates["busy"])
         figures["commits"][commit] = {"what": what, **{k: rates[k] for k in
                                                         ("iso", "busy", "tool")},
@@ -308,6 +306,7 @@ def throughput(batch: int) -> None:
             _row(f"  this code / {commit} (whole cell, the lower figures)",
                  f"{cell_rate / low:.3f}x", "", None)
         else:
+            reference = low
             _row(f"  this code / {commit}: above its figure (issue 33)",
                  f"{cell_rate / low:.3f}x", "> 1x", cell_rate > low)
     if three is not None:
@@ -319,8 +318,8 @@ def throughput(batch: int) -> None:
     alone = loop_alone_rates(batch)
     if alone is not None:
         low = min(alone["iso"], alone["busy"])
-        figures["loop_alone"] = {k: alone[k] for k in ("iso", "busy", "tool")}
-        figures["loop_alone"]["whole_cell"] = low
+        figures["loop_alone"] = {**{k: alone[k] for k in ("iso", "busy", "tool")},
+                                 "whole_cell": low}
         _row("this code without the true properties (the closed loop alone), the same measure",
              f"{low:.0f}", "", None)
         _row("    iso.yaml's contact terms / with estimated human speeds; its tool point",
