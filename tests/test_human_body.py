@@ -304,3 +304,31 @@ def test_bad_recipes_and_dimensions_are_refused():
         hb.dimensions({"forearm": -1.0})
     with pytest.raises(ValueError, match="not a body dimension"):
         hb.dimensions({"tail": 1.0})
+
+
+@settings(max_examples=60, deadline=None)
+@given(trunk=st.floats(0.0, 89.0), neck=st.floats(0.0, 89.0),
+       scale=st.floats(0.7, 1.3), seed=st.integers(0, 2**32 - 1),
+       tracked=st.sampled_from(TRACKED_SETS))
+@example(trunk=10.0, neck=60.0, scale=1.0, seed=0, tracked=["hand_right", "hand_left"])
+@example(trunk=45.0, neck=30.0, scale=1.0, seed=1, tracked=["hand_right", "hand_left"])
+def test_every_segment_lies_in_its_envelope_at_any_lean_limit_and_dimensions(
+        trunk, neck, scale, seed, tracked):
+    """Issue 46: a lean limit below 45 deg left the lower trunk 0.30 m (10 deg) and a
+    shoulder 0.09 m (30 deg) outside their envelopes, the edges being shorter than their
+    lengths. At every lean limit a file accepts, and other people's lengths, every
+    segment of every posture the premises allow (edges from 0 to their full length)
+    lies in its envelope."""
+    dims = dict(hb.DEFAULT_DIMENSIONS)
+    for name in hb.LENGTHS:
+        dims[name] *= scale
+    dims["head_shoulder"] = max(dims["head_shoulder"], 0.5 * dims["shoulder"])
+    dims["trunk_lean_deg"], dims["neck_lean_deg"] = trunk, neck
+    rng = np.random.default_rng(seed)
+    recipe = hb.envelope_recipe([tracked], dims)
+    idx = [hb.point_index(t) for t in tracked]
+    for trial in range(20):
+        P = random_posture(rng, dims, stretch=(0.0, 1.0) if trial % 2 else (0.0, 0.3))
+        assert hb.posture_violations(P, dims, 1e-6) == []
+        ends, _, radius, _, _ = envelopes(recipe, P[idx])
+        assert containment_margin(P, ends, radius, dims) >= -1e-9

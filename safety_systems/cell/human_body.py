@@ -59,7 +59,9 @@ hidden, by ``occlusion_speed`` times the time unseen; an untracked point's is de
 from a tracked one along the tree (:func:`envelope_recipe`): one edge of length l moves
 a region's centre by nothing and grows its radius by l, or, under a lean limit of angle
 a about the vertical, moves the centre l cos(a) along it and grows the radius by
-l sin(a) (the smallest ball about the axis holding that cap of the sphere of radius l);
+l sin(a) (the smallest ball about the axis holding every point within l of the edge's
+start and a of the vertical, for a >= 45 deg; below 45 deg the centre moves
+l / (2 cos(a)) and the radius grows as much: :func:`lean_ball`);
 the shoulders can also be derived from the head through ``head_shoulder``. The tightest
 derivation is kept.
 
@@ -219,6 +221,30 @@ def _path(a: int, b: int, adj) -> list[int]:
     return out[::-1]
 
 
+def lean_ball(length: float, lean_deg: float) -> tuple[float, float]:
+    """(centre's distance along the vertical, radius) of the smallest ball about the
+    vertical through a point A that holds every point B with |B - A| <= ``length`` and
+    B - A within ``lean_deg`` (< 90) of the vertical: the solid cone sector, not only its
+    cap on the sphere of radius ``length``, since an edge may be shorter than its length
+    (a bent, foreshortened or smaller body).
+
+    The sector is convex (a cone of half-angle below 90 degrees cut by a ball), so a
+    ball holds it when it holds its extreme points: the apex A and the cap. For a lean
+    of 45 degrees or more the ball about l cos(a) of radius l sin(a) holds the cap
+    (every cap point is at most l sin(a) from it) and the apex (l cos(a) <= l sin(a)).
+    Below 45 degrees the apex lies outside that ball (a lean limit of 10 degrees left the
+    lower trunk 0.30 m outside its envelope); the ball about c = l / (2 cos(a)) of radius
+    c holds both: the apex at c, a cap point at angle theta <= a at
+    sqrt(l^2 - 2 c l cos(theta) + c^2) <= sqrt(l^2 - 2 c l cos(a) + c^2) = c. Both are
+    the smallest such balls about the vertical (the first is fixed by the cap's rim, the
+    second by the rim and the apex together)."""
+    angle = math.radians(lean_deg)
+    if lean_deg >= 45.0:
+        return length * math.cos(angle), length * math.sin(angle)
+    c = length / (2.0 * math.cos(angle))
+    return c, c
+
+
 def _regions(tracked: dict[int, int], dims: dict, adj) -> dict[int, tuple]:
     """Each point's best region (slot, offset (3,), extra radius) from the tracked points
     (point -> body slot), by Dijkstra on the extra radius (every step adds to it)."""
@@ -238,9 +264,8 @@ def _regions(tracked: dict[int, int], dims: dict, adj) -> dict[int, tuple]:
                   for a, b, length in SHORTCUTS if x in (_P[a], _P[b])]
         for y, length, lean, sign in steps:
             if lean < 90.0:
-                angle = math.radians(lean)
-                cand = (slot, offset + np.array([0.0, 0.0, sign * length * math.cos(angle)]),
-                        extra + length * math.sin(angle))
+                along, grow = lean_ball(length, lean)
+                cand = (slot, offset + np.array([0.0, 0.0, sign * along]), extra + grow)
             else:
                 cand = (slot, offset.copy(), extra + length)
             if y not in best or cand[2] < best[y][2] - 1e-12:
