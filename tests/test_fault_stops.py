@@ -103,7 +103,7 @@ def test_summary_and_trace_count_stops_rejections_and_hidden_time(run_and_output
     stops_ = summary["protective_stops"]
     assert {name: stops_[name]["count"] for name in stops_} == {
         "separation": 0, "stale_frame": 1, "lost_track": 0, "bad_time": 2, "non_finite": 1,
-        "unknown_id": 1, "gate": 2}
+        "unknown_id": 1, "gate": 2, "contact": 0}
     # Stale: the dropout; the hold before the first frame is processed (t < 0.001 s) is
     # the start, not a stop, and said apart.
     assert stops_["stale_frame"]["time"] == pytest.approx(7.201 - (6.95 + TIMEOUT), abs=DT)

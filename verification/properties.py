@@ -27,14 +27,20 @@ Contact is as the scenario's ``contact_geometry`` defines it
   property's to judge.
 - **Permitted contact** (ISO/TS 15066's power and force limiting,
   ``safety_systems.pfl``): every contact while the robot moves touches a segment whose
-  body regions all permit transient contact, not clampable against a declared fixed
-  surface, at a relative speed (the robot's speed towards the segment at the pair's
-  nearest points, Eq. 7's v_R^d: ``pfl.speed_caps``) at or below the least permissible
-  speed of those regions (Annex A, for the robot's effective mass with the configured
-  payload). Robustness: over the contacts while the robot moves, the least of limit -
-  relative speed (m/s; minus infinity for the head, face or neck, or a clampable
-  segment); with no such contact, the stopped-before-contact figure (m: how far from any
-  contact the moving robot stayed). Under ``ssm`` it follows from stopped before contact;
+  body regions all permit transient contact, not clampable (against the robot's mounting
+  surface, a declared fixed surface, or between two of the robot's links), at a relative
+  speed (the robot's speed towards the segment at the pair's nearest points, Eq. 7's
+  v_R^d: ``pfl.speed_caps``) at or below the least permissible speed of those regions
+  (Annex A, for the robot's effective mass with the configured payload); and the contact
+  is transient: from its impact the robot's indentation of the segment stays within the
+  transient compression for the transient window and within the quasi-static one after
+  (``pfl.contact_limits``: a robot that keeps pressing into a hand violates it, one
+  that comes off or stops within the limits does not). Robustness: over the contacts'
+  ticks, the least of limit - relative speed while the robot moves (m/s; minus infinity
+  for the head, face or neck, or a clampable segment) and allowed - indentation (m);
+  with no contact while the robot moves, the stopped-before-contact figure (m: how far
+  from any contact the moving robot stayed). Under ``ssm`` it follows from stopped
+  before contact, and its figure is the impact rule alone (the contacts' speeds);
   ``verify`` checks it under ``ssm_pfl``, in place of stopped before contact.
 """
 
@@ -47,7 +53,8 @@ from safety_systems.pfl.segment_regions import permitted_contact_robustness
 from safety_systems.ssm.true_measures import MOVING_SPEED, moving
 
 __all__ = ["MOVING_SPEED", "PROPERTIES", "Robustness", "stopped_before_contact",
-           "separation_invariant", "permitted_contact", "mode_properties"]
+           "separation_invariant", "permitted_contact", "permitted_contact_of",
+           "mode_properties"]
 
 # The properties by name, and the Robustness field of each.
 PROPERTIES = {"contact": "stopped_before_contact", "separation": "separation",
@@ -109,3 +116,12 @@ def permitted_contact(clearances: np.ndarray, v_robot: np.ndarray, robot_speed: 
     t, i, _ = np.nonzero(touch)
     limit = np.where(clamped[t, i], 0.0, limits[i])  # a clampable segment: none
     return float(np.min(permitted_contact_robustness(limit, v_robot[touch])))
+
+
+def permitted_contact_of(figures: np.ndarray, stopped: float) -> float:
+    """Robustness of "permitted contact" under ``safety.mode: ssm_pfl`` from the (T, M)
+    figures of every contact episode's ticks (``pfl.contact_limits.lasting_contact``, +inf
+    outside one): their least, or, with no contact while the robot moved, the
+    stopped-before-contact figure ``stopped`` (m)."""
+    least = float(np.min(figures, initial=np.inf))
+    return least if least < np.inf else float(stopped)

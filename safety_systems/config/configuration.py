@@ -40,7 +40,14 @@ from safety_systems.cell.path_speed import path_speed_bound
 from safety_systems.files.input_error import InputError
 from safety_systems.pfl.robot_masses import effective_mass
 from safety_systems.pfl.segment_regions import permitted_speeds
-from safety_systems.pfl.speed_caps import CLAMP_GAP, segment_caps, surface_boxes
+from safety_systems.pfl.contact_limits import pressing_speeds, segment_contact_limits
+from safety_systems.pfl.speed_caps import (
+    CLAMP_GAP,
+    capsule_links,
+    mounting_box,
+    segment_caps,
+    surface_boxes,
+)
 from safety_systems.sensing.sensor_faults import fault_table
 from safety_systems.sensing.tracks import make_regions, make_rules
 from safety_systems.ssm.formulas import HUMAN_SPEED_MODES, ROBOT_SPEED_TERMS, SPEED_LEVELS
@@ -328,10 +335,17 @@ class PflTerms:
 
     caps: np.ndarray  # (12,) each segment's path-rate cap (0: pure SSM); all 0 under ssm
     limits: np.ndarray  # (12,) each segment's permissible relative speed, m/s (0: none)
-    boxes: np.ndarray  # (S, 2, 3) the declared fixed surfaces
+    boxes: np.ndarray  # (S, 2, 3) the robot's mounting surface, then the declared ones
     reach: float  # m: a segment's envelope this close to a surface loses its cap
     speed_bound: float  # V_R, m/s: no monitor capsule axis point is faster at rate 1
     effective_mass: float  # m_R, kg (ISO/TS 15066 Eq. A.4, with the configured payload)
+    # (12, 3) each segment's transient, quasi-static and detection compressions, m
+    # (``pfl.contact_limits.segment_contact_limits``)
+    compressions: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
+    detection_time: float = 0.0  # s: the robot's contact detection holds this long
+    window: float = 0.5  # s: the transient window after an impact
+    monitor_links: np.ndarray = dataclasses.field(  # each monitor capsule's link
+        default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def capped(self) -> bool:
@@ -354,17 +368,31 @@ def _speed_bound(robot: RobotConfig, config: ControllerConfig) -> float:
     return _SPEED_BOUNDS[key]
 
 
+def _stop_time(config: ControllerConfig, model: RobotModel) -> float:
+    """The longer of the configured T_s and the braking table's own stop from full
+    speed (s): how long the robot may take to stop once its contact detection acts."""
+    return max(assumed_stopping(config, model)[0],
+               float(table_stopping_time(braking_table(config, model), 1.0)))
+
+
 def pfl_terms(robot: RobotConfig, config: ControllerConfig) -> PflTerms:
     """:class:`PflTerms` of the robot station ``robot`` under ``config``: the segments'
     permissible speeds for the robot's effective mass with the configured payload (Annex
     A: ``pfl.segment_regions``; trusted from the configuration, as the stopping data
-    are), the caps (``pfl.speed_caps.segment_caps``; under ``ssm`` all 0), V_R of the
+    are), the caps (``pfl.speed_caps.segment_caps`` of the lesser of those speeds and
+    the speed at which the robot's contact detection still keeps a lasting contact within
+    the quasi-static compression, ``pfl.contact_limits.pressing_speeds`` with the longer
+    of the configured and the table's stop; under ``ssm`` all 0), V_R of the
     monitor's capsules on the robot's path (computed only under ``ssm_pfl``; NaN
-    otherwise) and the clamping terms."""
+    otherwise), the clamping terms (the robot's mounting surface, ``robot.mounting_size``,
+    and the declared fixed surfaces; the monitor's capsules' links) and what a contact
+    that lasts may do (``pfl.contact_limits``: the compressions and the robot's contact
+    detection)."""
     f = config.safety
     model = robot_model_of(robot)
     m_r = effective_mass(model, f.payload_mass)
     limits = permitted_speeds(m_r)
+    compressions = segment_contact_limits(f.contact_stop_force)
     caps, bound = np.zeros(limits.shape), float("nan")
     if f.mode == "ssm_pfl":
         if not m_r > 0.0:  # no inertials and no payload: Annex A's speeds are unbounded
@@ -373,8 +401,16 @@ def pfl_terms(robot: RobotConfig, config: ControllerConfig) -> PflTerms:
                              "mass is 0 kg, and no payload_mass): ssm_pfl needs the robot's "
                              "effective mass (ISO/TS 15066 Eq. A.4)")
         bound = _speed_bound(robot, config)
-        caps = segment_caps(limits, f.pfl_speed, bound)
+        caps = segment_caps(np.minimum(limits, pressing_speeds(
+            compressions, f.contact_detection_time, _stop_time(config, model),
+            1.0 / robot.control_rate_hz)), f.pfl_speed, bound)
     for x in (caps, limits):
         x.setflags(write=False)
-    return PflTerms(caps, limits, surface_boxes(f.fixed_surfaces), CLAMP_GAP + f.clamp_margin,
-                    bound, float(m_r))
+    tool = max(robot.tool_length, f.tool_length) + max(robot.payload_radius,
+                                                         f.payload_radius)
+    boxes = np.concatenate([mounting_box(robot.mounting_size, model.base_reach + tool),
+                            surface_boxes(f.fixed_surfaces)])
+    boxes.setflags(write=False)
+    return PflTerms(caps, limits, boxes, CLAMP_GAP + f.clamp_margin, bound, float(m_r),
+                    compressions, float(f.contact_detection_time), float(f.transient_window),
+                    capsule_links(monitor_capsules(config, model)))

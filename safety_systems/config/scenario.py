@@ -188,8 +188,15 @@ class SafetyConfig:
     effective mass with ``payload_mass`` kg of tooling and workpiece), or than
     ``pfl_speed`` m/s where lower (None: the segment's own); the head, face and neck keep
     pure SSM, and so does a segment within ``pfl.speed_caps.CLAMP_GAP`` +
-    ``clamp_margin`` m of a ``fixed_surfaces`` box (tables, walls, fixtures it could be
-    pressed against, robot base frame).
+    ``clamp_margin`` m of what it could be pressed against: the robot's mounting surface
+    (``robot.mounting_size``), a ``fixed_surfaces`` box (tables, walls, fixtures, robot
+    base frame) or two links of the robot. A contact that lasts is bounded too
+    (``safety_systems.pfl.contact_limits``): the robot's own contact detection stops it
+    once its force reaches ``contact_stop_force`` N (its configured force limit plus that
+    limit's tolerance) held for ``contact_detection_time`` s, and the robot's indentation
+    must stay within the transient compression until ``transient_window`` s after the
+    impact and within the quasi-static one after (premises trusted from this file, as the
+    stopping data are).
 
     ``robot_speed``: the robot's speed in S (Eq. 11's S_R = v_R T_r): ``directed`` (the
     seed's and ISO/TS 15066's v_R^d, Eq. 7: the speed of the capsule's point nearest
@@ -225,6 +232,9 @@ class SafetyConfig:
     payload_mass: float = number(0.0, ge=0.0, le=100.0, unit="kg")
     fixed_surfaces: list[Box] = dc.field(default_factory=list)
     clamp_margin: float = number(0.3, ge=0.0, le=2.0, unit="m")
+    contact_stop_force: float = number(175.0, gt=0.0, le=1000.0, unit="N")
+    contact_detection_time: float = number(0.25, ge=0.0, le=2.0, unit="s")
+    transient_window: float = number(0.5, gt=0.0, le=2.0, unit="s")
 
 
 def _dimension(name: str) -> typing.Any:
@@ -337,6 +347,10 @@ class RobotConfig:
     which verification uses to check what happens when the data is wrong).
     ``payload_radius`` and ``tool_length``: the real tool (m), a capsule from the
     flange along its z axis; the properties measure contact against it.
+    ``mounting_size``: [x, y] (m) of the table or floor the robot stands on, centred on
+    its base, whose top is the base frame's z = 0 plane; empty (the default): a square
+    over the robot's reach. A body region can be clamped against it
+    (``safety_systems.pfl.speed_caps``: power and force limiting keeps pure SSM there).
     """
 
     model: str = ""
@@ -349,6 +363,7 @@ class RobotConfig:
     braking_time_scale: float = number(1.0, gt=0.0, le=10.0)
     payload_radius: float = number(0.05, gt=0.0, le=1.0, unit="m")
     tool_length: float = number(0.0, ge=0.0, le=1.0, unit="m")
+    mounting_size: list[float] = number([], gt=0.0, le=40.0, unit="m")
     path: PathConfig = dc.field(default_factory=PathConfig)
 
 
@@ -850,6 +865,8 @@ def validate_robot(r: RobotConfig, prefix: str = "robot") -> None:
     model = robot_model_of(r, prefix)
     n, name = model.n, model.name
     _check(r.mode in ("kinematic", "dynamic"), f"{prefix}.mode", r.mode, "kinematic | dynamic")
+    _check(len(r.mounting_size) in (0, 2), f"{prefix}.mounting_size", r.mounting_size,
+           "empty (a square over the robot's reach) or [x, y] in m, each 0 < x <= 40")
     p = r.path
     if p.line is not None or p.task_path is not None:
         _check(is_ur5e(model), f"{prefix}.path." + ("line" if p.line is not None else

@@ -23,6 +23,8 @@ from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
 
 from safety_systems.config.configuration import (
     assumed_stopping,
+    contact_capsules,
+    truth_recipe,
     level_terms,
     braking_table,
     frame_timeout,
@@ -48,7 +50,9 @@ from safety_systems.config.scenario import (
     body_names,
     body_point,
 )
+from safety_systems.pfl.speed_caps import CLAMP_GAP, capsule_links
 from safety_systems.systems.bimodal_speed_controller import BimodalSpeedController
+from safety_systems.systems.contact_stop import ContactStop
 from safety_systems.systems.erga_speed_controller import ErgaSpeedController
 from safety_systems.systems.gesture_source import GestureSource
 from safety_systems.systems.hwang_speed_controller import HwangSpeedController
@@ -179,10 +183,14 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         num_bodies=m, delta_s=f.delta_s, d_min=f.d_min,
         levels=SPEED_LEVELS if by_speed else None,
         caps=np.tile(pfl.caps, m // pfl.caps.size) if capped else None,
-        surfaces=pfl.boxes if capped else None, clamp_reach=pfl.reach if capped else 0.0))
-    if capped and override.HasInputPort("segment_ends"):
+        surfaces=pfl.boxes if capped else None, clamp_reach=pfl.reach if capped else 0.0,
+        capsule_radii=capsules.radius if capped else None,
+        capsule_links=pfl.monitor_links if capped else None))
+    if capped:
         for name in ("segment_ends", "segment_radii"):
             builder.Connect(envelopes.GetOutputPort(name), override.GetInputPort(name))
+        builder.Connect(robot.GetOutputPort("capsule_ends"),
+                        override.GetInputPort("capsule_ends"))
     for name in ("positions_estimated", "velocities_estimated", "track_status", "position_std",
                  "unseen_time"):
         builder.Connect(tracker.GetOutputPort(name), envelopes.GetInputPort(name))
@@ -308,6 +316,9 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     if "robot_capsules" in safety.systems:
         builder.Connect(q_port, safety.systems["robot_capsules"].GetInputPort("joint_positions"))
     override = safety.systems.get("override")
+    if override is not None and override.HasInputPort("contact_stop"):  # ssm_pfl
+        systems["contact_stop"] = AddContactStop(builder, scenario, motion, q_port, v_port,
+                                                 override)
     if override is not None and override.HasInputPort("path_state"):  # by_speed
         builder.Connect(follower.GetOutputPort("path_state"), override.GetInputPort("path_state"))
     for controller in (speed, zones):
@@ -323,6 +334,30 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     diagram = builder.Build()
     diagram.set_name("workcell")
     return Workcell(diagram, scenario, path, names, systems, logger, columns, plant)
+
+
+def AddContactStop(builder: DiagramBuilder, scenario: Scenario, motion, q_port: OutputPort,
+                   v_port: OutputPort, override) -> ContactStop:
+    """Adds the robot's own contact detection under ``safety.mode: ssm_pfl``, named
+    ``contact_stop`` (``ContactStop``, on the operators' truth ``motion`` and the real
+    robot's joints), into the SpeedOverride's ``contact_stop``."""
+    robot, f = scenario.robot, scenario.controller.safety
+    pfl = pfl_terms(robot, scenario.controller)
+    capsules = contact_capsules(robot, scenario.contact_geometry)
+    recipe = truth_recipe(scenario)
+    per = recipe.radius.size // pfl.limits.size
+    stop = builder.AddNamedSystem("contact_stop", ContactStop(
+        capsules=capsules, links=capsule_links(capsules), recipe=recipe,
+        limits=np.tile(pfl.limits, per), compressions=np.tile(pfl.compressions, (per, 1)),
+        boxes=pfl.boxes, contact_distance=scenario.contact_distance, clamp_gap=CLAMP_GAP,
+        detection_time=f.contact_detection_time, window=f.transient_window,
+        period_sec=1.0 / robot.control_rate_hz))
+    builder.Connect(q_port, stop.GetInputPort("joint_positions"))
+    builder.Connect(v_port, stop.GetInputPort("joint_velocities"))
+    for name in ("points_true", "point_velocities_true", "operators_present"):
+        builder.Connect(motion.GetOutputPort(name), stop.GetInputPort(name))
+    builder.Connect(stop.GetOutputPort("contact_stop"), override.GetInputPort("contact_stop"))
+    return stop
 
 
 def _add_sensor(builder: DiagramBuilder, scenario: Scenario, motion, recorded_gaps: list):

@@ -49,7 +49,7 @@ from safety_systems.cell.stopping import (
     stops_by_rate,
     true_stopping,
 )
-from safety_systems.sensing.stops import REJECT_CAUSES, SIMULATED, STOP_REASONS
+from safety_systems.sensing.stops import REJECT_CAUSES, SIMULATED_CAUSES, STOP_REASONS
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.cell.ur5e import tool0_position_and_velocity
 from safety_systems.ssm.true_measures import moving, permitted, true_segments
@@ -252,7 +252,7 @@ def stop_reasons(run: Run) -> np.ndarray:
 def protective_stops(run: Run) -> dict:
     """Protective stops by cause: how many times one began and the seconds it lasted (the
     wait for the first frame apart: :func:`first_frame_wait`)."""
-    return stops_by_cause(stop_reasons(run), run.time, STOP_REASONS[1:SIMULATED])
+    return stops_by_cause(stop_reasons(run), run.time, SIMULATED_CAUSES)
 
 
 def first_frame_wait(reasons: np.ndarray, time: np.ndarray) -> float:

@@ -33,17 +33,24 @@ counting the operator's own speed would forbid every contact and PFL could not e
 robot cannot control how fast a person strikes it.
 
 **Clamping.** Annex A's transient limits assume the body region can recoil. A region
-pressed against a fixed object (the cell's tables, walls and fixtures, declared as boxes:
-``safety.fixed_surfaces``) cannot, and its quasi-static limits are half the transient
-ones or less; we keep **pure SSM** for such a segment rather than a quasi-static cap:
-the quasi-static limit holds for a force sustained by a robot pushing, which a speed cap
-does not bound (that needs force sensing, not modelled here). A segment counts as
-clampable when its capsule comes within :data:`CLAMP_GAP` of a declared surface (the
-truth the property measures: :func:`clampable`); the override drops the segment's cap to
-0 when the monitor's envelope of it comes within ``CLAMP_GAP + clamp_margin`` (the
-configuration's ``clamp_margin``, room for the operator's and the robot's travel while
-the robot slows; :func:`clamp_caps`). Too little room shows as a counterexample of the
-permitted contact property, not as a proof.
+pressed against a fixed object cannot, and its quasi-static limits are half the transient
+ones or less; we keep **pure SSM** for such a segment rather than a quasi-static cap.
+What a segment can be pressed against needs no one to declare it (issue 46): the surface
+the robot stands on (``robot.mounting_size``: the table or floor plane under the base,
+by default a square over the robot's reach, as the robot can press nothing onto it
+beyond; :func:`mounting_box`), every declared fixture (``safety.fixed_surfaces``:
+tables, walls, fixtures), and the robot's own body: a segment within reach of the
+capsules of two different links (:func:`between_links`: caught between two links, or
+between a link and the first link that turns about the base; the tool counts as its
+flange's link). A segment counts as clampable when its capsule comes within
+:data:`CLAMP_GAP` of any of these (the truth the property measures: :func:`clampable`,
+:func:`between_links`); the override drops the segment's cap to 0 when the monitor's
+envelope of it comes within ``CLAMP_GAP + clamp_margin`` of them (the configuration's
+``clamp_margin``, room for the operator's and the robot's travel while the robot slows;
+:func:`clamp_caps`). Too little room shows as a counterexample of the permitted contact
+property, not as a proof. A contact that lasts is bounded as well:
+``pfl.contact_limits`` (transient and quasi-static compressions, the robot's contact
+detection).
 
 Distances to a box are bounded below through samples along the segment (the distance
 to a convex set is 1-Lipschitz, so the least sampled distance less half the sample
@@ -56,6 +63,8 @@ import math
 
 import numba
 import numpy as np
+
+from safety_systems.cell.robot_geometry import segments_pair
 
 # ``safety.mode``: speed and separation monitoring only (seed 000), or with power and
 # force limiting near the permitted body regions.
@@ -122,14 +131,60 @@ def clampable(p, q, radius, boxes, reach):
 
 
 @numba.njit(cache=True)
-def clamp_caps(ends, radii, caps, boxes, reach, out):
+def between_links(p, q, radius, ends, end_velocities, radii, links, reach):
+    """Whether the capsule of axis p-q and ``radius`` may lie within ``reach`` (m) of the
+    capsules of two different links of the robot (``ends`` (J, 2, 3) and their
+    velocities, ``radii`` (J,), ``links`` (J,): each capsule's link, the tool its
+    flange's: :func:`capsule_links`), so that the two could close on it: a segment
+    caught between two links, or between a link and the base's (the first link turns
+    about the base). A NaN input counts as within (fail safe). Clearances as the
+    properties take them (``robot_geometry.segments_pair``'s axis distance less both
+    radii)."""
+    first = -1
+    zero = (0.0, 0.0, 0.0)
+    for j in range(radii.size):
+        A, B = ends[j, 0], ends[j, 1]
+        gap = segments_pair((p[0], p[1], p[2]), (q[0], q[1], q[2]), zero, zero,
+                            (A[0], A[1], A[2]), (B[0], B[1], B[2]),
+                            (end_velocities[j, 0, 0], end_velocities[j, 0, 1],
+                             end_velocities[j, 0, 2]),
+                            (end_velocities[j, 1, 0], end_velocities[j, 1, 1],
+                             end_velocities[j, 1, 2]))[0] - radii[j] - radius
+        if not gap > reach:
+            if first < 0:
+                first = links[j]
+            elif links[j] != first:
+                return True
+    return False
+
+
+def capsule_links(capsules) -> np.ndarray:
+    """Each capsule's link (``robot_geometry.Capsules``): the link capsules their own
+    index, the tool the last link's (it is fixed to the flange), so a segment touching the
+    tool and the last link only is not caught between two links. The seed's tool point
+    (one capsule): 0."""
+    n = len(capsules.names)
+    links = np.arange(n, dtype=np.int64)
+    if n > 1 and capsules.names[-1] == "tool":
+        links[-1] = n - 2
+    return links
+
+
+@numba.njit(cache=True)
+def clamp_caps(ends, radii, caps, boxes, reach, robot_ends, robot_velocities, robot_radii,
+               robot_links, out):
     """The caps in force now: ``caps`` (M,), and 0 for every segment whose capsule
     (``ends`` (M, 2, 3), ``radii`` (M,): the monitor's envelopes) may lie within
-    ``reach`` of a fixed surface (:func:`clampable`), into ``out`` (M,)."""
+    ``reach`` of a fixed surface (:func:`clampable`: the robot's mounting surface and the
+    declared ones) or of two links of the robot (:func:`between_links`, of the monitor's
+    capsules ``robot_ends`` (J, 2, 3), their velocities, radii and links), into ``out``
+    (M,)."""
     for i in range(caps.size):
         out[i] = caps[i]
-        if caps[i] > 0.0 and boxes.shape[0] > 0 and clampable(ends[i, 0], ends[i, 1],
-                                                               radii[i], boxes, reach):
+        if caps[i] > 0.0 and ((boxes.shape[0] > 0 and clampable(
+                ends[i, 0], ends[i, 1], radii[i], boxes, reach)) or between_links(
+                ends[i, 0], ends[i, 1], radii[i], robot_ends, robot_velocities, robot_radii,
+                robot_links, reach)):
             out[i] = 0.0
 
 
@@ -137,6 +192,22 @@ def surface_boxes(surfaces) -> np.ndarray:
     """The declared fixed surfaces (``Box`` entries with ``min`` and ``max``) as an
     (S, 2, 3) array."""
     return np.array([[s.min, s.max] for s in surfaces], dtype=float).reshape(-1, 2, 3)
+
+
+MOUNTING_THICKNESS = 0.05  # m: the mounting surface's box below its top (any will do)
+
+
+def mounting_box(size, reach: float) -> np.ndarray:
+    """(1, 2, 3) the surface the robot stands on, as a box whose top is the base frame's
+    z = 0 plane (the robot's base frame sits on its mounting surface): ``size`` [x, y]
+    (m, centred on the base), or, empty, a square of half side ``reach`` (m: as far as
+    any point of the robot and its tool gets from the base origin, so every place the
+    robot could press a body onto the plane)."""
+    if len(size):
+        hx, hy = 0.5 * float(size[0]), 0.5 * float(size[1])
+    else:
+        hx = hy = float(reach)
+    return np.array([[[-hx, -hy, -MOUNTING_THICKNESS], [hx, hy, 0.0]]])
 
 
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element

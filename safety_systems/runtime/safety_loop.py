@@ -19,8 +19,11 @@ the order the Drake diagram calls them (no copy of any rule lives here).
   ``ssm.by_speed_override_command``, given a bound on the robot's path rate now (the
   robot link's ``rate_bound``). Under ``safety.mode: ssm_pfl`` (``pfl``: the robot's
   ``configuration.pfl_terms``) the same with each segment's cap in force
-  (``pfl.speed_caps.clamp_caps`` of the envelopes) by ``ssm.capped_override_command`` or
-  ``ssm.capped_by_speed_command``.
+  (``pfl.speed_caps.clamp_caps`` of the envelopes against the fixed surfaces and the
+  robot's links) by ``ssm.capped_override_command`` or ``ssm.capped_by_speed_command``.
+  The contact detection that ends a lasting contact (``pfl.contact_limits``; the
+  simulation's ContactStop) is the real robot's own: a premise the certificate names,
+  not a rule of this loop.
 
 Times are the runtime's monotonic clock (capture times from ``mocap.FrameClock``).
 """
@@ -182,7 +185,8 @@ class SafetyLoop:
                             self.monitor, self.out, self.nearest)
         if self.pfl is not None:
             clamp_caps(self.segment_ends, self.segment_radius, self._segment_caps,
-                       self.pfl.boxes, self.pfl.reach, self.caps)
+                       self.pfl.boxes, self.pfl.reach, self.ends, self.end_velocities,
+                       self.capsules.radius, self.pfl.monitor_links, self.caps)
         protective = self.out[1]
         if self.levels is not None:
             if self.m:

@@ -19,10 +19,17 @@ STOP_BAD_PACKET = 8  # a motion-capture packet that could not be read
 STOP_ROBOT_LOST = 9  # the robot's connection lost, or its joint positions stale
 STOP_OVERRUN = 10  # the control loop ran late beyond its stated bound
 STOP_EXCEPTION = 11  # an error in the runtime itself (the run ends at speed 0)
+# The robot's own contact detection (power and force limiting: its force limit tripped,
+# ``safety_systems.pfl.contact_limits``; simulated under ``safety.mode: ssm_pfl``, a
+# premise of the real robot's, which stops itself):
+STOP_CONTACT = 12
 
 STOP_REASONS = ("none", "separation", "stale_frame", "lost_track", "bad_time", "non_finite",
-                "unknown_id", "gate", "bad_packet", "robot_lost", "overrun", "exception")
-SIMULATED = STOP_BAD_PACKET  # the causes a simulation can raise: codes below this
+                "unknown_id", "gate", "bad_packet", "robot_lost", "overrun", "exception",
+                "contact")
+SIMULATED = STOP_BAD_PACKET  # the sensing causes a simulation can raise: codes below this
+# Every cause a simulation can raise, in the summary's order.
+SIMULATED_CAUSES = STOP_REASONS[1:SIMULATED] + (STOP_REASONS[STOP_CONTACT],)
 
 # Rejected measurements by cause (the tracker's ``rejected_frames`` counts, in this order).
 REJECT_NON_FINITE, REJECT_TIME, REJECT_UNKNOWN_ID, REJECT_GATE = 0, 1, 2, 3

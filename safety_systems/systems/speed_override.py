@@ -5,6 +5,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from safety_systems.pfl.speed_caps import clamp_caps
+from safety_systems.sensing.stops import STOP_CONTACT, STOP_NONE, STOP_SEPARATION
 from safety_systems.ssm.formulas import override_decision
 
 
@@ -19,6 +20,10 @@ class SpeedOverride(LeafSystem):
         - protective_distances
         - track_status
         - fault
+        - segment_ends (with caps)
+        - segment_radii (with caps)
+        - capsule_ends (with caps)
+        - contact_stop (with caps)
         output_ports:
         - path_speed_commanded
         - max_protective_distance
@@ -41,10 +46,13 @@ class SpeedOverride(LeafSystem):
     least over the usable segments of max(Eq. 12, cap_i) by
     :func:`safety_systems.ssm.formulas.capped_override_command` (with ``levels``, of
     max(the segment's level, cap_i): ``capped_by_speed_command``), with the same
-    fail-safe stops; a segment whose envelope (inputs ``segment_ends``, ``segment_radii``, declared
-    only when ``surfaces`` are) may lie within ``clamp_reach`` of a fixed surface has cap
-    0 (``pfl.speed_caps.clamp_caps``). ``segment_caps`` outputs the caps in force (all 0
-    without ``caps``).
+    fail-safe stops; a segment whose envelope (inputs ``segment_ends``, ``segment_radii``)
+    may lie within ``clamp_reach`` of a fixed surface or of two of the robot's links
+    (input ``capsule_ends``: the monitor's capsules, of radii ``capsule_radii`` and links
+    ``capsule_links``) has cap 0 (``pfl.speed_caps.clamp_caps``); and the robot's own
+    contact detection (input ``contact_stop``, from a ContactStop:
+    ``safety_systems.pfl.contact_limits``) stops it (k = 0, reason ``contact``) while it
+    holds. ``segment_caps`` outputs the caps in force (all 0 without ``caps``).
 
     Args:
         num_bodies: registered body slots N.
@@ -54,11 +62,13 @@ class SpeedOverride(LeafSystem):
         caps: None (``ssm``), or each segment's cap, N path rates in [0, 1].
         surfaces: the fixed surfaces, (S, 2, 3) boxes (min and max corners).
         clamp_reach: metres, see above.
+        capsule_radii: the monitor's capsules' radii (J,), metres (with ``caps``).
+        capsule_links: each of those capsules' link (J,) (with ``caps``).
     """
 
     def __init__(self, *, num_bodies: int, delta_s: float = 2.0, d_min: float = 0.30,
                  levels: int | None = None, caps=None, surfaces=None,
-                 clamp_reach: float = 0.0):
+                 clamp_reach: float = 0.0, capsule_radii=None, capsule_links=None):
         super().__init__()
         if not (np.isfinite(delta_s) and delta_s >= 1.0):
             raise ValueError(f"delta_s: got {delta_s}; allowed: a finite number >= 1")
@@ -87,9 +97,17 @@ class SpeedOverride(LeafSystem):
         self._boxes = np.zeros((0, 2, 3)) if surfaces is None else np.array(
             surfaces, dtype=float).reshape(-1, 2, 3)
         self._reach = float(clamp_reach)
-        if self._caps is not None and self._boxes.shape[0] > 0:
+        if self._caps is not None:
             self._ends = self.DeclareVectorInputPort("segment_ends", 6 * num_bodies)
             self._radii = self.DeclareVectorInputPort("segment_radii", num_bodies)
+            self._robot_radii = np.array(capsule_radii, dtype=float).reshape(-1)
+            self._robot_links = np.array(capsule_links, dtype=np.int64).reshape(-1)
+            if self._robot_links.size != self._robot_radii.size:
+                raise ValueError(f"capsule_links: got {self._robot_links.tolist()}; allowed: "
+                                 f"one link per capsule ({self._robot_radii.size})")
+            self._robot_ends = self.DeclareVectorInputPort("capsule_ends",
+                                                           6 * self._robot_radii.size)
+            self._contact = self.DeclareVectorInputPort("contact_stop", 1)
         self._cache = self.DeclareCacheEntry(
             description="override",
             value_producer=ValueProducer(
@@ -112,13 +130,11 @@ class SpeedOverride(LeafSystem):
         out = value.get_mutable_value()
         caps = out[3:]
         if self._caps is not None:
-            if self._boxes.shape[0] > 0:
-                n = self._caps.size
-                clamp_caps(np.asarray(self._ends.Eval(context)).reshape(n, 2, 3),
-                           np.asarray(self._radii.Eval(context)), self._caps, self._boxes,
-                           self._reach, caps)
-            else:
-                caps[:] = self._caps
+            n, robot = self._caps.size, np.asarray(self._robot_ends.Eval(context)).reshape(
+                -1, 2, 3)
+            clamp_caps(np.asarray(self._ends.Eval(context)).reshape(n, 2, 3),
+                       np.asarray(self._radii.Eval(context)), self._caps, self._boxes,
+                       self._reach, robot, robot, self._robot_radii, self._robot_links, caps)
         d, s = self._d.Eval(context), np.asarray(self._s.Eval(context))
         rate = 1.0
         if self._levels is not None:  # S at every speed level, and the path rate now
@@ -127,3 +143,7 @@ class SpeedOverride(LeafSystem):
             d, s, self._status.Eval(context), self._fault.Eval(context)[0], rate=rate,
             caps=None if self._caps is None else caps, delta_s=self._delta_s,
             d_min=self._d_min)
+        if self._caps is not None and not self._contact.Eval(context)[0] == 0.0:
+            out[0] = 0.0  # the robot's own contact stop (a NaN input stops it too)
+            if out[2] in (STOP_NONE, STOP_SEPARATION):
+                out[2] = STOP_CONTACT

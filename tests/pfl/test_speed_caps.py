@@ -11,10 +11,13 @@ from safety_systems.cell.human_body import NUM_SEGMENTS
 from safety_systems.pfl.segment_regions import SEGMENT_FORBIDDEN, permitted_speeds
 from safety_systems.pfl.speed_caps import (
     CLAMP_GAP,
+    between_links,
     capsule_box_gap,
+    capsule_links,
     clamp_caps,
     clampable,
     contact_robustness,
+    mounting_box,
     segment_caps,
 )
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_NONE, TRACK_TRACKING
@@ -130,7 +133,9 @@ def test_clamping_zeroes_the_caps_near_a_surface_and_fails_safe():
     radii = np.array([0.04, 0.04, 0.04])
     caps = np.array([0.8, 0.8, 0.8])
     out = np.empty(3)
-    clamp_caps(ends, radii, caps, table, CLAMP_GAP + 0.1, out)
+    no_robot = np.zeros((0, 2, 3))
+    clamp_caps(ends, radii, caps, table, CLAMP_GAP + 0.1, no_robot, no_robot, np.zeros(0),
+               np.zeros(0, dtype=np.int64), out)
     assert out.tolist() == [0.0, 0.8, 0.0]
     assert clampable(ends[0, 0], ends[0, 1], 0.04, table, CLAMP_GAP + 0.02)
     assert not clampable(ends[0, 0], ends[0, 1], 0.04, table, CLAMP_GAP)
@@ -161,3 +166,43 @@ def test_power_and_force_limiting_needs_the_robots_mass(monkeypatch):
                                                                  mode="ssm_pfl"))
     with pytest.raises(InputError, match="effective mass"):
         configuration.pfl_terms(RobotConfig(), pfl)
+
+
+# Two links of a robot folded about an elbow at the origin: one along +x, one along +y.
+LINKS = np.array([[[0.0, 0.0, 0.0], [0.4, 0.0, 0.0]], [[0.0, 0.0, 0.0], [0.0, 0.4, 0.0]],
+                  [[0.0, 0.4, 0.0], [0.0, 0.5, 0.0]]])
+LINK_RADII = np.array([0.05, 0.05, 0.04])
+
+
+def test_a_segment_within_reach_of_two_links_is_caught_between_them():
+    """Issue 46: a forearm between two links (or a link and the base's) is clamped though
+    no surface is declared; one link alone, or a link and the tool on its flange (the
+    same link), is not."""
+    links = np.array([0, 1, 1])  # the third capsule: a tool on the second link's flange
+    v = np.zeros_like(LINKS)
+    crease = (np.array([0.12, 0.12, 0.0]), np.array([0.2, 0.2, 0.0]), 0.05)  # in the fold
+    assert between_links(*crease, LINKS, v, LINK_RADII, links, CLAMP_GAP)
+    far_side = (np.array([0.2, -0.1, 0.0]), np.array([0.3, -0.1, 0.0]), 0.05)  # link 0 only
+    assert not between_links(*far_side, LINKS, v, LINK_RADII, links, CLAMP_GAP)
+    tip = (np.array([0.0, 0.5, 0.1]), np.array([0.0, 0.45, 0.1]), 0.03)  # at the tool only
+    assert not between_links(*tip, LINKS, v, LINK_RADII, links, CLAMP_GAP)
+    # the override drops its cap there, keeps it on the far side, and fails safe on NaN
+    ends = np.array([[crease[0], crease[1]], [far_side[0], far_side[1]],
+                     [[np.nan, 0.0, 0.0], [0.3, -0.1, 0.0]]])
+    out = np.empty(3)
+    clamp_caps(ends, np.full(3, 0.05), np.full(3, 0.5), np.zeros((0, 2, 3)), CLAMP_GAP, LINKS,
+               v, LINK_RADII, links, out)
+    assert out.tolist() == [0.0, 0.5, 0.0]
+
+
+def test_the_tool_belongs_to_its_flanges_link():
+    from safety_systems.cell.robot_geometry import robot_capsules, tool_point
+
+    assert capsule_links(robot_capsules(payload_radius=0.05)).tolist() == [0, 1, 2, 3, 4, 5, 5]
+    assert capsule_links(tool_point()).tolist() == [0]
+
+
+def test_the_mounting_surface_covers_the_robots_reach_unless_sized():
+    box = mounting_box([], 1.3)
+    assert box.tolist() == [[[-1.3, -1.3, -0.05], [1.3, 1.3, 0.0]]]
+    assert mounting_box([1.2, 0.8], 1.3).tolist() == [[[-0.6, -0.4, -0.05], [0.6, 0.4, 0.0]]]

@@ -104,7 +104,18 @@ TERMS = {
                               "the cell's objects a body region could be pressed against: "
                               "near them the region keeps pure SSM"),
     "safety.clamp_margin": ("-", "project", "how far beyond the 0.05 m clamping gap a "
-                            "segment's envelope loses its PFL cap"),
+                            "segment's envelope loses its PFL cap (near the robot's mounting "
+                            "surface, a fixed surface or two of its links)"),
+    "safety.contact_stop_force": ("F_det", "the robot's force limit (manufacturer; UR: its "
+                                  "configured limit plus a 25 N tolerance); ISO/TS 15066 "
+                                  "5.5.5", "the contact force at which the robot's own "
+                                  "detection is certain to stop it: configure the robot so"),
+    "safety.contact_detection_time": ("t_det", "the robot's manufacturer (UR CB3 manual: "
+                                      "250 ms worst case for the TCP force limit)", "how long "
+                                      "the contact force is held before the robot stops"),
+    "safety.transient_window": ("-", "ISO/TS 15066 5.5.5 and Annex A (transient contact, "
+                                "as applied)", "after an impact, how long the transient "
+                                "limits apply before the quasi-static ones"),
     "braking": ("T_s, S_s by speed", "ISO 10218-1 (stopping time and distance data)",
                 "the robot's stopping data by speed fraction, as measured on the cell"),
     "alteration": ("-", "seed 004 (not used by ssm_override)", "speed alteration settings"),

@@ -168,7 +168,11 @@ premises, if M >= 0 over the box, and
 - a command below the rate brings the rate down by the stop's own steps and never
   below the command, and one at or above it never takes the rate past it
   (``braking.rate_step_one``, checked on a grid of rates and commands),
-- with fixed surfaces declared: clamp_margin >= v_max (tau + T_stop + h),
+- clamp_margin >= v_max (tau + T_stop + h) + V_R h + D (the robot's mounting surface
+  and the declared fixed surfaces, and the robot's own links, which move too),
+- for every segment with a cap c_i > 0: x_det,i + c_i V_R (t_det + T_stop + 2 h) <=
+  x_qs,i (``pfl.contact_limits``: the robot's contact detection indentation, its
+  detection time t_det; x_qs,i <= x_tr,i),
 
 the property holds in every scenario of the box. Proof sketch. Take a contact with
 segment i at tick t_c while the robot moves. If k(t) <= c_i(t) at every tick up to t_c,
@@ -181,11 +185,21 @@ Theorem 1's argument gives the pair's clearance >= M + c > c at t_c: no contact.
 Otherwise the commands after t' bring the rate down by the stop's steps (braking
 preserves the order of rates) to at most the cap within T_stop of t': at t_c the rate is
 at most c_i, and the contact's relative speed at most c_i V_R <= v_i. For a clampable
-segment (its true capsule within ``CLAMP_GAP`` of a surface at t_c): its envelope at every
-frame of the last tau + T_stop + h held the true segment then, which moved at most v_max
-(tau + T_stop + h) <= clamp_margin since, so its cap in force was 0 at every tick of the
-last T_stop + h; the argument above with c_i = 0 over that window leaves the robot at
-rest at t_c or the clearance above c. Interpretation (ours): the relative speed is the
+segment (its true capsule within ``CLAMP_GAP`` of a surface, or of two links' capsules, at
+t_c): its envelope at every frame of the last tau + T_stop + h held the true segment
+then, which moved at most v_max (tau + T_stop + h) since, and the links' capsules at any
+tick of the last T_stop + h are within V_R h + D of where they are at t_c (the tick
+after the last command above 0, then the stop), so with that clamp_margin its cap in
+force was 0 at every tick of the last T_stop + h; the argument above with c_i = 0 over
+that window leaves the robot at rest at t_c or the clearance above c. A contact that
+lasts (the indentation x of ``pfl.contact_limits``): at every tick of it while the robot
+moves the rate is at most c_i (above), so x grows at most c_i V_R per second; while x <
+x_det,i the indentation is below x_qs,i; once x >= x_det,i the robot's contact
+detection (trusted) has stopped it within t_det (plus the tick it acts on and the tick
+counted early), and it then brakes from a rate at most c_i, travelling at most c_i V_R
+T_stop; it stays stopped while the contact lasts. So x <= x_det,i + c_i V_R (t_det +
+T_stop + 2 h) <= x_qs,i <= x_tr,i at every tick: within the transient compression in the
+window and the quasi-static one after. Interpretation (ours): the relative speed is the
 robot's, Eq. 7's v_R^d at the pair's nearest points (``pfl.speed_caps``).
 
 Under ``ssm_pfl`` Theorem 2 is claimed for speed and separation monitoring's part only:
@@ -428,8 +442,19 @@ def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> P
     v_max = space.parameters.peak_speed.max
     lv = speed_levels(config, space)
     t_stop = float(np.max(lv.stop_time))
-    reach_needed = v_max * (frame_timeout(config) + t_stop + h)
+    window = frame_timeout(config) + t_stop + h
+    surface_needed = v_max * window
+    # between two links the robot's capsules move too: at most V_R h + D after the last
+    # tick the cap was checked (the braking's own travel)
+    reach_needed = surface_needed + lv.tool_speed * h + float(np.max(lv.stop_travel))
     limits = ", ".join(f"{name} {v:.3f}" for name, v in zip(SEGMENT_NAMES, pfl.limits))
+    # a contact that lasts: the most the robot can press into segment i, from its contact
+    # detection's indentation, at its cap's speed until the stop holds and while it brakes
+    x_tr, x_qs, x_det = pfl.compressions.T
+    pressed = x_det + pfl.caps * pfl.speed_bound * (f.contact_detection_time + t_stop + 2 * h)
+    lasting = pfl.caps > 0.0
+    worst = ", ".join(f"{name} {1e3 * a:.2f} mm of {1e3 * b:.2f}" for name, a, b, on in zip(
+        SEGMENT_NAMES, pressed, x_qs, lasting) if on) or "none: every cap is 0"
     checked = [
         (f"each segment's cap keeps the robot at or below its permissible speed: c_i V_R <= "
          f"v_i (V_R {pfl.speed_bound:.4f} m/s by the Lipschitz cover of the monitor's "
@@ -444,12 +469,22 @@ def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> P
          follows_commands(config, h, space.parameters.braking_time_scale.max,
                           robot_model_of(space.robot), space.robot.acceleration_limit)),
     ]
-    if len(pfl.boxes):
-        checked.append((f"clamping: a segment's envelope loses its cap within clamp_margin "
-                        f"{f.clamp_margin:g} m + CLAMP_GAP of a fixed surface, at least how "
-                        f"far a body moves in tau + T_stop + h: v_max {v_max:g} m/s x "
-                        f"{frame_timeout(config) + t_stop + h:.3f} s = {reach_needed:.3f} m",
-                        f.clamp_margin >= reach_needed))
+    checked.append((f"clamping: a segment's envelope loses its cap within clamp_margin "
+                    f"{f.clamp_margin:g} m + CLAMP_GAP of the robot's mounting surface, a "
+                    "declared fixed surface or two of the robot's links, at least how far a "
+                    f"body moves in tau + T_stop + h (v_max {v_max:g} m/s x {window:.3f} s = "
+                    f"{surface_needed:.3f} m) and the links in the tick and the stop (V_R h "
+                    f"+ D): {reach_needed:.3f} m (or no segment has a cap: pure SSM)",
+                    f.clamp_margin >= reach_needed or not bool(np.any(lasting))))
+    checked.append((
+        "a contact that lasts stays within the quasi-static compression (pfl.contact_limits: "
+        "F / k of Table A.2 and A.3, the strictest region of each segment): the robot's "
+        "contact detection indentation x_det (contact_stop_force "
+        f"{f.contact_stop_force:g} N over the softest region's k) plus its cap's speed c_i "
+        f"V_R for the detection time {f.contact_detection_time:g} s, T_stop and two ticks "
+        f"is at most x_qs for every segment with a cap ({worst}); the transient "
+        "compression x_tr is larger", bool(np.all(pressed[lasting] <= x_qs[lasting]))
+        and bool(np.all(x_qs <= x_tr))))
     trusted = [
         "ISO/TS 15066:2016 Annex A's transient contact limits (Table A.2) and its body "
         "models' effective masses and spring constants (Table A.3) for every region a "
@@ -460,15 +495,25 @@ def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> P
         "the relative speed of a contact is the robot's speed towards the body at the "
         "contact (Eq. 7's v_R^d; the operator's own speed is not counted: our reading of "
         "Annex A)",
-        ("the declared fixed surfaces are every object in the cell a body region could be "
-         f"pressed against ({len(pfl.boxes)} declared)"),
+        ("the robot's mounting surface (robot.mounting_size, else a square over its reach) "
+         "and the declared fixed surfaces are every object in the cell a body region could "
+         f"be pressed against ({len(pfl.boxes) - 1} declared)"),
+        (f"the robot's own contact detection stops it (a protective stop, held while the "
+         f"contact lasts) once its contact force has reached {f.contact_stop_force:g} N "
+         f"(its force limit plus that limit's tolerance) for "
+         f"{f.contact_detection_time:g} s, at any point of its links and tool, and it "
+         "then stops by its stopping data"),
+        (f"a transient contact's window is {f.transient_window:g} s from the impact; after it "
+         "the quasi-static limits apply (ISO/TS 15066 5.5.5 and Annex A as applied)"),
     ]
     premises = (base.premises + [Premise(x, bool(ok), "checked") for x, ok in checked]
                 + [Premise(x, True, "trusted") for x in trusted])
     proved = base.proved and all(x.holds for x in premises)
     terms = dict(base.terms) | {"caps": pfl.caps.tolist(), "limits": pfl.limits.tolist(),
                                 "V_R_caps": pfl.speed_bound, "effective_mass": pfl.effective_mass,
-                                "clamp_reach_needed": reach_needed if len(pfl.boxes) else None}
+                                "clamp_reach_needed": reach_needed,
+                                "pressed_most": pressed.tolist(),
+                                "quasi_static_compression": x_qs.tolist()}
     return dataclasses.replace(base, proved=proved, method=method, premises=premises,
                                terms=terms, property="permitted_contact")
 

@@ -83,7 +83,21 @@ from safety_systems.ssm.formulas import (
     speed_scale_eq12,
 )
 from safety_systems.ssm.true_measures import is_moving, is_permitted, true_margin
-from safety_systems.pfl.speed_caps import CLAMP_GAP, clamp_caps, clampable, contact_robustness
+from safety_systems.pfl.contact_limits import (
+    E_LATCHED,
+    E_OVER,
+    E_START,
+    EPISODE_COLUMNS,
+    contact_step,
+)
+from safety_systems.pfl.speed_caps import (
+    CLAMP_GAP,
+    between_links,
+    capsule_links,
+    clamp_caps,
+    clampable,
+    contact_robustness,
+)
 from safety_systems.sensing.delivery import TIME_TOL, delivered_frame, unit_noise
 from safety_systems.sensing.tracks import (
     TRACK_SLOT,
@@ -642,11 +656,17 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
     kept, seg_kept, op_kept, last_x, last_ends, travel = truth_memo
     m_seg_kept, seg_travel, m_travel, m_kept = monitor_memo
     fractions, deceleration, acceleration = brakes
-    pfl_limits, pfl_boxes, contact_dist, capped = pfl_truth
+    (pfl_limits, pfl_boxes, contact_dist, capped, compressions, detection_time, window,
+     contact_links, monitor_links, base_caps, reach_caps, episodes, open_any,
+     latched_any) = pfl_truth
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     ma, mb, mt0, mt1, m_radius, m_tool = monitor_caps
     ca, cb, ct0, ct1, c_radius, c_tool = contact_caps
     N, K = h_radius.shape[1], enter.shape[1]
+    per_operator = pfl_limits.size
+    seg_in = np.zeros(N, dtype=np.bool_)  # this tick: each segment in contact,
+    seg_v = np.empty(N)  # the robot's fastest speed towards it there,
+    seg_clamp = np.zeros(N, dtype=np.bool_)  # and whether it is clampable
     op_first_segment = np.arange(K) * (N // K)  # each operator's first segment
     n_joints, n_points, tool0 = sizes
     poses, twists = work
@@ -757,8 +777,12 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                 # Held at rest to the interval's end (the fault cannot change: stale for
                 # good, or fresh to the end): later ticks repeat this one.
                 frozen[b] = (k_override == 0.0 and rate[b] == 0.0 and speed == 0.0
+                             and not (capped and open_any[b])
                              and (fault != 0.0 or t_end - frames[b, _F_GOOD] <= timeout))
             else:
+                if capped:  # the caps in force: the envelopes against surfaces and links
+                    clamp_caps(h_ends[b], h_radius[b], base_caps, pfl_boxes, reach_caps, m_ends,
+                               m_ends, m_radius, monitor_links, caps_now[b])
                 # RobotCapsules' Eq. 5: its fastest end first, through the ends' largest
                 # displacement (the bounds below need no more; its rounding differs from
                 # the ends' speeds' by ulps, far below the bounds' _MARGIN), each end's
@@ -992,9 +1016,19 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                                           delta_s, d_min, included)[0]
                 memo[b, 0], memo[b, 1], memo[b, 2] = k_override, s[b] if resting else np.nan, fault
             # The properties, on the true state at this tick.
+            # The robot's own contact stop (ssm_pfl: pfl.contact_limits), set by a tick
+            # before this one
+            k_cmd = 0.0 if capped and latched_any[b] else k_override
             moving = is_moving(speed) and k <= last[b]
-            allowed = is_permitted(k_override) and k <= last[b]
-            if moving or allowed:  # (they count only then)
+            allowed = is_permitted(k_cmd) and k <= last[b]
+            # a contact under way is followed at rest too, to see it end, and one the
+            # robot creeps into below MOVING_SPEED is one (pfl.contact_limits)
+            open_floor = contact_dist[b] if capped and (open_any[b] or speed > 0.0) \
+                and k <= last[b] else -np.inf
+            if moving or allowed or open_floor > -np.inf:  # (they count only then)
+                if capped:
+                    for m in range(N):
+                        seg_in[m], seg_v[m], seg_clamp[m] = False, -np.inf, False
                 closest, margin = np.inf, np.inf
                 # How far the robot's capsule axes have gone: each look adds the
                 # farthest capsule end's displacement since the last (it bounds every
@@ -1025,7 +1059,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         continue
                     # Below these a pair could lower a figure (or come inside S_true).
                     contact_floor = max(min(min_sep[b], closest), contact_dist[b]) \
-                        if moving else -np.inf
+                        if moving else open_floor
                     separation_floor = _separation_floor(sep_min[b], margin) if allowed \
                         else -np.inf
                     # Before its point: the operator's least kept bound less how far it can
@@ -1076,7 +1110,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         r_H = seg_r[i]
                         # the separation invariant's part: SSM's (above the cap in force)
                         seg_allowed = allowed and not (
-                            capped and not k_override > caps_now[b, op_first_segment[o] + i])
+                            capped and not k_cmd > caps_now[b, op_first_segment[o] + i])
                         seg_floor = separation_floor if seg_allowed else -np.inf
                         # the segment's least kept bound, less how far both have moved
                         lb = seg_kept[b, o, i] - shift
@@ -1139,8 +1173,17 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                             least = min(least, kept[b, o, i, j])
                             closest = min(closest, sep)
                             contact_floor = max(min(contact_floor, closest),
-                                                contact_dist[b]) if moving else -np.inf
-                            if moving and sep < contact_dist[b]:  # permitted contact
+                                                contact_dist[b]) if moving else open_floor
+                            if capped and sep < contact_dist[b]:  # a contact (its course below)
+                                m = op_first_segment[o] + i
+                                if not seg_in[m]:
+                                    seg_clamp[m] = (pfl_boxes.shape[0] > 0 and clampable(
+                                        P, Q, r_H, pfl_boxes, CLAMP_GAP)) or between_links(
+                                        P, Q, r_H, c_ends, c_velocities, c_radius,
+                                        contact_links, CLAMP_GAP)
+                                seg_in[m] = True
+                                seg_v[m] = vr_true if not vr_true <= seg_v[m] else seg_v[m]
+                            elif moving and sep < contact_dist[b]:  # permitted contact
                                 pc[b] = min(pc[b], contact_robustness(
                                     pfl_limits[i], vr_true, pfl_boxes.shape[0] > 0 and clampable(
                                         P, Q, r_H, pfl_boxes, CLAMP_GAP)))
@@ -1155,6 +1198,17 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         seg_kept[b, o, i] = least if not math.isnan(least) else -np.inf
                         op_least = min(op_least, seg_kept[b, o, i])
                     op_kept[b, o] = op_least
+                if capped:  # each segment's contact, its course (pfl.contact_limits)
+                    opened, held = False, False
+                    for m in range(N):
+                        i = m % per_operator
+                        pc[b] = min(pc[b], contact_step(
+                            episodes[b, m], seg_in[m], moving, seg_v[m], seg_clamp[m], t, dt,
+                            pfl_limits[i], compressions[i, 0], compressions[i, 1],
+                            compressions[i, 2], detection_time, window))
+                        opened = opened or not math.isnan(episodes[b, m, E_START])
+                        held = held or episodes[b, m, E_LATCHED] > 0.5
+                    open_any[b], latched_any[b] = opened, held
                 if moving:
                     min_sep[b] = min(min_sep[b], closest)
                 if allowed:
@@ -1168,7 +1222,7 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                         for i in range(3):
                             ends_prev[b, j, e, i] = m_ends[j, e, i]
             s_last[b] = s[b]
-            s[b], rate[b] = path_follower_step(s[b], rate[b], k_override, end[b], brake_scale[b],
+            s[b], rate[b] = path_follower_step(s[b], rate[b], k_cmd, end[b], brake_scale[b],
                                                dt, fractions, deceleration, acceleration, 1.0)
 
 
@@ -1283,7 +1337,11 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     segment_caps = np.tile(pfl.caps, c.K)
     caps_now = np.zeros((B, M))
     pfl_truth = (np.ascontiguousarray(pfl.limits), np.ascontiguousarray(pfl.boxes),
-                 np.array([sc.contact_distance for sc in scenarios], dtype=float), capped)
+                 np.array([sc.contact_distance for sc in scenarios], dtype=float), capped,
+                 np.ascontiguousarray(pfl.compressions), float(pfl.detection_time),
+                 float(pfl.window), capsule_links(truth_caps), np.ascontiguousarray(
+                     pfl.monitor_links), np.ascontiguousarray(segment_caps), float(pfl.reach),
+                 _no_episodes(B, M), np.zeros(B, dtype=np.bool_), np.zeros(B, dtype=np.bool_))
     pc = np.full(B, np.inf)
     last = int(c.ticks.max())
     k, j = 0, 0
@@ -1313,19 +1371,18 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
         _segment_travel(h_ends, h_radius, prev_ends, prev_radius, monitor_memo[1],
                         monitor_memo[0], monitor_memo[3])
         _operator_spheres(h_ends, h_axes, h_radius, h_std, recipe.operator, op_spheres)
-        if capped:
-            _caps_in_force(h_ends, h_radius, segment_caps, pfl.boxes, pfl.reach, caps_now)
         j += 1
     robustness = min_sep - pfl_truth[2]
     return BatchResult(robustness, min_sep, sep_min, sep_time,
                        np.where(pc < np.inf, pc, robustness))
 
 
-@numba.njit(cache=True)
-def _caps_in_force(h_ends, h_radius, caps, boxes, reach, out):
-    """``pfl.speed_caps.clamp_caps`` of every scenario's envelopes (B, M, 2, 3)."""
-    for b in range(h_ends.shape[0]):
-        clamp_caps(h_ends[b], h_radius[b], caps, boxes, reach, out[b])
+def _no_episodes(B: int, M: int) -> np.ndarray:
+    """(B, M, ``contact_limits.EPISODE_COLUMNS``): no contact under way anywhere."""
+    out = np.zeros((B, M, EPISODE_COLUMNS))
+    out[:, :, E_START] = np.nan
+    out[:, :, E_OVER] = np.nan  # (not over the detection force)
+    return out
 
 
 def batch_key(s: Scenario, memo: dict | None = None) -> tuple:

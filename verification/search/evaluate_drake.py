@@ -4,7 +4,7 @@ import gc
 
 import numpy as np
 
-from safety_systems.config.configuration import pfl_terms
+from safety_systems.config.configuration import contact_capsules, pfl_terms
 from safety_systems.outputs.metrics import (
     command_signal,
     commanded,
@@ -16,14 +16,16 @@ from safety_systems.outputs.metrics import (
     true_rate,
 )
 from safety_systems.config.scenario import Scenario
-from safety_systems.pfl.speed_caps import clampable_segments
-from safety_systems.ssm.true_measures import permitted, ssm_permitted
+from safety_systems.pfl.contact_limits import lasting_contact
+from safety_systems.pfl.speed_caps import CLAMP_GAP, capsule_links, clampable_segments
+from safety_systems.ssm.true_measures import moving, permitted, ssm_permitted
 from safety_systems.diagrams.simulation import Run, simulate_workcell
 from safety_systems.diagrams.workcell import MakeWorkcell
 from verification.properties import (
     PROPERTIES,
     Robustness,
     permitted_contact,
+    permitted_contact_of,
     separation_invariant,
     stopped_before_contact,
 )
@@ -48,11 +50,22 @@ def robustness_of_run(run: Run) -> Robustness:
         clearance, true_protective_distances(scenario, v_h, v_r, true_rate(run)), allowed, dt)
     pfl = pfl_terms(scenario.robot, scenario.controller)
     m = clearance.shape[1]
-    limits = np.tile(pfl.limits, m // pfl.limits.size) if m else np.zeros(0)
+    per = max(m // pfl.limits.size, 1)
+    limits = np.tile(pfl.limits, per) if m else np.zeros(0)
     ends, _, radius, _ = run_true_segments(run)
-    clamped = clampable_segments(ends, radius, pfl.boxes)
-    contact = permitted_contact(clearance, v_r, speed, limits, clamped,
-                                scenario.contact_distance)
+    if _capped(scenario):  # contacts that last (pfl.contact_limits), on any clamping
+        c_ends, c_velocities = robot_contact_state(run)
+        capsules = contact_capsules(scenario.robot, scenario.contact_geometry)
+        figures, _ = lasting_contact(
+            ends, radius, clearance, v_r, c_ends, c_velocities, capsules.radius,
+            capsule_links(capsules), pfl.boxes, scenario.contact_distance, CLAMP_GAP,
+            moving(speed), limits, np.tile(pfl.compressions, (per, 1)), pfl.detection_time,
+            pfl.window, dt)
+        contact = permitted_contact_of(figures, rho)
+    else:
+        clamped = clampable_segments(ends, radius, pfl.boxes)
+        contact = permitted_contact(clearance, v_r, speed, limits, clamped,
+                                    scenario.contact_distance)
     return Robustness(rho, rho + scenario.contact_distance, separation, time, contact)
 
 

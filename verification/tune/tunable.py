@@ -45,6 +45,10 @@ MEASURED = {
     "safety.stopping_time": "the stopping time T_s is measured on the robot",
     "safety.stopping_distance": "the stopping distance S_s (B) is measured on the robot",
     "tracker.processing_time": "the tracker's processing time is measured on its computer",
+    "safety.contact_detection_time": "the robot's contact detection time is its "
+                                     "manufacturer's figure, a property of the robot",
+    "safety.transient_window": "the transient contact's window is ISO/TS 15066's, a premise "
+                               "of the standard",
     "tracker.exits": "the exits are the cell's layout, not a setting",
     "tracker.cell": "the cell's walls are its layout, not a setting",
     "type": "the controller type is not a parameter: tune one controller's parameters",

@@ -8,9 +8,14 @@ import yaml
 
 from tests.verification.conftest import MODELS, SMALL_SPACE, TUNE_BLOCK, run_cli
 
+# Power and force limiting that a proof can reach (issue 46): a robot force limit low
+# enough that its contact detection keeps a lasting contact within the quasi-static
+# compressions (the caps then follow from it: mm/s), and room for clamping.
 PFL_BLOCK = TUNE_BLOCK + """\
 - {name: safety.mode, choices: [ssm_pfl]}
 - {name: safety.pfl_speed, min: 0.2, max: 1.0}
+- {name: safety.contact_stop_force, min: 50.0, max: 60.0}
+- {name: safety.clamp_margin, min: 1.9, max: 2.0}
 """
 
 
@@ -36,6 +41,7 @@ def test_a_power_and_force_limiting_configuration_is_tuned_exported_and_checked(
     assert report["verdict"] == "proved"
     premises = report["properties"]["permitted_contact"]["proof"]["premises"]
     assert any("c_i V_R <= v_i" in p["statement"] and p["holds"] for p in premises)
+    assert any("a contact that lasts" in p["statement"] and p["holds"] for p in premises)
     assert "speed and separation monitoring's part only" in \
         report["properties"]["separation"]["property"]
     code, _, err = run_cli(["export", chosen["config"], "--report", chosen["report"], "--tune",
