@@ -117,9 +117,10 @@ def held_on(task, config) -> tuple[float, dict[str, float], float]:
 
 @contextlib.contextmanager
 def uncapped_permitted_segments():
-    """Within it, every segment with a permissible speed gets the cap 1 (a what-if: no
-    configuration gives a cap above c_i = min(v_pfl, v_i) / V_R); the head and neck keep
-    0. Patches the name ``configuration.pfl_terms`` calls, for runs in this process."""
+    """Within it, every segment with a cap gets the cap 1 (a what-if: no configuration
+    gives a cap above c_i = min(v_pfl, v_i, the pressing speed) / V_R); the head and neck
+    keep 0, and so does a segment the robot's contact detection cannot keep within its
+    quasi-static compression (``pfl.contact_limits.pressing_speeds``). Patches the name ``configuration.pfl_terms`` calls, for runs in this process."""
     original = configuration.segment_caps
 
     def caps(limits, pfl_speed, speed_bound):

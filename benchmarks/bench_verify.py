@@ -220,7 +220,8 @@ def commit_rates(commit: str, batch: int) -> dict | None:
 
 # The batched evaluator's one test that opens the true properties at a tick (both of them
 # and permitted contact; they only observe the loop: nothing in it reads them).
-PROPERTIES_AT_A_TICK = "            if moving or allowed:  # (they count only then)\n"
+PROPERTIES_AT_A_TICK = \
+    "            if moving or allowed or open_floor > -np.inf:  # (they count only then)\n"
 EVALUATOR = Path("verification") / "search" / "evaluate_batch.py"
 
 

@@ -1,7 +1,10 @@
 """bench_verify's closed loop alone: the batched evaluator's one test that opens the true
 properties at a tick is there once (else the benchmark measures nothing), and nothing
 before it in the tick, nor the follower's update after it, reads what the properties
-write (so the copy without them runs the same loop)."""
+write (so the copy without them runs the same loop). Under ``safety.mode: ssm_pfl`` that
+block also runs the robot's own contact detection (``pfl.contact_limits``: its episodes,
+read by the next tick's command), a model of the real robot on the truth: the loop alone
+is measured under ``ssm`` only, where none of it runs."""
 
 import re
 import sys
