@@ -190,7 +190,8 @@ def test_a_bad_number_or_mapping_gives_exit_2_and_one_line(tmp_path, capsys):
     (tmp_path / "s.yaml").write_text(SCENARIO.format(recording="rec.csv", start=0.0))
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "abc" in err and "operators[0].recording" in err
+    # the recording's own line (as `check mapping` gives it), naming its file and format
+    assert len(err.splitlines()) == 1 and "abc" in err and "rec.csv: Motive CSV" in err
     _write_motive(tmp_path, "Meters", "Quaternion")
     (tmp_path / "map.yaml").write_text(MAPPING.format(up="x", a="Glove", b="Helmet", ida=7))
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2

@@ -68,7 +68,7 @@ def read_c3d(path: str | Path, bodies: Collection[str] | None = None, *,
     read_input(path, max_bytes=MAX_BYTES)  # readable, not too large, and remembered
     header = read_header(file)
     if isinstance(header, str):
-        raise InputError("<file>", header, "a C3D file: " + READ, file=file)
+        raise InputError("C3D", header, READ, file=file)
     what = f"C3D ({header.describe()})"
     if header.processor not in PROCESSORS:
         raise InputError(f"{what}: processor", header.processor, "84 (Intel), 85 (DEC) or "
@@ -187,6 +187,6 @@ def _recording(reading: Reading, bodies, what: str, file: str) -> Recording:
         return check_recording(Recording(file, np.arange(frames) / rate,
                                          tuple(labels[i] for i in keep), (0,) * len(keep),
                                          positions[:, keep], np.full((frames, len(keep), 4),
-                                                                     np.nan)))
+                                                                     np.nan), what))
     except InputError as e:
         raise InputError(f"{what}: {e.field}", e.value, e.allowed, file=file) from None
