@@ -300,7 +300,8 @@ def test_single_frame_flips_of_a_bvh_joint_are_capture_glitches(tmp_path):
     (tmp_path / "map.yaml").write_text(mapping.replace("FLIP", "flip_speed: 1000\n"))
     with pytest.raises(InputError) as e:
         load_recorded_operator(tmp_path / "flip.bvh", tmp_path / "map.yaml")
-    assert "BVH: 'RightHand' at frame 30 (t = 0.3 s): speed" in str(e.value)
+    assert "BVH: 'RightHand' at frame 30 of the file (counted from 0; t = 0.3 s from its " \
+           "first): speed" in str(e.value)
     assert "max_speed, 10 m/s" in str(e.value) and "\n" not in str(e.value)
     # ... unless the mapping raises them too: then they are read as written
     (tmp_path / "map.yaml").write_text(mapping.replace(

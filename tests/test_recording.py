@@ -171,6 +171,12 @@ def test_the_shipped_recording_replays_and_runs_in_drake_in_evaluate_many():
     ("Frame,Time\n0,0\n", "line 1"),
     ("Format Version,1.23,Rotation Type,Quaternion,Length Units,Meters\n\n,Name,A\n",
      "header row"),
+    # an export of another format version: its version and the versions read, named
+    ("Format Version,1.1,Take Name,t,Rotation Type,Quaternion,Length Units,Meters\n",
+     "Motive CSV: Format Version: got '1.1'; allowed: 1.2, 1.21, 1.22, 1.23, 1.24, 1.25"),
+    ("info,version,1.1\ninfo,framecount,2\nframe,0,0.0\n",
+     "Format Version 1.2, 1.21, 1.22, 1.23, 1.24, 1.25 (it begins with 'Format Version'); "
+     "this file says version 1.1"),
 ])
 def test_a_bad_motive_file_is_one_line(tmp_path, text, field):
     (tmp_path / "bad.csv").write_text(text)

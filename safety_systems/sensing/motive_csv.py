@@ -70,8 +70,8 @@ def _settings(rows: list[list[str]], file: str) -> dict[str, str]:
     version = settings["Format Version"]
     if version not in VERSIONS:
         raise InputError("Motive CSV: Format Version", version, f"{', '.join(VERSIONS)}, the "
-                         "versions read (Motive 1.7 to 3.x; an older export's layout differs: "
-                         "export it again from a newer Motive)", file=file)
+                         "versions read (another version's layout differs: export the take "
+                         "again from a Motive that writes one of these)", file=file)
     return settings
 
 

@@ -299,8 +299,8 @@ def _plausible(rec: Recording, mapping: RecordingMapping, operator: MappedOperat
     else:
         figure, allowed = f"{bad.figure:.1f} m/s^2", (
             f"at most max_acceleration, {mapping.max_acceleration:g} m/s^2 over 50 ms")
-    raise InputError(f"{what}: '{body}' at frame {bad.frame} (t = {rec.times[bad.frame]:.4g} "
-                     f"s): {bad.what}", figure, allowed + ", a person's (5 mm of capture "
+    raise InputError(f"{what}: '{body}' at frame {bad.frame} of the file (counted from 0; "
+                     f"t = {rec.times[bad.frame]:.4g} s from its first): {bad.what}", figure, allowed + ", a person's (5 mm of capture "
                      "noise allowed per sample; a misread file or a body held still then "
                      "jumping moves so: the mapping's max_speed and max_acceleration raise "
                      "the bounds, implausible: untracked reads held samples as untracked)",

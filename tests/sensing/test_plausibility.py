@@ -79,7 +79,8 @@ def test_a_motive_export_frozen_then_jumping_is_refused_or_repaired_as_stated(tm
         load_recorded_operator(rec_path, tmp_path / "map.yaml")
     line = str(e.value)
     assert "\n" not in line and line.startswith(str(rec_path))
-    assert f"Motive CSV (Format Version 1.22): 'stick_right' at frame {b}" in line
+    assert (f"Motive CSV (Format Version 1.22): 'stick_right' at frame {b} of the file "
+            f"(counted from 0; t = {b / 120.0:.4g} s from its first): speed") in line
     assert f"speed: got '{(jump / 120.0 - 0.01) * 120.0:.2f} m/s'" in line
     assert "max_speed, 10 m/s" in line
     # the stated repair: the held samples read as untracked, said with a warning
