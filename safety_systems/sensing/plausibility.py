@@ -91,7 +91,7 @@ def _accelerations(times, p, noise) -> np.ndarray:
 def _stride(times: np.ndarray) -> int:
     """The acceleration's baseline in samples (at least 1)."""
     step = float(np.median(np.diff(times))) if times.size > 1 else BASELINE
-    return max(1, int(round(BASELINE / step)))
+    return max(1, round(BASELINE / step))
 
 
 def held_before_jumps(times: np.ndarray, points: np.ndarray, *, max_speed: float = MAX_SPEED,

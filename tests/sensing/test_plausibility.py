@@ -16,8 +16,8 @@ from safety_systems.sensing.plausibility import (
     first_implausible,
     held_before_jumps,
 )
-from safety_systems.sensing.recording_mapping import load_recorded_operator
 from safety_systems.sensing.recording_files import read_recording
+from safety_systems.sensing.recording_mapping import load_recorded_operator
 from tests.sensing.motive_holds import HOLDS, held_export, positions
 
 DATA = Path(__file__).parents[1] / "data"
