@@ -391,13 +391,13 @@ def _loaders() -> dict:
         load_scenario,
         load_typed,
     )
-    from safety_systems.sensing.recording_mapping import load_mapping
+    from safety_systems.sensing.recording_mapping import check_mapping
     from safety_systems.planning.task_space import load_scene
     from verification.spaces.space import load_space
 
     return {"scenario": load_scenario, "config": load_controller_config, "space": load_space,
             "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path),
-            "mapping": load_mapping}
+            "mapping": check_mapping}
 
 
 KINDS = ("scenario", "config", "space", "scene", "task-path", "mapping")
@@ -414,9 +414,9 @@ def _check(args: argparse.Namespace) -> int:
     if kind not in (None, "params"):
         load = _loaders()[kind]
         for path in files:
-            load(path)
+            read = load(path)
             if not args.quiet:
-                print(f"{path}: ok")
+                print(f"{path}: ok" + (_recorded_line(read) if kind == "mapping" else ""))
         return 0
     from safety_systems.config.params_file import looks_like_params
     from verification.deploy.certificate import check
@@ -438,6 +438,16 @@ def _check(args: argparse.Namespace) -> int:
             print(f"safety-systems: {result.line}", file=sys.stderr)
             code = code or result.code
     return code
+
+
+def _recorded_line(operators: list) -> str:
+    """What ``check mapping`` read of the recording a mapping names (simulate's rules)."""
+    if not operators:
+        return " (it names no recording: its own fields only)"
+    frames = operators[0].times.size
+    bodies = sum(len(o.names) for o in operators)
+    return (f" (its recording read as simulate reads it: {len(operators)} operator(s), "
+            f"{bodies} bodies, {frames:,} frames, every body within the plausibility bounds)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -601,7 +611,8 @@ def build_parser() -> argparse.ArgumentParser:
                       "certified proved or passed, 1 not certified, 2 unreadable, 4 weaker "
                       "than --require), or read input files of a kind without running "
                       "anything (check KIND FILE...: exit 0 all good, 2 at the first bad "
-                      "one)")
+                      "one; a mapping that names its recording has it read under every rule "
+                      "simulate applies, with simulate's line)")
     check.add_argument("files", nargs="+", metavar="[KIND] FILE",
                        help=f"params files; or a kind ({', '.join(KINDS)}) and YAML files of "
                             "it")

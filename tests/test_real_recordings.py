@@ -295,7 +295,17 @@ def test_single_frame_flips_of_a_bvh_joint_are_capture_glitches(tmp_path):
     np.testing.assert_allclose(bodies.points[:, 0, 2], hand[:, 1], atol=0.02)
     speed = np.linalg.norm(np.diff(bodies.points, axis=0), axis=2) / 0.01
     assert speed.max() < 2.0  # walk 1 m/s + swing 0.94 m/s, not 120 m/s
+    # a flip_speed above the jump keeps the flips; then the plausibility bounds refuse
+    # them (a hand at 120 m/s), naming the body, the frame and the figure ...
     (tmp_path / "map.yaml").write_text(mapping.replace("FLIP", "flip_speed: 1000\n"))
+    with pytest.raises(InputError) as e:
+        load_recorded_operator(tmp_path / "flip.bvh", tmp_path / "map.yaml")
+    assert "BVH: 'RightHand' at frame 30 of the file (counted from 0; t = 0.3 s from its " \
+           "first): speed" in str(e.value)
+    assert "max_speed, 10 m/s" in str(e.value) and "\n" not in str(e.value)
+    # ... unless the mapping raises them too: then they are read as written
+    (tmp_path / "map.yaml").write_text(mapping.replace(
+        "FLIP", "flip_speed: 1000\nmax_speed: 200\nmax_acceleration: 10000\n"))
     bodies = load_recorded_operator(tmp_path / "flip.bvh", tmp_path / "map.yaml")
     assert bodies.flips == (0, 0) and np.isfinite(bodies.raw).all()
     assert (np.linalg.norm(np.diff(bodies.points, axis=0), axis=2) / 0.01).max() > 100.0

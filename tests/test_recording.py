@@ -171,6 +171,12 @@ def test_the_shipped_recording_replays_and_runs_in_drake_in_evaluate_many():
     ("Frame,Time\n0,0\n", "line 1"),
     ("Format Version,1.23,Rotation Type,Quaternion,Length Units,Meters\n\n,Name,A\n",
      "header row"),
+    # an export of another format version: its version and the versions read, named
+    ("Format Version,1.1,Take Name,t,Rotation Type,Quaternion,Length Units,Meters\n",
+     "Motive CSV: Format Version: got '1.1'; allowed: 1.2, 1.21, 1.22, 1.23, 1.24, 1.25"),
+    ("info,version,1.1\ninfo,framecount,2\nframe,0,0.0\n",
+     "Format Version 1.2, 1.21, 1.22, 1.23, 1.24, 1.25 (it begins with 'Format Version'); "
+     "this file says version 1.1"),
 ])
 def test_a_bad_motive_file_is_one_line(tmp_path, text, field):
     (tmp_path / "bad.csv").write_text(text)
@@ -190,7 +196,8 @@ def test_a_bad_number_or_mapping_gives_exit_2_and_one_line(tmp_path, capsys):
     (tmp_path / "s.yaml").write_text(SCENARIO.format(recording="rec.csv", start=0.0))
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "abc" in err and "operators[0].recording" in err
+    # the recording's own line (as `check mapping` gives it), naming its file and format
+    assert len(err.splitlines()) == 1 and "abc" in err and "rec.csv: Motive CSV" in err
     _write_motive(tmp_path, "Meters", "Quaternion")
     (tmp_path / "map.yaml").write_text(MAPPING.format(up="x", a="Glove", b="Helmet", ida=7))
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2

@@ -989,6 +989,8 @@ def read_recordings(scenario: Scenario, folder: Path) -> None:
         try:
             recorded = load_recorded_operator(o.recording, o.mapping, o.name)
         except ScenarioError as e:
+            if e.file is not None:  # the recording's or the mapping's own line, as
+                raise  # `check mapping` gives it
             raise ScenarioError(f"{where}.recording", o.recording,
                                 f"a recording its mapping fits ({e})") from None
         if not o.name:

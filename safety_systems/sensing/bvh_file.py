@@ -31,9 +31,17 @@ def read_bvh(path: str | Path, bodies: Collection[str] | None = None, *,
     """Reads a BVH file's joints (see the module docstring; ``bodies``: the joint names to
     read, None: all); raises InputError. ``truncated`` is not used: a BVH file's
     ``Frames:`` line is checked against its rows by the library."""
+    try:
+        return _read_bvh(str(path), bodies, units)
+    except InputError as e:  # the format named in every refusal
+        field = e.field if e.field.startswith("BVH") else f"BVH: {e.field}"
+        raise InputError(field, e.value, e.allowed, file=e.file) from None
+
+
+def _read_bvh(file: str, bodies: Collection[str] | None, units: str) -> Recording:
     import bvhio
 
-    file = str(path)
+    path = file
     if units not in UNITS:
         raise InputError("units", units or "missing", "the BVH file's length unit (a BVH "
                          "file states none): " + " | ".join(UNITS), file=file)
@@ -66,4 +74,5 @@ def read_bvh(path: str | Path, bodies: Collection[str] | None = None, *,
     positions[~np.all(np.isfinite(positions), axis=2)] = np.nan
     return check_recording(Recording(file, np.arange(frames) * step,
                                      tuple(names[i] for i in keep), (0,) * len(keep),
-                                     positions, np.full((frames, len(keep), 4), np.nan)))
+                                     positions, np.full((frames, len(keep), 4), np.nan),
+                                     "BVH"))

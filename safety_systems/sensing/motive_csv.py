@@ -49,14 +49,41 @@ UNITS = {"Meters": 1.0, "Centimeters": 0.01, "Millimeters": 0.001}
 BODY_TYPES = ("Rigid Body", "Bone", "Marker")
 ROTATED = ("Rigid Body", "Bone")
 HEADER_ROWS = ("Type", "Name", "ID", "Parent")
+# The export layouts read (the first line's "Format Version"): 1.2 and 1.21 (Motive 1.x
+# and 2.0, unlabelled header rows and quality columns), 1.22 (Motive 2.x), 1.23 to 1.25
+# (Motive 2.2 to 3.x, labelled rows, skeleton exports with a Parent row).
+VERSIONS = ("1.2", "1.21", "1.22", "1.23", "1.24", "1.25")
 MAX_BYTES = 512 * 1024 * 1024
 
 
-def _settings(row: list[str], file: str) -> dict[str, str]:
-    if len(row) < 2 or row[0] != "Format Version":
-        raise InputError("line 1", ",".join(row[:4]), "a Motive CSV export (it begins with "
-                         "'Format Version')", file=file)
-    return {row[i].strip(): row[i + 1].strip() for i in range(0, len(row) - 1, 2)}
+def _settings(rows: list[list[str]], file: str) -> dict[str, str]:
+    """The first line's key, value pairs; raises InputError naming the export's format
+    version where it is not one read here (:data:`VERSIONS`), or where the file does not
+    begin as a Motive export."""
+    row = rows[0]
+    if len(row) < 2 or row[0].strip() != "Format Version":
+        said = _version_said(rows[:8])
+        raise InputError("line 1", ",".join(row[:4]), f"a Motive CSV export of Format "
+                         f"Version {', '.join(VERSIONS)} (it begins with 'Format Version')"
+                         + (f"; this file says {said}" if said else ""), file=file)
+    settings = {row[i].strip(): row[i + 1].strip() for i in range(0, len(row) - 1, 2)}
+    version = settings["Format Version"]
+    if version not in VERSIONS:
+        raise InputError("Motive CSV: Format Version", version, f"{', '.join(VERSIONS)}, the "
+                         "versions read (another version's layout differs: export the take "
+                         "again from a Motive that writes one of these)", file=file)
+    return settings
+
+
+def _version_said(rows: list[list[str]]) -> str:
+    """'version 1.1' where an older export names its format in its first lines (a cell
+    'version' or 'format version' followed by the figure), else ''."""
+    for row in rows:
+        cells = [c.strip() for c in row]
+        for i, c in enumerate(cells[:-1]):
+            if c.lower() in ("version", "format version", "format") and cells[i + 1]:
+                return f"{c} {cells[i + 1]}"
+    return ""
 
 
 def _header_rows(rows: list[list[str]], file: str) -> tuple[dict, int]:
@@ -137,7 +164,17 @@ def read_motive_csv(path: str | Path, bodies: Collection[str] | None = None, *,
     rows = list(csv.reader(io.StringIO(read_text(path, max_bytes=MAX_BYTES))))
     if not rows:
         raise InputError("<file>", "empty", "a Motive CSV export", file=file)
-    settings = _settings(rows[0], file)
+    settings = _settings(rows, file)
+    what = f"Motive CSV (Format Version {settings['Format Version']})"
+    try:
+        return _read_rows(rows, settings, bodies, truncated, what, file)
+    except InputError as e:  # the format and its version named in every refusal
+        raise InputError(f"{what}: {e.field}", e.value, e.allowed, file=e.file) from None
+
+
+def _read_rows(rows: list[list[str]], settings: dict[str, str], bodies, truncated: str,
+               what: str, file: str) -> Recording:
+    """:func:`read_motive_csv`'s reading of the rows after the first line."""
     rotation = settings.get("Rotation Type", "Quaternion")
     if rotation not in ROTATION_TYPES:
         raise InputError("Rotation Type", rotation, " | ".join(ROTATION_TYPES), file=file)
@@ -207,7 +244,7 @@ def read_motive_csv(path: str | Path, bodies: Collection[str] | None = None, *,
     p, q = np.stack(positions, axis=1), np.stack(rotations, axis=1)
     if math.isfinite(rate):
         times, p, q = _on_frames(frame_at, rate, times, p, q, first, file)
-    return check_recording(Recording(file, times, tuple(names), tuple(ids), p, q))
+    return check_recording(Recording(file, times, tuple(names), tuple(ids), p, q, what))
 
 
 def _frame_numbers(table: np.ndarray, first: int, file: str) -> np.ndarray:

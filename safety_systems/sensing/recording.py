@@ -48,6 +48,7 @@ class Recording:
     ids: tuple[int, ...]  # (B,) streaming ids; 0 where the file gives none
     positions: np.ndarray  # (T, B, 3) m, capture frame; NaN where not tracked
     rotations: np.ndarray  # (T, B, 4) unit quaternions (x, y, z, w); NaN where unknown
+    format: str = ""  # what the file is, in its own words ('C3D (DEC processor, ...)')
 
     @property
     def rate_hz(self) -> float:

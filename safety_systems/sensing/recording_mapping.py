@@ -24,6 +24,15 @@ those. ``flip_speed`` (m/s, default 10) is the glitch rule's speed
 (``sensing.recording.flips``): a mapped body's sample reached and left faster than it,
 from and back to a track the body could have followed, is a capture glitch, read as
 untracked with a warning line naming the body, how many and the first one's time.
+``max_speed`` (m/s, default 10) and ``max_acceleration`` (m/s^2 over 50 ms, default
+150) bound how a mapped body may move (``sensing.plausibility``): a recording whose
+mapped body moves faster is refused, naming the body, the frame and the figure, before
+anything replays; ``implausible: untracked`` (default ``refuse``) reads the samples a
+body was held still on before such a jump as untracked, with a warning line, and
+refuses what is still implausible. ``recording`` (optional) names the recording the
+mapping maps, relative to the mapping file: ``check mapping`` then opens it and applies
+every rule a simulation applies, and a scenario that names another recording with this
+mapping is refused.
 ``recorded`` names the body in the recording (Motive's rigid body name, a C3D point
 label); ``streaming_id`` is its NatNet rigid-body id (Motive's "Streaming ID"), which
 the live runtime needs (frames carry ids, not names; 0: not given) and which, where a
@@ -53,6 +62,13 @@ from safety_systems.files.documents import load_document, read_input
 from safety_systems.cell.operators import MAX_BODIES_PER_OPERATOR, MAX_OPERATORS, NAME
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import number
+from safety_systems.sensing.plausibility import (
+    IMPLAUSIBLE,
+    MAX_ACCELERATION,
+    MAX_SPEED,
+    first_implausible,
+    held_before_jumps,
+)
 from safety_systems.sensing.recording import (
     TRUNCATED,
     Recording,
@@ -111,6 +127,10 @@ class RecordingMapping:
     truncated: str = "refuse"  # a recording cut short: refuse | use (its frames, warned)
     units: str = ""  # the length unit of a recording that states none (BVH): m | cm | mm | in
     flip_speed: float = number(10.0, ge=2.0, le=1000.0, unit="m/s")  # capture glitches
+    max_speed: float = number(MAX_SPEED, ge=1.0, le=1000.0, unit="m/s")  # plausibility
+    max_acceleration: float = number(MAX_ACCELERATION, ge=10.0, le=10_000.0, unit="m/s^2")
+    implausible: str = "refuse"  # refuse | untracked (held samples before a jump)
+    recording: str = ""  # the recording mapped, relative to this file (check mapping)
 
 
 def validate_mapping(m: RecordingMapping) -> None:
@@ -125,6 +145,8 @@ def validate_mapping(m: RecordingMapping) -> None:
         raise InputError("operators", len(m.operators), f"1 to {MAX_OPERATORS} operators")
     if m.truncated not in TRUNCATED:
         raise InputError("truncated", m.truncated, " | ".join(TRUNCATED))
+    if m.implausible not in IMPLAUSIBLE:
+        raise InputError("implausible", m.implausible, " | ".join(IMPLAUSIBLE))
     if m.units not in ("",) + LENGTH_UNITS:
         raise InputError("units", m.units, "empty, or for a BVH file " + " | ".join(LENGTH_UNITS))
     names, recorded, ids = set(), set(), set()
@@ -239,6 +261,7 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
                       f"sample(s) from t = {first:g} s read as untracked: capture glitches "
                       f"(out of its track and back faster than flip_speed, "
                       f"{mapping.flip_speed:g} m/s)", stacklevel=2)
+    _plausible(rec, mapping, operator, raw)
     tracked = np.all(np.isfinite(raw), axis=2)
     return RecordedBodies(
         times=rec.times, points=fill_gaps(rec.times, raw),
@@ -250,6 +273,40 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
         flips=tuple(int(n) for n in glitch.sum(axis=0)))
 
 
+def _plausible(rec: Recording, mapping: RecordingMapping, operator: MappedOperator,
+               raw: np.ndarray) -> None:
+    """Applies the mapping's plausibility rule to the cell-frame samples ``raw`` of
+    ``operator``'s bodies, in place (see the module docstring); raises InputError naming
+    the recording, its format, the body, the frame and the figure."""
+    if mapping.implausible == "untracked":
+        held = held_before_jumps(rec.times, raw, max_speed=mapping.max_speed)
+        raw[held] = np.nan
+        for i in np.flatnonzero(held.any(axis=0)):
+            frames = np.flatnonzero(held[:, i])
+            warnings.warn(f"{rec.file}: {operator.bodies[i].recorded}: {frames.size} sample(s) "
+                          f"from frame {frames[0]} (t = {rec.times[frames[0]]:g} s) read as "
+                          "untracked: held still, then left faster than max_speed "
+                          f"({mapping.max_speed:g} m/s; implausible: untracked)", stacklevel=3)
+    bad = first_implausible(rec.times, raw, max_speed=mapping.max_speed,
+                            max_acceleration=mapping.max_acceleration)
+    if bad is None:
+        return
+    body = operator.bodies[bad.body].recorded
+    what = rec.format or "the recording"
+    if bad.what == "speed":
+        figure, allowed = f"{bad.figure:.2f} m/s", (
+            f"at most max_speed, {mapping.max_speed:g} m/s, from its previous tracked sample")
+    else:
+        figure, allowed = f"{bad.figure:.1f} m/s^2", (
+            f"at most max_acceleration, {mapping.max_acceleration:g} m/s^2 over 50 ms")
+    raise InputError(f"{what}: '{body}' at frame {bad.frame} of the file (counted from 0; "
+                     f"t = {rec.times[bad.frame]:.4g} s from its first): {bad.what}", figure, allowed + ", a person's (5 mm of capture "
+                     "noise allowed per sample; a misread file or a body held still then "
+                     "jumping moves so: the mapping's max_speed and max_acceleration raise "
+                     "the bounds, implausible: untracked reads held samples as untracked)",
+                     file=rec.file)
+
+
 def mapped_names(mapping: RecordingMapping) -> list[str]:
     """The recorded bodies a mapping maps, every operator's: the ones a reader reads."""
     return [b.recorded for o in mapping.operators for b in o.bodies]
@@ -258,6 +315,10 @@ def mapped_names(mapping: RecordingMapping) -> list[str]:
 @functools.lru_cache(maxsize=16)
 def _cached(recording: str, mapping: str, operator: str, digests: tuple) -> RecordedBodies:
     m = load_mapping(mapping)
+    named = mapped_recording(m, mapping)
+    if named is not None and named != Path(recording).resolve():
+        raise InputError("recording", m.recording, f"empty, or the recording used with it "
+                         f"({recording})", file=mapping)
     try:
         chosen = find_operator(m, operator, "name")
         rec = read_recording(recording, mapped_names(m), truncated=m.truncated,
@@ -265,6 +326,27 @@ def _cached(recording: str, mapping: str, operator: str, digests: tuple) -> Reco
         return recorded_bodies(rec, m, chosen)
     except InputError as e:
         raise e.in_file(mapping) from None
+
+
+def mapped_recording(m: RecordingMapping, mapping: str | Path) -> Path | None:
+    """The full path of the recording mapping ``m`` (read from ``mapping``) names, or
+    None where it names none."""
+    return (Path(mapping).parent / m.recording).resolve() if m.recording else None
+
+
+def check_mapping(path: str | Path) -> list[RecordedBodies]:
+    """``check mapping``: the mapping file ``path`` and, where it names its recording,
+    that recording under every rule a simulation applies to it (each operator's bodies
+    read, glitches, plausibility), through the simulation's own function
+    (:func:`load_recorded_operator`); raises InputError, the line a simulation gives."""
+    m = load_mapping(path)
+    recording = mapped_recording(m, path)
+    if recording is None:
+        return []
+    if not recording.is_file():
+        raise InputError("recording", m.recording, f"an existing recording file ({recording})",
+                         file=str(path))
+    return [load_recorded_operator(recording, path, o.name) for o in m.operators]
 
 
 def load_recorded_operator(recording: str | Path, mapping: str | Path,
