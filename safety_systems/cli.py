@@ -395,12 +395,30 @@ def _loaders() -> dict:
     from safety_systems.planning.task_space import load_scene
     from verification.spaces.space import load_space
 
+    from safety_systems.sensing.recording_files import read_recording
+
     return {"scenario": load_scenario, "config": load_controller_config, "space": load_space,
             "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path),
-            "mapping": check_mapping}
+            "mapping": check_mapping, "robot-log": _check_robot_log,
+            "recording": lambda path: read_recording(path)}
 
 
-KINDS = ("scenario", "config", "space", "scene", "task-path", "mapping")
+def _check_robot_log(path: str) -> None:
+    """A robot log (an RTDE CSV, or a bag's only JointState topic) under the rules of
+    ``cell.robot_log`` against the UR5e's joints (a scenario checks its own robot's)."""
+    from safety_systems.cell.robot_log import check_joint_log, read_joint_log
+    from safety_systems.cell.robot_model import default_model
+    from safety_systems.config.scenario import RobotLogConfig
+
+    model = default_model()
+    log = read_joint_log(path, tuple(model.joint_names))
+    check_joint_log(log, lower=model.position_lower, upper=model.position_upper,
+                    speed_limit=model.velocity_limit, robot=model.name,
+                    max_gap=RobotLogConfig().max_gap)
+
+
+KINDS = ("scenario", "config", "space", "scene", "task-path", "mapping", "robot-log",
+         "recording")
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -614,8 +632,10 @@ def build_parser() -> argparse.ArgumentParser:
                       "one; a mapping that names its recording has it read under every rule "
                       "simulate applies, with simulate's line)")
     check.add_argument("files", nargs="+", metavar="[KIND] FILE",
-                       help=f"params files; or a kind ({', '.join(KINDS)}) and YAML files of "
-                            "it")
+                       help=f"params files; or a kind ({', '.join(KINDS)}) and files of it "
+                            "(robot-log: an RTDE CSV or a ROS bag's only JointState topic, "
+                            "against the UR5e's joints; recording: a Motive CSV, C3D, BVH "
+                            "or a ROS bag's PoseStamped topics)")
     check.add_argument("--certificate",
                        help="the certificate of one params file (default: certificate.json "
                             "beside it)")

@@ -9,7 +9,6 @@ by power and force limiting's speed caps (``config.configuration.pfl_caps``: a p
 at or below cap / V keeps every axis point at or below the cap's speed).
 """
 
-import dataclasses
 import math
 
 import numpy as np
@@ -96,7 +95,10 @@ def speed_cover(path: JointPath | SplinePath, capsules: Capsules, cells: int = 2
     times :func:`tool_acceleration_bound`), and the cells' spacing in path parameter."""
     delta = path.cycle_time / cells
     s = np.arange(cells + 1) * delta
-    q, dq, _ = joint_path_state(dataclasses.replace(path, cycles=2), s)
+    # The path as it is: its last grid point is the cycle's end (a one-way path's last
+    # state; a cyclic path's start again), not the start of a cycle a one-way path
+    # never runs.
+    q, dq, _ = joint_path_state(path, s)
     _, end_v = capsule_ends(q, capsules, dq)
     speed = np.linalg.norm(end_v, axis=-1).reshape(len(s), -1).max(axis=1)
     slack = tool_acceleration_bound(path, capsule_reach(capsules)) * delta / 2.0

@@ -44,6 +44,7 @@ class PlaceholderStop:
     stop_angle: float
     reach: float
     source: str
+    speed: float = UR5_TEST_SPEED  # rad/s: the joint speed the stop is from (its full speed)
 
 
 def _scaled(robot: str, shoulder_speed: float, reach: float) -> PlaceholderStop:
@@ -51,7 +52,7 @@ def _scaled(robot: str, shoulder_speed: float, reach: float) -> PlaceholderStop:
         robot=robot, stop_time=braking.UR5_SHOULDER_STOP_TIME,
         stop_angle=braking.UR5_SHOULDER_STOP_ANGLE * shoulder_speed / UR5_TEST_SPEED,
         reach=reach, source="UR5/CB3 shoulder stop (0.70 rad, 530 ms at 183 deg/s) scaled by "
-        "shoulder speed and reach (no published figure found)")
+        "shoulder speed and reach (no published figure found)", speed=shoulder_speed)
 
 
 PLACEHOLDER_STOPS = {

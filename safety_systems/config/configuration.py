@@ -34,9 +34,11 @@ from safety_systems.config.scenario import (  # noqa: F401 (robot_model_of: its 
     joint_speed_limit,
     operator_points,
     operator_posture,
+    robot_log_of,
     robot_model_of,
 )
 from safety_systems.cell.path_speed import path_speed_bound
+from safety_systems.cell.robot_log import make_log_path, window
 from safety_systems.files.input_error import InputError
 from safety_systems.pfl.robot_masses import effective_mass
 from safety_systems.pfl.segment_regions import permitted_speeds
@@ -262,6 +264,8 @@ def joint_path(robot: RobotConfig) -> JointPath | SplinePath:
     """The robot's path from the scenario: its line, its waypoints (of its model's joints,
     within their speeds), or the default pick and place cycle (a UR arm's)."""
     p = robot.path
+    if p.log is not None:
+        return log_path(robot)
     if p.task_path is not None:
         t = p.task_path
         return polyline_path(np.array(t.points), speed=t.speed, rpy=np.radians(t.rpy_deg),
@@ -280,6 +284,28 @@ def joint_path(robot: RobotConfig) -> JointPath | SplinePath:
                            cycles=robot.cycles,
                            joint_speed_limit=joint_speed_limit(robot_model_of(robot)),
                            num_joints=robot_model_of(robot).n)
+
+
+def log_path(robot: RobotConfig) -> SplinePath:
+    """The path of a robot's ``path.log`` (``cell.robot_log.make_log_path``): its window,
+    once, or ``robot.cycles`` times when it repeats."""
+    g = robot.path.log
+    log = robot_log_of(robot)
+    return _log_path(log.sha256, log.file, g.start, g.end, g.repeat, robot.cycles, log)
+
+
+def _log_path(digest, file, start, end, repeat, cycles, log) -> SplinePath:
+    key = (digest, file, start, end, repeat, cycles if repeat else 1)
+    path = _LOG_PATHS.get(key)
+    if path is None:
+        if len(_LOG_PATHS) > 16:
+            _LOG_PATHS.clear()
+        s, q = window(log, start, end)
+        path = _LOG_PATHS[key] = make_log_path(s, q, repeat=repeat, cycles=cycles)
+    return path
+
+
+_LOG_PATHS: dict = {}  # the paths of robot logs, by the log's bytes and window
 
 
 def scripted_operators(scenario: Scenario) -> list[ScriptedOperator]:

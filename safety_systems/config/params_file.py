@@ -95,17 +95,28 @@ class Params:
 def deployed_robot(robot: RobotConfig, folder: Path | None = None) -> DeployedRobot:
     """The certified part of ``robot``, its path written out: the default pick-and-place
     cycle as its waypoints, a task path's points inline (its file already read); a URDF
-    robot's file relative to ``folder`` (where params.yaml goes; None: as it is)."""
+    robot's file and a robot log's file relative to ``folder`` (where params.yaml goes;
+    None: as they are)."""
     path = dc.replace(robot.path)
-    if path.line is None and path.task_path is None and not path.waypoints_deg:
+    if (path.line is None and path.task_path is None and path.log is None
+            and not path.waypoints_deg):
         path.waypoints_deg = [list(map(float, w)) for w in DEFAULT_WAYPOINTS_DEG]
         path.segment_durations = [float(d) for d in DEFAULT_DURATIONS]
     if path.task_path is not None and path.task_path.points:
         path.task_path = dc.replace(path.task_path, file="")
     fields = {name: getattr(robot, name) for name in ROBOT_FIELDS[:-1]}
-    if robot.urdf and folder is not None:
-        fields["urdf"] = os.path.relpath(Path(robot.urdf).resolve(), Path(folder).resolve())
+    if folder is not None:
+        if robot.urdf:
+            fields["urdf"] = _relative(robot.urdf, folder)
+        if path.log is not None and path.log.file:
+            path.log = dc.replace(path.log, file=_relative(path.log.file, folder))
     return DeployedRobot(**fields, path=path)
+
+
+def _relative(file: str, folder: Path) -> str:
+    """``file`` relative to ``folder`` (params.yaml's), so that params.yaml names no
+    absolute path and moves with the files it names."""
+    return os.path.relpath(Path(file).resolve(), Path(folder).resolve())
 
 
 def deployed_controller(config: ControllerConfig) -> ControllerConfig:
@@ -119,11 +130,17 @@ def deployed_controller(config: ControllerConfig) -> ControllerConfig:
 def robot_config(deployed: DeployedRobot, base: RobotConfig,
                  folder: Path | None = None) -> RobotConfig:
     """``base`` (a scenario's or a space's robot) with the certified settings: the robot
-    itself too (a params.yaml brings its robot), its URDF resolved relative to ``folder``
-    (params.yaml's; None: as written)."""
+    itself too (a params.yaml brings its robot), its URDF and its log resolved relative
+    to ``folder`` (params.yaml's; None: as written)."""
     robot = dc.replace(base, **{name: getattr(deployed, name) for name in ROBOT_FIELDS})
-    if robot.urdf and folder is not None and not Path(robot.urdf).is_absolute():
+    if folder is None:
+        return robot
+    if robot.urdf and not Path(robot.urdf).is_absolute():
         robot.urdf = str((Path(folder) / robot.urdf).resolve())
+    log = robot.path.log
+    if log is not None and log.file and not Path(log.file).is_absolute():
+        robot.path = dc.replace(robot.path, log=dc.replace(
+            log, file=str((Path(folder) / log.file).resolve())))
     return robot
 
 

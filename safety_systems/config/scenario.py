@@ -320,14 +320,36 @@ class TaskPathConfig:
 
 
 @dc.dataclass
+class RobotLogConfig:
+    """The robot's path as its own log recorded it (``safety_systems.cell.robot_log``):
+    ``file`` (relative to the file that names it) a UR RTDE CSV (``timestamp``,
+    ``actual_q_0`` ...) or a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag) whose
+    ``sensor_msgs/msg/JointState`` ``topic`` (empty: its only one) gives the joints by
+    name; the samples from log time ``start`` to ``end`` (s after its first sample; None:
+    its last) run at the log's own pace at path rate 1. ``repeat``: run it
+    ``robot.cycles`` times (it must end where it starts), else once (``robot.cycles`` is
+    then not used). ``max_gap``: the longest spacing of two samples accepted (a longer
+    one is samples lost)."""
+
+    file: str = ""
+    topic: str = ""
+    start: float = number(0.0, ge=0.0, le=100_000.0, unit="s")
+    end: typing.Optional[float] = number(None, gt=0.0, le=100_000.0, unit="s")
+    repeat: bool = False
+    max_gap: float = number(0.05, gt=0.0, le=1.0, unit="s")
+
+
+@dc.dataclass
 class PathConfig:
     """The robot's path: a cyclic joint-space path (empty lists: the default
-    pick-and-place cycle), a one-way straight tool ``line``, or a ``task_path``."""
+    pick-and-place cycle), a one-way straight tool ``line``, a ``task_path``, or the
+    robot's own ``log``."""
 
     waypoints_deg: list[list[float]] = _angles([])
     segment_durations: list[float] = number([], gt=0.0, le=MAX_DURATION, unit="s")
     line: typing.Optional[LineConfig] = None
     task_path: typing.Optional[TaskPathConfig] = None
+    log: typing.Optional[RobotLogConfig] = None
 
 
 @dc.dataclass
@@ -868,6 +890,12 @@ def validate_robot(r: RobotConfig, prefix: str = "robot") -> None:
     _check(len(r.mounting_size) in (0, 2), f"{prefix}.mounting_size", r.mounting_size,
            "empty (a square over the robot's reach) or [x, y] in m, each 0 < x <= 40")
     p = r.path
+    if p.log is not None:
+        _check(p.line is None and p.task_path is None and not p.waypoints_deg
+               and not p.segment_durations, f"{prefix}.path.log", p.log.file,
+               "one kind of path: log, task_path, line or waypoints")
+        validate_robot_log(r, model, prefix)
+        return
     if p.line is not None or p.task_path is not None:
         _check(is_ur5e(model), f"{prefix}.path." + ("line" if p.line is not None else
                                                    "task_path"), name,
@@ -919,6 +947,60 @@ def validate_robot(r: RobotConfig, prefix: str = "robot") -> None:
                                 str(e)) from None
 
 
+def validate_robot_log(r: RobotConfig, model: RobotModel, prefix: str = "robot") -> None:
+    """A robot log path (``path.log``, its file already resolved by
+    :func:`read_robot_log`): its window, and the log's samples under
+    ``cell.robot_log.check_joint_log`` against the model's joint limits and speeds; a
+    repeated log's step back to its start too. Raises :class:`ScenarioError` (a bad log:
+    its file, row, field and value)."""
+    from safety_systems.cell.robot_log import check_joint_log, closing_step, window
+
+    g = r.path.log
+    _check(bool(g.file), f"{prefix}.path.log.file", g.file, "an RTDE CSV or a ROS bag")
+    _check(g.end is None or g.end > g.start, f"{prefix}.path.log.end", g.end,
+           f"later than start ({g.start} s), or none (the log's last sample)")
+    log = robot_log_of(r, prefix)
+    check_joint_log(log, lower=model.position_lower, upper=model.position_upper,
+                    speed_limit=model.velocity_limit, robot=model.name, max_gap=g.max_gap)
+    s, q = window(log, g.start, g.end)
+    if g.repeat:
+        h, speed = closing_step(s, q)
+        j = int(np.argmax(speed / model.velocity_limit))
+        _check(bool(np.all(speed <= model.velocity_limit)), f"{prefix}.path.log.repeat", True,
+               f"a log that ends where it starts (its last sample's {log.fields[j]} is "
+               f"{math.degrees(abs(q[-1, j] - q[0, j])):.3g} deg from its first: "
+               f"{math.degrees(speed[j]):.0f} deg/s over one spacing, {h:.4g} s; the "
+               f"{model.name}'s limit is {math.degrees(model.velocity_limit[j]):.0f}); or "
+               "false (run it once)")
+
+
+def robot_log_of(r: RobotConfig, prefix: str = "robot"):
+    """The ``cell.robot_log.JointLog`` of a robot's ``path.log`` (the model's joints)."""
+    from safety_systems.cell.robot_log import read_joint_log
+
+    g = r.path.log
+    model = robot_model_of(r, prefix)
+    try:
+        return read_joint_log(g.file, tuple(model.joint_names), g.topic)
+    except InputError as e:
+        if e.file is None:
+            e.in_file(g.file)
+        raise
+
+
+def read_robot_log(robot: RobotConfig, folder: Path, prefix: str = "robot") -> None:
+    """Resolves a robot log's ``file`` relative to ``folder`` (the file that names it),
+    in place; the log itself is read when the robot is checked (and its bytes, with their
+    SHA-256, named among the inputs)."""
+    g = robot.path.log
+    if g is None or not g.file:
+        return
+    file = (folder / g.file).resolve()
+    _check(file.exists(), f"{prefix}.path.log.file", g.file, f"an existing RTDE CSV or ROS "
+           f"bag ({file})")
+    g.file = str(file)
+
+
 def joint_speed_limit(model: RobotModel) -> float | np.ndarray:
     """The joint speed limit a path of ``model`` keeps: one number where every joint has
     the same (the UR5e's 180 deg/s), else one per joint (rad/s)."""
@@ -965,6 +1047,7 @@ def load_scenario(path: str | Path) -> Scenario:
     def validate(scenario: Scenario) -> None:
         read_robot_file(scenario.robot, Path(path).parent)
         read_task_path(scenario.robot, Path(path).parent)
+        read_robot_log(scenario.robot, Path(path).parent)
         read_recordings(scenario, Path(path).parent)
         validate_scenario(scenario)
 

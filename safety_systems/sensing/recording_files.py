@@ -11,12 +11,18 @@ from safety_systems.sensing.bvh_file import UNITS, read_bvh
 from safety_systems.sensing.c3d_file import read_c3d
 from safety_systems.sensing.motive_csv import read_motive_csv
 from safety_systems.sensing.recording import Recording
+from safety_systems.sensing.ros_bag import read_bag
 
+FOLDER = "/"  # the key of a recording that is a folder (a rosbag2 bag)
 # extension (lower case) -> (reader, what the file is, in words)
 READERS = {
     ".csv": (read_motive_csv, "a Motive CSV export (.csv)"),
     ".c3d": (read_c3d, "a C3D file (.c3d)"),
     ".bvh": (read_bvh, "a BVH file (.bvh)"),
+    ".mcap": (read_bag, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag)"),
+    ".db3": (read_bag, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag)"),
+    ".bag": (read_bag, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag)"),
+    FOLDER: (read_bag, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag)"),
 }
 UNITLESS = (".bvh",)  # formats that state no length unit: the caller gives it
 LENGTH_UNITS = tuple(UNITS)  # the units a caller may give them
@@ -30,11 +36,11 @@ def read_recording(path: str | Path, bodies: Collection[str] | None = None, *,
     "use" its frames, with a warning), where the format says how long it should be;
     ``units``: the length unit of a format that states none (:data:`UNITLESS`), and
     only there."""
-    suffix = Path(path).suffix.lower()
+    suffix = FOLDER if Path(path).is_dir() else Path(path).suffix.lower()
     reader = READERS.get(suffix)
     if reader is None:
         raise InputError("path", str(path), "a recording: " + " or ".join(
-            what for _, what in READERS.values()))
+            sorted({what for _, what in READERS.values()})))
     if suffix in UNITLESS:
         return reader[0](path, bodies, truncated=truncated, units=units)
     if units:

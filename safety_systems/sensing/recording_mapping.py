@@ -78,6 +78,7 @@ from safety_systems.sensing.recording import (
     span,
 )
 from safety_systems.sensing.recording_files import LENGTH_UNITS, read_recording
+from safety_systems.sensing.ros_bag import bag_digest
 
 UP_AXES = ("y", "z")
 MAX_STREAMING_ID = 2**31 - 1
@@ -354,6 +355,7 @@ def load_recorded_operator(recording: str | Path, mapping: str | Path,
     """:func:`recorded_bodies` of files, kept while neither file's bytes change (the
     scenarios of a space share them; each call still reads both files, so that they are
     named among a result's inputs); raises InputError."""
-    digests = tuple(hashlib.sha256(read_input(p, max_bytes=MAX_RECORDING_BYTES)).hexdigest()
+    digests = tuple(bag_digest(p) if Path(p).is_dir() else
+                    hashlib.sha256(read_input(p, max_bytes=MAX_RECORDING_BYTES)).hexdigest()
                     for p in (recording, mapping))
     return _cached(str(recording), str(mapping), operator, digests)

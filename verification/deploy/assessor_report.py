@@ -109,6 +109,11 @@ def _cell(params: Params, space: ScenarioSpace, certificate: dict) -> str:
                  f"{sum(path.segment_durations):g} s at nominal speed")
     elif path.line is not None:
         shape = f"a straight tool line at {path.line.speed:g} m/s"
+    elif path.log is not None:
+        log = (certificate.get("robot") or {}).get("log") or {}
+        shape = (f"the robot's own log {path.log.file} (SHA-256 "
+                 f"{str(log.get('sha256'))[:12]}...), "
+                 + ("repeated" if path.log.repeat else "run once") + " at its own pace")
     else:
         shape = f"a task-space path of {len(path.task_path.points)} points"
     b = certificate["braking_data"]

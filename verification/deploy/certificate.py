@@ -7,9 +7,10 @@ in their shortest exact spelling) of four parts: the parameters (the controller
 configuration without its stopping data), the braking table as the robot uses it (the
 configured rows, or the built-in placeholder's, with its origin), the path and robot
 settings verified, the robot itself (its model's name, joints and the SHA-256 of its URDF:
-an edited robot description voids the certificate) and the assumptions (the scenario
-space, the assumptions in words and the proof's box). Any change to a safety setting
-changes it; layout and comments do not.
+an edited robot description voids the certificate; a path that is the robot's own log
+adds the log's file and SHA-256: an edited log voids it too) and the assumptions (the
+scenario space, the assumptions in words and the proof's box). Any change to a safety
+setting changes it; layout and comments do not.
 
 Two more digests make any edit of either file visible (they detect edits, they are not
 signatures: whoever can write the files can write new digests):
@@ -28,6 +29,7 @@ of another schema version).
 import dataclasses
 import hashlib
 import json
+import os
 import re
 import typing
 from pathlib import Path
@@ -41,14 +43,15 @@ from safety_systems.config.params_file import (
     params_from_text,
     robot_config,
 )
-from safety_systems.config.scenario import RobotConfig, robot_model_of
+from safety_systems.config.scenario import RobotConfig, robot_log_of, robot_model_of
 from safety_systems.files.ranges import type_hints
 from safety_systems.config.configuration import braking_table, placeholder_braking
 from verification.verdicts import EXIT_REQUIREMENT, VERDICTS
 
 SCHEMA = "safety-systems certificate"
 # 2: ``evaluations`` by kind, as report.json's (was model_evaluations); 3: ``robot`` (the
-# model, its joints and its URDF's SHA-256), in the checksum too
+# model, its joints and its URDF's SHA-256), in the checksum too. A robot log path adds
+# ``robot.log`` (its file and SHA-256) in version 3: no other certificate changes.
 SCHEMA_VERSION = 3
 DIGEST = "certificate_sha256"
 _ZEROS = "0" * 64
@@ -100,11 +103,26 @@ def params_model(params: Params, folder: str | Path | None) -> RobotModel:
                                        None if folder is None else Path(folder)))
 
 
-def robot_identity(model: RobotModel) -> dict:
+def robot_identity(model: RobotModel, log: dict | None = None) -> dict:
     """The robot as the certificate names it: its model, joints, URDF and the URDF's
-    SHA-256."""
-    return {"model": model.name, "joints": list(model.joint_names), "urdf": model.urdf.name,
-            "urdf_sha256": model.sha256}
+    SHA-256; and the log it runs, when its path is one (:func:`params_log`)."""
+    identity = {"model": model.name, "joints": list(model.joint_names),
+                "urdf": model.urdf.name, "urdf_sha256": model.sha256}
+    if log is not None:
+        identity["log"] = log
+    return identity
+
+
+def params_log(params: Params, folder: str | Path | None) -> dict | None:
+    """The robot log params.yaml's path runs (None: its path is not a log): its file as
+    params.yaml names it (relative to ``folder``, params.yaml's) and the SHA-256 of its
+    bytes (a bag folder's: ``sensing.ros_bag.bag_digest``), so that an edited log voids
+    the certificate."""
+    log = params.robot.path.log
+    if log is None:
+        return None
+    robot = robot_config(params.robot, RobotConfig(), None if folder is None else Path(folder))
+    return {"file": log.file, "sha256": robot_log_of(robot).sha256}
 
 
 def braking_data(params: Params, model: RobotModel | None = None) -> dict:
@@ -129,7 +147,8 @@ def checksum_parts(params: Params, assumptions: dict, folder: str | Path | None 
     model = params_model(params, folder)
     return {"schema_version": SCHEMA_VERSION, "parameters": parameters,
             "braking": braking_data(params, model), "path": plain(params.robot),
-            "robot": robot_identity(model), "assumptions": assumptions}
+            "robot": robot_identity(model, params_log(params, folder)),
+            "assumptions": assumptions}
 
 
 def safety_checksum(params: Params, assumptions: dict, folder: str | Path | None = None
@@ -274,6 +293,13 @@ def check(params_path: str | Path, certificate_path: str | Path | None = None, *
                      f"certified {str(certified.get('urdf_sha256'))[:12]}... (the robot's "
                      f"description is not the one verified: {certified.get('model')})",
                      params=params)
+    log, certified_log = params_log(params, params_path.parent), certified.get("log") or {}
+    if (log is not None and log["file"] == certified_log.get("file")
+            and log["sha256"] != certified_log.get("sha256")):
+        where = os.path.normpath(params_path.parent / log["file"])
+        return _fail(f"{where}: sha256: got {log['sha256'][:12]}...; "
+                     f"allowed: the certified {str(certified_log.get('sha256'))[:12]}... (the "
+                     "robot's log is not the one verified)", params=params)
     checksum = safety_checksum(params, cert["assumptions"], params_path.parent)
     if hashlib.sha256(raw).hexdigest() != cert["params_file_sha256"]:
         return _fail(_what_changed(params, params_path, cert, checksum), params=params,

@@ -4,19 +4,23 @@ that is *checked* (against this model, the configuration and the space) or *trus
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 
 from safety_systems.cell import human_body
-from safety_systems.cell.robot_model import KIND_UR, is_ur5e
+from safety_systems.cell.placeholder_stops import PLACEHOLDER_STOPS
+from safety_systems.cell.robot_log import peak_joint_speeds
+from safety_systems.cell.robot_model import KIND_UR, is_ur5e, placeholder_name
 from safety_systems.config.configuration import (
     body_dimensions,
     contact_capsules,
     frame_timeout,
+    joint_path,
     monitor_capsules,
     placeholder_braking,
 )
-from safety_systems.config.scenario import ControllerConfig, robot_model_of
+from safety_systems.config.scenario import ControllerConfig, robot_log_of, robot_model_of
 from safety_systems.ssm.formulas import SPEED_LEVELS
 from verification.proof.margins import (
     least_level_separation,
@@ -145,6 +149,7 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
         ("every body is seen before its onset (settle time > frame timeout)",
          space.settle_time > frame_timeout(config)),
     ]
+    checked += log_premises(config, space, placeholder)[0]
     by_speed = f.stopping == "by_speed"
     if prop == "contact" or by_speed:
         checked.append(("a braking step preserves the order of speeds"
@@ -190,6 +195,7 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
         "bodies come into the cell only through its exits and are tracked before they "
         "come near the robot (the space's operators stand still for the settle time)",
     ]
+    trusted += log_premises(config, space, placeholder)[1]
     premises = ([Premise(x, bool(ok), "checked") for x, ok in checked]
                 + [Premise(x, True, "trusted") for x in trusted])
     box = {"peak_speed": [p.peak_speed.min, p.peak_speed.max],
@@ -201,6 +207,32 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
            "start_distance": [p.start_distance.min, p.start_distance.max],
            "acceleration": [p.acceleration.min, p.acceleration.max]}
     return premises, box, placeholder, (alpha, beta), scale
+
+
+def log_premises(config: ControllerConfig, space: ScenarioSpace, placeholder: bool
+                 ) -> tuple[list[tuple], list[str]]:
+    """(checked, trusted) premises of a robot log path (none for another path): the log
+    named with its SHA-256 and its fastest joint at path rate 1 (the bounds V_R and D are
+    the log's path's, ``robot_bounds``); that speed within the placeholder stopping
+    data's full speed (checked), or the configured stopping data measured from it
+    (trusted)."""
+    g = space.robot.path.log
+    if g is None:
+        return [], []
+    model = robot_model_of(space.robot)
+    log = robot_log_of(space.robot)
+    peak = peak_joint_speeds(joint_path(space.robot))
+    j = int(np.argmax(peak))
+    fastest = f"{math.degrees(peak[j]):.1f} deg/s ({log.fields[j]})"
+    trusted = [f"the robot runs its log {Path(log.file).name} (SHA-256 {log.sha256}) as "
+               f"recorded, its fastest joint {fastest} at path rate 1"]
+    if placeholder:
+        full = PLACEHOLDER_STOPS[placeholder_name(model)].speed
+        return [(f"the log's joints are no faster than the placeholder stopping data's full "
+                 f"speed ({fastest} <= {math.degrees(full):.0f} deg/s)",
+                 bool(np.all(peak <= full)))], trusted
+    return [], trusted + [f"the configuration's stopping data were measured from the "
+                          f"log's speed or faster (its fastest joint {fastest})"]
 
 
 def model_premises(config: ControllerConfig, space: ScenarioSpace) -> list[tuple]:

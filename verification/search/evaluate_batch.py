@@ -195,7 +195,10 @@ class _Cells:
         self.accel = robot.acceleration_limit
         cycles = max(s.robot.cycles for s in scenarios)
         self.path = joint_path(dataclasses.replace(robot, cycles=cycles))
-        self.end = np.array([self.path.cycle_time * s.robot.cycles for s in scenarios])
+        # Each scenario's task ends after its cycles, or after the path's own (a one-way
+        # path, a line or a robot log run once, has one whatever robot.cycles says).
+        self.end = np.array([self.path.cycle_time * min(s.robot.cycles, self.path.cycles)
+                             for s in scenarios])
         self.brake_scale = np.array([s.robot.braking_time_scale for s in scenarios])
         self.model = robot_model_of(robot)
         self.table = braking_table(self.config, self.model)

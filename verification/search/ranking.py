@@ -368,7 +368,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     n = len(scenarios)
     duration, cycles = horizon
     path = joint_path(dataclasses.replace(space.robot, cycles=cycles))
-    end = path.cycle_time * cycles
+    end = path.end  # its cycles, or one for a one-way path
     dt = 1.0 / space.robot.control_rate_hz
     ticks = max(1, round(step / dt))
     model = robot_model_of(space.robot)

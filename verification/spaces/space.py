@@ -74,8 +74,10 @@ from safety_systems.config.scenario import (
     PosturePoint,
     Waypoint,
     read_robot_file,
+    read_robot_log,
     read_task_path,
     robot_model_of,
+    validate_robot,
     validate_scenario,
 )
 from safety_systems.files.documents import load_document
@@ -151,6 +153,8 @@ def validate_space(space: ScenarioSpace) -> None:
         raise ScenarioError("parameters.target_link.max", space.parameters.target_link.max,
                             f"0 <= target_link <= {len(names) - 1} (the capsules of the "
                             f"{robot_model_of(space.robot).name}: {', '.join(names)})")
+    if space.robot.path.log is not None:  # the robot's log, checked before any search
+        validate_robot(space.robot)
     if space.robot.mode not in ("kinematic", "dynamic"):  # checked before any search
         raise ScenarioError("robot.mode", space.robot.mode, "kinematic | dynamic")
     if space.contact_geometry not in ROBOT_GEOMETRIES:
@@ -170,6 +174,7 @@ def load_space(path: str | Path) -> ScenarioSpace:
     def validate(space: ScenarioSpace) -> None:
         read_robot_file(space.robot, Path(path).parent)
         read_task_path(space.robot, Path(path).parent)
+        read_robot_log(space.robot, Path(path).parent)
         if space.recording is not None:
             read_recording_block(space.recording, Path(path).parent)
         validate_space(space)
