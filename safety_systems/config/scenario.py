@@ -496,11 +496,16 @@ class Body:
     at a fixed offset from its operator: ``point`` is the body point it marks
     (``safety_systems.cell.human_body.POINTS``: head, neck, chest, pelvis,
     shoulder_left|right, elbow_left|right, hand_left|right; empty: by its name, ``head``,
-    ``hand`` (hand_right), ``other_hand`` (hand_left), ``right_glove``, ``left_glove``)."""
+    ``hand`` (hand_right), ``other_hand`` (hand_left), ``right_glove``, ``left_glove``).
+    ``pivot``: where the sensor reports the body from the point it marks (m, cell frame:
+    a scripted body does not turn; a Motive rigid body's pivot left at its markers'
+    centroid, ``safety_systems.sensing.pivots``): the sensor sees point + pivot, the
+    properties the point."""
 
     name: str = ""
     point: str = ""
     offset: list[float] = number([0.0, 0.0, 0.0], ge=-2.0, le=2.0, unit="m")
+    pivot: list[float] = number([0.0, 0.0, 0.0], ge=-0.5, le=0.5, unit="m")
 
 
 @dc.dataclass
@@ -771,6 +776,7 @@ def _validate_operator(o: OperatorConfig, f: str) -> None:
                + ", ".join(human_body.LEGACY_POINTS) + ")")
         marked.add(point)
         _points(f"{f}.bodies[{j}].offset", b.offset, 3, "3 numbers in m")
+        _points(f"{f}.bodies[{j}].pivot", b.pivot, 3, "3 numbers in m")
     for j, q in enumerate(o.posture):
         _check(q.point in human_body.POINTS and q.point not in marked,
                f"{f}.posture[{j}].point", q.point, "a body point no body of the operator "
@@ -1085,10 +1091,11 @@ def read_recordings(scenario: Scenario, folder: Path) -> None:
                         for name, point in zip(recorded.names, recorded.points_marked)]
         _check([b.name for b in o.bodies] == list(recorded.names)
                and [body_point(b) for b in o.bodies] == list(recorded.points_marked)
-               and all(b.offset == [0.0, 0.0, 0.0] for b in o.bodies), f"{where}.bodies",
+               and all(b.offset == [0.0, 0.0, 0.0] and b.pivot == [0.0, 0.0, 0.0]
+                       for b in o.bodies), f"{where}.bodies",
                [b.name for b in o.bodies], f"none (they come from the mapping), or the "
                f"mapping's {list(recorded.names)} in its order, with its points, without "
-               "offsets")
+               "offsets or pivots (a recorded body's pivot is its mapping's)")
 
 
 def read_robot_file(robot: RobotConfig, folder: Path, prefix: str = "robot") -> None:

@@ -369,7 +369,8 @@ def _add_sensor(builder: DiagramBuilder, scenario: Scenario, motion, recorded_ga
     sensor = builder.AddNamedSystem("mocap", MocapSensor(
         num_bodies=len(body_names(scenario)), period_sec=1.0 / real.rate_hz,
         noise_std=real.noise_std, latency_sec=real.latency, occlusions=occlusions,
-        dropped_frames=dropouts, faults=sensor_faults(scenario), seed=real.seed))
+        dropped_frames=dropouts, faults=sensor_faults(scenario), seed=real.seed,
+        pivots=[b.pivot for o in scenario.operators for b in o.bodies]))
     builder.Connect(motion.GetOutputPort("positions_true"),
                     sensor.GetInputPort("positions_true"))
     builder.Connect(motion.GetOutputPort("present"), sensor.GetInputPort("present"))

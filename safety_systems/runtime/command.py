@@ -54,6 +54,7 @@ def run(args: argparse.Namespace, origin) -> int:
         mapped_names,
         mapped_point,
         recorded_bodies,
+        unknown_pivots,
     )
     from safety_systems.runtime.live_run import LiveOptions, run_live
     from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource, parse_mocap
@@ -70,6 +71,17 @@ def run(args: argparse.Namespace, origin) -> int:
         return e.code
     warn_unverified(params)
     mapping = load_mapping(args.mapping)
+    for field, bound in unknown_pivots(mapping):  # where its proof's allowance ends
+        if bound > params.pivot_offset + 1e-12:
+            error = InputError(
+                f"{field}.pivot", [], "[x, y, z] (m, the body point from its reported "
+                "position in the body's own frame) or at_point: true: unmoved, a rigid "
+                f"body's pivot (its markers' centroid) may be {bound:g} m from the point, "
+                f"beyond the {params.pivot_offset:g} m the certificate's proof covers",
+                file=args.mapping)
+            if params.certified:
+                raise error
+            print(f"safety-systems: warning: {error}", file=sys.stderr)
     mocap_address, robot_address = parse_mocap(args.mocap), parse_robot(args.robot)
     try:
         bodies = BodyMap(mapping)

@@ -27,6 +27,7 @@ import urllib.parse
 import numpy as np
 
 from safety_systems.files.input_error import InputError
+from safety_systems.sensing.pivots import body_points
 from safety_systems.sensing.recording_mapping import RecordingMapping, to_cell
 from safety_systems.sensing.sensor_faults import UNKNOWN_ID_BASE
 
@@ -113,6 +114,7 @@ class BodyMap:
     def __init__(self, mapping: RecordingMapping):
         self.capture_to_cell = mapping.capture_to_cell
         self.slots = {}
+        self.pivots = {}  # streaming id -> its pivot offset (sensing.pivots)
         for k, o in enumerate(mapping.operators):
             for b in o.bodies:
                 if not b.streaming_id:
@@ -120,14 +122,22 @@ class BodyMap:
                                      "the body's NatNet streaming id (the live stream "
                                      "names bodies by id)")
                 self.slots[b.streaming_id] = len(self.slots) + 1
+                if len(b.pivot):
+                    self.pivots[b.streaming_id] = np.array(b.pivot, dtype=float)
         self.ignore = set(mapping.ignore_ids)
 
     def entries(self, bodies) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(z (E, 3) cell frame, valid (E,), ids (E,)) of a frame's rigid bodies (each
-        with ``id_num``, ``pos`` and ``tracking_valid``); an unmapped, not ignored id is
-        passed on as an unknown id (the tracker stops on it)."""
+        with ``id_num``, ``pos``, ``rot`` (x, y, z, w) and ``tracking_valid``), each at
+        the body point it marks (its mapping's pivot, ``sensing.pivots``: a body whose
+        orientation is not known is non-finite, and the tracker stops on it); an
+        unmapped, not ignored id is passed on as an unknown id (the tracker stops on
+        it)."""
         kept = [b for b in bodies if b.id_num not in self.ignore]
         z = np.array([b.pos for b in kept], dtype=float).reshape(-1, 3)
+        for e, b in enumerate(kept):  # at the body point it marks (NaN: no orientation)
+            if b.id_num in self.pivots:
+                z[e] = body_points(z[e], np.asarray(b.rot, dtype=float), self.pivots[b.id_num])
         valid = np.array([1.0 if b.tracking_valid is not False else 0.0 for b in kept])
         ids = np.array([float(self.slots.get(b.id_num, UNKNOWN_ID_BASE + b.id_num))
                         for b in kept])

@@ -29,6 +29,7 @@ class CertifiedParams:
     certified: bool
     line: str
     verdict: str | None = None  # the certificate's, when check could read one
+    pivot_offset: float = 0.0  # m: the certified space's largest pivot offset
 
 
 def load_certified_params(path: str | Path, *, unverified: bool = False) -> CertifiedParams:
@@ -51,7 +52,7 @@ def load_certified_params(path: str | Path, *, unverified: bool = False) -> Cert
     if result.code == 0:
         return CertifiedParams(result.params.controller,
                                robot_config(result.params.robot, RobotConfig(), path.parent), True,
-                               result.line, result.verdict)
+                               result.line, result.verdict, result.pivot_offset)
     if not unverified:
         raise NotCertified(result.line + " (--unverified runs it anyway)", result.code)
     if result.params is not None:

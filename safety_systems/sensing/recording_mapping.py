@@ -39,6 +39,13 @@ the live runtime needs (frames carry ids, not names; 0: not given) and which, wh
 recording gives ids too, must agree with it. ``up_axis: y`` turns the capture frame's
 Y-up axes into the cell's Z-up ones (a rotation of +90 deg about x: (x, y, z) ->
 (x, -z, y)); ``rpy_deg`` is applied after it (R = Rz(yaw) Ry(pitch) Rx(roll)).
+``pivot`` [x, y, z] (m, in the rigid body's own frame) is where the body point lies from
+the position the recording or the stream reports (Motive's pivot, by default its markers'
+centroid), turned with the body's orientation; ``at_point: true`` says the reported
+position is the body point itself (the pivot moved onto it in Motive, or a skeleton's
+joint). Without either the point may lie as far from the reported position as the body's
+kind allows (``sensing.pivots``: a helmet 0.15 m), which a proof's tracking allowance must
+cover: the live runtime refuses such a body under a certificate that assumed less.
 ``point`` is the body point the recorded body marks (``safety_systems.cell.human_body
 .POINTS``: head, neck, chest, pelvis, shoulders, elbows, hands; empty: by its name, as
 in scenarios: ``head``, ``hand``, ``other_hand``, ``right_glove``, ``left_glove``); the
@@ -77,6 +84,7 @@ from safety_systems.sensing.recording import (
     gaps,
     span,
 )
+from safety_systems.sensing.pivots import body_points, pivot_bound
 from safety_systems.sensing.recording_files import LENGTH_UNITS, read_recording
 from safety_systems.sensing.ros_bag import bag_digest
 
@@ -103,6 +111,8 @@ class MappedBody:
     name: str = ""
     point: str = ""
     streaming_id: int = number(0, ge=0, le=MAX_STREAMING_ID)
+    pivot: list[float] = number([], ge=-0.5, le=0.5, unit="m")
+    at_point: bool = False
 
 
 def mapped_point(b: MappedBody) -> str:
@@ -180,6 +190,10 @@ def validate_mapping(m: RecordingMapping) -> None:
                 raise InputError(f"{where}.streaming_id", b.streaming_id,
                                  "a streaming id given to one body only")
             ids.add(b.streaming_id)
+            if len(b.pivot) not in (0, 3) or (len(b.pivot) and b.at_point):
+                raise InputError(f"{where}.pivot", b.pivot, "empty, or [x, y, z] in m (the "
+                                 "body point from the reported position, in the body's own "
+                                 "frame), and then no at_point")
     for i, x in enumerate(m.ignore_ids):
         if x in ids:
             raise InputError(f"ignore_ids[{i}]", x, "ids of bodies the mapping does not map")
@@ -202,6 +216,19 @@ def to_cell(c: CaptureToCell, positions: np.ndarray) -> np.ndarray:
     transform of recordings and of the live stream."""
     return np.asarray(positions, dtype=float) @ rotation_matrix(c).T + np.asarray(
         c.translation, dtype=float)
+
+
+def unknown_pivots(mapping: RecordingMapping) -> list[tuple[str, float]]:
+    """(its field, "operators[i].bodies[j]", how far its point may be from its reported
+    position, m) of every mapped body whose mapping gives neither its pivot nor
+    ``at_point`` (``sensing.pivots.pivot_bound``)."""
+    out = []
+    for i, o in enumerate(mapping.operators):
+        for j, b in enumerate(o.bodies):
+            bound = pivot_bound(mapped_point(b), b.pivot, b.at_point)
+            if bound > 0.0:
+                out.append((f"operators[{i}].bodies[{j}]", bound))
+    return out
 
 
 def bodies(mapping: RecordingMapping) -> list[tuple[str, MappedBody]]:
@@ -253,7 +280,17 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
                              b.streaming_id, f"the recording's id of {b.recorded} "
                              f"({rec.ids[k]})")
         index.append(k)
-    raw = to_cell(mapping.capture_to_cell, rec.positions[:, index])
+    reported = rec.positions[:, index].copy()
+    for i, b in enumerate(operator.bodies):  # each at the body point it marks
+        if len(b.pivot):
+            if not np.isfinite(rec.rotations[:, index[i]]).any():
+                raise InputError(f"operators[{operator.name}].bodies[{i}].pivot", b.pivot,
+                                 f"empty for a body {rec.format or 'the recording'} gives "
+                                 "no orientation of (a marker, not a rigid body)",
+                                 file=rec.file)
+            reported[:, i] = body_points(reported[:, i], rec.rotations[:, index[i]],
+                                         b.pivot)
+    raw = to_cell(mapping.capture_to_cell, reported)
     glitch = flips(rec.times, raw, mapping.flip_speed)
     raw[glitch] = np.nan
     for i in np.flatnonzero(glitch.any(axis=0)):
@@ -301,7 +338,8 @@ def _plausible(rec: Recording, mapping: RecordingMapping, operator: MappedOperat
         figure, allowed = f"{bad.figure:.1f} m/s^2", (
             f"at most max_acceleration, {mapping.max_acceleration:g} m/s^2 over 50 ms")
     raise InputError(f"{what}: '{body}' at frame {bad.frame} of the file (counted from 0; "
-                     f"t = {rec.times[bad.frame]:.4g} s from its first): {bad.what}", figure, allowed + ", a person's (5 mm of capture "
+                     f"t = {rec.times[bad.frame]:.4g} s from its first): {bad.what}", figure,
+                     allowed + ", a person's (5 mm of capture "
                      "noise allowed per sample; a misread file or a body held still then "
                      "jumping moves so: the mapping's max_speed and max_acceleration raise "
                      "the bounds, implausible: untracked reads held samples as untracked)",

@@ -78,6 +78,8 @@ class MocapSensor(LeafSystem):
         dropped_frames: (t_start, t_end) rows, seconds: no frame at all is captured.
         faults: a fault table (``safety_systems.sensing.sensor_faults.fault_table``).
         seed: noise seed (integer >= 0).
+        pivots: (N, 3) where each body is reported from its true position, metres (a
+            rigid body's pivot left off the point it marks: ``sensing.pivots``; None: 0).
     """
 
     def __init__(
@@ -91,6 +93,7 @@ class MocapSensor(LeafSystem):
         dropped_frames: Sequence[tuple[float, float]] = (),
         faults: np.ndarray | None = None,
         seed: int = 0,
+        pivots: np.ndarray | None = None,
     ) -> None:
         super().__init__()
         if not (isinstance(num_bodies, int) and 1 <= num_bodies <= MAX_BODY_SLOTS):
@@ -121,6 +124,11 @@ class MocapSensor(LeafSystem):
             raise ValueError(f"faults: a ({FAULT_COLUMNS})-column fault table with body "
                              f"indices in -1..{num_bodies - 1}")
         self._faults = np.ascontiguousarray(faults)
+        pivots = np.zeros((num_bodies, 3)) if pivots is None else np.array(pivots, dtype=float)
+        if pivots.shape != (num_bodies, 3) or not np.all(np.isfinite(pivots)):
+            raise ValueError(f"pivots: got shape {pivots.shape}; allowed: ({num_bodies}, 3) "
+                             "finite metres")
+        self._pivots = pivots.reshape(-1) if np.any(pivots != 0.0) else None
 
         n = num_bodies
         self._n = n
@@ -176,6 +184,8 @@ class MocapSensor(LeafSystem):
         occluded = (self._occ_start <= t) & (t < self._occ_end)
         valid[self._occ_body[occluded]] = False
         positions = np.array(self._positions_true.Eval(context), dtype=float)
+        if self._pivots is not None:
+            positions += self._pivots
         if self._noise_std > 0.0:
             positions += self._noise_std * unit_noise(self._seed, k, self._n)
         positions.reshape(-1, 3)[~valid] = np.nan

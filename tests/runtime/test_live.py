@@ -300,8 +300,9 @@ def test_a_capture_glitch_replayed_live_is_gated_like_any_outlier(tmp_path, expo
     _flipped_bvh(tmp_path / "flip.bvh")
     (tmp_path / "map.yaml").write_text(
         "capture_to_cell: {up_axis: z}\nunits: cm\noperators:\n- name: a\n  bodies:\n"
-        "  - {recorded: RightHand, name: hand, point: hand_right, streaming_id: 1}\n"
-        "  - {recorded: Head, name: head, point: head, streaming_id: 2}\n")
+        "  - {recorded: RightHand, name: hand, point: hand_right, streaming_id: 1, "
+        "at_point: true}\n"  # (a BVH joint is the body point itself)
+        "  - {recorded: Head, name: head, point: head, streaming_id: 2, at_point: true}\n")
     code = main(["run", str(exported_params), "--mocap",
                  f"replay://{tmp_path / 'flip.bvh'}?duration=3.5", "--robot", "none",
                  "--mapping", str(tmp_path / "map.yaml"), "--log", str(tmp_path / "log"),
@@ -580,3 +581,26 @@ def test_the_rate_bound_from_the_commands_sent_is_the_largest_k_in_the_window():
     sent.append((2.1, math.nan))
     assert sent_rate_bound(sent, 2.2, window) == 1.0  # a NaN sent: full speed
     assert sent_rate_bound(deque(), 5.0, window) == 1.0
+
+
+def test_run_refuses_a_body_whose_pivot_is_unknown_beyond_the_certified_proof(
+        tmp_path, exported_params, capsys):
+    """Issue 46: a mapping that neither gives a helmet's pivot nor says it is at the head's
+    centre leaves its point up to 0.15 m off, which the certificate's space (pivot_offset
+    0) did not allow for: run refuses it in one line naming the body's field; with the
+    pivot given (or --unverified, saying so) it runs."""
+    text = MAPPING.read_text()
+    unknown = tmp_path / "unknown.yaml"
+    unknown.write_text(text.replace("point: head, streaming_id: 3, at_point: true",
+                                    "point: head, streaming_id: 3"))
+    argv = ["run", str(exported_params), "--mocap", f"replay://{CSV}?duration=0.3", "--robot",
+            "none", "--log", str(tmp_path / "log"), "--quiet", "--mapping"]
+    assert main(argv + [str(unknown)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "operators[0].bodies[2].pivot" in err and "0.15 m" in err
+    assert not (tmp_path / "log").exists()
+    given = tmp_path / "given.yaml"
+    given.write_text(text.replace("point: head, streaming_id: 3, at_point: true",
+                                  "point: head, streaming_id: 3, pivot: [0.0, -0.12, 0.0]"))
+    assert main(argv + [str(given)]) == 0

@@ -204,7 +204,9 @@ def test_the_real_motive_2_1_session_is_replayed_through_run(tmp_path, exported_
     (tmp_path / "map.yaml").write_text(
         "capture_to_cell: {up_axis: y, translation: [1.6, 0.0, 0.0]}\n"
         "operators:\n- name: visitor\n  bodies:\n"
-        "  - {recorded: body2, name: head, point: head, streaming_id: 2}\n")
+        # the session's one rigid body, its pivot given (about a helmet's above the head)
+        "  - {recorded: body2, name: head, point: head, streaming_id: 2, "
+        "pivot: [0.0, -0.12, 0.0]}\n")
     try:
         code = main(["run", str(exported_params), "--mocap",
                      f"natnet://127.0.0.1:{server.port}?local=127.0.0.1", "--robot", "none",

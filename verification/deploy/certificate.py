@@ -253,6 +253,9 @@ class CheckResult:
     verdict: str | None = None
     checksum: str | None = None
     params: Params | None = None
+    # m: how far the certified space let a tracked body be reported from its point
+    # (``verification.spaces.box`` ``pivot_offset``; 0 for a space that did not say)
+    pivot_offset: float = 0.0
 
     @property
     def certified(self) -> bool:
@@ -320,7 +323,16 @@ def check(params_path: str | Path, certificate_path: str | Path | None = None, *
         if require == "proved":
             return CheckResult(EXIT_REQUIREMENT, f"{line}; --require proved refuses it",
                                verdict, checksum, params)
-    return CheckResult(0, line, verdict, checksum, params)
+    return CheckResult(0, line, verdict, checksum, params, certified_pivot_offset(cert))
+
+
+def certified_pivot_offset(cert: dict) -> float:
+    """The largest pivot offset (m) the certificate's space let a tracked body's reported
+    position have from its point (0 where the space does not say)."""
+    space = (cert.get("assumptions") or {}).get("space") or {}
+    r = ((space.get("parameters") or {}).get("pivot_offset")) or {}
+    value = r.get("max", 0.0) if isinstance(r, dict) else 0.0
+    return float(value) if isinstance(value, (int, float)) else 0.0
 
 
 def _what_changed(params: Params, path: Path, cert: dict, checksum: str) -> str:

@@ -126,9 +126,11 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
          "segments within the configuration's body dimensions and lean limits, the "
          "measured segments' radii within the monitor's)"
          + (": " + "; ".join(misfits[:3]) if misfits else ""), not misfits),
-        (f"the envelopes' tracking allowance covers the tracker's error: tracking_allowance "
-         f"{allowance:g} m >= E {e_worst:.4f} m (the error of an estimate at its capture "
-         "time, at the box's largest noise and speed)", allowance >= e_worst),
+        (f"the envelopes' tracking allowance covers the tracker's error and where the sensor "
+         f"reports a body from its point: tracking_allowance {allowance:g} m >= E "
+         f"{e_worst:.4f} m (the error of an estimate at its capture time, at the box's "
+         f"largest noise and speed) + the space's largest pivot offset "
+         f"{p.pivot_offset.max:g} m (sensing.pivots)", allowance >= e_worst + p.pivot_offset.max),
         (f"hidden bodies stay hazards: tracks end only where bodies leave "
          f"(hidden_bodies: {t.hidden_bodies}) and a hidden body's region grows at least as "
          f"fast as any body point (occlusion_speed {f.occlusion_speed:g} >= v_max "
@@ -180,7 +182,11 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
         f"percentiles of adult men), the trunk within {config.body.trunk_lean_deg:g} deg "
         f"and the neck within {config.body.neck_lean_deg:g} deg of the vertical, each "
         "shoulder within head_shoulder of the head, the cell's z axis up, and every "
-        "tracked body where its mapping says (a glove on the hand, a helmet on the head)",
+        "tracked body where its mapping says (a glove on the hand, a helmet on the head), "
+        f"reported within {p.pivot_offset.max:g} m of the body point it marks (a live "
+        "mapping gives each body's pivot offset or at_point; the runtime refuses one that "
+        "leaves a body farther off, as a helmet's unmoved pivot may be, 0.15 m: "
+        "sensing.pivots)",
         f"sensor noise stays below {space.noise_bound_sigmas:g} sigma per axis "
         f"({noise:g} m) in every frame the gate accepts: no marker swap or reflection "
         "passes it",

@@ -231,6 +231,9 @@ class _Cells:
                          o.leave_time)
         self.offsets = np.array([[b.offset for o in s.operators for b in o.bodies]
                                  for s in scenarios], dtype=float).reshape(self.B, self.N, 3)
+        # where the sensor reports each body from its point (its pivot, sensing.pivots)
+        self.pivots = np.array([[b.pivot for o in s.operators for b in o.bodies]
+                                for s in scenarios], dtype=float).reshape(self.B, self.N, 3)
         self.enter = np.array([[o.enter_time for o in s.operators] for s in scenarios],
                               dtype=float).reshape(self.B, self.K)
         self.leave = np.array([[o.leave_time for o in s.operators] for s in scenarios],
@@ -255,7 +258,8 @@ class _Cells:
                unseen):
         """The tracker update at time u of every scenario (see :func:`_update`)."""
         _update(u, self.latency, self.period, self.drops, frames, self.stack_arrays,
-                self.op_index, self.offsets, self.enter, self.leave, self.occ, self.faults,
+                self.op_index, self.offsets, self.pivots, self.enter, self.leave, self.occ,
+                self.faults,
                 self.noise, self.units, tracks, rules, regions, est_p, est_v, status, std,
                 unseen)
 
@@ -285,7 +289,8 @@ _F_NUMBER, _F_GOOD, _F_FAULT, _F_COUNTS = 0, 1, 2, 3
 
 
 @numba.njit(cache=True)
-def _update(u, latency, period, drops, frames, stack, op_index, offsets, enter, leave, occ,
+def _update(u, latency, period, drops, frames, stack, op_index, offsets, pivots, enter, leave,
+            occ,
             faults, noise, units, tracks, rules, regions, est_p, est_v, status, std, unseen):
     """A tracker update at time u of every scenario, compiled: the frame each sensor
     delivers (:func:`_delivered_rows`); where its frame number is new, its capture
@@ -304,7 +309,8 @@ def _update(u, latency, period, drops, frames, stack, op_index, offsets, enter, 
             raise ValueError("_update: a capture beyond the unit noise table")
         z, valid = np.empty((R, N, 3)), np.empty((R, N))
         ids, carried = np.empty((R, N)), np.empty(R)
-        _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, rows, frame,
+        _capture(stack, op_index, offsets, pivots, enter, leave, occ, faults, noise, units, rows,
+                 frame,
                  period, z, valid, ids, carried)
         for r in range(R):
             b = rows[r]
@@ -317,15 +323,17 @@ def _update(u, latency, period, drops, frames, stack, op_index, offsets, enter, 
 
 
 @numba.njit(cache=True)
-def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, rows, index,
+def _capture(stack, op_index, offsets, pivots, enter, leave, occ, faults, noise, units, rows,
+             index,
              period, p, valid, ids, carried):
     """The MocapSensor's frames ``index`` (R,) of the scenarios ``rows``: positions p
     (R, N, 3), whether it sees the bodies (``valid``: present and not in an occlusion
     interval of ``occ`` (B, ., 3): body, start, end), the ids the entries carry and the
     capture time each frame carries (``sensor_faults.apply_faults`` of ``faults``
     (B, ., 8)); compiled. The truth at the capture time by ``path_point_one`` of the
-    operator's path plus the body's offset, plus noise std ``noise[b]`` times the
-    frame's unit noise ``units[index]``; NaN where not seen."""
+    operator's path plus the body's offset, plus its pivot (``pivots`` (B, N, 3): where
+    the sensor reports it from its point), plus noise std ``noise[b]`` times the frame's
+    unit noise ``units[index]``; NaN where not seen."""
     departures, ta, tc, vp, lengths, a_max, directions, waypoints = stack
     K = enter.shape[1]
     for r in range(rows.size):
@@ -337,6 +345,8 @@ def _capture(stack, op_index, offsets, enter, leave, occ, faults, noise, units, 
                                                  directions, waypoints, b * K + o, t)
             p[r, i, 0], p[r, i, 1], p[r, i, 2] = (x0 + offsets[b, i, 0], x1 + offsets[b, i, 1],
                                                   x2 + offsets[b, i, 2])
+            for j in range(3):  # (exact where 0: MocapSensor adds the same after the point)
+                p[r, i, j] = p[r, i, j] + pivots[b, i, j]
             seen = t >= enter[b, o] and t < leave[b, o]
             for j in range(occ.shape[1]):
                 if occ[b, j, 1] <= t < occ[b, j, 2] and occ[b, j, 0] == i:

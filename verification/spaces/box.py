@@ -75,6 +75,7 @@ class SpaceParameters:
     outlier_offset: Range = _r(1.0, 1.0)
     outlier_delay: Range = _r(0.1, 0.1)
     braking_time_scale: Range = _r(1.0, 1.0)
+    pivot_offset: Range = _r(0.0, 0.0)
 
 
 @dc.dataclass
@@ -159,7 +160,7 @@ LIMITS = {  # allowed ranges of each parameter
     "latency": (0.0, 1.0), "dropout": (0.0, 5.0), "occlusion": (0.0, 60.0),
     "occluded_bodies": (1.0, 10.0),
     "outlier_frames": (0.0, 40.0), "outlier_offset": (0.0, 10.0), "outlier_delay": (0.0, 10.0),
-    "braking_time_scale": (0.1, 10.0),
+    "braking_time_scale": (0.1, 10.0), "pivot_offset": (0.0, 0.5),
 }
 
 

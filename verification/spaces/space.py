@@ -260,6 +260,10 @@ def assumptions(space: ScenarioSpace, config: ControllerConfig) -> list[str]:
         (f"up to {int(p.outlier_frames.max)} outlier frames of every operator's bodies, "
          f"{span(p.outlier_offset, ' m')} from their true positions"
          if p.outlier_frames.max >= 1 else "no outlier frames"),
+        (f"every tracked body's reported position within {p.pivot_offset.max:g} m of the "
+         "body point it marks (a live mapping gives each body's pivot, or at_point: a Motive "
+         "rigid body's pivot left at its markers' centroid can be 0.15 m off a helmet's head "
+         "centre, sensing.pivots; the runtime refuses a mapping that leaves more)"),
         "the robot stops as its stopping data says"
         + ("" if p.braking_time_scale.min == p.braking_time_scale.max == 1.0 else
            f", times scaled by {span(p.braking_time_scale)}"),
@@ -320,7 +324,10 @@ def make_scenario(space: ScenarioSpace, config: ControllerConfig, values: dict[s
         end = max(end, t + approach_times(v["peak_speed"], v["acceleration"], length))
         points = posture_offsets(int(round(v["posture"])), az)
         tracked = tracked_bodies(space, heads)
-        bodies = [Body(name=n, point=q, offset=points[q].tolist()) for n, q in tracked]
+        # each reported ``pivot_offset`` from its point, away from the robot (the worst
+        # way: the monitor takes the operator for farther than it is; sensing.pivots)
+        bodies = [Body(name=n, point=q, offset=points[q].tolist(),
+                       pivot=(v["pivot_offset"] * u).tolist()) for n, q in tracked]
         posture = [PosturePoint(point=q, offset=points[q].tolist()) for q in human_body.POINTS
                    if q not in dict(tracked).values()]
         operators.append(OperatorConfig(
