@@ -331,6 +331,9 @@ FIGURES = (
            run("inspection", f"{SUMMARY}/stopped_time")),
     Figure("main_job_closest", r"its tool never came within " + NUM + " m of the",
            run("inspection", f"{SUMMARY}/min_separation_while_moving")),
+    # The README's test command (the fast selection), as walked through (run --only tests).
+    Figure("tests_minutes", r"tests marked slow, took " + NUM + " min of wall time",
+           scaled(run("tests", "wall"), 1.0 / 60.0), TIME_NOISE),
     # The tutorial: the first verify of a fresh clone compiles; the second is the run itself.
     Figure("first_verify_wall", r"the first `verify` below took " + NUM + " s of wall time",
            run("verify-iso", "wall"), TIME_NOISE),
