@@ -80,9 +80,12 @@ def test_every_reference_page_names_a_known_reference_and_every_one_is_on_a_page
     assert used == set(reference.schemas()) | {"commands"}
 
 
+NO_MKDOCS = ("MkDocs is not installed here (the docs extra: pip install -e '.[docs]'; CI "
+             "installs it)")
+
+
 @pytest.mark.skipif(importlib.util.find_spec("mkdocs") is None
-                    or importlib.util.find_spec("material") is None, reason="MkDocs is not installed here (the docs extra: pip install -e "
-                           "'.[docs]'; CI installs it)")
+                    or importlib.util.find_spec("material") is None, reason=NO_MKDOCS)
 def test_the_site_builds_with_warnings_as_errors(tmp_path):
     done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir",
                            str(tmp_path / "site")], cwd=ROOT, capture_output=True, text=True,
