@@ -1,11 +1,12 @@
-"""The README's figures that come from runs: where each stands, which run gives it, and
-its noise (read by ``benchmarks/readme_figures.py``; see its docstring).
+"""The figures of the README and the documentation's pages that come from runs: where each
+stands, which run gives it, and its noise (read by ``benchmarks/readme_figures.py``; see
+its docstring).
 
-A pattern finds its figure in the README in exactly one place: the words around it, with
+A pattern finds its figure in exactly one place of all the pages: the words around it, with
 its number as the group ``v`` (``NUM``; a space matches any white space). Noise:
-``"exact"`` for what the code decides (the README prints it rounded: it must equal the
+``"exact"`` for what the code decides (the page prints it rounded: it must equal the
 run's value at the digits printed), ``"text"`` for a word (a chosen mode), or a relative
-band for what the machine and its load move (wall and CPU times, rates): the README's
+band for what the machine and its load move (wall and CPU times, rates): the page's
 figure within that fraction of the run's.
 """
 
@@ -24,7 +25,7 @@ class Figure:
     pattern: str
     get: typing.Callable[[dict], float]
     noise: typing.Any = "exact"
-    scale: float = 1.0  # the README's unit per the run's (100 for a percentage)
+    scale: float = 1.0  # the page's unit per the run's (100 for a percentage)
 
     def value(self, data: dict) -> typing.Any:
         x = self.get(data)
@@ -124,7 +125,7 @@ def both(a, b) -> typing.Callable[[dict], float]:
 SUMMARY, REPORT = "files/summary", "files/report"
 CONTACT, SEPARATION = f"{REPORT}/properties/contact", f"{REPORT}/properties/separation"
 
-# Runs the README's prose quotes beyond its code blocks: (id, command), run after them.
+# Runs the pages' prose quotes beyond their code blocks: (id, command), run after them.
 EXTRA_RUNS = (
     ("inspection-100", ".venv/bin/safety-systems simulate models/scenarios/inspection.yaml "
                        "--out out/inspection-100 --duration 100"),
@@ -197,7 +198,7 @@ def search(config: str, budget: int, who: str, what: str) -> typing.Callable[[di
 
 
 def _speed_figures() -> tuple:
-    """The figures of the README's "Speed", from bench_verify, bench_simulate and
+    """The figures of the "Speed" page, from bench_verify, bench_simulate and
     bench_runtime (each ``--json``), and bench_tune's reduction."""
     cell = bench(VERIFY, "throughput/whole_cell")
     ref = bench(VERIFY, f"throughput/commits/{ISSUE_33}/whole_cell")
@@ -325,7 +326,15 @@ def _speed_figures() -> tuple:
     return tuple(out)
 
 FIGURES = (
-    # Set-up: the first verify of a fresh clone compiles; the second is the run itself.
+    # The README's main job: what the inspection scenario shows.
+    Figure("main_job_held", r"holds it still for " + NUM + " s while they work",
+           run("inspection", f"{SUMMARY}/stopped_time")),
+    Figure("main_job_closest", r"its tool never came within " + NUM + " m of the",
+           run("inspection", f"{SUMMARY}/min_separation_while_moving")),
+    # The README's test command (the fast selection), as walked through (run --only tests).
+    Figure("tests_minutes", r"tests marked slow, took " + NUM + " min of wall time",
+           scaled(run("tests", "wall"), 1.0 / 60.0), TIME_NOISE),
+    # The tutorial: the first verify of a fresh clone compiles; the second is the run itself.
     Figure("first_verify_wall", r"the first `verify` below took " + NUM + " s of wall time",
            run("verify-iso", "wall"), TIME_NOISE),
     Figure("first_verify_cpu", r"s of wall time \(" + NUM + r" s of CPU\) on a fresh clone",
@@ -451,7 +460,7 @@ FIGURES = (
            + " m", probe("screen_example_distance")),
     Figure("export_s", r"while the technician works near it \(S is " + NUM + " m",
            probe("iso_full_speed_distance")),
-    # The README's tune command, as walked through.
+    # The tutorial's tune command, as walked through.
     Figure("tune_run_minutes", r"The command above took " + NUM + " min of wall time",
            scaled(run("tune", "wall"), 1.0 / 60.0), TIME_NOISE),
     Figure("tune_run_lost", r"chose a proved configuration that loses " + NUM + " s",

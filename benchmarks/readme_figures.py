@@ -1,31 +1,35 @@
-"""The README's figures from runs, measured by the runs and checked against them.
+"""The README's and the documentation's figures from runs, measured by the runs and
+checked against them.
 
     python benchmarks/readme_figures.py run [--fresh] [--only ID,...] [--skip ID,...]
     python benchmarks/readme_figures.py check
     python benchmarks/readme_figures.py write
 
-Every figure the README states from a run of a command or a benchmark is listed in
-``FIGURES`` (``benchmarks/readme_figure_list.py``): where it stands in the README (a
-pattern whose group ``v`` is the figure, found in exactly one place), which run gives it
-and where in that run's output, and the noise within which two runs agree: ``exact``
-for what the code determines (a margin, a task time, a count: equal to the digits the
-README prints) or a relative band for what the machine and its load move (times, rates).
+The pages are the README and the documentation site's pages (``docs/``, in the order of
+``mkdocs.yml``'s nav). Every figure they state from a run of a command or a benchmark is
+listed in ``FIGURES`` (``benchmarks/readme_figure_list.py``): where it stands (a pattern
+whose group ``v`` is the figure, found in exactly one place of all the pages), which run
+gives it and where in that run's output, and the noise within which two runs agree:
+``exact`` for what the code determines (a margin, a task time, a count: equal to the
+digits the page prints) or a relative band for what the machine and its load move
+(times, rates).
 
-``run`` is the walkthrough a new user makes: every command of the README's code blocks,
-in their order (the set-up's install and main job first; ``--fresh`` does it all in a
-fresh clone of this repository's HEAD, in a new virtual environment, so the first
-compile and every missing install step show), then the runs the README's prose quotes
-(``EXTRA_RUNS``: the same commands with another option, or another shipped file), then,
-if asked (``--only bench_tune`` and the like), the benchmarks, each with ``--json``. It
-writes what each printed and wrote to ``benchmarks/results/walkthrough.json`` (and the
-benchmarks' own files beside it), with the date, the commit and the machine's load.
+``run`` is the walkthrough a new user makes: every command of the pages' code blocks, in
+their order (the README's set-up first, then the tutorial's path and the other pages';
+``--fresh`` does it all in a fresh clone of this repository's HEAD, in a new virtual
+environment, so the first compile and every missing install step show), then the runs
+the pages' prose quotes (``EXTRA_RUNS``: the same commands with another option, or
+another shipped file), then, if asked (``--only bench_tune`` and the like), the
+benchmarks, each with ``--json``. It writes what each printed and wrote to
+``benchmarks/results/walkthrough.json`` (and the benchmarks' own files beside it), with
+the date, the commit and the machine's load.
 
-``check`` compares each README figure with the recorded runs and prints one line per
-figure that disagrees beyond its noise (exit 1), or that the README no longer holds in
-exactly one place; and whether the README's commands are still the ones walked through.
+``check`` compares each figure with the recorded runs and prints one line per figure
+that disagrees beyond its noise (exit 1), or that the pages no longer hold in exactly one
+place; and whether the pages' commands are still the ones walked through.
 ``tests/test_readme_figures.py`` runs it, and re-runs the cheap deterministic commands to
-check the recorded figures against this code. ``write`` rewrites the README's figures
-from the record (each at the precision the README gives it).
+check the recorded figures against this code. ``write`` rewrites the figures from the
+record, each in its page (at the precision the page gives it).
 """
 
 import argparse
@@ -45,17 +49,44 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
+MKDOCS = ROOT / "mkdocs.yml"
 RESULTS = ROOT / "benchmarks" / "results"
 RECORD = RESULTS / "walkthrough.json"
 CLI = ".venv/bin/safety-systems"
 STDOUT_LINES = 60  # of each run's stdout, kept in the record
 
 
-# ------------------------------------------------------------------ the README's commands
+# ------------------------------------------------------------------ the pages' commands
+
+def _nav_files(nav) -> list[str]:
+    """The pages of an mkdocs nav, in order."""
+    if isinstance(nav, str):
+        return [nav]
+    if isinstance(nav, dict):
+        return [f for v in nav.values() for f in _nav_files(v)]
+    if isinstance(nav, list):
+        return [f for v in nav for f in _nav_files(v)]
+    return []
+
+
+def pages() -> dict[str, str]:
+    """Every page's text by its path from the root: the README, then the documentation's
+    pages in the order of mkdocs.yml's nav, then any page the nav leaves out."""
+    import yaml
+
+    docs = MKDOCS.parent / yaml.safe_load(MKDOCS.read_text()).get("docs_dir", "docs")
+    ordered = [docs / f for f in _nav_files(yaml.safe_load(MKDOCS.read_text())["nav"])]
+    ordered += sorted(set(docs.rglob("*.md")) - set(ordered))
+    out = {"README.md": README.read_text()}
+    for path in ordered:
+        out[str(path.relative_to(ROOT))] = path.read_text()
+    return out
+
 
 def readme_commands(text: str) -> list[str]:
-    """The commands of the README's code blocks, in order: the set-up's two lines and
-    every ``.venv/bin/safety-systems`` line."""
+    """The commands of a page's code blocks, in order: the set-up's two lines and every
+    ``.venv/bin/safety-systems`` line (a command written otherwise, as on a page whose
+    commands need a cluster, is not walked through)."""
     commands, inside = [], False
     for line in text.splitlines():
         if line.startswith("```"):
@@ -84,12 +115,13 @@ def run_id(command: str, seen: dict) -> str:
     return name if seen[name] == 1 else f"{name}#{seen[name]}"
 
 
-def walkthrough(text: str) -> list[tuple[str, str]]:
-    """(id, command) of the README's commands and then of ``EXTRA_RUNS``."""
+def walkthrough(texts: dict[str, str]) -> list[tuple[str, str]]:
+    """(id, command) of the pages' commands, page by page (``pages``), and then of
+    ``EXTRA_RUNS``."""
     from readme_figure_list import EXTRA_RUNS
 
     seen: dict = {}
-    runs = [(run_id(c, seen), c) for c in readme_commands(text)]
+    runs = [(run_id(c, seen), c) for text in texts.values() for c in readme_commands(text)]
     return runs + [(name, command) for name, command in EXTRA_RUNS]
 
 
@@ -119,7 +151,7 @@ OUTPUT_FILES = ("summary.json", "report.json", "tune.json", "certificate.json")
 
 
 def run_one(command: str, cwd: Path) -> dict:
-    """Runs one README command in ``cwd`` (its shell line as written): exit code, wall
+    """Runs one page's command in ``cwd`` (its shell line as written): exit code, wall
     and CPU seconds (its children's), the tail of its stdout, the last lines of stderr,
     and the JSON files it wrote to its output folder."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -158,7 +190,7 @@ def _machine() -> dict:
             "python": sys.version.split()[0]}
 
 
-# The exit codes the README's commands should end with (0 where not listed): the previous
+# The exit codes the pages' commands should end with (0 where not listed): the previous
 # behaviour falsified, the seed's configuration falsified over the recording's space.
 EXPECTED_EXIT = {"verify-occluded": 1, "verify-elbow": 1, "verify-recording": 1,
                  "verify-recording-previous": 1}
@@ -168,7 +200,7 @@ NOT_BY_DEFAULT = {"tests"}  # the test suite: CI runs it on every submission
 def measure(only: set | None, skip: set, fresh: bool) -> None:
     """``run``: the walkthrough (see the module docstring); merges into the record."""
     record = _json(RECORD) or {"runs": {}}
-    text = README.read_text()
+    text = pages()
     skip = skip | (NOT_BY_DEFAULT - (only or set()))
     with tempfile.TemporaryDirectory() as scratch:
         tree = _fresh_clone(Path(scratch)) if fresh else ROOT
@@ -218,7 +250,7 @@ def number(text: str) -> float:
 
 
 def agrees(printed: str, value: float, noise) -> bool:
-    """Whether the README's ``printed`` figure is ``value`` within ``noise``: "exact"
+    """Whether a page's ``printed`` figure is ``value`` within ``noise``: "exact"
     (equal at the precision printed, half a unit of its last digit) or a relative band
     (a float: |printed - value| <= band * |value|, or within the rounding to the digits
     printed where that is wider)."""
@@ -251,17 +283,19 @@ def records() -> dict:
     return data
 
 
-def find(figure, text: str) -> list[re.Match]:
-    """Where ``figure``'s pattern stands in ``text`` (a space in it matches any run of
-    white space, so the README may be rewrapped)."""
-    return list(re.finditer(figure.pattern.replace(" ", r"\s+"), text, flags=re.S))
+def find(figure, texts: dict[str, str]) -> list[tuple[str, re.Match]]:
+    """Where ``figure``'s pattern stands in the pages ``texts``: (page, match) (a space in
+    it matches any run of white space, so a page may be rewrapped)."""
+    pattern = re.compile(figure.pattern.replace(" ", r"\s+"), flags=re.S)
+    return [(page, m) for page, text in texts.items() for m in pattern.finditer(text)]
 
 
-def problems(text: str | None = None, data: dict | None = None) -> list[str]:
-    """One line per README figure that disagrees with its run (see ``check``)."""
+def problems(text: dict[str, str] | None = None, data: dict | None = None) -> list[str]:
+    """One line per figure of the pages ``text`` (default: ``pages()``) that disagrees
+    with its run (see ``check``)."""
     from readme_figure_list import FIGURES
 
-    text = README.read_text() if text is None else text
+    text = pages() if text is None else text
     data = records() if data is None else data
     out = []
     names = [f.name for f in FIGURES]
@@ -270,8 +304,9 @@ def problems(text: str | None = None, data: dict | None = None) -> list[str]:
     for f in FIGURES:
         found = find(f, text)
         if len(found) != 1:
-            out.append(f"{f.name}: the README holds its pattern {len(found)} times, not once "
-                       f"({f.pattern[:60]!r}...)")
+            out.append(f"{f.name}: the pages hold its pattern {len(found)} times, not once "
+                       f"({f.pattern[:60]!r}...{', in ' if found else ''}"
+                       f"{', '.join(page for page, _ in found)})")
             continue
         try:
             value = f.value(data)
@@ -279,10 +314,11 @@ def problems(text: str | None = None, data: dict | None = None) -> list[str]:
             out.append(f"{f.name}: no recorded run gives it ({type(e).__name__}: {e}); "
                        "run: python benchmarks/readme_figures.py run")
             continue
-        printed = found[0].group("v")
+        page, match = found[0]
+        printed = match.group("v")
         if not agrees(printed, value, f.noise):
             shown = value if isinstance(value, str) else f"{value:.6g}"
-            out.append(f"{f.name}: the README says {printed}, the run {shown} (noise: "
+            out.append(f"{f.name}: {page} says {printed}, the run {shown} (noise: "
                        f"{f.noise})")
     runs = data["runs"]
     for name, command in walkthrough(text):
@@ -290,7 +326,7 @@ def problems(text: str | None = None, data: dict | None = None) -> list[str]:
             continue
         if name not in runs or runs[name]["command"] != command:
             out.append(f"walkthrough: {name}: `{command}` was not walked through as the "
-                       "README writes it (run: python benchmarks/readme_figures.py run)")
+                       "pages write it (run: python benchmarks/readme_figures.py run)")
         elif runs[name]["exit"] != EXPECTED_EXIT.get(name, 0):
             out.append(f"walkthrough: {name}: exit {runs[name]['exit']}, not "
                        f"{EXPECTED_EXIT.get(name, 0)}: {runs[name]['stderr'][-1:]}")
@@ -298,27 +334,31 @@ def problems(text: str | None = None, data: dict | None = None) -> list[str]:
 
 
 def write() -> int:
-    """Rewrites each README figure from the record, at the precision it is printed."""
+    """Rewrites each figure from the record, in its page, at the precision it is
+    printed."""
     from readme_figure_list import FIGURES
 
-    text, data = README.read_text(), records()
+    text, data = pages(), records()
     for f in FIGURES:
         found = find(f, text)
         if len(found) != 1:
-            print(f"{f.name}: not once in the README; left")
+            print(f"{f.name}: not once in the pages; left")
             continue
         try:
             value = f.value(data)
         except (KeyError, IndexError, TypeError):
             print(f"{f.name}: no recorded run; left")
             continue
-        printed = found[0].group("v")
+        page, match = found[0]
+        printed = match.group("v")
         spec = (("+" if printed.startswith("+") else "") + ("," if "," in printed else "")
                 + f".{decimals(printed)}f")
         new = value if isinstance(value, str) else format(value, spec)
-        a, b = found[0].span("v")
-        text = text[:a] + new + text[b:]
-    README.write_text(text)
+        a, b = match.span("v")
+        text[page] = text[page][:a] + new + text[page][b:]
+    for page, content in text.items():
+        if (ROOT / page).read_text() != content:
+            (ROOT / page).write_text(content)
     return 0
 
 
@@ -344,7 +384,7 @@ def main() -> int:
 
     wrong = {line.split(":")[0] for line in found}
     print(f"{sum(f.name not in wrong for f in FIGURES)} of {len(FIGURES)} figures agree with "
-          "their runs" + ("; the walkthrough is not the README's" if "walkthrough" in wrong
+          "their runs" + ("; the walkthrough is not the pages'" if "walkthrough" in wrong
                           else ""))
     return 1 if found else 0
 

@@ -14,7 +14,9 @@ weaker than ``--require``), 130 interrupted; ``verify``'s table:
 """
 
 import argparse
+import contextlib
 import dataclasses
+import os
 import sys
 import warnings
 
@@ -184,8 +186,9 @@ def _verify(args: argparse.Namespace) -> int:
     )
     from verification.search.runner import check_scheduler
     from verification.spaces.space import load_space
+    from verification.phases import Phases
     from verification.verdicts import EXIT_REQUIREMENT, exit_code
-    from verification.verify import verify
+    from verification.verify import PHASES, verify
 
     config, robot = _configuration(args.config, args.unverified)
     space = load_space(args.space)
@@ -200,10 +203,13 @@ def _verify(args: argparse.Namespace) -> int:
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
     out = prepare_out(args.out)
+    phases = Phases("verify", PHASES, on=not args.quiet)
     outcome = verify(config, space, out, budget=args.budget, method=args.method,
                      workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                      progress=not args.quiet, config_text=read_text(args.config),
-                     properties=args.property, stop_at_first=args.stop_at_first)
+                     properties=args.property, stop_at_first=args.stop_at_first,
+                     phases=phases)
+    phases.start("writing the report, its figure and the worst counterexample's replay")
     report = write_report(outcome, out, config_path=args.config, space_path=args.space,
                           origin=_origin(args.argv, {"search": args.seed}))
     if report["braking_data"] == "placeholder":
@@ -657,24 +663,79 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     _warn(" ".join(str(message).split()))
 
 
+def _say_first_compile(command: str, stack: contextlib.ExitStack) -> None:
+    """The first line of a run that will compile the per-tick maths says so (on stderr,
+    before anything else is loaded), and a compile it did not foresee says so too."""
+    from safety_systems.compile_notice import NEEDS, first_run_line, watch_compiles
+
+    if command not in NEEDS:
+        return
+    line = first_run_line(command)
+    if line is not None:
+        print(f"safety-systems: {line}", file=sys.stderr, flush=True)
+    listener = watch_compiles(said=line is not None)
+    stack.callback(_unregister, listener)
+
+
+def _unregister(listener) -> None:
+    from numba.core import event
+
+    event.unregister("numba:compile", listener)
+
+
+# The commands Ctrl-C ends within a second or two (safety_systems.interrupts); ``run``
+# ends its live loop itself, commanding k = 0 last.
+INTERRUPTIBLE = ("simulate", "verify", "tune", "compare", "plan")
+
+
+def _interrupted(args: argparse.Namespace) -> int:
+    """Says so and returns 130; after a real Ctrl-C, exits at once: the interpreter's
+    own shutdown (Drake's, numba's) takes seconds more, and every result file is whole
+    or absent already."""
+    from safety_systems.interrupts import interrupted
+
+    resume = (f" (the same command resumes it: the finished simulations are kept in "
+              f"{args.out})" if args.command == "verify" else "")
+    print(f"safety-systems: interrupted{resume}", file=sys.stderr, flush=True)
+    if interrupted():
+        sys.stdout.flush()
+        os._exit(EXIT_INTERRUPTED)
+    return EXIT_INTERRUPTED
+
+
 def main(argv: list[str] | None = None) -> int:
+    from pathlib import Path
+
+    from safety_systems.interrupts import Interruptible, interrupted
+    from safety_systems.third_party_noise import LOG_NAME, kept_in
+
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(argv)
     args.argv = argv
     forget_inputs()  # the inputs of this command alone go into its results
-    try:
-        with warnings.catch_warnings():
-            warnings.showwarning = _one_line_warning
+    folder = getattr(args, "out", None) or getattr(args, "log", None)
+    with contextlib.ExitStack() as stack:
+        stack.enter_context(warnings.catch_warnings())
+        # numba's and pydrake's warnings go to DIR/third_party.log; the rest, one line each
+        stack.enter_context(kept_in(None if folder is None else Path(folder) / LOG_NAME,
+                                    _one_line_warning))
+        if args.command in INTERRUPTIBLE:
+            stack.enter_context(Interruptible())
+        _say_first_compile(args.command, stack)
+        try:
             return args.run(args)
-    except InputError as e:
-        print(f"safety-systems: {e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except Refused as e:
-        print(f"safety-systems: {e.line}", file=sys.stderr)
-        return e.code
-    except KeyboardInterrupt:
-        print("safety-systems: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        except InputError as e:
+            print(f"safety-systems: {e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        except Refused as e:
+            print(f"safety-systems: {e.line}", file=sys.stderr)
+            return e.code
+        except KeyboardInterrupt:
+            return _interrupted(args)
+        except Exception:
+            if interrupted():  # what a Ctrl-C became on its way out of pydrake, say
+                return _interrupted(args)
+            raise
 
 
 if __name__ == "__main__":

@@ -34,9 +34,13 @@ VERIFIER_ALLOWED = {
     "verification.deploy": {"verification", "verification.spaces"},
 }
 VERIFIER_TOP = {"verification.verify": "verification.verify",
-                "verification.report": "verification.verify"}
+                "verification.report": "verification.verify",
+                "verification.phases": "verification.verify"}
+# Housekeeping of a process, importing nothing of the project: numba's cache, the line
+# before a first compile, Ctrl-C, third-party warnings.
+HOUSEKEEPING = {"compiled_cache", "compile_notice", "interrupts", "third_party_noise"}
 ALLOWED = {
-    "compiled_cache": set(),
+    **{room: set() for room in HOUSEKEEPING},
     "files": set(),
     **{room: MATHS | {"files"} for room in MATHS},
     "config": MATHS | {"files"},
@@ -47,7 +51,7 @@ ALLOWED = {
     "cli": PRODUCT | {"runtime"} | set(VERIFIER),
     **{room: PRODUCT | {room} | inner for room, inner in VERIFIER_ALLOWED.items()},
 }
-ANYWHERE = {"compiled_cache", "safety_systems"}  # housekeeping; the package's __init__
+ANYWHERE = HOUSEKEEPING | {"safety_systems"}  # housekeeping; the package's __init__
 # Entry points that load the verifier only inside the functions that need it: the command
 # line (verify, tune, export, check) and the runtime (``run`` runs check's rule).
 LAZY_VERIFIER = {"cli", "runtime"}

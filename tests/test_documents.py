@@ -63,6 +63,10 @@ def _load(tmp_path, data, schema=Scenario, validate=None):
     ("duration: !!python/object:os.system {}\n", "line 1, column 11", "no tags"),
     ("duration: !Seconds 3\n", "line 1, column 11", "no tags"),
     ("1: 2\n", "1", "one of the fields"),
+    # A typo in a nested field: the nearest field first, then every field.
+    ("controller: {safety: {iso_humna_speed: 2.0}}\n", "controller.safety.iso_humna_speed",
+     "allowed: did you mean iso_human_speed? (one of the fields ['clamp_margin', "),
+    ("robot: {cycels: 2}\n", "robot.cycels", "did you mean cycles?"),
     ("duration: true\n", "duration", "a number"),
     ("duration: 10e400\n", "duration", "0 < duration <= 600 s"),
     ("robot: {cycles: 2.5}\n", "robot.cycles", "an integer"),
@@ -90,6 +94,11 @@ def _load(tmp_path, data, schema=Scenario, validate=None):
 def test_bad_documents_give_one_line_naming_the_field(tmp_path, data, field, needle):
     error = _load(tmp_path, data)
     assert error.field == field and needle in str(error), str(error)
+
+
+def test_a_name_near_no_field_gets_no_guess(tmp_path):
+    error = _load(tmp_path, "controller: {safety: {xyz: 1}}\n")
+    assert "did you mean" not in str(error) and "one of the fields" in str(error)
 
 
 def test_values_are_shortened(tmp_path):

@@ -29,6 +29,7 @@ Exit codes: ``verification.verdicts`` (the README's table).
 
 import dataclasses
 import hashlib
+import os
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +45,7 @@ from verification.proof.theorems import (
     prove_permitted_contact,
     prove_separation,
 )
+from verification.phases import Phases, verify_seconds
 from verification.properties import PROPERTIES, mode_properties
 from verification.search.runner import FIELDS, Runner
 from verification.search.strategies import SWEEPS, SearchLog, falsify, sweep
@@ -61,6 +63,7 @@ METHODS = ("falsify",) + SWEEPS
 CONFIRM = 5  # counterexamples replayed in Drake per property, worst first
 CROSS_CHECK = 5  # further scenarios replayed in Drake, drawn at random from the search's
 PROPERTY_CHOICES = ("contact", "separation", "permitted_contact", "both")
+PHASES = 4  # proofs, search, Drake replays, report
 PROVERS = {"contact": prove, "separation": prove_separation,
            "permitted_contact": prove_permitted_contact}
 
@@ -152,7 +155,7 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
            method: str = "falsify", workers: int | None = None, scheduler: str | None = None,
            seed: int = 0, progress: bool = False, config_text: str = "",
            stop_at_first: bool = False, candidates: int = 8192,
-           properties: str = "both") -> Outcome:
+           properties: str = "both", phases: Phases | None = None) -> Outcome:
     """Runs proofs and search for ``config`` over ``space``, for the ``properties``
     chosen (``contact``, ``separation``, ``permitted_contact`` or ``both``: the two of
     the configuration's ``safety.mode``, :func:`selected_properties`); writes scenario files of confirmed
@@ -161,13 +164,22 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     it finds in the Drake diagram at once and returns at the first one Drake confirms
     (the other properties are then left unchecked, and no cross-check replays are
     made); ``candidates``: how many the falsifier's reduced model ranks. Every
-    evaluation of a model of the loop is counted (``Outcome.evaluations``)."""
+    evaluation of a model of the loop is counted (``Outcome.evaluations``). ``phases``
+    names the first three of ``PHASES`` as they start (the caller the report's)."""
     if method not in METHODS:
         raise ValueError(f"method: got {method!r}; allowed: {' | '.join(METHODS)}")
     names = selected_properties(properties, config.safety.mode)
     tally = Tally()  # the clocks start here: proofs, search and replays all count
     out.mkdir(parents=True, exist_ok=True)
+    phases = Phases("verify", PHASES, on=False) if phases is None else phases
+    cores = workers or os.cpu_count() or 1
+    in_drake = space.recording is not None or space.robot.mode == "dynamic"
+    most = len(names) * (CONFIRM + CROSS_CHECK)  # Drake replays at most
+    phases.start(f"proving {len(names)} properties over the whole box",
+                 left=verify_seconds(budget, most, cores, in_drake))
     proofs = {name: PROVERS[name](config, space) for name in names}
+    phases.start(f"searching ({method}): a budget of {budget} simulation-equivalents",
+                 left=verify_seconds(budget, most, cores, in_drake))
     drake_runs: dict = {}  # Drake's figures by simulation index, shared by the properties
     confirmations: dict = {}  # name -> the replay entries made during the search
     first_confirmed: dict = {}  # name -> tally snapshot when first confirmed in Drake
@@ -192,6 +204,10 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
         else:
             log = sweep(space, config, runner, method=method, budget=budget, seed=seed)
     stopped = next((n for n in names if n in first_confirmed), None)
+    replays = 0 if stopped is not None else len({i for name in names for i, _ in
+                                                 replay_choice(log, seed, column(name))})
+    phases.start(f"replaying {replays} scenarios of the search in the Drake diagram",
+                 left=verify_seconds(0, replays, cores, in_drake))
     results = {}
     for name in names:
         if stopped is not None:  # --stop-at-first: only what the search replayed

@@ -28,6 +28,7 @@ pydrake's loader).
 """
 
 import collections.abc
+import difflib
 import dataclasses as dc
 import hashlib
 import math
@@ -232,7 +233,7 @@ class _Walk:
                     continue  # pydrake's loader drops these (YAML anchors' templates)
                 name = f"{path}.{key}" if path else str(key)
                 if not isinstance(key, str) or key not in fields:
-                    return name, value, f"one of the fields {sorted(fields)}"
+                    return name, value, _field_words(key, fields)
                 found = self(hints[key], value, name)
                 if found is not None:
                     return found
@@ -267,6 +268,14 @@ class _Walk:
         if schema is bool and not (isinstance(raw, bool) or raw in ("true", "false")):
             return path, raw, "true or false"
         return None
+
+
+def _field_words(key, fields: set[str]) -> str:
+    """What a mapping of ``fields`` allows, for an unknown ``key``: the nearest field
+    first where one is near (a typo), then every field."""
+    near = difflib.get_close_matches(str(key), sorted(fields), n=1, cutoff=0.6)
+    every = f"one of the fields {sorted(fields)}"
+    return f"did you mean {near[0]}? ({every})" if near else every
 
 
 def _fits_float(raw) -> bool:

@@ -2,6 +2,7 @@
 
 import csv
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -141,6 +142,11 @@ def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
 
 S_NOTE = ("S < 0 where a segment moves away from the robot: the estimated directed speeds "
           "(seed Eqs. 10-11) are then negative; drawn as computed, not clipped.")
+NOTE_WIDTH = 160  # characters per line of a note under the figure
+D_NOTE = ("d (monitored) < 0 where the envelope the monitor keeps around what the sensor "
+          "does not see of an operator (an arm or the trunk, bounded from the tracked points) "
+          "overlaps a robot capsule: it knows the body is somewhere inside, not where; the "
+          "true distance is the wide pale line.")
 # Hatches that tell an operator's body slots apart where their hidden intervals are shaded
 HATCHES = ("//", "\\\\", "..", "xx", "++", "--", "||", "oo")
 # Line styles of an operator's body slots (speeds; tool-to-estimate distances)
@@ -166,8 +172,8 @@ def run_figure(run: Run, summary: dict | None = None):
     colour, hatched by slot) and the protective stops for a fault of the sensing chain
     (grey, every panel). Marked (with ``summary``): the tick of the smallest separation
     margin d_true - S_true while the robot was let move (red where it is below 0: the
-    separation invariant broken). Legends stand beside the panels, off the data; a note
-    under the figure explains S < 0 when it occurs."""
+    separation invariant broken). Legends stand beside the panels, off the data; notes
+    under the figure explain a monitored d < 0 and S < 0 when they occur."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -196,7 +202,7 @@ def run_figure(run: Run, summary: dict | None = None):
     top.plot(t, speed, color="goldenrod", label="v_R (tool)")
     top.set_ylabel("speed [m/s]")
     top.grid(alpha=0.3)
-    s_low, low = 0.0, 0.0
+    s_low, d_low, low = 0.0, 0.0, 0.0
     for op, color in zip(operators, colors):
         name = op["name"]
         middle.plot(t, op["d_true"], color=color, lw=4.0, alpha=0.3, solid_capstyle="butt",
@@ -208,7 +214,8 @@ def run_figure(run: Run, summary: dict | None = None):
             middle.plot(t, op["S"], color=color, ls="--", lw=1.1,
                         label=f"S {name} (of that segment)")
             s_low = min(s_low, float(np.nanmin(op["S"], initial=0.0)))
-            low = min(low, s_low, float(np.nanmin(op["d_measured"], initial=0.0)))
+            d_low = min(d_low, float(np.nanmin(op["d_measured"], initial=0.0)))
+            low = min(low, s_low, d_low)
         else:
             for j, i in enumerate(op["bodies"]):
                 middle.plot(t, op["d_measured_bodies"][:, j], color=color, lw=1.0,
@@ -245,8 +252,10 @@ def run_figure(run: Run, summary: dict | None = None):
     bottom.grid(alpha=0.3)
     for axis in (top, middle, bottom):
         axis.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
-    if s_low < 0.0:
-        fig.supxlabel(S_NOTE, fontsize="small")
+    notes = [note for note, low_ in ((D_NOTE, d_low), (S_NOTE, s_low)) if low_ < 0.0]
+    if notes:
+        fig.supxlabel("\n".join(textwrap.fill(n, NOTE_WIDTH) for n in notes),
+                      fontsize="small")
     c = run.scenario.controller
     fig.suptitle(f"{run.scenario.name}: SSM speed override (the human speed in S: "
                  f"{_human_speed_words(c.safety)})"

@@ -172,7 +172,8 @@ def run(args: argparse.Namespace, origin) -> int:
     if not args.quiet:
         timing = summary["timing"]
         p99 = timing["frame_to_k_p99"]
-        print(f"run: {summary['end']}, {summary['ticks']} ticks, {summary['frames']} frames, "
+        print(f"run: {end_words(summary['end'])}: {summary['duration']:.1f} s, "
+              f"{summary['ticks']} ticks, {summary['frames']} frames, "
               f"tick late p99 {1e3 * (timing['tick_late_p99'] or math.nan):.3f} ms, "
               f"frame to k p99 {1e3 * (p99 if p99 is not None else math.nan):.3f} ms "
               f"-> {args.log}")
@@ -217,3 +218,16 @@ def add_parser(commands) -> None:
                    help="run parameters that fail their certificate check, saying so "
                         "(default: off, refuse them)")
     p.add_argument("--quiet", action="store_true", help="no status line (default: off)")
+
+
+def end_words(end: str) -> str:
+    """How a run ended (summary.json's ``end``), in words for its last line."""
+    if end == "duration":
+        return "ended when its duration was up"
+    if end == "interrupted":
+        return "interrupted (Ctrl-C)"
+    if end.startswith("robot_lost: "):
+        return f"ended by a fault: the robot's connection was lost ({end[12:]})"
+    if end.startswith("exception: "):
+        return f"ended by a fault: {end[11:]}"
+    return end

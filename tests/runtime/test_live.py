@@ -447,6 +447,18 @@ def test_run_accepts_what_check_accepts(tmp_path, exported_params, capsys):
     assert "UNVERIFIED" not in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("end, words", [
+    ("duration", "ended when its duration was up"), ("interrupted", "interrupted (Ctrl-C)"),
+    ("robot_lost: no samples for 0.02 s",
+     "ended by a fault: the robot's connection was lost (no samples for 0.02 s)"),
+    ("exception: ValueError: x", "ended by a fault: ValueError: x"),
+])
+def test_the_last_line_says_how_the_run_ended_in_words(end, words):
+    from safety_systems.runtime.command import end_words
+
+    assert end_words(end) == words
+
+
 @pytest.mark.parametrize("argv, field", [
     (["--mocap", "udp://x"], "--mocap"), (["--robot", "ur-rtde://"], "--robot"),
     (["--mocap", f"replay://{CSV}?late=1"], "late"), (["--duration", "-1"], "--duration"),

@@ -33,9 +33,10 @@ SEED = str(MODELS / "configs" / "seed_estimated.yaml")
 PLANTED = -0.25  # m: the violation the perturbed batched evaluator invents
 
 
-def _readme_exit_table() -> dict:
-    """The README's exit-code table of verify: {row: {require: code}}."""
-    text = (ROOT / "README.md").read_text()
+def _documented_exit_table() -> dict:
+    """The documentation's exit-code table of verify (docs/explanation/verification.md,
+    moved there from the README): {row: {require: code}}."""
+    text = (ROOT / "docs" / "explanation" / "verification.md").read_text()
     head = re.search(r"^\| verdict \|(.*)\|$", text, re.M)
     requires = re.findall(r"`--require (\w+)`", head.group(1))
     rows = {}
@@ -69,8 +70,8 @@ def _inf(x):
 
 # --- the exit-code table --------------------------------------------------------------
 
-def test_readme_table_is_the_exit_code_rule_and_the_help_lists_it(capsys):
-    table = _readme_exit_table()
+def test_the_documented_table_is_the_exit_code_rule_and_the_help_lists_it(capsys):
+    table = _documented_exit_table()
     assert set(table) == set(VERDICTS) | {"bad input (one line naming the file or option)"}
     for verdict in VERDICTS:
         assert set(table[verdict]) == set(REQUIREMENTS)
@@ -103,7 +104,7 @@ def test_each_verdict_exits_as_the_table_says(tmp_path, verdict):
                            "passed": (ISO, _dynamic_space(tmp_path), []),  # no proof there
                            "falsified": (SEED, SPACE, ["--seed", "1"])}[verdict]
     budget = {"passed": "3", "falsified": "32"}.get(verdict, "6")
-    table = _readme_exit_table()[verdict]
+    table = _documented_exit_table()[verdict]
     for require in REQUIREMENTS:
         code = _verify(config, tmp_path / "out", "--require", require, *more, space=space,
                        budget=budget)
@@ -115,7 +116,7 @@ def test_each_verdict_exits_as_the_table_says(tmp_path, verdict):
 def test_bad_input_exits_2_under_every_require(tmp_path, capsys, require):
     code = _verify(ISO, tmp_path, "--require", require, "--seed", "-1")
     err = capsys.readouterr().err.strip().splitlines()
-    assert code == _readme_exit_table()["bad input (one line naming the file or option)"][
+    assert code == _documented_exit_table()["bad input (one line naming the file or option)"][
         require] and len(err) == 1 and "--seed" in err[0]
 
 
@@ -144,7 +145,7 @@ def test_a_search_violation_drake_does_not_reproduce_is_inconclusive(
     assert report["verdict"] == "inconclusive" and contact["proof"]["proved"]
     assert contact["verdict"] == "inconclusive"
     assert report["properties"]["separation"]["verdict"] == "proved"  # left alone
-    assert code == _readme_exit_table()["inconclusive"]["none"] == 3
+    assert code == _documented_exit_table()["inconclusive"]["none"] == 3
     assert contact["counterexamples"] == [] and contact["unconfirmed_counterexamples"]
     assert contact["disagreements"]  # one per chunk the search evaluated
     for d in contact["disagreements"]:

@@ -101,6 +101,21 @@ def _unit(name: str) -> str:
     return limits.unit if limits is not None else ""
 
 
+def exits_words(tracker, occlusion_speed: float) -> str:
+    """The cell's exits (``tracker.exits``), or what having none means for a live cell."""
+    if tracker.exits:
+        return ", ".join(f"[{b.min} .. {b.max}]" for b in tracker.exits)
+    if tracker.hidden_bodies != "hazard":
+        return "none declared (the expire rule ends a hidden body's track by time instead)"
+    walls = ", unless last seen beyond the cell's walls" if tracker.cell is not None else ""
+    kept = (f"a ball growing at {occlusion_speed:g} m/s from where they were last "
+            f"seen{walls}, so the robot slows and then stands still as that ball reaches it"
+            if occlusion_speed > 0.0 else f"where they were last seen{walls}")
+    return ("none declared: in the live cell a person who walks out of the cameras' view "
+            f"stays a hazard, {kept}, until they are seen again. Declare the ways out of the "
+            "cell as exits (tracker.exits) for people to leave by")
+
+
 def _cell(params: Params, space: ScenarioSpace, certificate: dict) -> str:
     c, r = params.controller, params.robot
     path = r.path
@@ -129,8 +144,7 @@ def _cell(params: Params, space: ScenarioSpace, certificate: dict) -> str:
             ["tool (real)", f"payload radius {r.payload_radius:g} m, length {r.tool_length:g} m"],
             ["sensor", f"{c.sensor.rate_hz:g} Hz, latency {c.sensor.latency:g} s, noise "
                        f"{c.sensor.noise_std:g} m per axis"],
-            ["exits", _e(", ".join(f"[{b_.min} .. {b_.max}]" for b_ in c.tracker.exits)
-                         or "none declared")],
+            ["exits", _e(exits_words(c.tracker, c.safety.occlusion_speed))],
             ["contact", _e(f"{space.contact_geometry}, contact distance "
                            f"{space.contact_distance:g} m")],
             *_whole_cell(certificate["cell"]),
@@ -166,7 +180,8 @@ def _whole_cell(cell: dict) -> list[list[str]]:
         ["hidden bodies", _e(
             f"{h['rule']}: " + ("a hidden body stays a hazard, a ball growing at "
                                 f"{h['occlusion_speed']:g} m/s, until seen leaving through "
-                                f"an exit ({h['exits']} declared)" if h["rule"] == "hazard" else
+                                f"an exit ({h['exits'] or 'none'} declared)"
+                                if h["rule"] == "hazard" else
                                 "a hidden body's track ends after a time"))],
         ["frames", _e(("gated: a frame farther from its track than "
                        f"{g['gate_speed']:g} m/s times the time elapsed plus "

@@ -30,7 +30,7 @@ from verification.proof.robot_bounds import (
     revolute_only,
 )
 from verification.proof.tracking_error import ERROR_HORIZON, estimate_error_coefficients
-from verification.spaces.box import ScenarioSpace
+from verification.spaces.box import ScenarioSpace, stop_times_words
 from verification.spaces.recorded import recorded_reach
 from verification.spaces.space import posture_reach, space_postures
 
@@ -168,8 +168,7 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     trusted = [
         ("the stopping data describes the real robot's stops"
          + (" from every speed (S by speed uses its rows below full speed)"
-            if by_speed else "") + ", times within "
-         f"{p.braking_time_scale.min:g} to {scale:g} of it"
+            if by_speed else "") + ", " + stop_times_words(p.braking_time_scale)
          + ((" (THE BUILT-IN PLACEHOLDER DERIVED FROM UR5/CB3 DATA, NOT MEASURED ON THIS "
              "CELL)" if is_ur5e(model) else
              f" (THE BUILT-IN PLACEHOLDER FOR THE {model.name.upper()}, DERIVED FROM "

@@ -244,7 +244,7 @@ from verification.proof.premises import (  # noqa: I001
     setting,
     tracks_never_end,
 )
-from verification.spaces.box import ScenarioSpace
+from verification.spaces.box import ScenarioSpace, stop_times_words
 from verification.spaces.recorded import recorded_speed, tracked_from_start
 from verification.spaces.space import parameter_ranges
 
@@ -303,8 +303,8 @@ def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method:
     trusted = [
         "the recording is the operators' true motion, linear between its samples, and "
         "the mapping puts it in the cell frame",
-        "the stopping data describes the real robot's stops, times within "
-        f"{p.braking_time_scale.min:g} to {p.braking_time_scale.max:g} of it",
+        "the stopping data describes the real robot's stops, "
+        + stop_times_words(p.braking_time_scale),
     ]
     premises = ([Premise(x, bool(ok), "checked") for x, ok in checked]
                 + [Premise(x, True, "trusted") for x in trusted])

@@ -8,6 +8,7 @@ cut short, which the next run drops (and evaluates again).
 """
 
 import dataclasses
+import functools
 import gc
 import hashlib
 import json
@@ -20,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from safety_systems import interrupts, third_party_noise
 from safety_systems.files.input_error import InputError
 from safety_systems.config.scenario import Scenario
 from verification.search.counts import Tally
@@ -124,13 +126,18 @@ class Runner:
     def __enter__(self):
         return self
 
-    def __exit__(self, *exc):
-        self.close()
+    def __exit__(self, kind, *exc):
+        self.close(stop=kind is not None)
 
-    def close(self) -> None:
+    def close(self, stop: bool = False) -> None:
+        """Ends the workers: after their work, or with ``stop`` (an error, Ctrl-C) at
+        once, their work dropped."""
         self._bar.close()
+        interrupts.forget(self)
         if self._pool is not None:
-            self._pool.shutdown()
+            if stop:
+                _stop_workers(self._pool)
+            self._pool.shutdown(wait=not stop, cancel_futures=stop)
             self._pool = None
         if self._client is not None:
             self._client.close()
@@ -182,8 +189,10 @@ class Runner:
                 # on this thread, not the pool's feeder thread: a Drake diagram's
                 # cycles freed there abort (evaluate_drake.collect_diagram_garbage)
                 gc.collect()
-                self._pool = ProcessPoolExecutor(max_workers=self.workers,
-                                                 mp_context=_worker_context())
+                self._pool = ProcessPoolExecutor(
+                    max_workers=self.workers, mp_context=_worker_context(),
+                    initializer=_worker_start, initargs=(third_party_noise.log_path(),))
+                interrupts.on_deadline(self, functools.partial(_stop_workers, self._pool))
             timed = self._pool.map(_timed, [(fn, c) for c in items])
         return self._collect(timed)
 
@@ -191,6 +200,21 @@ class Runner:
         for result, cpu in timed:
             self.tally.worker_cpu += cpu
             yield result
+
+
+def _worker_start(noise_log: Path | None) -> None:
+    """A local worker's start: Ctrl-C is left to the command that started it (which ends
+    its workers), and third-party noise goes where the command keeps it."""
+    interrupts.ignore_in_worker()
+    third_party_noise.keep_in(noise_log)
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Ends a pool's worker processes now (SIGTERM), whatever they are doing."""
+    # (the pool's own processes: Python 3.14's terminate_workers does this)
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        if process.is_alive():
+            process.terminate()
 
 
 def _worker_context():

@@ -38,6 +38,15 @@ def span(r: Range, unit: str = "") -> str:
     return f"{r.min:g}{unit}" if r.min == r.max else f"{r.min:g} to {r.max:g}{unit}"
 
 
+def stop_times_words(r: Range) -> str:
+    """The premise on the real robot's stopping times, for a space whose
+    ``braking_time_scale`` is ``r``: their times the data's own (a scale of 1 alone), or
+    within the range of the data's times the space scales them by."""
+    if r.min == r.max == 1.0:
+        return "their times the data's own (the space does not scale them)"
+    return f"their times {span(r)} times the data's (the space's braking_time_scale)"
+
+
 def how_many(r: Range, noun: str) -> str:
     """A whole-number range of ``noun``: "1 operator", "1 to 2 operators"."""
     lo, hi = int(r.min), int(r.max)

@@ -34,7 +34,9 @@ comparison in ``tune.md``; a reference's counterexamples are kept too.
 
 import dataclasses
 import math
+import os
 import shutil
+import time
 from pathlib import Path
 
 import numpy as np
@@ -54,11 +56,13 @@ from safety_systems.config.scenario import (
 )
 from safety_systems.ssm.formulas import monitor_protective_distances
 from safety_systems.config.configuration import frame_timeout, level_stops
+from verification.phases import DRAKE_REAL_TIME, Phases, verify_seconds
 from verification.properties import mode_properties
 from verification.search.runner import Runner
 from verification.search.strategies import sweep_points
 from verification.spaces.box import ScenarioSpace
 from verification.tune.tasks import TaskRun, lost_time, run_task, total
+from verification.verify import CONFIRM, CROSS_CHECK
 from verification.tune.tunable import REACTION_TIME, TunedParameter, values_at, with_values
 
 MODELS = Path(__file__).parents[2] / "models"
@@ -181,7 +185,16 @@ class Tuner:
         self.workers, self.scheduler, self.seed = workers, scheduler, seed
         self.references = REFERENCES if references is None else references
         self.origin, self._say = origin, say or (lambda line: None)
-        self.progress = Progress(progress)
+        self.progress = Progress(progress, 5 if allow == "proved" else 4)
+        cores = 1 if scheduler is not None else workers or os.cpu_count() or 1
+        # seconds of a verification and of one run of the tasks, for the estimates:
+        # from the measured costs until measured here (verification.phases)
+        self.seconds = {
+            "verify": verify_seconds(budget, 2 * (CONFIRM + CROSS_CHECK), cores,
+                                     space.recording is not None
+                                     or space.robot.mode == "dynamic"),
+            "tasks": sum(t.duration for t in tasks) / DRAKE_REAL_TIME
+            / min(cores, max(1, len(tasks)))}
         self.kept: list[Kept] = []
         self.counts = {"screened": 0, "proofs": 0, "counterexample_replays": 0,
                        "task_runs": 0, "verifications": 0, "simulations": 0}
@@ -201,12 +214,14 @@ class Tuner:
         from verification.verify import verify
 
         folder.mkdir(parents=True, exist_ok=True)
+        start = time.perf_counter()
         outcome = verify(config, self.space, folder, budget=self.budget,
                          workers=self.workers, scheduler=self.scheduler, seed=self.seed,
                          config_text=text, properties="both")
         report = write_report(outcome, folder, config_path=config_path,
                               space_path=self.space_path, replay=False, origin=self.origin)
         self.counts["verifications"] += 1
+        self.seconds["verify"] = time.perf_counter() - start  # the estimates' (latest)
         self.counts["simulations"] += report["simulations"]
         for name, p in report["properties"].items():
             for c in p["counterexamples"]:
@@ -254,7 +269,11 @@ class Tuner:
     def run_tasks(self, runner: Runner, config: ControllerConfig, *, operators: bool = True
                   ) -> list[TaskRun]:
         self.counts["task_runs"] += len(self.tasks)
-        return runner.map(_run_task, [(t, config, operators) for t in self.tasks])
+        start = time.perf_counter()
+        runs = runner.map(_run_task, [(t, config, operators) for t in self.tasks])
+        if operators:  # (the estimates': the runs with operators, which take longer)
+            self.seconds["tasks"] = time.perf_counter() - start
+        return runs
 
     # --------------------------------------------------------------------- the run
 
@@ -367,17 +386,19 @@ class Tuner:
         bar = self.progress
         with bar, Runner(workers=self.workers, scheduler=self.scheduler,
                          cache_path=self.out / "evaluations.jsonl") as runner:
-            bar.phase("references: verify and time", len(self.references))
+            bar.phase(f"verifying and timing {len(self.references)} reference "
+                      f"configurations ({', '.join(self.references)})",
+                      len(self.references), left=self.left(len(self.references)))
             rows = []
             for label, path in self.references.items():
                 rows.append(self.reference(runner, label, path))
                 bar.step()
             pool = self.candidates()
             valid = [c for c in pool if c.status == "screened"]
-            bar.phase("screen: counterexamples kept", 1)
+            bar.phase(f"screening {len(valid)} candidates: the counterexamples kept, then "
+                      "the proofs", len(valid) + 1, left=self.left(0))
             self.recheck(runner, valid)
             bar.step()
-            bar.phase("screen: proofs", len(valid))
             for c in valid:
                 if c.status == "screened":
                     self.prove(c)
@@ -387,7 +408,8 @@ class Tuner:
             if self.allow == "proved":  # the proofs are the constraint: descend on them
                 seeds = sorted((c for c in pool if c.status == "screened"),
                                key=lambda c: (c.proxy, c.index))[:REFINE_SEEDS]
-                bar.phase("refine the best proved", len(seeds))
+                bar.phase(f"refining the {len(seeds)} best proved candidates by their proofs",
+                          len(seeds), left=self.left(0))
                 for c in seeds:
                     refined = self.refine(c, len(pool))
                     if refined is not None:
@@ -398,9 +420,12 @@ class Tuner:
                 self.counts["refined"] = len(pool) - self.counts["screened"]
             order = [pool[0]] + sorted((c for c in pool[1:] if c.status == "screened"),
                                        key=lambda c: (c.proxy, c.index))
+            queue = order[:self.n_candidates + 1]
             best, evaluated = None, []
-            bar.phase("candidates: tasks, then verify", len(order[:self.n_candidates + 1]))
-            for c in order[:self.n_candidates + 1]:
+            bar.phase(f"simulating the tasks of up to {len(queue)} candidates, verifying "
+                      "each one faster than the best so far", len(queue),
+                      left=self.left(0, len(queue)))
+            for c in queue:
                 if c.status == "screened":  # the base configuration may have failed its screen
                     evaluated.append(c)
                     best = self.evaluate(runner, c, best)
@@ -411,11 +436,23 @@ class Tuner:
                     c.reason = f"beyond the {self.n_candidates} candidates simulated"
             chosen_row = None
             if best is not None:
-                bar.phase("the chosen one's tasks", 1)
+                bar.phase("timing the chosen configuration's tasks", 1,
+                          left=self.left(0, 0))
                 chosen_row = self.row(runner, "chosen", best.config, best.report_dict,
                                       best.tasks)
                 bar.step()
         return self.result(pool, evaluated, rows, best, chosen_row)
+
+    def left(self, references: int, candidates: int | None = None) -> tuple[float, float]:
+        """The least and the most time the rest of the run may take, from the start of
+        a phase with ``references`` still to verify and time and ``candidates`` still to
+        simulate (None: all of them; the screen and the refinement, proofs only, are
+        left out): each candidate's tasks are run, and at most all of them, at least
+        none, verified; the chosen one's run with no operator last."""
+        candidates = self.n_candidates + 1 if candidates is None else candidates
+        tasks, verify = self.seconds["tasks"], self.seconds["verify"]
+        fixed = references * (verify + 2 * tasks) + candidates * tasks + tasks
+        return fixed, fixed + candidates * verify
 
     def reference(self, runner: Runner, label: str, path: Path) -> dict:
         config = load_controller_config(path)
@@ -510,20 +547,22 @@ class Tuner:
 
 
 class Progress:
-    """tune's progress on stderr: one bar per phase (references, screen, refinement,
-    candidates), each step a unit of its phase (a reference verified and timed, a
-    candidate proved, refined or simulated), with the time spent and an estimate of the
-    phase's rest; lines said meanwhile print above it. Off: nothing is drawn."""
+    """tune's progress on stderr: each phase named with its number and count, and the
+    least and most time the run may still take (``verification.phases``), then a bar of
+    its steps (a reference verified and timed, a candidate proved, refined or
+    simulated); lines said meanwhile print above it. Off: nothing is drawn."""
 
-    def __init__(self, on: bool):
+    def __init__(self, on: bool, phases: int):
         self.on, self.bar = on, None
+        self.phases = Phases("tune", phases, on)
 
-    def phase(self, name: str, steps: int) -> None:
+    def phase(self, name: str, steps: int, left: tuple[float, float] | None = None) -> None:
         self.close()
+        self.phases.start(name, left)
         if self.on:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=steps, desc=name, unit="step", leave=False)
+            self.bar = tqdm(total=steps, unit="step", leave=False)
 
     def step(self) -> None:
         if self.bar is not None:

@@ -55,13 +55,31 @@ def test_the_page_holds_what_the_assessor_needs(exported):
     # tracked, hidden bodies, the gate.
     for words in ("robot as the monitor measures it", "whole bodies as capsules",
                   "forearm 0.41 m", "tracked at: hand_right, hand_left, head",
-                  "a ball growing at 2 m/s", "gated: a frame farther"):
+                  "a ball growing at 2 m/s", "gated: a frame farther",
+                  "none declared: in the live cell a person who walks out of the cameras"):
         assert words in page, words
     for name in ("contact", "separation"):  # both properties' verdicts
         assert f'<h3>{name}: <span class="proved">proved</span></h3>' in page
     assert page.count('<tr><td>') >= 3 and re.search(
         r"<tr><td>Safety assessor</td>(<td></td>){4}</tr>", page)  # empty sign-off fields
     assert "data:image/png;base64," in page  # the robustness figure, inline
+
+
+def test_no_exits_says_what_that_means_for_a_live_cell():
+    from safety_systems.config.scenario import Box, TrackerConfig
+    from verification.deploy.assessor_report import exits_words
+
+    words = exits_words(TrackerConfig(), 2.0)
+    assert words.startswith("none declared: in the live cell a person who walks out of the "
+                            "cameras' view stays a hazard, a ball growing at 2 m/s")
+    assert "the robot slows and then stands still" in words and "tracker.exits" in words
+    assert "walls" not in words
+    assert "unless last seen beyond the cell's walls" in exits_words(
+        TrackerConfig(cell=Box([-3, -3, 0], [3, 3, 3])), 2.0)
+    assert "where they were last seen," in exits_words(TrackerConfig(), 0.0)
+    assert exits_words(TrackerConfig(exits=[Box([4.5, 0.8, -1.0], [6.0, 2.0, 3.0])]), 2.0) \
+        == "[[4.5, 0.8, -1.0] .. [6.0, 2.0, 3.0]]"
+    assert "expire rule" in exits_words(TrackerConfig(hidden_bodies="expire"), 2.0)
 
 
 def test_the_page_has_the_counterexamples_found_on_the_way_with_their_plots(tuned):

@@ -655,3 +655,17 @@ def test_the_tightest_by_speed_configuration_breaks_neither_property_in_simulati
     result = evaluate_many([make_scenario(SPACE, tight, to_point(SPACE, u)) for u in points])
     assert np.isfinite(result.separation).sum() > 500  # let move near someone, often
     assert result.separation.min() >= 0.0 and result.robustness.min() >= 0.0
+
+
+def test_the_stopping_data_premise_says_what_the_spaces_time_scale_means():
+    """A space that does not scale the stops says so, not "times within 1 to 1 of it"."""
+    def premise(space):
+        (found,) = [p.statement for p in prove(ISO, space).premises
+                    if p.statement.startswith("the stopping data describes")]
+        return found
+
+    assert "their times the data's own (the space does not scale them)" in premise(SPACE)
+    scaled = dc.replace(SPACE, parameters=dc.replace(
+        SPACE.parameters, braking_time_scale=Range(0.9, 1.2)))
+    assert "their times 0.9 to 1.2 times the data's" in premise(scaled)
+    assert "1 to 1" not in premise(SPACE)

@@ -85,12 +85,17 @@ def test_tune_shows_its_progress_phase_by_phase(tuned):
     """Without --quiet, tune draws a progress bar per phase on stderr (it runs for
     minutes), with each candidate's fate printed above it."""
     err = (tuned / "tune_stderr.txt").read_text()
-    phases = ["references: verify and time", "screen: counterexamples kept",
-              "screen: proofs", "refine the best proved", "candidates: tasks, then verify",
-              "the chosen one's tasks"]
+    phases = ["tune: phase 1 of 5: verifying and timing 2 reference configurations "
+              "(iso.yaml, seed_estimated.yaml) (about ",
+              "tune: phase 2 of 5: screening ",
+              " candidates: the counterexamples kept, then the proofs (about ",
+              "tune: phase 3 of 5: refining the 3 best proved candidates by their proofs",
+              "tune: phase 4 of 5: simulating the tasks of up to 4 candidates, verifying each "
+              "one faster than the best so far (about ",
+              "tune: phase 5 of 5: timing the chosen configuration's tasks (about "]
     at = [err.find(p) for p in phases]
-    assert -1 not in at and at == sorted(at), at
-    assert "step" in err
+    assert -1 not in at and at == sorted(at), (at, err[:3000])
+    assert " left in all)" in err and "step" in err
     out = (tuned / "tune_stdout.txt").read_text()
     assert "candidate 0:" in out and "time lost:" in out
 
@@ -99,13 +104,14 @@ def test_progress_prints_said_lines_above_its_bar_and_nothing_when_off(capsys):
     from verification.tune.tuner import Progress
 
     said = []
-    with Progress(True) as bar:
-        bar.phase("a phase", 2)
+    with Progress(True, 2) as bar:
+        bar.phase("a phase", 2, left=(100.0, 700.0))
         bar.step()
         bar.write("a line", said.append)
         bar.step()
-    assert said == ["a line"] and "a phase" in capsys.readouterr().err
-    with Progress(False) as bar:
+    assert said == ["a line"] and ("tune: phase 1 of 2: a phase (about 2 min to 12 min left "
+                                   "in all)") in capsys.readouterr().err
+    with Progress(False, 2) as bar:
         bar.phase("a phase", 2)
         bar.step()
         bar.write("a line", said.append)
