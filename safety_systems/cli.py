@@ -664,16 +664,14 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 
 def _say_first_compile(command: str, stack: contextlib.ExitStack) -> None:
-    """The first line of a run that will compile the per-tick maths says so (on stderr,
-    before anything else is loaded), and a compile it did not foresee says so too."""
+    """A run that compiles the per-tick maths says so (on stderr) when the compile starts,
+    with the first run's time where the kept builds foretold it; a run refused on a bad
+    file before anything compiles prints its one line alone."""
     from safety_systems.compile_notice import NEEDS, first_run_line, watch_compiles
 
     if command not in NEEDS:
         return
-    line = first_run_line(command)
-    if line is not None:
-        print(f"safety-systems: {line}", file=sys.stderr, flush=True)
-    listener = watch_compiles(said=line is not None)
+    listener = watch_compiles(first_run_line(command))
     stack.callback(_unregister, listener)
 
 

@@ -4,9 +4,10 @@ numba compiles the loop's functions on their first call and keeps the builds bes
 sources (``safety_systems.compiled_cache``): on a fresh clone the first ``simulate`` or
 ``verify`` spends minutes compiling, and without a word a new user takes it for a hang.
 :func:`first_run_line` looks at the cache before anything runs (a few directory
-listings) and gives the line to print; :func:`watch_compiles` says it when numba starts a
-compile that the look did not foresee (a robot with a number of joints not seen before
-compiles its own variants).
+listings) and words the line; :func:`watch_compiles` says it when numba starts the run's
+first compile, so a run refused on a bad file (before anything compiles) prints its one
+line alone. A compile the look did not foresee (a robot with a number of joints not seen
+before compiles its own variants) is said the same way, in general words.
 """
 
 import os
@@ -59,10 +60,11 @@ COMPILING = ("compiling the per-tick maths this run needs (once: later runs load
              "robot with a number of joints not seen before takes minutes)")
 
 
-def watch_compiles(said: bool, say=None):
+def watch_compiles(first_line: str | None, say=None):
     """Says (on stderr, or through ``say``) when numba first starts a compile in this
-    process, unless ``said`` (the first-run line was printed already). Returns the
-    listener (``numba.core.event.unregister`` removes it)."""
+    process: ``first_line`` (the first-run line, with its time) where the look foresaw
+    the compile, else :data:`COMPILING`. Returns the listener
+    (``numba.core.event.unregister`` removes it)."""
     from numba.core import event
 
     if say is None:
@@ -71,12 +73,12 @@ def watch_compiles(said: bool, say=None):
 
     class FirstCompile(event.Listener):
         def __init__(self):
-            self.said = said
+            self.said = False
 
         def on_start(self, event) -> None:
             if not self.said:
                 self.said = True
-                say(COMPILING)
+                say(COMPILING if first_line is None else first_line)
 
         def on_end(self, event) -> None:
             pass

@@ -14,6 +14,7 @@ from safety_systems.pfl.contact_limits import (
     contact_rows,
     contact_step,
     episode_reset,
+    pressing_speeds,
     segment_contact_limits,
 )
 
@@ -108,3 +109,19 @@ def test_a_robot_creeping_into_a_hand_below_the_moving_speed_still_counts():
     figures, _ = _course([True] * n, [False] * n, [0.0009] * n, x=(0.004, 0.002, 0.01))
     assert figures.min() == pytest.approx(0.002 - 0.0009 * DT * n)
     assert figures.min() < 0.0
+
+
+def test_what_the_pressing_speeds_leave_a_ur5e_as_docs_pfl_says():
+    """docs/explanation/pfl.md: at the default force limit (175 N) and detection time
+    (0.25 s) no segment may be pressed at all; at the PFL tune's lowest force (50 N,
+    models/tune/ssm_pfl.yaml) the fastest is a few millimetres a second."""
+    from safety_systems.config.scenario import SafetyConfig
+
+    f = SafetyConfig()
+    stop_time, period = 0.3, 0.002  # a short stop: the most room the formula can give
+    speeds = pressing_speeds(segment_contact_limits(f.contact_stop_force),
+                             f.contact_detection_time, stop_time, period)
+    assert f.contact_stop_force == 175.0 and np.all(speeds == 0.0), speeds
+    least_force = pressing_speeds(segment_contact_limits(50.0), f.contact_detection_time,
+                                  stop_time, period)
+    assert 0.001 < least_force.max() < 0.01, least_force

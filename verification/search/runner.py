@@ -14,6 +14,8 @@ import hashlib
 import json
 import multiprocessing
 import os
+import signal
+import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -223,7 +225,31 @@ def _worker_context():
     numba's, a test runner's) may hold locks, and a child can then abort or hang."""
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([__name__])
+    _start_fork_server_deaf_to_ctrl_c()
     return context
+
+
+def _start_fork_server_deaf_to_ctrl_c() -> None:
+    """Starts the fork server (once per process) with SIGINT ignored. The server is in
+    the command's process group, so a terminal's Ctrl-C reaches it too: while it imports
+    its preload, a KeyboardInterrupt inside pydrake's import leaves a half-imported
+    module behind (the server swallows the ImportError), and every worker forked after
+    dies with a traceback. Ignored at its start, SIGINT stays ignored in the server (its
+    Python keeps an inherited SIG_IGN) and in every worker it forks (which restore the
+    server's inherited disposition). A Ctrl-C that comes meanwhile is held (blocked on
+    this thread) and reaches the command's own handler after."""
+    from multiprocessing import forkserver
+
+    if threading.current_thread() is not threading.main_thread():
+        forkserver.ensure_running()
+        return
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def check_scheduler(address: str, timeout: float | None = None) -> None:
