@@ -11,12 +11,14 @@ from safety_systems.sensing.bvh_file import UNITS, read_bvh
 from safety_systems.sensing.c3d_file import read_c3d
 from safety_systems.sensing.motive_csv import read_motive_csv
 from safety_systems.sensing.recording import Recording
+from safety_systems.sensing.run_log import read_run_recording
 
 # extension (lower case) -> (reader, what the file is, in words)
 READERS = {
     ".csv": (read_motive_csv, "a Motive CSV export (.csv)"),
     ".c3d": (read_c3d, "a C3D file (.c3d)"),
     ".bvh": (read_bvh, "a BVH file (.bvh)"),
+    ".mcap": (read_run_recording, "a segment of a live run's log (.mcap)"),
 }
 UNITLESS = (".bvh",)  # formats that state no length unit: the caller gives it
 LENGTH_UNITS = tuple(UNITS)  # the units a caller may give them
