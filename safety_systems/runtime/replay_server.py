@@ -22,7 +22,8 @@ frames due meanwhile are lost: a frame that comes late).
 
 Run as ``python -m safety_systems.runtime.replay_server FILE [options]``; it prints
 ``port N`` on stdout once it listens, and exits after the last frame (plus ``linger``
-seconds) or when its client sends NAT_DISCONNECT.
+seconds), when its client sends NAT_DISCONNECT or when the runtime ends it (it ignores
+Ctrl-C, which the runtime handles: a terminal sends it to both).
 """
 
 import argparse
@@ -30,6 +31,7 @@ import dataclasses
 import json
 import math
 import select
+import signal
 import socket
 import sys
 import time
@@ -161,6 +163,7 @@ def _sleep_until(sock: socket.socket, when: float) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the runtime's: it ends this
     parser = argparse.ArgumentParser(prog="replay_server", description=__doc__.split("\n")[0])
     parser.add_argument("recording")
     parser.add_argument("--rate", type=float, default=20.0)
