@@ -4,7 +4,10 @@ Every control period (the verified robot's control rate, 500 Hz for the UR5e) th
 reads the robot's joint positions, decides k (``safety_loop.SafetyLoop``: the
 simulator's tracker, monitor and override functions) and commands it; between ticks it
 waits on the NatNet client's sockets, and a frame that arrives is processed at once
-and a new k commanded then (not at the next tick).
+and a new k commanded then (not at the next tick), unless the next tick is due before
+that work would end (the longest a frame's work took lately, at most a quarter of a
+period): then the tick takes the frame first and commands its k, so that no tick starts
+late for a frame (measured: frames were what made nearly every late tick; issue 49).
 
 **Watchdog.** k is 0, whatever the monitor says, while (in this order of naming):
 - the robot is lost: its connection closed, or no new joint sample for its timeout
@@ -65,6 +68,9 @@ from safety_systems.ssm.formulas import held_level
 MAX_OVERRUN = 0.005  # s: a tick may start this late before the watchdog stops the robot
 OVERRUN_HOLD = 0.2  # s k stays 0 after an overrun
 EXTRA = ("frame_time", "frames", "bad_packets", "tick_late")
+FRAME_WORK = 0.3e-3  # s: a frame's work (tracker, monitor, k) as first assumed
+WORK_DECAY = 0.99  # per frame: the estimate is the largest recent one, forgotten in ~1 s
+WORK_MOST = 0.25  # of a control period: the most a frame waits for a tick (frame to k)
 
 
 @dataclasses.dataclass
@@ -211,6 +217,7 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
     end_at = math.inf if options.duration is None else t_start + options.duration
     next_tick, end = t_start, "duration"
     k, reason = 0.0, stops.STOP_STALE_FRAME
+    work, deferred, taken = FRAME_WORK, False, []
     robot.command(0.0)
     try:
         while True:
@@ -219,12 +226,23 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
                 break
             wait = min(next_tick, end_at) - t
             if wait > 0.0:
-                if select.select(sockets, [], [], wait)[0]:  # a new k at once
-                    taken, new = take_frames()
-                    if new:
-                        command(now())
-                    after_k(taken)
+                if deferred:  # a frame waits for the tick: sleep to it
+                    select.select([], [], [], wait)
+                elif select.select(sockets, [], [], wait)[0]:
+                    if next_tick - now() > work:  # a new k at once, not at the next tick
+                        began = now()
+                        now_taken, new = take_frames()
+                        if new:
+                            command(now())
+                        after_k(now_taken)
+                        work = min(max(now() - began, work * WORK_DECAY),
+                                   WORK_MOST * period)
+                    else:  # the tick is due sooner than the frame's work ends: it takes it
+                        deferred = True
                 continue
+            if deferred:
+                taken, _ = take_frames()
+                deferred = False
             late = t - next_tick
             if late > options.max_overrun:
                 state["overrun_until"] = t + options.overrun_hold
@@ -247,6 +265,9 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
             row[at_log], row[at_log + 1], row[at_q:] = log.dropped, t_q, q
             log.tick(row)
             tally.tick(t - t_start, reason, late, loop.rejected, _hidden(loop.status))
+            if taken:
+                after_k(taken)
+                taken = []
             next_tick += period
             if next_tick < t - period:  # fell more than a period behind: skip, and say so
                 next_tick += period * math.floor((t - next_tick) / period + 1.0)

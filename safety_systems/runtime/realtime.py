@@ -11,20 +11,48 @@ only, and is not inherited by processes it starts (the replay server). It needs 
 privilege to use real-time priorities (root, or ``CAP_SYS_NICE``, or an rtprio limit);
 without it the loop runs at normal priority and says so: the overrun watchdog
 (``--max-overrun``) stops the robot whenever a tick is late, with or without it.
+
+With a real-time priority the process' memory is also locked in RAM for the run (Linux
+``mlockall``: the pages it has and every page it maps later), so that no tick waits
+for a page to come back from swap; where that is refused (an ``RLIMIT_MEMLOCK`` too
+small for an unprivileged process), the run goes on and says so (``memory_locked``).
 """
 
 import contextlib
+import ctypes
+import ctypes.util
 import os
 
 MAX_PRIORITY = 99
+MCL_CURRENT, MCL_FUTURE = 1, 2  # <sys/mman.h> on Linux
+
+
+def lock_memory() -> str | None:
+    """Locks the process' pages in RAM, now and from now on; None, or why it could not."""
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
+        if libc.mlockall(MCL_CURRENT | MCL_FUTURE) == 0:
+            return None
+        return os.strerror(ctypes.get_errno())
+    except (OSError, AttributeError) as e:
+        return str(e)
+
+
+def unlock_memory() -> None:
+    try:
+        ctypes.CDLL(ctypes.util.find_library("c")).munlockall()
+    except (OSError, AttributeError):
+        pass
 
 
 @contextlib.contextmanager
 def real_time(priority: int):
     """Runs the body under SCHED_FIFO at ``priority`` (1-99; 0: leave the scheduling as
-    it is) and restores the thread's previous policy after it. Yields what was set:
-    ``{"policy": "fifo", "priority": p}`` or ``{"policy": "normal", ...}`` with
-    ``refused`` saying why a priority asked for was not given."""
+    it is) and restores the thread's previous policy after it, its memory locked for the
+    body where it may be. Yields what was set: ``{"policy": "fifo", "priority": p,
+    "memory_locked": True}`` (or ``False`` with ``memory_lock_refused`` saying why), or
+    ``{"policy": "normal", ...}`` with ``refused`` saying why a priority asked for was
+    not given."""
     if priority == 0:
         yield {"policy": "normal", "priority": 0}
         return
@@ -40,8 +68,13 @@ def real_time(priority: int):
         yield {"policy": "normal", "priority": 0,
                "refused": f"SCHED_FIFO priority {priority}: {e.strerror or e}"}
         return
+    refused = lock_memory()
+    locked = {"memory_locked": True} if refused is None else {
+        "memory_locked": False, "memory_lock_refused": refused}
     try:
-        yield {"policy": "fifo", "priority": priority}
+        yield {"policy": "fifo", "priority": priority, **locked}
     finally:
+        if refused is None:
+            unlock_memory()
         os.sched_setscheduler(0, before[0] & ~getattr(os, "SCHED_RESET_ON_FORK", 0),
                               before[1])
