@@ -221,3 +221,24 @@ def test_a_file_that_is_not_a_run_log_is_one_line(tmp_path):
     with pytest.raises(InputError, match="<metadata>"):
         read_run_log(other)
     assert whole_records(buffer.getvalue())[1]
+
+
+def test_a_segment_reads_as_a_recorded_operator_through_the_runs_mapping(tmp_path):
+    """What simulate's recorded operators and verify's recording spaces call
+    (``load_recorded_operator``) reads a segment with the run's mapping: the gloves in
+    the cell frame at the frames' times, the left glove's untracked frames its gaps."""
+    from safety_systems.sensing.recording_mapping import load_recorded_operator
+
+    path = tmp_path / "log-0000.mcap"
+    _write(path)
+    (tmp_path / "mapping.yaml").write_text(
+        "capture_to_cell: {up_axis: z, translation: [1.0, 0.0, 0.0]}\noperators:\n"
+        "- name: technician\n  bodies:\n"
+        "  - {recorded: RightGlove, name: right_glove, point: hand_right, streaming_id: 1}\n"
+        "  - {recorded: LeftGlove, name: left_glove, point: hand_left, streaming_id: 2}\n"
+        "ignore_ids: [9]\n")
+    bodies = load_recorded_operator(path, tmp_path / "mapping.yaml")
+    assert bodies.names == ("right_glove", "left_glove") and bodies.ids == (1, 2)
+    np.testing.assert_allclose(bodies.raw[:, 0, 0], 2.0 + np.arange(10))  # + 1 m in x
+    np.testing.assert_allclose(bodies.times, 0.008 * np.arange(10), atol=1e-12)
+    assert len(bodies.gaps[1]) == 4 and not bodies.gaps[0]  # frames 1, 3, 5, 7 unseen
