@@ -6,16 +6,15 @@ the runtime, a lost robot, no NatNet server), 130 interrupted.
 """
 
 import argparse
-import contextlib
 import json
 import math
-import os
 import select
 import subprocess
 import sys
 import time
 
 from safety_systems.files.input_error import InputError
+from safety_systems.runtime.startup import Phases
 
 EXIT_FAULT = 3
 EXIT_INTERRUPTED = 130
@@ -51,53 +50,11 @@ def start_replay(file: str, options: dict, rate: float, mapping=None
     return process, int(line.split()[1])
 
 
-def _process_age() -> float | None:
-    """Seconds since this process started (Linux; None elsewhere): what the command
-    line's own imports took before ``run`` began."""
-    try:
-        fields = open("/proc/self/stat").read().rsplit(")", 1)[1].split()
-        uptime = float(open("/proc/uptime").read().split()[0])
-        return uptime - int(fields[19]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return None
-
-
-class _Phases:
-    """What ``run`` is doing while it starts, said on stderr with how long each step
-    took (nothing with --quiet), and kept for summary.json's ``startup``."""
-
-    def __init__(self, quiet: bool):
-        self.quiet, self.now, self.took = quiet, "starting", {}
-        age = _process_age()
-        if age is not None:
-            self.took["imports"] = round(age, 3)
-
-    @contextlib.contextmanager
-    def step(self, key: str, words: str):
-        self.now = words
-        if not self.quiet:
-            print(f"run: {words}...", end="", file=sys.stderr, flush=True)
-        began = time.monotonic()
-        try:
-            yield
-        except BaseException:
-            if not self.quiet:
-                print(file=sys.stderr, flush=True)  # (the line of a refusal follows)
-            raise
-        self.took[key] = round(time.monotonic() - began, 3)
-        if not self.quiet:
-            print(f" {self.took[key]:.1f} s", file=sys.stderr, flush=True)
-
-    def say(self, line: str) -> None:
-        if not self.quiet:
-            print(f"run: {line}", file=sys.stderr, flush=True)
-
-
 def run(args: argparse.Namespace, origin) -> int:
     """``safety-systems run``; ``origin()`` gives the provenance (called once every input
     was read: params, certificate, mapping, recording). Ctrl-C at any moment commands
     k = 0 to whatever robot is connected, writes what the run has and exits 130."""
-    phases = _Phases(args.quiet)
+    phases = Phases(args.quiet)
     try:
         return _run(args, origin, phases)
     except KeyboardInterrupt:  # (before the log folder was made: nothing connected yet)
@@ -106,7 +63,7 @@ def run(args: argparse.Namespace, origin) -> int:
         return EXIT_INTERRUPTED
 
 
-def _run(args: argparse.Namespace, origin, phases: _Phases) -> int:
+def _run(args: argparse.Namespace, origin, phases) -> int:
     with phases.step("loading_modules", "loading"):
         from safety_systems.files.output_files import prepare_out, write_json
         from safety_systems.runtime.live_run import (

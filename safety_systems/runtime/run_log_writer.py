@@ -41,13 +41,10 @@ from pathlib import Path
 
 from mcap.writer import CompressionType, Writer
 
-from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.files.output_files import write_json
 from safety_systems.runtime.run_log_pipe import BEGIN, CLOSE, FRAME, HEADER, START, TICK
+from safety_systems.runtime.run_status import show_status
 from safety_systems.runtime.run_tally import (
-    FRAMES,
-    LOG_DROPPED_FRAMES,
-    LOG_DROPPED_TICKS,
     WRITER_BYTES,
     WRITER_DONE,
     WRITER_ERRORS,
@@ -74,12 +71,10 @@ from safety_systems.sensing.run_log_format import (
     segment_name,
     tick_schema_text,
 )
-from safety_systems.sensing.stops import STOP_REASONS
 
 FLUSH_PERIOD = 0.25  # s: a chunk reaches the operating system at least this often
 SYNC_PERIOD = 1.0  # s: the segment is synced to the device at least this often
 SUMMARY_PERIOD = 1.0  # s between rewrites of summary.json
-STATUS_PERIOD = 0.25  # s between status lines
 RETRY_PERIOD = 1.0  # s between tries at a new segment after a failed write
 CHUNK_BYTES = 64 << 20  # chunks are closed at each flush; this only bounds a burst
 READ_BYTES = 1 << 20
@@ -266,40 +261,6 @@ class LogWriter:
             pass  # the next rewrite may succeed; the log's own figures say what failed
 
 
-def status_line(tally: RunTally, columns: list[str]) -> str:
-    """The console's status line from the tally's last published row."""
-    row = tally.row
-    at = {c: j for j, c in enumerate(columns)}
-    near, best = "", math.inf
-    for c, j in at.items():
-        if c.endswith(":d_measured") and row[j] < best:
-            op = c[:-len(":d_measured")]
-            segment = row[at[f"{op}:nearest_measured"]]
-            name = SEGMENT_NAMES[int(segment)] if segment == segment else "?"
-            best = row[j]
-            near = f"  closest {op}/{name} {row[j]:.2f} m (S {row[at[op + ':S']]:.2f} m)"
-    reason = row[at["stop_reason"]]
-    stop = STOP_REASONS[int(reason)] if reason == reason else "-"
-    dropped = int(tally.count[LOG_DROPPED_TICKS] + tally.count[LOG_DROPPED_FRAMES])
-    lost = int(tally.count[WRITER_ERRORS])
-    log = "" if not dropped + lost else f"  LOG: {dropped + lost} records lost"
-    return (f"\r{row[at['time']]:8.1f} s  k={row[at['k']]:4.2f}{near}  stop: {stop:<11}"
-            f" frames {int(tally.count[FRAMES])}{log}   ")
-
-
-def _status(tally: RunTally, columns: list[str], begin: dict, done: threading.Event) -> None:
-    """Prints the status line every STATUS_PERIOD until ``done``; says when the first
-    frame came."""
-    first = False
-    while not done.wait(STATUS_PERIOD):
-        if not first and tally.count[FRAMES] > 0:
-            first = True
-            waited = time.monotonic() - begin["clock_start"]
-            print(f"\rrun: first frame after {waited:.2f} s; running (Ctrl-C stops the "
-                  "robot and ends the run)", file=sys.stderr, flush=True)
-        print(status_line(tally, columns), end="", file=sys.stderr, flush=True)
-
-
 class _Input:
     """The loop's records from a file descriptor."""
 
@@ -364,8 +325,8 @@ def main(argv: list[str] | None = None) -> int:
     writer.begin = json.loads(payload)
     done = threading.Event()
     if start["status"]:
-        threading.Thread(target=_status, args=(tally, start["trace_columns"], writer.begin,
-                                               done), daemon=True).start()
+        threading.Thread(target=show_status, args=(tally, start["trace_columns"],
+                                                   writer.begin, done), daemon=True).start()
     clock = time.monotonic
     next_flush = clock() + FLUSH_PERIOD
     next_sync, next_summary = clock() + SYNC_PERIOD, clock() + SUMMARY_PERIOD
