@@ -291,12 +291,15 @@ class _Input:
         return out
 
     def next(self, kind: int) -> bytes | None:
-        """The next record, which must be of ``kind`` (None: the input ended first)."""
+        """The next record, which must be of ``kind`` (None: the input ended, or the run
+        was closed, first: it never began)."""
         while not self.pending and not self.ended:
             self.pending.extend(self.read(None))
         if not self.pending:
             return None
         k, payload = self.pending.popleft()
+        if k == CLOSE:
+            return None
         if k != kind:
             raise ValueError(f"record {k} where {kind} was due")
         return payload

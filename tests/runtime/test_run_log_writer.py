@@ -171,3 +171,16 @@ def test_a_failed_write_counts_its_records_as_lost_and_a_new_segment_follows(tmp
     np.testing.assert_array_equal(second.tick_sequence, np.arange(15, 20))
     first = read_run_log(tmp_path / "log-0000.mcap")  # abandoned before its first flush
     assert not first.finished and len(first.ticks) == 0
+
+
+def test_a_run_closed_before_its_loop_began_writes_no_segment(tmp_path):
+    """The runtime stopped between describing the run and starting its loop (an error,
+    Ctrl-C): the writer ends quietly, with no segment."""
+    folder = tmp_path / "log"
+    folder.mkdir()
+    log = RunLogPipe(folder, width=len(COLUMNS), bodies=1)
+    log.start(dict(fixed=dict(fields={}, names=["op/head"], period=PERIOD, log={}),
+                   trace_columns=TRACE, columns=COLUMNS, status=False, segment_length=600.0,
+                   metadata=dict(format=FORMAT_VERSION, columns=COLUMNS, bodies={})))
+    assert log.close({"end": "exception: before the loop"}) == 0
+    assert not list(folder.glob("log-*.mcap"))
