@@ -328,8 +328,8 @@ def main(argv: list[str] | None = None) -> int:
     writer.begin = json.loads(payload)
     done = threading.Event()
     if start["status"]:
-        threading.Thread(target=show_status, args=(tally, start["trace_columns"],
-                                                   writer.begin, done), daemon=True).start()
+        threading.Thread(target=show_status, args=(tally, start["trace_columns"], done),
+                         daemon=True).start()
     clock = time.monotonic
     next_flush = clock() + FLUSH_PERIOD
     next_sync, next_summary = clock() + SYNC_PERIOD, clock() + SUMMARY_PERIOD

@@ -5,13 +5,15 @@ it runs, so a console that stalls (a paused terminal, a full pipe) cannot stall 
 import math
 import sys
 import threading
-import time
 
 from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.runtime.run_tally import (
+    FIRST_FRAME_WAIT,
     FRAMES,
+    HOLDING,
     LOG_DROPPED_FRAMES,
     LOG_DROPPED_TICKS,
+    TICKS,
     WRITER_ERRORS,
     RunTally,
 )
@@ -41,14 +43,13 @@ def status_line(tally: RunTally, columns: list[str]) -> str:
             f" frames {int(tally.count[FRAMES])}{log}   ")
 
 
-def show_status(tally: RunTally, columns: list[str], begin: dict, done: threading.Event) -> None:
+def show_status(tally: RunTally, columns: list[str], done: threading.Event) -> None:
     """Prints the status line every STATUS_PERIOD until ``done``; says when the first
     frame came."""
     first = False
     while not done.wait(STATUS_PERIOD):
-        if not first and tally.count[FRAMES] > 0:
-            first = True
-            waited = time.monotonic() - begin["clock_start"]
-            print(f"\rrun: first frame after {waited:.2f} s; running (Ctrl-C stops the "
-                  "robot and ends the run)", file=sys.stderr, flush=True)
+        if not first and tally.count[TICKS] > 0 and tally.count[HOLDING] == 0:
+            first = True  # (the wait the summary reports: to the first tick it ended)
+            print(f"\rrun: first frame after {tally.time[FIRST_FRAME_WAIT]:.2f} s; running "
+                  "(Ctrl-C stops the robot and ends the run)", file=sys.stderr, flush=True)
         print(status_line(tally, columns), end="", file=sys.stderr, flush=True)
