@@ -85,7 +85,7 @@ def test_a_kill_mid_run_leaves_every_row_up_to_a_second_before_it(tmp_path, expo
     np.testing.assert_array_equal(segment.frame_sequence, np.arange(len(segment.frames)))
     kill_time = killed - summary["clock_start"]  # on the run's clock
     assert segment.column("time")[-1] >= kill_time - 1.0
-    assert ticks >= summary["ticks"]  # (the summary is at most a second old too)
+    assert summary["ticks"] >= 1500  # the summary the writer kept current until the kill
 
 
 def test_ctrl_c_in_the_loop_commands_k_0_finishes_the_log_and_exits_130(tmp_path,
