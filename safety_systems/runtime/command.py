@@ -14,6 +14,7 @@ import sys
 import time
 
 from safety_systems.files.input_error import InputError
+from safety_systems.runtime.child_process import start_without_ctrl_c
 from safety_systems.runtime.startup import Phases
 
 EXIT_FAULT = 3
@@ -29,18 +30,18 @@ def start_replay(file: str, options: dict, rate: float, mapping=None
     """Starts ``replay_server`` on 127.0.0.1 in its own process; (process, its port).
     With a ``mapping`` it streams the mapping's bodies, read as the mapping reads them."""
     argv = [sys.executable, "-m", "safety_systems.runtime.replay_server", file,
-            "--rate", repr(rate)]
+            "--rate", repr(rate), "--parent-death"]
     if mapping is not None:
         bodies = {b.recorded: b.streaming_id for o in mapping.operators for b in o.bodies}
         argv += ["--bodies", json.dumps(bodies), "--units", mapping.units,
                  "--truncated", mapping.truncated]
     for key, value in options.items():
         argv += [f"--{key}", *value.split(":")]
-    process = subprocess.Popen(argv, stdout=subprocess.PIPE, text=True)
+    process = start_without_ctrl_c(argv, stdout=subprocess.PIPE, text=True)
     try:
         ready, _, _ = select.select([process.stdout], [], [], PORT_WAIT)
         line = process.stdout.readline() if ready else ""
-    except BaseException:  # Ctrl-C while it starts: it ignores Ctrl-C, so end it here
+    except BaseException:  # Ctrl-C while it starts (Ctrl-C does not reach it): end it
         process.kill()
         process.wait()
         raise
@@ -76,7 +77,12 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
             parse_mocap
         from safety_systems.runtime.params import NotCertified, load_certified_params, \
             warn_unverified
-        from safety_systems.runtime.realtime import MAX_PRIORITY, real_time
+        from safety_systems.runtime.realtime import (
+            MAX_PRIORITY,
+            lock_for_run,
+            real_time,
+            unlock_memory,
+        )
         from safety_systems.runtime.robot_link import connect_robot, parse_robot
         from safety_systems.runtime.run_log_pipe import RunLogPipe
         from safety_systems.runtime.run_log_writer import FLUSH_PERIOD, SYNC_PERIOD
@@ -163,7 +169,7 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
     from safety_systems.config.configuration import pfl_terms
 
     server = robot = mocap = log = None
-    end = None
+    end, locked = None, {}
     try:
         with phases.step("safety_loop", "loading the compiled safety loop (its first run "
                                         "on a machine compiles it: minutes)"):
@@ -173,6 +179,9 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
                               model, pfl)
             trace, columns = log_columns(loop, names, model.n)
             log = RunLogPipe(out, width=len(columns), bodies=len(names))
+        if args.priority:  # before connecting: once frames flow, the loop starts at once
+            with phases.step("locking", "locking the memory (real-time)"):
+                locked = lock_for_run(args.priority)
         with phases.step("connecting", "connecting"):
             if mocap_address.kind == "replay":
                 server, port = start_replay(mocap_address.file, options, rate, mapping)
@@ -187,6 +196,8 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
     if end is not None:  # it never ran: k = 0 to what was connected, and what it has
         with held_interrupts():
             _stop(robot, mocap, server)
+            if locked.get("memory_locked"):
+                unlock_memory()
             fields["robot"] = getattr(robot, "name", args.robot)
             summary = _close(log, run_summary, fixed, end, origin)
             write_json(out / "summary.json", summary)
@@ -200,7 +211,7 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
                 print(f"safety-systems: warning: no real-time priority ({scheduling['refused']}"
                       "): the loop runs at normal priority, its late ticks stopped by the "
                       "overrun watchdog", file=sys.stderr)
-            fields["scheduling"] = scheduling
+            fields["scheduling"] = {**scheduling, **locked}
             fixed["provenance"] = origin()
             log.start(dict(fixed=fixed, trace_columns=trace, columns=columns,
                            status=not args.quiet, segment_length=args.log_segment,
@@ -229,6 +240,8 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
             if server is not None:
                 server.terminate()
                 server.wait(timeout=10.0)
+            if locked.get("memory_locked"):
+                unlock_memory()
             summary = _close(log, run_summary, fixed, end or "exception", origin)
             write_json(out / "summary.json", summary)
     if not args.quiet:

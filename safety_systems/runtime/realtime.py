@@ -12,10 +12,12 @@ privilege to use real-time priorities (root, or ``CAP_SYS_NICE``, or an rtprio l
 without it the loop runs at normal priority and says so: the overrun watchdog
 (``--max-overrun``) stops the robot whenever a tick is late, with or without it.
 
-With a real-time priority the process' memory is also locked in RAM for the run (Linux
-``mlockall``: the pages it has and every page it maps later), so that no tick waits
-for a page to come back from swap; where that is refused (an ``RLIMIT_MEMLOCK`` too
-small for an unprivileged process), the run goes on and says so (``memory_locked``).
+With a real-time priority the process' memory is also locked in RAM for the run
+(:func:`lock_for_run`, Linux ``mlockall``: the pages it has and every page it maps
+later), so that no tick waits for a page to come back from swap; where that is refused
+(an ``RLIMIT_MEMLOCK`` too small for an unprivileged process), the run goes on and says
+so (``memory_locked``). Locking takes a moment (every page is brought in), so ``run``
+does it before it connects: once frames flow, the loop starts at once.
 """
 
 import contextlib
@@ -38,6 +40,17 @@ def lock_memory() -> str | None:
         return str(e)
 
 
+def lock_for_run(priority: int) -> dict:
+    """The memory locked where a real-time ``priority`` (1-99) is asked for; what was
+    done, for summary.json's ``scheduling``: ``{"memory_locked": True}``, or ``False``
+    with ``memory_lock_refused``; nothing at priority 0."""
+    if priority == 0:
+        return {}
+    refused = lock_memory()
+    return {"memory_locked": True} if refused is None else {
+        "memory_locked": False, "memory_lock_refused": refused}
+
+
 def unlock_memory() -> None:
     try:
         ctypes.CDLL(ctypes.util.find_library("c")).munlockall()
@@ -48,11 +61,9 @@ def unlock_memory() -> None:
 @contextlib.contextmanager
 def real_time(priority: int):
     """Runs the body under SCHED_FIFO at ``priority`` (1-99; 0: leave the scheduling as
-    it is) and restores the thread's previous policy after it, its memory locked for the
-    body where it may be. Yields what was set: ``{"policy": "fifo", "priority": p,
-    "memory_locked": True}`` (or ``False`` with ``memory_lock_refused`` saying why), or
-    ``{"policy": "normal", ...}`` with ``refused`` saying why a priority asked for was
-    not given."""
+    it is) and restores the thread's previous policy after it. Yields what was set:
+    ``{"policy": "fifo", "priority": p}`` or ``{"policy": "normal", ...}`` with
+    ``refused`` saying why a priority asked for was not given."""
     if priority == 0:
         yield {"policy": "normal", "priority": 0}
         return
@@ -68,13 +79,8 @@ def real_time(priority: int):
         yield {"policy": "normal", "priority": 0,
                "refused": f"SCHED_FIFO priority {priority}: {e.strerror or e}"}
         return
-    refused = lock_memory()
-    locked = {"memory_locked": True} if refused is None else {
-        "memory_locked": False, "memory_lock_refused": refused}
     try:
-        yield {"policy": "fifo", "priority": priority, **locked}
+        yield {"policy": "fifo", "priority": priority}
     finally:
-        if refused is None:
-            unlock_memory()
         os.sched_setscheduler(0, before[0] & ~getattr(os, "SCHED_RESET_ON_FORK", 0),
                               before[1])

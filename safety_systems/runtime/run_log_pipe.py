@@ -37,6 +37,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from safety_systems.runtime.child_process import start_without_ctrl_c
 from safety_systems.runtime.run_tally import (
     LOG_DROPPED_FRAMES,
     LOG_DROPPED_TICKS,
@@ -83,7 +84,7 @@ class RunLogPipe:
         else:  # no shared memory: the summary is written at the end only
             self._map = None
             self.tally = RunTally(bodies, width)
-        self.process = subprocess.Popen(
+        self.process = start_without_ctrl_c(
             [sys.executable, "-m", "safety_systems.runtime.run_log_writer", str(folder),
              str(self._fd_tally), str(self.tally_bytes)],
             stdin=subprocess.PIPE, pass_fds=(self._fd_tally,) if self._fd_tally >= 0 else ())

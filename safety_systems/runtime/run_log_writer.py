@@ -328,8 +328,9 @@ def main(argv: list[str] | None = None) -> int:
     writer.begin = json.loads(payload)
     done = threading.Event()
     if start["status"]:
-        threading.Thread(target=show_status, args=(tally, start["trace_columns"], done),
-                         daemon=True).start()
+        status = threading.Thread(target=show_status, daemon=True,
+                                  args=(tally, start["trace_columns"], done))
+        status.start()
     clock = time.monotonic
     next_flush = clock() + FLUSH_PERIOD
     next_sync, next_summary = clock() + SYNC_PERIOD, clock() + SUMMARY_PERIOD
@@ -351,6 +352,8 @@ def main(argv: list[str] | None = None) -> int:
             writer.summary("running")
             next_summary = now + SUMMARY_PERIOD
     done.set()
+    if start["status"]:
+        status.join(timeout=1.0)
     if writer.segment is not None:
         writer.finish_segment()
     tally.count[WRITER_STATE] = WRITER_DONE if not writer.warned else WRITER_FAILED

@@ -44,8 +44,8 @@ def status_line(tally: RunTally, columns: list[str]) -> str:
 
 
 def show_status(tally: RunTally, columns: list[str], done: threading.Event) -> None:
-    """Prints the status line every STATUS_PERIOD until ``done``; says when the first
-    frame came."""
+    """Prints the status line every STATUS_PERIOD until ``done`` (then ends its line);
+    says when the first frame came."""
     first = False
     while not done.wait(STATUS_PERIOD):
         if not first and tally.count[TICKS] > 0 and tally.count[HOLDING] == 0:
@@ -53,3 +53,4 @@ def show_status(tally: RunTally, columns: list[str], done: threading.Event) -> N
             print(f"\rrun: first frame after {tally.time[FIRST_FRAME_WAIT]:.2f} s; running "
                   "(Ctrl-C stops the robot and ends the run)", file=sys.stderr, flush=True)
         print(status_line(tally, columns), end="", file=sys.stderr, flush=True)
+    print(file=sys.stderr, flush=True)  # the runtime's last line begins a line of its own

@@ -23,6 +23,11 @@ from .test_live import CSV, SLACK, _far_mapping, _host, _messages, _rtde_server
 WAIT = 300.0  # s: the most a wait below takes (a loaded machine); none is a figure
 
 
+def children(pid: int) -> list[int]:
+    with open(f"/proc/{pid}/task/{pid}/children") as f:
+        return [int(x) for x in f.read().split()]
+
+
 class _Run:
     """The command in its own session, its stderr read as it comes."""
 
@@ -55,7 +60,16 @@ class _Run:
             return {}
 
     def signal(self, number: int) -> None:
+        """``number`` to the command's process group, as a terminal sends Ctrl-C (its
+        helpers are in groups of their own: it ends them)."""
         os.killpg(self.process.pid, number)
+
+    def kill_all(self) -> None:
+        """SIGKILL to the runtime and its helper processes, one after the other at once
+        (a crash of the whole machine's worth: none finishes anything)."""
+        pids = [self.process.pid] + children(self.process.pid)
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
 
     def end(self) -> int:
         code = self.process.wait(timeout=WAIT)
@@ -67,14 +81,14 @@ class _Run:
 
 
 def test_a_kill_mid_run_leaves_every_row_up_to_a_second_before_it(tmp_path, exported_params):
-    """SIGKILL to the runtime and its log writer at once, mid-run: the log's segment,
+    """SIGKILL to the runtime, its log writer and its replay server, mid-run: the log's segment,
     never finished, reads back every tick from the first, none missing, up to at most
     one second (of the run's clock) before the kill; every frame likewise."""
     run = _Run(tmp_path, exported_params, f"replay://{CSV}?duration=20", "--quiet")
     run.wait_for(lambda: run.summary().get("ticks", 0) >= 1500)  # 3 s into the loop
     time.sleep(0.4)
     killed = time.monotonic()
-    run.signal(signal.SIGKILL)
+    run.kill_all()
     assert run.end() == -signal.SIGKILL
     summary = run.summary()
     assert summary["end"] == "running"  # the last the writer said: it was killed too
@@ -116,7 +130,7 @@ def test_ctrl_c_in_the_loop_commands_k_0_finishes_the_log_and_exits_130(tmp_path
                  "safety loop", "run: connecting...", "run: ready after",
                  "waiting for the first frame", "run: first frame after"):
         assert said in text, said
-    assert "Traceback" not in text  # the writer and the replay server ignore Ctrl-C
+    assert "Traceback" not in text  # Ctrl-C reaches the runtime only (not its helpers)
     assert set(summary["startup"]) >= {"loading_modules", "parameters", "safety_loop",
                                         "connecting"}
 
