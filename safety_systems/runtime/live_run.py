@@ -4,7 +4,10 @@ Every control period (the verified robot's control rate, 500 Hz for the UR5e) th
 reads the robot's joint positions, decides k (``safety_loop.SafetyLoop``: the
 simulator's tracker, monitor and override functions) and commands it; between ticks it
 waits on the NatNet client's sockets, and a frame that arrives is processed at once
-and a new k commanded then (not at the next tick).
+and a new k commanded then (not at the next tick), unless the next tick is due before
+that work would end (the longest a frame's work took lately, at most a quarter of a
+period): then the tick takes the frame first and commands its k, so that no tick starts
+late for a frame (measured: frames were what made nearly every late tick; issue 49).
 
 **Watchdog.** k is 0, whatever the monitor says, while (in this order of naming):
 - the robot is lost: its connection closed, or no new joint sample for its timeout
@@ -14,49 +17,60 @@ and a new k commanded then (not at the next tick).
   holds k at 0 for ``overrun_hold`` (``overrun``);
 and, by the tracker's own rules, when no valid frame is newer than the frame timeout
 (``stale_frame``) or a frame is faulty. Any exception ends the run at k = 0
-(``exception``). Whenever the stop is for a fault (anything but ``separation``) the
-robot link's protective stop is asked for (``robot_link``). On every exit, normal or
-not, the last command is k = 0: the slider is never left where it was.
+(``exception``), and so does Ctrl-C. Whenever the stop is for a fault (anything but
+``separation``) the robot link's protective stop is asked for (``robot_link``). On
+every exit, normal or not, the last command is k = 0: the slider is never left where
+it was (a second Ctrl-C while the loop ends is held until that command is sent).
 
-**Log.** ``trace.csv`` has simulate's columns for the SSM override
+**Log** (``run_log_pipe``, written by its own process; the format:
+``sensing.run_log_format``). Each tick's row: simulate's columns for the SSM override
 (``outputs.run_files.trace_table``): time, k, path_rate, robot_speed, stop_reason,
 S_max, rejected_<cause>, and per operator ``<op>:d_true`` and ``<op>:nearest_true``
-(empty: the truth is not known live), ``<op>:d_measured`` (the least of the monitor's d
-over the operator's twelve segments, empty while none is monitored),
-``<op>:nearest_measured`` (that segment, by name) and ``<op>:S`` (its S; under
+(NaN: the truth is not known live), ``<op>:d_measured`` (the least of the monitor's d
+over the operator's twelve segments, NaN while none is monitored),
+``<op>:nearest_measured`` (that segment) and ``<op>:S`` (its S; under
 ``safety.stopping: by_speed`` at the level the override held it to: the larger of the
 level at or above the rate bound and the commanded k's), then per tracked body of the
 operator ``<op>/<body>:hidden`` (1 while its track is a hidden ball, or lost); and then
 the runtime's: ``frame_time`` (the newest good frame's capture time on this clock),
 ``frames`` and ``bad_packets`` (counts so far) and ``tick_late`` (s the tick started
-after its due time). ``time`` is seconds since the loop started; k is what was
-commanded (with ``--robot none``, what would have been). ``summary.json`` holds the
-run's counts, stops by cause, the time each tracked body spent hidden or lost
-(``hidden_time``), timing figures and provenance.
+after its due time); then ``log_dropped`` (records the log could not take so far) and
+the robot's joints as read (``robot_time``, ``q_0``...). ``time`` is seconds since the
+loop started; k is what was commanded (with ``--robot none``, what would have been).
+Each frame is logged as received, with the time from its arrival to the k commanded
+for it. The summary's counts, stops by cause, the time each tracked body spent hidden
+or lost (``hidden_time``) and timing figures are kept as the run goes (``run_tally``):
+nothing in the loop grows with the run's length.
 """
 
+import contextlib
 import dataclasses
 import math
 import select
-import sys
+import signal
+import threading
 import time
 
 import numpy as np
 
 from safety_systems.cell.human_body import NUM_SEGMENTS, SEGMENT_NAMES
-from safety_systems.sensing import stops
-from safety_systems.outputs.metrics import first_frame_wait, stops_by_cause
 from safety_systems.runtime.mocap import BodyMap, FrameClock, NatNetSource
 from safety_systems.runtime.robot_link import RobotLost
+from safety_systems.runtime.run_log_pipe import RunLogPipe
+from safety_systems.runtime.run_tally import BAD_PACKETS, FRAMES
 from safety_systems.runtime.safety_loop import SafetyLoop
+from safety_systems.sensing import stops
+from safety_systems.sensing.run_log_format import MAX_FRAME_BODIES, tick_columns
 from safety_systems.sensing.stops import REJECT_CAUSES
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST
 from safety_systems.ssm.formulas import held_level
 
 MAX_OVERRUN = 0.005  # s: a tick may start this late before the watchdog stops the robot
 OVERRUN_HOLD = 0.2  # s k stays 0 after an overrun
-STATUS_PERIOD = 0.25  # s between status lines
 EXTRA = ("frame_time", "frames", "bad_packets", "tick_late")
+FRAME_WORK = 0.3e-3  # s: a frame's work (tracker, monitor, k) as first assumed
+WORK_DECAY = 0.99  # per frame: the estimate is the largest recent one, forgotten in ~1 s
+WORK_MOST = 0.25  # of a control period: the most a frame waits for a tick (frame to k)
 
 
 @dataclasses.dataclass
@@ -64,38 +78,20 @@ class LiveOptions:
     duration: float | None = None  # s; None: until interrupted
     max_overrun: float = MAX_OVERRUN
     overrun_hold: float = OVERRUN_HOLD
-    status: bool = True
 
 
 @dataclasses.dataclass
 class LiveResult:
-    header: list
-    rows: np.ndarray
-    summary: dict
+    header: list  # the trace's columns (a /tick row's first ones)
     end: str  # "duration", "interrupted", "robot_lost: ...", "exception: ..."
-
-
-class _Log:
-    """Rows of floats, grown in chunks."""
-
-    def __init__(self, width: int):
-        self.data, self.n = np.empty((4096, width)), 0
-
-    def add(self, row: np.ndarray) -> None:
-        if self.n == len(self.data):
-            self.data = np.concatenate([self.data, np.empty_like(self.data)])
-        self.data[self.n] = row
-        self.n += 1
-
-    def rows(self) -> np.ndarray:
-        return self.data[:self.n].copy()
+    clock_start: float  # the monotonic clock's reading at the loop's time 0
 
 
 OPERATOR_COLUMNS = ("d_true", "nearest_true", "d_measured", "nearest_measured", "S")
 
 
 def trace_header(operators: list[tuple[str, list[str]]]) -> list[str]:
-    """trace.csv's columns (see the module docstring) of ``operators``: (name, its
+    """The trace's columns (see the module docstring) of ``operators``: (name, its
     tracked bodies' names) each."""
     header = ["time", "k", "path_rate", "robot_speed", "stop_reason", "S_max"]
     header += [f"rejected_{c}" for c in REJECT_CAUSES]
@@ -146,23 +142,28 @@ class _OperatorColumns:
         row[self.hidden_at] = _hidden(loop.status)
 
 
+def log_columns(loop: SafetyLoop, names: list[str], joints: int) -> tuple[list, list]:
+    """(the trace's columns, a /tick row's columns: ``run_log_format.tick_columns``)."""
+    trace = _OperatorColumns(loop, names).header
+    return trace, tick_columns(trace, joints)
+
+
 def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetSource,
              robot, *, latency: float, period: float, options: LiveOptions,
-             now=time.monotonic) -> LiveResult:
+             log: RunLogPipe, now=time.monotonic) -> LiveResult:
     """Runs the control loop until ``options.duration`` has passed, an interrupt or an
-    error (see the module docstring); returns the log. ``names``: the tracked bodies'
-    (``operator/body``), in slot order."""
+    error (see the module docstring), feeding ``log`` (its tally holds the summary's
+    figures). ``names``: the tracked bodies' (``operator/body``), in slot order."""
     columns = _OperatorColumns(loop, names)
     header = columns.header
     width = len(header) - len(EXTRA)
-    log = _Log(len(header))
+    row = np.full(log.width, math.nan)  # one row, refilled every tick
+    at_log, at_q = len(header), len(header) + 2
+    tally = log.tally
     clock = FrameClock(latency)
     sockets = mocap.sockets()
-    hidden_ticks = np.zeros(loop.n)  # ticks each body spent hidden or lost
     state = dict(bad=False, overrun_until=-math.inf, lost="", frames=0, good_frame=math.nan,
                  stop_asked=None, rate=math.nan)
-    latencies, lateness = [], []
-    status_due = 0.0
 
     def command(t: float) -> tuple[float, float, int]:
         state["rate"] = robot.rate_bound()
@@ -179,30 +180,44 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
             state["stop_asked"] = fault
         return k, s_max, reason
 
-    def frames_in() -> None:
+    def take_frames() -> tuple[list, bool]:
+        """The frames waiting, into the tracker: ([(arrival, frame, capture time)],
+        whether k must be decided anew: a frame came, or a packet was bad)."""
         before = mocap.bad_packets
         frames = mocap.poll()
         if mocap.bad_packets > before:
             state["bad"] = True
+        taken = []
         for arrival, frame in frames:
             t_capture = clock.capture_time(frame.suffix.timestamp, arrival)
             z, valid, ids = bodies.entries(frame.rigid_bodies)
             loop.frame(t_capture, z, valid, ids)
+            taken.append((arrival, frame, t_capture))
             state["frames"] += 1
         if frames and mocap.bad_packets == before:
             state["bad"] = False
-        if frames or state["bad"]:  # a new k at once, not at the next tick
+        if frames or state["bad"]:
             state["good_frame"] = loop.t_good[0]
-            command(now())
-        if frames:
-            latencies.append(now() - frames[-1][0])
+        return taken, bool(frames) or state["bad"]
+
+    def after_k(taken: list) -> None:
+        """Once k was commanded for ``taken``: the time it took, and the frames logged."""
+        if taken:
+            done = now()
+            tally.frame_to_k(done - taken[-1][0])
+            for arrival, frame, t_capture in taken:
+                _log_frame(log, frame, arrival - t_start, t_capture - t_start, done - arrival)
+        tally.set(FRAMES, state["frames"])
+        tally.set(BAD_PACKETS, mocap.bad_packets)
 
     mocap.poll()  # frames queued while connecting are old: the loop starts afresh
     mocap.frames.clear()
     t_start = now()
+    log.begin({"clock_start": t_start, "unix_start_ns": time.time_ns()})
     end_at = math.inf if options.duration is None else t_start + options.duration
     next_tick, end = t_start, "duration"
     k, reason = 0.0, stops.STOP_STALE_FRAME
+    work, deferred, taken = FRAME_WORK, False, []
     robot.command(0.0)
     try:
         while True:
@@ -211,12 +226,24 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
                 break
             wait = min(next_tick, end_at) - t
             if wait > 0.0:
-                ready, _, _ = select.select(sockets, [], [], wait)
-                if ready:
-                    frames_in()
+                if deferred:  # a frame waits for the tick: sleep to it
+                    select.select([], [], [], wait)
+                elif select.select(sockets, [], [], wait)[0]:
+                    if next_tick - now() > work:  # a new k at once, not at the next tick
+                        began = now()
+                        now_taken, new = take_frames()
+                        if new:
+                            command(now())
+                        after_k(now_taken)
+                        work = min(max(now() - began, work * WORK_DECAY),
+                                   WORK_MOST * period)
+                    else:  # the tick is due sooner than the frame's work ends: it takes it
+                        deferred = True
                 continue
+            if deferred:
+                taken, _ = take_frames()
+                deferred = False
             late = t - next_tick
-            lateness.append(late)
             if late > options.max_overrun:
                 state["overrun_until"] = t + options.overrun_hold
             robot.advance_to(next_tick - t_start)  # a model robot's time: the tick's
@@ -226,20 +253,21 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
             except RobotLost as e:
                 if not state["lost"]:
                     state["lost"] = str(e)
+                q, t_q = math.nan, math.nan
             k, s_max, reason = command(t)
-            row = np.empty(len(header))
             row[:10] = (t - t_start, k, getattr(robot, "rate", math.nan),
                         float(np.nanmax(np.linalg.norm(loop.end_velocities, axis=-1),
                                         initial=0.0)),
                         reason, s_max, *loop.rejected)
             columns.fill(row, loop, k, state["rate"])
-            row[width:] = (state["good_frame"] - t_start, state["frames"],
-                           mocap.bad_packets, late)
-            log.add(row)
-            hidden_ticks += _hidden(loop.status)
-            if options.status and t >= status_due:
-                status_due = t + STATUS_PERIOD
-                _status(t - t_start, k, reason, loop, state["frames"])
+            row[width:at_log] = (state["good_frame"] - t_start, state["frames"],
+                                 mocap.bad_packets, late)
+            row[at_log], row[at_log + 1], row[at_q:] = log.dropped, t_q, q
+            log.tick(row)
+            tally.tick(t - t_start, reason, late, loop.rejected, _hidden(loop.status))
+            if taken:
+                after_k(taken)
+                taken = []
             next_tick += period
             if next_tick < t - period:  # fell more than a period behind: skip, and say so
                 next_tick += period * math.floor((t - next_tick) / period + 1.0)
@@ -249,63 +277,50 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
         end = f"exception: {type(e).__name__}: {e}"
         reason = stops.STOP_EXCEPTION
     finally:
-        robot.command(0.0)  # never left where it was
-        robot.protective_stop(reason >= stops.STOP_STALE_FRAME)
-        robot.close()
-        mocap.close()
+        with held_interrupts() as came:
+            robot.command(0.0)  # never left where it was
+            robot.protective_stop(reason >= stops.STOP_STALE_FRAME)
+            robot.close()
+            mocap.close()
+    if came and end == "duration":
+        end = "interrupted"
     if state["lost"] and end == "duration":
         end = f"robot_lost: {state['lost']}"
     if end.startswith("exception"):  # the last row says why the robot was stopped
-        row = np.full(len(header), math.nan)
+        row[:] = math.nan
         row[:5] = (now() - t_start, 0.0, math.nan, math.nan, stops.STOP_EXCEPTION)
-        log.add(row)
-    if options.status:
-        print(file=sys.stderr)
-    rows = log.rows()
-    hidden = {name: float(ticks * period) for name, ticks in zip(names, hidden_ticks)}
-    summary = _summary(rows, header, hidden, latencies, lateness, period, state, end, mocap)
-    summary["clock_start"] = t_start  # the monotonic clock's reading at time 0
-    return LiveResult(header, rows, summary, end)
+        row[at_log] = log.dropped
+        log.tick(row)
+        tally.tick(row[0], stops.STOP_EXCEPTION, math.nan, row[6:10], np.zeros(loop.n, bool))
+    log.publish(row)
+    return LiveResult(header, end, t_start)
+
+
+@contextlib.contextmanager
+def held_interrupts():
+    """Ctrl-C held off while the body runs (the robot's last command, the log's end);
+    yields a list that holds True if one came (only the main thread can hold it)."""
+    came: list = []
+    if threading.current_thread() is not threading.main_thread():
+        yield came
+        return
+    previous = signal.signal(signal.SIGINT, lambda *_: came.append(True))
+    try:
+        yield came
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _log_frame(log: RunLogPipe, frame, arrival: float, capture: float, to_k: float) -> None:
+    """A frame as received (its rigid bodies in the capture frame) into the log."""
+    received = frame.rigid_bodies
+    logged = received[:MAX_FRAME_BODIES]
+    log.frame((arrival, capture, frame.suffix.timestamp, frame.prefix.frame_number, to_k,
+               len(received)),
+              [b.id_num for b in logged], [b.pos for b in logged], [b.rot for b in logged],
+              [b.tracking_valid is not False for b in logged])
 
 
 def _hidden(status: np.ndarray) -> np.ndarray:
     """Whether each status is hidden or lost."""
     return (status == TRACK_HIDDEN) | (status == TRACK_LOST)
-
-
-def _status(t: float, k: float, reason: int, loop: SafetyLoop, frames: int) -> None:
-    d = loop.out[0]
-    near = ""
-    if np.any(np.isfinite(d)):
-        i = int(np.nanargmin(d))
-        near = f"  closest {loop.segment_names[i]} {d[i]:.2f} m (S {loop.out[1][i]:.2f} m)"
-    print(f"\r{t:8.1f} s  k={k:4.2f}{near}  stop: {stops.STOP_REASONS[int(reason)]:<11}"
-          f" frames {frames}   ", end="", file=sys.stderr, flush=True)
-
-
-def _percentile(values: list, q: float) -> float | None:
-    return float(np.percentile(values, q)) if values else None
-
-
-def _summary(rows, header, hidden, latencies, lateness, period, state, end, mocap) -> dict:
-    time_ = rows[:, 0]
-    reasons = rows[:, header.index("stop_reason")]
-    last = np.nanmax(rows, axis=0, initial=0.0) if len(rows) else np.zeros(len(header))
-    return {
-        "end": end,
-        "duration": float(time_[-1]) if time_.size else 0.0,
-        "ticks": int(len(rows)),
-        "frames": int(state["frames"]),
-        "bad_packets": int(mocap.bad_packets),
-        "first_frame_wait": first_frame_wait(reasons, time_),
-        "protective_stops": stops_by_cause(reasons, time_),
-        "rejected_frames": {c: int(last[header.index(f"rejected_{c}")]) for c in REJECT_CAUSES},
-        "hidden_time": hidden,
-        "timing": {
-            "control_period": period,
-            "tick_late_p50": _percentile(lateness, 50), "tick_late_p99": _percentile(lateness, 99),
-            "tick_late_max": max(lateness, default=None),
-            "frame_to_k_p50": _percentile(latencies, 50),
-            "frame_to_k_p99": _percentile(latencies, 99),
-        },
-    }

@@ -11,12 +11,51 @@ only, and is not inherited by processes it starts (the replay server). It needs 
 privilege to use real-time priorities (root, or ``CAP_SYS_NICE``, or an rtprio limit);
 without it the loop runs at normal priority and says so: the overrun watchdog
 (``--max-overrun``) stops the robot whenever a tick is late, with or without it.
+
+With a real-time priority the process' memory is also locked in RAM for the run
+(:func:`lock_for_run`, Linux ``mlockall``: the pages it has and every page it maps
+later), so that no tick waits for a page to come back from swap; where that is refused
+(an ``RLIMIT_MEMLOCK`` too small for an unprivileged process), the run goes on and says
+so (``memory_locked``). Locking takes a moment (every page is brought in), so ``run``
+does it before it connects: once frames flow, the loop starts at once.
 """
 
 import contextlib
+import ctypes
+import ctypes.util
 import os
 
 MAX_PRIORITY = 99
+MCL_CURRENT, MCL_FUTURE = 1, 2  # <sys/mman.h> on Linux
+
+
+def lock_memory() -> str | None:
+    """Locks the process' pages in RAM, now and from now on; None, or why it could not."""
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
+        if libc.mlockall(MCL_CURRENT | MCL_FUTURE) == 0:
+            return None
+        return os.strerror(ctypes.get_errno())
+    except (OSError, AttributeError) as e:
+        return str(e)
+
+
+def lock_for_run(priority: int) -> dict:
+    """The memory locked where a real-time ``priority`` (1-99) is asked for; what was
+    done, for summary.json's ``scheduling``: ``{"memory_locked": True}``, or ``False``
+    with ``memory_lock_refused``; nothing at priority 0."""
+    if priority == 0:
+        return {}
+    refused = lock_memory()
+    return {"memory_locked": True} if refused is None else {
+        "memory_locked": False, "memory_lock_refused": refused}
+
+
+def unlock_memory() -> None:
+    try:
+        ctypes.CDLL(ctypes.util.find_library("c")).munlockall()
+    except (OSError, AttributeError):
+        pass
 
 
 @contextlib.contextmanager

@@ -22,7 +22,9 @@ frames due meanwhile are lost: a frame that comes late).
 
 Run as ``python -m safety_systems.runtime.replay_server FILE [options]``; it prints
 ``port N`` on stdout once it listens, and exits after the last frame (plus ``linger``
-seconds) or when its client sends NAT_DISCONNECT.
+seconds), when its client sends NAT_DISCONNECT, or when the runtime ends it (``run``
+starts it in a process group of its own, ``runtime.child_process``, with
+``--parent-death``: on Linux it is then ended when the runtime dies).
 """
 
 import argparse
@@ -160,6 +162,19 @@ def _sleep_until(sock: socket.socket, when: float) -> bool:
                 return False
 
 
+def _end_with_parent() -> None:
+    """Asks Linux to send this process SIGTERM when its parent ends (prctl
+    PR_SET_PDEATHSIG); elsewhere nothing."""
+    import ctypes
+    import ctypes.util
+    import signal
+
+    try:
+        ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True).prctl(1, signal.SIGTERM)
+    except (OSError, AttributeError):
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="replay_server", description=__doc__.split("\n")[0])
     parser.add_argument("recording")
@@ -174,7 +189,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bodies", type=json.loads)
     parser.add_argument("--units", default="")
     parser.add_argument("--truncated", default="refuse")
+    parser.add_argument("--parent-death", action="store_true",
+                        help="end when the process that started it ends (Linux)")
     args = parser.parse_args(argv)
+    if args.parent_death:
+        _end_with_parent()
     rec = read_recording(args.recording, None if args.bodies is None else list(args.bodies),
                          truncated=args.truncated, units=args.units)
     misbehave = Misbehaviour(args.stop, args.garbage, tuple(args.late) if args.late else None)

@@ -93,6 +93,15 @@ class ModelRobot:
         self._dt = 1.0 / robot.control_rate_hz
         self.s, self.rate, self.time = 0.0, 0.0, 0.0
         self.sent = math.nan  # what the robot was last told
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Calls the compiled path functions once (loading them from the cache would
+        make the loop's first ticks late: 2-4 ms seen), leaving the state as new."""
+        fractions, deceleration, acceleration = self._brakes
+        joint_path_state(self.path, 0.0)
+        path_follower_step(0.0, 0.0, 0.0, self.path.end, 1.0, self._dt, fractions,
+                           deceleration, acceleration, 1.0)
 
     def read(self) -> tuple[np.ndarray, float]:
         """(joint positions (n,), the robot's time of them)."""

@@ -12,6 +12,15 @@ from safety_systems.sensing.c3d_file import read_c3d
 from safety_systems.sensing.motive_csv import read_motive_csv
 from safety_systems.sensing.recording import Recording
 from safety_systems.sensing.ros_bag import read_bag
+from safety_systems.sensing.run_log import is_run_log, read_run_recording
+
+
+def _read_mcap(path, bodies=None, *, truncated: str = "refuse") -> Recording:
+    """An MCAP file: a segment of a live run's log (its Header names this project's
+    writer) or a rosbag2 bag's (anything else: its reader says what it needs)."""
+    reader = read_run_recording if is_run_log(path) else read_bag
+    return reader(path, bodies, truncated=truncated)
+
 
 FOLDER = "/"  # the key of a recording that is a folder (a rosbag2 bag)
 # extension (lower case) -> (reader, what the file is, in words)
@@ -19,7 +28,8 @@ READERS = {
     ".csv": (read_motive_csv, "a Motive CSV export (.csv)"),
     ".c3d": (read_c3d, "a C3D file (.c3d)"),
     ".bvh": (read_bvh, "a BVH file (.bvh)"),
-    ".mcap": (read_bag, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag)"),
+    ".mcap": (_read_mcap, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag) or a "
+                          "segment of a live run's log (.mcap)"),
     ".db3": (read_bag, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag)"),
     ".bag": (read_bag, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag)"),
     FOLDER: (read_bag, "a ROS bag (a rosbag2 folder, .mcap, .db3 or .bag)"),

@@ -8,7 +8,6 @@ trunk, lean allowed, within 1.96 m of the robot's capsules while the technician 
 3 m, and iso.yaml's S is 2.41 m at every speed, so the recorded approach would hold the
 robot still throughout (k = 0 on every tick, nothing to compare or to see stop)."""
 
-import csv
 import dataclasses
 import json
 import math
@@ -31,13 +30,16 @@ from safety_systems.sensing.recording_mapping import (
     mapped_point,
     recorded_bodies,
 )
-from safety_systems.runtime.live_run import LiveOptions, run_live
+from safety_systems.runtime.live_run import LiveOptions, log_columns, run_live
 from safety_systems.runtime.mocap import BodyMap, MocapAddress, NatNetSource
 from safety_systems.runtime.replay_server import serve, stream_frames
 from safety_systems.runtime.robot_link import ModelRobot
+from safety_systems.runtime.run_log_pipe import RunLogPipe
 from safety_systems.runtime.safety_loop import SafetyLoop
 from safety_systems.config.scenario import SensorConfig, load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
+from safety_systems.sensing.run_log import read_run_log
+from safety_systems.sensing.run_log_format import FORMAT_VERSION
 from safety_systems.sensing.stops import STOP_REASONS
 from safety_systems.config.configuration import frame_timeout
 
@@ -52,13 +54,21 @@ SLACK = 0.5  # s a tick may be late before the overrun watchdog acts, where it i
 
 
 def _trace(folder: Path) -> dict[str, np.ndarray]:
-    rows = list(csv.DictReader(open(folder / "trace.csv")))
+    """The run's /tick rows from every segment of its log, by column; stop reasons and
+    segments by name ("" where none)."""
+    segments = [read_run_log(p) for p in sorted(folder.glob("log-*.mcap"))]
+    assert segments and all(s.finished for s in segments)
+    ticks = np.concatenate([s.ticks for s in segments])
+    sequence = np.concatenate([s.tick_sequence for s in segments])
+    assert (sequence == np.arange(len(ticks))).all()  # every tick, in order
     out = {}
-    for key in rows[0]:
+    for j, key in enumerate(segments[0].columns):
+        column = ticks[:, j]
         if key == "stop_reason" or key.endswith((":nearest_true", ":nearest_measured")):
-            out[key] = np.array([r[key] for r in rows])
+            words = STOP_REASONS if key == "stop_reason" else SEGMENT_NAMES
+            out[key] = np.array([words[int(x)] if x == x else "" for x in column])
         else:
-            out[key] = np.array([float(r[key]) if r[key] else math.nan for r in rows])
+            out[key] = column
     return out
 
 
@@ -140,7 +150,7 @@ def test_natnet_packets_over_loopback_carry_the_recording(tmp_path):
 
 
 K_TOLERANCE = 2e-3  # NatNet carries positions as float32 and the robot's path follows
-#                    the jittered k (seen: up to 1e-4); trace.csv keeps 6 digits
+#                    the jittered k (seen: up to 1e-4)
 
 
 def _same_band(t_sim, k_sim, t_run, k_run, width):
@@ -231,6 +241,50 @@ def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, 
     assert gap[inside].any() and not (trace["technician/right_glove:hidden"] > 0.5).any()
     assert summary["hidden_time"]["technician/left_glove"] == pytest.approx(
         gap.sum() * PERIOD)
+
+
+def test_a_runs_log_replayed_by_simulate_gives_the_k_the_run_commanded(tmp_path,
+                                                                         exported_params):
+    """A live run is a recording: its log's first segment, named as a scenario's
+    recorded operator (with the run's own mapping), replays through simulate's whole
+    diagram and gives the k the run commanded, within one frame (and the lateness the
+    run itself records); the log holds every frame the run counted, once."""
+    from safety_systems.runtime.params import load_certified_params
+
+    start, length = 2.0, 6.0
+    code, trace, summary = _run(tmp_path, exported_params,
+                                f"replay://{CSV}?start={start}&duration={length}",
+                                "--max-overrun", str(SLACK))
+    assert code == 0 and summary["end"] == "duration"
+    segment = read_run_log(tmp_path / "log" / "log-0000.mcap")
+    assert segment.finished and len(segment.frames) == summary["frames"]
+    np.testing.assert_array_equal(segment.frame_sequence, np.arange(summary["frames"]))
+    text = SCENARIO.read_text()
+    for name, path in (("recording: approach.csv", f"recording: {segment.file}"),
+                       ("mapping: approach_mapping.yaml", f"mapping: {_far_mapping(tmp_path)}")):
+        assert name in text
+        text = text.replace(name, path)
+    (tmp_path / "replay.yaml").write_text(text)
+    loaded = load_certified_params(exported_params)
+    controller = loaded.controller
+    scenario = load_scenario(tmp_path / "replay.yaml")
+    scenario = dataclasses.replace(
+        scenario, duration=length, controller=controller,
+        robot=dataclasses.replace(loaded.robot, mode="kinematic", cycles=scenario.robot.cycles),
+        sensor=SensorConfig(rate_hz=controller.sensor.rate_hz, noise_std=0.0,
+                            latency=controller.sensor.latency))
+    sim = simulate(scenario)
+    k_sim = sim["override.path_speed_commanded"][:, 0]
+    assert 0.0 < k_sim.mean() < 1.0 and len(set(np.round(k_sim, 3))) >= 2  # k changes
+    t0 = segment.frames[0, 1]  # the first frame's capture time: the recording's time 0
+    t_run = trace["time"] - t0
+    inside = (t_run >= 0.0) & (t_run <= length - 0.1)
+    period = 1.0 / controller.sensor.rate_hz
+    frame_age = t_run[inside] - (trace["frame_time"][inside] - t0)
+    late = max(0.0, np.nanmax(frame_age) - controller.sensor.latency - period)
+    width = period + late + max(0.0, np.nanmax(trace["tick_late"][inside]))
+    assert _same_band(sim.time, k_sim, t_run[inside], trace["k"][inside], width) == []
+    assert abs(np.mean(k_sim == 0.0) - np.mean(trace["k"][inside] == 0.0)) < 0.05
 
 
 def _iso_timeout() -> float:
@@ -367,7 +421,9 @@ class _Faulty(ModelRobot):
         super().command(k)
 
 
-def _live(robot_kw, duration=1.5):
+def _live(folder, robot_kw, duration=1.5):
+    """run_live itself (not the command line) on a faulty model robot; (its result, the
+    robot, the log's ticks by column)."""
     config = load_controller_config(MODELS / "configs" / "iso.yaml")
     mapping = load_mapping(MAPPING)
     thread, announced = _serve_in_thread(rec=read_recording(CSV), rate=20.0,
@@ -381,26 +437,31 @@ def _live(robot_kw, duration=1.5):
     names = [f"{o.name}/{b.name}" for o in mapping.operators for b in o.bodies]
     loop = SafetyLoop(config, [[mapped_point(b) for b in o.bodies] for o in mapping.operators],
                       [o.name for o in mapping.operators])
+    trace, columns = log_columns(loop, names, 6)
+    folder.mkdir()
+    log = RunLogPipe(folder, width=len(columns), bodies=len(names))
+    log.start(dict(fixed=dict(fields={}, names=names, period=PERIOD, log={}),
+                   trace_columns=trace, columns=columns, status=False, segment_length=600.0,
+                   metadata=dict(format=FORMAT_VERSION, columns=columns, bodies={})))
     result = run_live(loop, BodyMap(mapping), names, source, robot, latency=0.02, period=PERIOD,
-                      options=LiveOptions(duration=duration, status=False, max_overrun=0.01))
+                      log=log, options=LiveOptions(duration=duration, max_overrun=0.01))
+    assert log.close({"end": result.end}) == 0
     thread.join(timeout=5.0)
-    return result, robot
+    return result, robot, _trace(folder)
 
 
 def test_an_overrun_and_an_error_give_k_0(tmp_path):
-    result, robot = _live(dict(sleep_at=300))
-    h = result.header
-    late = result.rows[:, h.index("tick_late")] > 0.01
+    result, robot, trace = _live(tmp_path / "overrun", dict(sleep_at=300))
+    late = trace["tick_late"] > 0.01
     assert late.any()
     i = np.flatnonzero(late)[0]
-    assert result.rows[i, h.index("k")] == 0.0
-    assert STOP_REASONS[int(result.rows[i, h.index("stop_reason")])] == "overrun"
+    assert trace["k"][i] == 0.0 and trace["stop_reason"][i] == "overrun"
     assert robot.commands[-1] == 0.0
-    result, robot = _live(dict(raise_at=400))
+    result, robot, trace = _live(tmp_path / "error", dict(raise_at=400))
     assert result.end.startswith("exception: ZeroDivisionError")
-    assert STOP_REASONS[int(result.rows[-1, result.header.index("stop_reason")])] == "exception"
+    assert trace["stop_reason"][-1] == "exception"
     assert robot.commands[-1] == 0.0 and robot.sent == 0.0
-    assert len(result.rows) < 420  # it stopped there
+    assert len(trace["k"]) < 420  # it stopped there
 
 
 def _altered(tmp_path, exported_params, how: str) -> Path:

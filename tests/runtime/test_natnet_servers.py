@@ -3,7 +3,6 @@
 session), a server that speaks NatNet 2.9 (refused: the client library misreads its
 frames' times), and the keep-alives a polled client sends."""
 
-import csv
 import select
 import socket
 import struct
@@ -20,6 +19,8 @@ from safety_systems.runtime.natnet_packets import (
     message_id,
     server_info,
 )
+
+from .test_live import _trace
 
 REAL = Path(__file__).parents[1] / "data" / "natnet_motive2.1"
 
@@ -218,23 +219,22 @@ def test_the_real_motive_2_1_session_is_replayed_through_run(tmp_path, exported_
     summary = json.loads((tmp_path / "log" / "summary.json").read_text())
     assert summary["bad_packets"] == 0
     assert summary["frames"] == server.sent == 518
-    with open(tmp_path / "log" / "trace.csv") as f:
-        rows = list(csv.DictReader(f))
-    flowing = [r for r in rows if 0.5 < float(r["time"]) < 4.0
-               and 10 < int(float(r["frames"])) < 518]
+    trace = _trace(tmp_path / "log")
+    flowing = (0.5 < trace["time"]) & (trace["time"] < 4.0) & (10 < trace["frames"]) & (
+        trace["frames"] < 518)
     # While the frames flow their times are good (no frame goes stale) and the monitor
     # measures the body: its head 0.56 m from the robot, inside iso.yaml's S (2.41 m),
     # so the robot model is held by the separation rule; after the last frame, by the
     # stale-frame rule. k is 0 throughout.
-    assert len(flowing) > 1000
+    assert flowing.sum() > 1000
     # (a loaded machine may also overrun a tick: the watchdog's stop, not the stream's)
-    reasons = {r["stop_reason"] for r in flowing}
+    reasons = set(trace["stop_reason"][flowing])
     assert "separation" in reasons and reasons <= {"separation", "overrun"}
-    assert all(float(r["visitor:d_measured"]) < float(r["visitor:S"]) for r in flowing)
+    assert (trace["visitor:d_measured"][flowing] < trace["visitor:S"][flowing]).all()
     # After the last frame the stale-frame rule holds it (the watchdog's overrun stop,
     # which the log names instead while it holds, may also show on a loaded machine).
-    after = [r for r in rows if int(float(r["frames"])) == 518 and float(r["time"]) > 5.0]
-    assert after
-    assert "stale_frame" in {r["stop_reason"] for r in after}
-    assert {r["stop_reason"] for r in after} <= {"stale_frame", "overrun"}
-    assert all(float(r["k"]) == 0.0 for r in rows)
+    after = (trace["frames"] == 518) & (trace["time"] > 5.0)
+    assert after.any()
+    assert "stale_frame" in set(trace["stop_reason"][after])
+    assert set(trace["stop_reason"][after]) <= {"stale_frame", "overrun"}
+    assert (trace["k"] == 0.0).all()

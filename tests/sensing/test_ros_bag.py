@@ -188,3 +188,20 @@ def test_check_reads_a_bags_joints_and_poses(tmp_path, capsys):
     assert main(["check", "robot-log", str(tmp_path / "b")]) == 0
     assert main(["check", "recording", str(tmp_path / "b")]) == 0
     assert capsys.readouterr().out.count(": ok") == 2
+
+
+def test_an_mcap_file_is_read_as_what_it_is_a_bags_or_a_run_logs(tmp_path):
+    """Both a rosbag2 bag's storage file and a live run's log segment end in .mcap: the
+    registry reads each by its Header (``run_log.is_run_log``), not by its name."""
+    from safety_systems.sensing.run_log import is_run_log
+
+    _write_bag(tmp_path / "b", StoragePlugin.MCAP, tf=False)
+    (storage,) = (tmp_path / "b").glob("*.mcap")
+    assert not is_run_log(storage)
+    rec = read_recording(storage, ["/mocap/glove", "/mocap/helmet"])
+    np.testing.assert_array_equal(rec.positions, _operator()[1])
+    not_mcap = tmp_path / "x.mcap"
+    not_mcap.write_bytes(b"not an mcap file at all")
+    assert not is_run_log(not_mcap)
+    with pytest.raises(InputError):
+        read_recording(not_mcap)

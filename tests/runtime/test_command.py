@@ -1,0 +1,159 @@
+"""``safety-systems run`` as a person or a crash meets it: what it says while it starts,
+Ctrl-C before or during the loop (k = 0, what it has written, exit 130), and a kill
+(SIGKILL) that leaves every row up to at most a second before it on the disk.
+
+Each test runs the command in a process of its own (a session of its own, as a terminal
+runs it: Ctrl-C and a kill reach the runtime, its log writer and its replay server)."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from safety_systems.sensing.run_log import read_run_log
+
+from .test_live import CSV, SLACK, _far_mapping, _host, _messages, _rtde_server
+
+WAIT = 300.0  # s: the most a wait below takes (a loaded machine); none is a figure
+
+
+def children(pid: int) -> list[int]:
+    with open(f"/proc/{pid}/task/{pid}/children") as f:
+        return [int(x) for x in f.read().split()]
+
+
+class _Run:
+    """The command in its own session, its stderr read as it comes."""
+
+    def __init__(self, tmp_path: Path, params, mocap: str, *extra, robot: str = "none"):
+        self.log = tmp_path / "log"
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "safety_systems.cli", "run", str(params), "--mocap", mocap,
+             "--robot", robot, "--mapping", str(_far_mapping(tmp_path)), "--log",
+             str(self.log), "--max-overrun", str(SLACK), *extra],
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+        self.err = b""
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        for chunk in iter(lambda: os.read(self.process.stderr.fileno(), 4096), b""):
+            self.err += chunk
+
+    def wait_for(self, condition) -> None:
+        deadline = time.monotonic() + WAIT
+        while not condition():
+            assert self.process.poll() is None, self.text()
+            assert time.monotonic() < deadline, self.text()
+            time.sleep(0.02)
+
+    def summary(self) -> dict:
+        try:
+            return json.loads((self.log / "summary.json").read_text())
+        except (OSError, ValueError):
+            return {}
+
+    def signal(self, number: int) -> None:
+        """``number`` to the command's process group, as a terminal sends Ctrl-C (its
+        helpers are in groups of their own: it ends them)."""
+        os.killpg(self.process.pid, number)
+
+    def kill_all(self) -> None:
+        """SIGKILL to the runtime and its helper processes, one after the other at once
+        (a crash of the whole machine's worth: none finishes anything)."""
+        pids = [self.process.pid] + children(self.process.pid)
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
+
+    def end(self) -> int:
+        code = self.process.wait(timeout=WAIT)
+        self._reader.join(timeout=WAIT)
+        return code
+
+    def text(self) -> str:
+        return self.err.decode(errors="replace")
+
+
+def test_a_kill_mid_run_leaves_every_row_up_to_a_second_before_it(tmp_path, exported_params):
+    """SIGKILL to the runtime, its log writer and its replay server, mid-run: the log's segment,
+    never finished, reads back every tick from the first, none missing, up to at most
+    one second (of the run's clock) before the kill; every frame likewise."""
+    run = _Run(tmp_path, exported_params, f"replay://{CSV}?duration=20", "--quiet")
+    run.wait_for(lambda: run.summary().get("ticks", 0) >= 1500)  # 3 s into the loop
+    time.sleep(0.4)
+    killed = time.monotonic()
+    run.kill_all()
+    assert run.end() == -signal.SIGKILL
+    summary = run.summary()
+    assert summary["end"] == "running"  # the last the writer said: it was killed too
+    segment = read_run_log(run.log / "log-0000.mcap")
+    assert not segment.finished
+    ticks = len(segment.ticks)
+    np.testing.assert_array_equal(segment.tick_sequence, np.arange(ticks))
+    np.testing.assert_array_equal(segment.frame_sequence, np.arange(len(segment.frames)))
+    kill_time = killed - summary["clock_start"]  # on the run's clock
+    assert segment.column("time")[-1] >= kill_time - 1.0
+    assert summary["ticks"] >= 1500  # the summary the writer kept current until the kill
+
+
+def test_ctrl_c_in_the_loop_commands_k_0_finishes_the_log_and_exits_130(tmp_path,
+                                                                       exported_params):
+    """Ctrl-C (SIGINT to the whole session, as a terminal sends it) while the loop runs
+    a UR over RTDE: the slider's last value is 0, the segment is finished, the summary
+    says interrupted, exit 130. And the run said what it did while it started."""
+    host = _host()
+    server = _rtde_server(host)
+    try:
+        run = _Run(tmp_path, exported_params, f"replay://{CSV}?duration=20",
+                   robot=f"ur-rtde://{host}")
+        run.wait_for(lambda: run.summary().get("ticks", 0) >= 1000)
+        run.signal(signal.SIGINT)
+        code = run.end()
+    finally:
+        messages = _messages(server)
+    assert code == 130, run.text()
+    sliders = [m["values"]["speed_slider_fraction"] for m in messages
+               if m.get("values", {}).get("speed_slider_mask") == 1]
+    assert max(sliders) > 0.0 and sliders[-1] == 0.0
+    summary = run.summary()
+    assert summary["end"] == "interrupted" and summary["log"]["writer"] == "closed"
+    segment = read_run_log(run.log / "log-0000.mcap")
+    assert segment.finished and len(segment.ticks) == summary["ticks"]
+    text = run.text()
+    for said in ("run: loading...", "run: reading the parameters", "run: loading the compiled "
+                 "safety loop", "run: connecting...", "run: ready after",
+                 "waiting for the first frame", "run: first frame after"):
+        assert said in text, said
+    assert "Traceback" not in text  # Ctrl-C reaches the runtime only (not its helpers)
+    assert set(summary["startup"]) >= {"loading_modules", "parameters", "safety_loop",
+                                        "connecting"}
+
+
+def test_ctrl_c_while_connecting_writes_what_it_has_and_exits_130(tmp_path, exported_params):
+    """Ctrl-C before the loop (here while the replay server starts): nothing runs, the
+    summary says when it was interrupted, no segment was begun, exit 130."""
+    run = _Run(tmp_path, exported_params, f"replay://{CSV}?duration=20")
+    run.wait_for(lambda: b"run: connecting..." in run.err)
+    run.signal(signal.SIGINT)
+    assert run.end() == 130, run.text()
+    summary = run.summary()
+    assert summary["end"] == "interrupted while connecting" and summary["ticks"] == 0
+    assert not list(run.log.glob("log-*.mcap"))
+    assert "safety-systems: interrupted while connecting" in run.text()
+    assert "Traceback" not in run.text()
+
+
+def test_a_folder_with_an_earlier_runs_log_is_refused(tmp_path, exported_params):
+    (tmp_path / "log").mkdir()
+    (tmp_path / "log" / "log-0000.mcap").write_bytes(b"an earlier run")
+    run = _Run(tmp_path, exported_params, f"replay://{CSV}?duration=1", "--quiet")
+    assert run.end() == 2
+    lines = run.text().strip().splitlines()
+    assert len(lines) == 1 and "--log" in lines[0] and "log-0000.mcap" in lines[0]
+    assert (tmp_path / "log" / "log-0000.mcap").read_bytes() == b"an earlier run"
