@@ -152,7 +152,8 @@ class UrRtdeRobot:
                                   ) from None
         self._stamp, self._seen = -math.inf, self._now()
         self.sent = math.nan
-        self.lost = False
+        self.lost = False  # the robot's state no longer comes (RobotLost was raised)
+        self._io_broken = False  # the IO interface refused a command: nothing more is sent
         self._window = float(stop_window)
         self._sent_log = collections.deque()  # (time, k) of the commands, see rate_bound
 
@@ -175,13 +176,16 @@ class UrRtdeRobot:
         return q, stamp
 
     def command(self, k: float) -> None:
+        """k to the speed slider. Sent while the IO interface takes it, whether or not
+        the robot's state still comes: a receive side that went quiet (RobotLost) is not
+        a reason to leave the slider where it was, so the loop's k = 0 still goes out."""
         self.sent = k
         self._sent_log.append((self._now(), float(k)))
-        if not self.lost:
+        if not self._io_broken:
             try:
                 self._io.setSpeedSlider(float(k))
             except RuntimeError:
-                self.lost = True
+                self._io_broken = self.lost = True
 
     def rate_bound(self) -> float:
         """The largest k sent within the full-speed stopping time (the module
@@ -192,11 +196,11 @@ class UrRtdeRobot:
         pass
 
     def protective_stop(self, on: bool) -> None:
-        if self._register is not None and not self.lost:
+        if self._register is not None and not self._io_broken:
             try:
                 self._io.setInputIntRegister(self._register, 1 if on else 0)
             except RuntimeError:
-                self.lost = True
+                self._io_broken = self.lost = True
 
     def close(self) -> None:
         """Slider to 0 (never left where it was), then disconnect."""

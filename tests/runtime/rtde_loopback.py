@@ -71,12 +71,19 @@ class Server:
             conn, _ = self.listener.accept()
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             self.connections.append(conn)
+            say({"accepted": len(self.connections)})
             threading.Thread(target=self.handle, args=(conn,), daemon=True).start()
 
     def send(self, conn, kind: str, payload: bytes) -> None:
         conn.sendall(struct.pack(">HB", len(payload) + 3, ord(kind)) + payload)
 
     def handle(self, conn: socket.socket) -> None:
+        try:
+            self.receive(conn)
+        finally:  # every package it sent was printed before this
+            say({"closed": True})
+
+    def receive(self, conn: socket.socket) -> None:
         buffer = b""
         while True:
             try:

@@ -550,8 +550,17 @@ def _rtde_server(host: str, *extra) -> tuple:
     return server, lines, reader
 
 
-def _messages(server) -> list[dict]:
+def _messages(server, wait: float = 30.0) -> list[dict]:
+    """What the loopback server printed: once every connection it accepted has closed
+    (every package the runtime sent is then printed; at most ``wait`` s), it is ended."""
     process, lines, reader = server
+    deadline = time.monotonic() + wait
+    while time.monotonic() < deadline:
+        said = [json.loads(line) for line in list(lines) if line.strip()]
+        accepted = max((m["accepted"] for m in said if "accepted" in m), default=0)
+        if sum("closed" in m for m in said) >= accepted:
+            break
+        time.sleep(0.05)
     process.terminate()
     process.wait(timeout=10)
     reader.join(timeout=10)

@@ -135,9 +135,10 @@ def test_run_with_robot_none_follows_the_certified_log(logged, tmp_path):
                  "--quiet"])
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert code == 0 and summary["certified"] is True and summary["end"] == "duration"
-    with open(tmp_path / "run" / "trace.csv") as f:
-        speeds = [float(r["robot_speed"]) for r in csv.DictReader(f) if r["robot_speed"]]
-    assert max(speeds) > 0.1  # m/s: the model robot ran the log (the arm starts in a move)
+    from safety_systems.sensing.run_log import read_run_log
+
+    speeds = read_run_log(tmp_path / "run" / "log-0000.mcap").column("robot_speed")
+    assert np.nanmax(speeds) > 0.1  # m/s: the model robot ran the log (the arm starts in a move)
     # The model robot of the certified parameters is the log's path: at the log's first
     # sample before it moves, then along the log as its path rate takes it.
     certified = load_certified_params(params)

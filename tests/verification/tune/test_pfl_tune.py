@@ -4,9 +4,10 @@ export, check and the certificate carry them (issue 36)."""
 import json
 from pathlib import Path
 
+import pytest
 import yaml
 
-from tests.verification.conftest import MODELS, SMALL_SPACE, TUNE_BLOCK, run_cli
+from tests.verification.conftest import MODELS, SMALL_SPACE, SPACE, TUNE_BLOCK, run_cli
 
 # Power and force limiting that a proof can reach (issue 46): a robot force limit low
 # enough that its contact detection keeps a lasting contact within the quasi-static
@@ -61,3 +62,18 @@ def test_a_power_and_force_limiting_configuration_is_tuned_exported_and_checked(
                                        'controller.safety.mode: "ssm"'))
     code, _, err = run_cli(["check", params])
     assert code != 0
+
+
+@pytest.mark.slow
+def test_the_shipped_pfl_configuration_is_proved_over_the_default_space(tmp_path):
+    """models/configs/pfl.yaml (issue 46: the fastest ssm_pfl candidate of the PFL tune)
+    proves what it claims, both of its mode's properties, over the default space."""
+    config = MODELS / "configs" / "pfl.yaml"
+    assert yaml.safe_load(config.read_text())["safety"]["mode"] == "ssm_pfl"
+    code, _, err = run_cli(["verify", config, "--space", SPACE, "--out", tmp_path / "v",
+                            "--workers", "1", "--quiet"])
+    report = json.loads((tmp_path / "v" / "report.json").read_text())
+    assert report["safety_mode"] == "ssm_pfl"
+    verdicts = {name: p["verdict"] for name, p in report["properties"].items()}
+    assert len(verdicts) == 2 and set(verdicts.values()) == {"proved"}, (code, err, verdicts)
+    assert report["verdict"] == "proved" and code == 0, (code, err)
