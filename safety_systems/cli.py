@@ -436,17 +436,14 @@ def _explain(args: argparse.Namespace) -> int:
         raise InputError("--robot", args.robot, "omitted with --space (the space brings its "
                          "robot)")
     config, certified = _explained(args.config)
-    points, peak, noise = [list(DEFAULT_POINTS)], None, None
+    points, names, peak, noise = [list(DEFAULT_POINTS)], ["operator"], None, None
     robot = RobotConfig()
     if args.space is not None:
-        from verification.spaces.space import load_space, tracked_bodies
+        from verification.spaces.space import explained_operators, load_space
 
         space = load_space(args.space)
         robot = space.robot
-        if space.recording is None:
-            p = space.parameters
-            points = [[q for _, q in tracked_bodies(space, p.heads.max >= 1.0)]]
-            peak, noise = p.peak_speed.max, space.noise_bound_sigmas * p.noise_std.max
+        points, names, peak, noise = explained_operators(space)
     elif args.robot is not None:
         is_urdf = args.robot.lower().endswith(".urdf")
         robot = RobotConfig(model="" if is_urdf else args.robot,
@@ -464,7 +461,7 @@ def _explain(args: argparse.Namespace) -> int:
     try:
         validate_robot(robot)
         validate_robot_controller(robot, config, "config")
-        cell = resolve(config, robot, points=points)
+        cell = resolve(config, robot, points=points, names=names)
     except InputError as e:
         raise e.in_file(args.config) if e.field.startswith("config") else e from None
     data = explanation(cell, tuple(args.rates), tuple(args.distances), peak, noise)

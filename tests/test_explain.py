@@ -41,7 +41,7 @@ def _row(text: str, segment: str) -> list[str]:
 def test_explain_prints_each_segments_s_and_what_dominates(path):
     code, out, err = _cli("explain", path)
     assert code == 0, err
-    cell = resolve(load_controller_config(path))
+    cell = resolve(load_controller_config(path), names=["operator"])
     figures = {(f.segment, f.rate): f for f in segment_figures(cell)}
     for segment in cell.segment_names:
         row = _row(out, segment)
@@ -59,7 +59,7 @@ def test_explains_s_at_a_rate_is_the_monitors_function_of_its_terms(tmp_path):
     assert code == 0, err
     data = json.loads((tmp_path / "e.json").read_text())
     cell = resolve(load_controller_config(TUNED))
-    hand = next(r for r in data["segments"] if r["segment"] == "0/hand_right")
+    hand = next(r for r in data["segments"] if r["segment"] == "operator/hand_right")
     g = int(level_at_or_above(0.4, 64))
     assert hand["level"] == g == 26
     expected = level_distances(cell, 2.0, 0.4 * cell.speed_bound)[g]

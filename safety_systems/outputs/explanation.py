@@ -167,10 +167,12 @@ def premises(cell: ResolvedCell, peak_speed: float | None = None,
         rows.append(("trusted", (f"hand speed: S takes v_H = {f.iso_human_speed:g} m/s "
                                 f"(safety.iso_human_speed; {f.iso_reduced_human_speed:g} m/s "
                                 "where S exceeds 0.5 m); no body point moves faster than "
-                                f"{bound:g} m/s ({where})")))
+                                f"{bound:.3g} m/s ({where})"
+                                + (": FASTER THAN THE v_H S TAKES"
+                                   if bound > f.iso_human_speed else ""))))
     else:
         rows.append(("trusted", f"hand speed: S takes the tracker's directed estimate "
-                                f"({mode}); the table takes its bound {bound:g} m/s ({where})"
+                                f"({mode}); the table takes its bound {bound:.3g} m/s ({where})"
                                 + (f", at least {f.iso_human_speed:g} m/s"
                                    if mode == HUMAN_SPEED_MODES[2] else "")))
     noise = c.sensor.noise_std if noise_bound is None else noise_bound
@@ -227,37 +229,54 @@ def _m(x: float) -> str:
     return f"{x:.3f}" if math.isfinite(x) else "-"
 
 
-def explanation_text(data: dict) -> str:
-    """The explanation (:func:`explanation`) as tables a person reads."""
-    rates = data["rates"]
-    lines = [(f"robot {data['robot']}; S {data['stopping'].replace('_', ' ')}; stopping data: "
-             f"{data['braking_data']}; V_R {data['speed_bound']:.3f} m/s"), "",
-             "S (m) of each segment at path rate k and the term that dominates it ("
-             + ", ".join(f"{w}: {t}" for t, w in SHORT.items()) + "); envelope (m): how far "
-             "beyond its axis the monitor takes the segment while seen, the least where it "
-             "is bounded from other points (the posture widens it)"]
-    head = (f"{'segment':<18}{'envelope':>9}  {'bounded':<28}"
-            + "".join(f"{'k = ' + format(k, 'g'):>16}" for k in rates))
-    lines.append(head)
-    rows = data["segments"]
-    for i in range(0, len(rows), len(rates)):
-        group = rows[i:i + len(rates)]
-        cells = "".join(f"{_m(r['S']) + ' ' + SHORT[r['dominant']]:>16}" for r in group)
-        lines.append(f"{group[0]['segment']:<18}{_m(group[0]['envelope']):>9}  "
-                     f"{group[0]['envelope_from']:<28}{cells}")
+def explanation_heading(data: dict) -> str:
+    """One line: the robot, how S follows the speed, the stopping data's source, V_R."""
+    return (f"robot {data['robot']}; S {data['stopping'].replace('_', ' ')}; stopping data: "
+            f"{data['braking_data']}; V_R {data['speed_bound']:.3f} m/s")
+
+
+def explanation_tables(data: dict) -> list[tuple[str, list[str], list[list[str]]]]:
+    """The explanation (:func:`explanation`) as (caption, head, rows) of text: each
+    segment's S and dominating term at each rate, S's terms at each rate, the override's
+    command at each rate and clearance, and the premises. ``explain`` prints them and
+    the assessor's report.html shows them."""
+    rates, rows = data["rates"], data["segments"]
+    by_segment = [rows[i:i + len(rates)] for i in range(0, len(rows), len(rates))]
     in_s = TERMS[:3] + ("C",) + TERMS[4:]
-    lines += ["", ("terms of S (m) at each k (the same for every segment; the envelope is "
-              "taken off the clearance d, not added to S)"),
-              f"{'k':>5}{'level':>7}{'v_H':>7}{'v_R':>7}" + "".join(f"{t:>20}" for t in in_s)
-              + f"{'S':>8}"]
-    for r in rows[:len(rates)]:
-        lines.append(f"{r['rate']:>5g}{r['level']:>7d}{r['v_human']:>7.2f}{r['v_robot']:>7.3f}"
-                     + "".join(f"{_m(r['terms'][t]):>20}" for t in in_s) + f"{_m(r['S']):>8}")
-    lines += ["", ("path rate the override commands with a segment at clearance d (m), the "
-              "robot at rate k"),
-              f"{'k':>5}" + "".join(f"{'d = ' + format(d, 'g'):>10}" for d in data["distances"])]
-    for k, row in zip(rates, data["commands"]):
-        lines.append(f"{k:>5g}" + "".join(f"{x:>10.3f}" for x in row))
-    lines += ["", "premises"]
-    lines += [f"  {p['basis']}: {p['statement']}" for p in data["premises"]]
+    return [
+        ("S (m) of each segment at path rate k and the term that dominates it ("
+         + ", ".join(f"{w}: {t}" for t, w in SHORT.items()) + "); envelope (m): how far "
+         "beyond its axis the monitor takes the segment while seen, the least where it "
+         "is bounded from other points (the posture widens it)",
+         ["segment", "envelope", "bounded"] + [f"k = {k:g}" for k in rates],
+         [[g[0]["segment"], _m(g[0]["envelope"]), g[0]["envelope_from"]]
+          + [f"{_m(r['S'])} {SHORT[r['dominant']]}" for r in g] for g in by_segment]),
+        (("terms of S (m) at each k (the same for every segment; the envelope is taken off "
+         "the clearance d, not added to S)"),
+         ["k", "level", "v_H", "v_R", *in_s, "S"],
+         [[f"{r['rate']:g}", str(r["level"]), f"{r['v_human']:.2f}", f"{r['v_robot']:.3f}"]
+          + [_m(r["terms"][t]) for t in in_s] + [_m(r["S"])] for r in by_segment[0]]),
+        (("path rate the override commands with a segment at clearance d (m), the robot at "
+         "rate k"),
+         ["k"] + [f"d = {d:g}" for d in data["distances"]],
+         [[f"{k:g}"] + [f"{x:.3f}" for x in row] for k, row in zip(rates, data["commands"])]),
+        ("premises", ["basis", "statement"],
+         [[p["basis"], p["statement"]] for p in data["premises"]]),
+    ]
+
+
+def explanation_text(data: dict) -> str:
+    """The explanation (:func:`explanation`) as tables a person reads: the first column
+    left-aligned, the others right-aligned (the premises left-aligned, one per line)."""
+    lines = [explanation_heading(data)]
+    for caption, head, rows in explanation_tables(data):
+        lines += ["", caption]
+        if caption == "premises":
+            lines += [f"  {basis}: {statement}" for basis, statement in rows]
+            continue
+        widths = [max(len(str(x)) for x in column) for column in zip(head, *rows)]
+        for row in [head, *rows]:
+            lines.append("  ".join(x.ljust(w) if j == 0 or (j == 2 and head[2] == "bounded")
+                                   else x.rjust(w) for j, (x, w) in enumerate(zip(row, widths)))
+                         .rstrip())
     return "\n".join(lines) + "\n"
