@@ -4,8 +4,8 @@ dominates, what the override commands at a few distances, and the premises each 
 rests on.
 
 S is computed by the monitor's own compiled function (``formulas.body_protective_distance``,
-which ``separation.segment_levels`` and ``separation.pair_separation`` call) with the
-resolved terms: T_s + T_r and B + C + Z_r of each speed level (``safety.stopping:
+which ``separation.segment_levels`` and ``separation.pair_separation`` call, here through
+``formulas.monitor_protective_distances``) with the resolved terms: T_s + T_r and B + C + Z_r of each speed level (``safety.stopping:
 by_speed``) or of full speed, and the command by the override's
 (``formulas.override_decision``). The speeds are the worst the premises allow: the human
 speed bound (ISO 13855's 2.0 m/s hand speed, or a space's peak speed) and the robot's
@@ -24,9 +24,9 @@ from safety_systems.sensing.tracks import TRACK_TRACKING
 from safety_systems.ssm.formulas import (
     HUMAN_SPEED_MODES,
     SPEED_LEVELS,
-    body_protective_distance,
     human_speed,
     level_at_or_above,
+    monitor_protective_distances,
     override_decision,
 )
 
@@ -42,24 +42,27 @@ def level_distances(cell: ResolvedCell, v_human, v_robot, std=0.0) -> np.ndarray
     """S (m) at every speed level g = 0..SPEED_LEVELS, shape (G + 1,) + the speeds'
     shape, of a segment whose pair with a robot capsule has the directed human speed
     ``v_human`` and robot speed ``v_robot`` (m/s) and whose tracks' position std is
-    ``std`` (m; Z_d = base + sigmas std), by ``formulas.body_protective_distance`` with the
-    cell's terms: each level's T_s + T_r and B + C + Z_r under ``by_speed``, else the
-    monitor's full-speed terms at every level (the SeparationMonitor's
-    ``level_protective_distances`` and ``protective_distances``)."""
-    mode, t_sr, t_r, const, iso, iso_reduced, _ = cell.monitor_terms
+    ``std`` (m; Z_d = base + sigmas std), by the monitor's compiled
+    ``formulas.body_protective_distance`` (through ``monitor_protective_distances``) with
+    the cell's stops: each level's T_s and B under ``by_speed``, else the full-speed ones
+    at every level (what the SeparationMonitor's ``level_protective_distances`` and
+    ``protective_distances`` hold; T_s + T_r and B + C + Z_r summed in the order
+    ``configuration.level_terms`` and ``monitor_terms`` sum them)."""
+    f = cell.config.safety
     v_h, v_r, std = np.broadcast_arrays(*(np.asarray(x, dtype=float)
                                           for x in (v_human, v_robot, std)))
     base, sigmas = cell.z_d_terms
-    by_speed = cell.config.safety.stopping == "by_speed"
-    out = np.empty((SPEED_LEVELS + 1,) + v_h.shape)
-    for g in range(SPEED_LEVELS + 1):
-        level_t_sr = cell.level_terms[0][g] if by_speed else t_sr
-        level_const = cell.level_terms[1][g] if by_speed else const
-        for i in np.ndindex(v_h.shape):
-            out[(g,) + i] = body_protective_distance(
-                v_h[i], v_r[i], base + sigmas * std[i], mode, level_t_sr, t_r, level_const,
-                iso, iso_reduced)
-    return out
+
+    def at(t_s: float, b: float) -> np.ndarray:
+        return monitor_protective_distances(
+            v_h, v_r, mode=f.human_speed, reaction_time=f.reaction_time, stopping_time=t_s,
+            stopping_distance=b, intrusion_distance=f.intrusion_distance,
+            human_uncertainty=base + sigmas * std, robot_uncertainty=f.robot_uncertainty,
+            iso_speed=f.iso_human_speed, iso_reduced_speed=f.iso_reduced_human_speed)
+
+    if f.stopping != "by_speed":
+        return np.broadcast_to(at(*cell.stopping), (SPEED_LEVELS + 1,) + v_h.shape).copy()
+    return np.stack([at(t_s, b) for t_s, b in zip(*cell.level_stops)])
 
 
 def human_speed_bound(cell: ResolvedCell, peak_speed: float | None = None) -> float:
