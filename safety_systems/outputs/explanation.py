@@ -65,7 +65,7 @@ def level_distances(cell: ResolvedCell, v_human, v_robot, std=0.0) -> np.ndarray
     return np.stack([at(t_s, b) for t_s, b in zip(*cell.level_stops)])
 
 
-def human_speed_bound(cell: ResolvedCell, peak_speed: float | None = None) -> float:
+def human_speed_bound(peak_speed: float | None = None) -> float:
     """The directed human speed the table takes (m/s): the space's peak speed, else ISO
     13855's hand speed; ``iso`` mode replaces it by its constant in S (``human_speed``)."""
     return ISO_HAND_SPEED if peak_speed is None else float(peak_speed)
@@ -109,14 +109,16 @@ def segment_figures(cell: ResolvedCell, rates=RATES, peak_speed: float | None = 
     f = cell.config.safety
     widths, _ = envelope_widths(cell)
     mode = cell.monitor_terms[0]
-    bound = human_speed_bound(cell, peak_speed)
+    bound = human_speed_bound(peak_speed)
     out = []
     for m, name in enumerate(cell.segment_names):
         for k in rates:
             g = int(level_at_or_above(k, SPEED_LEVELS))
             v_r = k * cell.speed_bound
             s = float(level_distances(cell, bound, v_r)[g])
-            b = cell.level_stops[1][g] if f.stopping == "by_speed" else cell.stopping[1]
+            by_speed = f.stopping == "by_speed"
+            t_s = cell.level_stops[0][g] if by_speed else cell.stopping[0]
+            b = cell.level_stops[1][g] if by_speed else cell.stopping[1]
             robot = v_r * f.reaction_time
             z = f.human_uncertainty + f.robot_uncertainty
             human = s - robot - b - f.intrusion_distance - z  # the 1.6 m/s rule included
@@ -124,9 +126,10 @@ def segment_figures(cell: ResolvedCell, rates=RATES, peak_speed: float | None = 
                      TERMS[3]: f.intrusion_distance + float(widths[m]), TERMS[4]: z,
                      "C": f.intrusion_distance}
             dominant = max(TERMS, key=lambda t: terms[t])
-            out.append(SegmentFigure(name, float(k), g, float(human_speed(bound, mode,
-                                                                          f.iso_human_speed)),
-                                     float(v_r), terms, s, dominant))
+            t_sr = t_s + f.reaction_time  # v_H as S took it (iso: 1.6 m/s where S > 0.5 m)
+            v_h = human / t_sr if t_sr > 0.0 else human_speed(bound, mode, f.iso_human_speed)
+            out.append(SegmentFigure(name, float(k), g, float(v_h), float(v_r), terms, s,
+                                     dominant))
     return out
 
 
@@ -137,7 +140,7 @@ def commands(cell: ResolvedCell, rates=RATES, distances=DISTANCES,
     speed bounds (the same for every segment: its power and force limiting cap, under
     ssm_pfl, is the least of the segments')."""
     f = cell.config.safety
-    bound = human_speed_bound(cell, peak_speed)
+    bound = human_speed_bound(peak_speed)
     caps = cell.pfl.caps if f.mode == "ssm_pfl" else None
     out = np.empty((len(rates), len(distances)))
     for a, k in enumerate(rates):
@@ -162,7 +165,7 @@ def premises(cell: ResolvedCell, peak_speed: float | None = None,
     rows = [("trusted", f"stopping data ({source}): T_s = {t_s:g} s and B = {b:g} m from full "
                         "speed" + (", and the table's rows below full speed for the levels"
                                    if f.stopping == "by_speed" else " at every speed"))]
-    bound = human_speed_bound(cell, peak_speed)
+    bound = human_speed_bound(peak_speed)
     where = ("the space's peak speed" if peak_speed is not None
              else "ISO 13855's hand and arm speed")
     mode = f.human_speed
