@@ -390,6 +390,87 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _explained(path: str):
+    """(controller configuration, (certified robot, params.yaml's folder) or None) of a
+    configuration file or a params.yaml, for ``explain``: a params.yaml is checked against
+    its certificate, and explained with a warning when it fails the check (what a file
+    means does not need it certified); an unreadable one is refused."""
+    from pathlib import Path
+
+    from safety_systems.config.params_file import looks_like_params
+    from safety_systems.config.scenario import load_controller_config
+
+    if not looks_like_params(path):
+        return load_controller_config(path), None
+    from verification.deploy.certificate import EXIT_UNREADABLE, check
+
+    result = check(path)
+    if result.params is None:
+        raise Refused(EXIT_UNREADABLE, result.line)
+    if not result.certified:
+        _warn(f"NOT CERTIFIED (explained all the same): {result.line}")
+    return result.params.controller, (result.params.robot, Path(path).parent)
+
+
+def _explain(args: argparse.Namespace) -> int:
+    """The resolved terms of a configuration or params.yaml on its robot: S of every
+    segment at a few path rates, the dominating term, the override's command at a few
+    clearances, and the premises (``safety_systems.outputs.explanation``)."""
+    from safety_systems.config.params_file import robot_config
+    from safety_systems.config.resolved_cell import DEFAULT_POINTS, resolve
+    from safety_systems.config.scenario import (
+        RobotConfig,
+        robot_model_of,
+        validate_robot,
+        validate_robot_controller,
+    )
+    from safety_systems.files.output_files import write_json
+    from safety_systems.outputs.explanation import explanation, explanation_text
+
+    for name, values, low, high in (("--rates", args.rates, 0.0, 1.0),
+                                    ("--distances", args.distances, 0.0, 100.0)):
+        for x in values:
+            if not (low < x <= high):
+                raise InputError(name, x, f"numbers {low:g} < x <= {high:g}")
+    if args.robot is not None and args.space is not None:
+        raise InputError("--robot", args.robot, "omitted with --space (the space brings its "
+                         "robot)")
+    config, certified = _explained(args.config)
+    points, names, peak, noise = [list(DEFAULT_POINTS)], ["operator"], None, None
+    robot = RobotConfig()
+    if args.space is not None:
+        from verification.spaces.space import explained_operators, load_space
+
+        space = load_space(args.space)
+        robot = space.robot
+        points, names, peak, noise = explained_operators(space)
+    elif args.robot is not None:
+        is_urdf = args.robot.lower().endswith(".urdf")
+        robot = RobotConfig(model="" if is_urdf else args.robot,
+                            urdf=args.robot if is_urdf else "")
+    if certified is not None:
+        if args.robot is not None:
+            raise InputError("--robot", args.robot, "omitted with a params.yaml (it brings "
+                             "its robot)")
+        robot = robot_config(certified[0], robot, certified[1])
+    if args.robot is not None:
+        try:
+            robot_model_of(robot)
+        except InputError as e:
+            raise InputError("--robot", args.robot, e.allowed) from None
+    try:
+        validate_robot(robot)
+        validate_robot_controller(robot, config, "config")
+        cell = resolve(config, robot, points=points, names=names)
+    except InputError as e:
+        raise e.in_file(args.config) if e.field.startswith("config") else e from None
+    data = explanation(cell, tuple(args.rates), tuple(args.distances), peak, noise)
+    if args.json is not None:
+        write_json(args.json, data)
+    print(explanation_text(data), end="")
+    return 0
+
+
 def _loaders() -> dict:
     from safety_systems.config.scenario import (
         TaskPoints,
@@ -651,6 +732,29 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--quiet", action="store_true",
                        help="print nothing for good files (default: off)")
     check.set_defaults(run=_check)
+    expl = commands.add_parser(
+        "explain", help="what a configuration or params.yaml makes the robot do: S of every "
+                        "body segment at a few path rates, the term that dominates it, the "
+                        "override's command at a few distances and the premises each figure "
+                        "rests on (exit 0, 2 bad input)")
+    expl.add_argument("config", help="controller configuration YAML file, or a params.yaml "
+                                     "(it brings its robot; explained with a warning when "
+                                     "its certificate check fails)")
+    expl.add_argument("--robot",
+                      help="a shipped robot model (e.g. ur10e) or a URDF file, on its "
+                           "default path (default: the UR5e, or a params.yaml's robot)")
+    expl.add_argument("--space",
+                      help="scenario space YAML file: its robot, its tracked points, its "
+                           "peak speed and noise bound (default: none: two gloves, ISO "
+                           "13855's 2.0 m/s)")
+    expl.add_argument("--rates", type=float, nargs="+", default=[1.0, 0.6, 0.4, 0.2],
+                      help="path rates k shown, 0 < k <= 1 (default: %(default)s)")
+    expl.add_argument("--distances", type=float, nargs="+", default=[0.5, 1.0, 1.5, 2.0, 3.0],
+                      help="segment clearances d in m at which the override's command is "
+                           "shown (default: %(default)s)")
+    expl.add_argument("--json", help="also write the figures to this JSON file (default: "
+                                     "none)")
+    expl.set_defaults(run=_explain)
     from safety_systems.runtime.command import add_parser
 
     add_parser(commands)

@@ -394,6 +394,14 @@ def _speed_bound(robot: RobotConfig, config: ControllerConfig) -> float:
     return _SPEED_BOUNDS[key]
 
 
+def monitor_speed_bound(robot: RobotConfig, config: ControllerConfig) -> float:
+    """V_R, m/s: a bound on the speed of any point of the monitor's capsules' axes
+    (:func:`monitor_capsules` of the robot's model) on the robot station's path at path
+    rate 1 (``cell.path_speed.path_speed_bound``); at rate sigma no such point is faster
+    than sigma V_R. Kept per robot station and capsules, as ssm_pfl's caps take it."""
+    return _speed_bound(robot, config)
+
+
 def _stop_time(config: ControllerConfig, model: RobotModel) -> float:
     """The longer of the configured T_s and the braking table's own stop from full
     speed (s): how long the robot may take to stop once its contact detection acts."""

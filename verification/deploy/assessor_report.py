@@ -19,9 +19,16 @@ from pathlib import Path
 from safety_systems.files.output_files import write_text
 from safety_systems.config.params_file import Params
 from safety_systems.files.ranges import field_limits, type_hints
+from safety_systems.config.params_file import robot_config
+from safety_systems.config.resolved_cell import resolve
 from safety_systems.config.scenario import ControllerConfig
+from safety_systems.outputs.explanation import (
+    explanation,
+    explanation_heading,
+    explanation_tables,
+)
 from verification.spaces.box import ScenarioSpace
-from verification.spaces.space import free_parameters, parameter_ranges
+from verification.spaces.space import explained_operators, free_parameters, parameter_ranges
 from verification.deploy.standard_terms import term
 
 MAX_PLOTS = 6  # counterexamples simulated for a plot; the rest are listed
@@ -208,6 +215,28 @@ def _configuration(certificate: dict, params: Params) -> str:
     return _table(["parameter", "value", "unit", "term", "standard", "meaning"], rows) + note
 
 
+def explained(params: Params, space: ScenarioSpace, folder: Path | None = None) -> dict:
+    """``safety-systems explain``'s figures of the deployed configuration on its robot
+    (files relative to ``folder``, params.yaml's) with the space's operators
+    (``outputs.explanation.explanation``)."""
+    points, names, peak, noise = explained_operators(space)
+    cell = resolve(params.controller, robot_config(params.robot, space.robot, folder),
+                   points=points, names=names)
+    return explanation(cell, peak_speed=peak, noise_bound=noise)
+
+
+def _explained(data: dict | None) -> str:
+    """What the configuration makes the robot do: ``explain``'s tables."""
+    if data is None:
+        return ""
+    out = ["<h3>What it makes the robot do</h3>",
+           (f"<p>{_e(explanation_heading(data))} (as <code>safety-systems explain "
+            "params.yaml --space</code> prints it).</p>")]
+    for caption, head, rows in explanation_tables(data):
+        out += [f"<p>{_e(caption)}</p>", _table(head, [[_e(x) for x in r] for r in rows])]
+    return "\n".join(out)
+
+
 def _mode(params) -> str:
     """The deployed configuration's ``safety.mode``."""
     return params.controller.safety.mode
@@ -301,7 +330,9 @@ def _sign_off() -> str:
 
 
 def assessor_html(certificate: dict, params: Params, space: ScenarioSpace,
-                  robustness_png: bytes | None, plots: list[bytes | None]) -> str:
+                  robustness_png: bytes | None, plots: list[bytes | None],
+                  explain: dict | None = None) -> str:
+    """The page; ``explain``: :func:`explained`'s figures (None: left out)."""
     verdict = certificate["verdict"]
     robustness = (f'<img alt="robustness of every simulation" src="{png_uri(robustness_png)}">'
                   if robustness_png else "<p>(robustness.png was not found beside the "
@@ -323,6 +354,7 @@ def assessor_html(certificate: dict, params: Params, space: ScenarioSpace,
         f"{_e(certificate['exported'])} with {_e(versions)}.</p>",
         "<h2>1. The cell</h2>", _cell(params, space, certificate),
         "<h2>2. The configuration</h2>", _configuration(certificate, params),
+        _explained(explain),
         "<h2>3. The verdict and its premises</h2>",
         f"<p>Method: {_e(certificate['method'])}. Each premise is <i>checked</i> (against "
         "the simulated model, the configuration and the space) or <i>trusted</i> (taken "
@@ -356,4 +388,5 @@ def write_assessor_report(path: Path, certificate: dict, params: Params,
     robustness = report_dir / "robustness.png"
     png = robustness.read_bytes() if robustness.is_file() else None
     write_text(path, assessor_html(certificate, params, space, png,
-                                   counterexample_plots(certificate) if plots else []))
+                                   counterexample_plots(certificate) if plots else [],
+                                   explained(params, space, path.parent)))

@@ -95,9 +95,11 @@ from verification.spaces.box import (
 from verification.spaces.recorded import (
     read_recording_block,
     recorded_scenario,
+    recorded_speed,
     recording_assumptions,
     validate_recording,
 )
+from verification.spaces.recorded import operators as recorded_operators
 
 # The postures (``posture``), each: its name, the point (or the middle of two) that leads,
 # and every body point relative to the head in the facing frame (x towards the target,
@@ -415,3 +417,23 @@ def corners(space: ScenarioSpace) -> np.ndarray:
 def describe(values: dict[str, float]) -> dict[str, float]:
     """Parameter values rounded for reports."""
     return {k: float(np.round(x, 6)) for k, x in values.items()}
+
+
+def explained_operators(space: ScenarioSpace) -> tuple[list[list[str]], list[str], float,
+                                                        float]:
+    """What ``explain`` takes of a space's operators: (each operator's tracked body
+    points, their names, the fastest any body point moves, m/s, the sensor noise per
+    axis the proofs bound it by, m). A box of approaches: one operator, tracked at
+    :func:`tracked_bodies` (a helmet where any of its points has one), its peak speed and
+    ``noise_bound_sigmas`` times its largest noise std; a recording: its mapping's
+    operators and points, its recorded speed at the largest time scale and its largest
+    noise std."""
+    if space.recording is not None:
+        block = space.recording
+        ops = recorded_operators(block)
+        p = block.parameters
+        return ([list(b.points_marked) for _, b in ops], [o for o, _ in ops],
+                recorded_speed(block) * p.time_scale.max, p.noise_std.max)
+    p = space.parameters
+    return ([[q for _, q in tracked_bodies(space, p.heads.max >= 1.0)]], ["operator"],
+            p.peak_speed.max, space.noise_bound_sigmas * p.noise_std.max)
