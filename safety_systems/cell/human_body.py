@@ -68,24 +68,25 @@ point gets a *region*, a ball certain to hold it, computed afresh at every evalu
    also be derived from the head through ``head_shoulder``. Sound: each step's ball holds
    every point the step's length (and lean limit) allows from any point of the ball
    before it (the triangle inequality; for the lean, :func:`lean_ball`).
-2. *Refinement.* Then each region is cut, one fact at a time, by the ball derived from
-   each tracked point alone (its tightest derivation from that point), and then by the
-   ball derived across one step of the tree (or shortcut) from its neighbour's region,
-   from the hands and the pelvis towards the neck base and back out (:data:`_UPWARD` and
-   its reverse): each time it becomes the smaller of the balls holding the intersection
-   of the derived ball with its ball and with its first ball, in closed form
-   (``ball_bounds.lens_ball``: the smaller ball, or the ball on their circle of
-   intersection, by the cap lemma there; the lens ball of a lens ball may stick out of
-   the balls before it, so the first ball is tried again). Sound: the true point lies in
-   every ball derived (each holds it, by induction over the rows: a refined region
-   holds its point, so the ball derived from it holds the neighbour's), so in each
-   intersection, which the lens ball holds. So a shoulder is bounded by the head, its
-   own hand and the other hand at once, an elbow by its hand and the head, a hidden
-   glove's growing ball by the helmet and the other glove. A tracked point's ball is kept
-   while its body is tracked (the allowance is the smallest of its balls; the truth's
-   known points stay exact); a hidden body's is refined. Balls that do not meet (the
-   facts contradict each other: a larger person, an estimate off by more than its
-   allowance) give the ball holding both: a broken premise never shrinks a region.
+2. *Refinement.* Then each region is cut, one tracked point at a time, by the ball
+   derived from that point alone (its tightest derivation from it, as above): each time
+   it becomes the smaller of the balls holding the intersection of the derived ball with
+   its ball and with its first ball, in closed form (``ball_bounds.lens_ball``: the
+   smaller ball, or the ball on their circle of intersection, by the cap lemma there;
+   the lens ball of a lens ball may stick out of the balls before it, so the first ball
+   is tried again). Sound: the true point lies in every derived ball (each holds it, by
+   step 1), so in each intersection, which the lens ball holds, and by induction over
+   the rows in the region. So a shoulder is bounded by the head, its own hand and the
+   other hand at once, an elbow by its hand and the head, a hidden glove's growing ball
+   by the helmet and the other glove. A tracked point's ball is kept while its body is
+   tracked (the allowance is the smallest of its balls; the truth's known points stay
+   exact); a hidden body's is refined. Balls that do not meet (the facts contradict each
+   other: a larger person, an estimate off by more than its allowance) give the ball
+   holding both: a broken premise never shrinks a region. (Cutting the regions by their
+   neighbours' too, one step of the tree at a time, as commit 5460aa3 did, moved the
+   real recordings' mean gaps by 0.3% at most, gloves alone, where leaving it out cuts
+   the cost per row to 0.70-0.76 of it (``benchmarks/bench_envelopes.py --reference
+   5460aa3``, sets short of a full suit). Not done.)
 
 A segment's envelope is its smallest candidate capsule at each frame (every candidate
 holds it; "smallest": least r^2 (2 L + 4 r / 3), the capsule's volume with its cylinder
@@ -120,10 +121,10 @@ would bound the pelvis from above (no higher than the legs' length above the flo
 soundly only while both feet are on that floor: not on a step or a ladder) and every
 point from below (nothing under the floor). A half-space cuts a ball's bounding radius
 only where it passes beyond the ball's centre (the cap lemma of ``ball_bounds``). On
-CMU's subject walking (tests/real_bodies.py, its floor the lowest toe joint) the pelvis's
-first ball from a glove or from the helmet had its centre between the floor and 0.95 m
-above it in every frame: such a floor would have cut it in none, so the cell is asked
-for none.
+CMU's subject 131 (``tests/test_cmu_envelope.py``: the floor the lowest toe joint, the
+legs' premise as tight as that person allows, the highest their hips rose above it) the
+floor and the legs would have shrunk the pelvis's first ball (1.475 m from a glove,
+0.619 m from the helmet) by 4.1 mm at most, so the cell is asked for no such premise.
 
 Every envelope carries its regions' bodies' velocities at its ends (each region's first
 ball's body), so that the monitor's speeds of a segment are those of its tracked points
@@ -197,23 +198,13 @@ LEGACY_POINTS = {"head": "head", "hand": "hand_right", "other_hand": "hand_left"
 REGION_COLUMNS = 5
 # The recipe's program rows: (segment or -1, region A, region B, static term, kind, dz),
 # run in order. Kind 3 (first, before any segment's): refine region A by the ball derived
-# from region B (a tracked point's, or a neighbour's across one step of the tree): B's
-# ball moved dz along z and grown by the term (``ball_bounds.lens_ball``). Then each
-# segment's candidates: kind 0, the ellipsoid |x - c_A| + |x - c_B| <= term + u_A + u_B (term: the tree path's
-# length); kind 1, the capsule holding the two regions (their convex hull); kind 2, the
-# cone of a lean-limited edge from A's region, the capsule from c_A to c_A + dz z of radius
-# term + u_A.
+# from region B, a tracked point's: B's ball moved dz along z and grown by the term
+# (``ball_bounds.lens_ball``). Then each segment's candidates: kind 0, the ellipsoid
+# |x - c_A| + |x - c_B| <= term + u_A + u_B (term: the tree path's length); kind 1, the
+# capsule holding the two regions (their convex hull); kind 2, the cone of a lean-limited
+# edge from A's region, the capsule from c_A to c_A + dz z of radius term + u_A.
 CANDIDATE_COLUMNS = 6
 KIND_ELLIPSOID, KIND_DIRECT, KIND_CONE, KIND_REFINE = 0, 1, 2, 3
-# The refinement's steps, after every tracked point's own balls: one step at a time from
-# the leaves towards the neck base, then back out (the same steps reversed), so that what
-# one region learnt reaches every other (a second round of the rows moved none of the
-# figures of tests/real_bodies.py's recordings).
-_UPWARD = (("hand_left", "elbow_left"), ("elbow_left", "shoulder_left"),
-           ("hand_right", "elbow_right"), ("elbow_right", "shoulder_right"),
-           ("head", "shoulder_left"), ("head", "shoulder_right"), ("pelvis", "chest"),
-           ("chest", "neck"), ("head", "neck"), ("shoulder_left", "neck"),
-           ("shoulder_right", "neck"))
 
 
 def point_index(name: str) -> int:
@@ -343,39 +334,18 @@ def _path_length(path: list[int], dims: dict, adj) -> float:
     return total
 
 
-def _step(x: int, y: int, dims: dict, adj) -> tuple[float, float]:
-    """(dz, grow) of the ball about point y derived from a ball about point x across one
-    step: an edge (moved dz along z under a lean limit, :func:`lean_ball`) or a shortcut."""
-    for z, length, lean, sign in adj[x]:
-        if z == y:
-            if lean and dims[lean] < 90.0:
-                along, grow = lean_ball(dims[length], dims[lean])
-                return sign * along, grow
-            return 0.0, dims[length]
-    for a, b, length in SHORTCUTS:
-        if {x, y} == {_P[a], _P[b]}:
-            return 0.0, dims[length]
-    raise ValueError(f"no step between {POINTS[x]} and {POINTS[y]}")
-
-
 def _refinement_rows(tracked: dict[int, int], dims: dict, adj, base: int) -> list[tuple]:
     """The program rows (kind 3) that refine an operator's regions by every tracked point
-    (see the module docstring): first each point's region by the ball derived from each
-    tracked point alone (the tightest derivation from it), then the steps of
-    :data:`_UPWARD` and the same steps back out in reverse order; none when every point
-    is tracked."""
+    (see the module docstring): each point's region (a tracked one's too, for while it is
+    hidden) by the ball derived from each other tracked point alone, its tightest
+    derivation from that point; none when every point is tracked."""
     if len(tracked) == NUM_POINTS:
         return []
     out = []
-    for t in tracked:
-        for y, (_, offset, extra) in _regions({t: tracked[t]}, dims, adj).items():
+    for t, slot in tracked.items():
+        for y, (_, offset, extra) in _regions({t: slot}, dims, adj).items():
             if y != t:
                 out.append((-1, base + y, base + t, extra, KIND_REFINE, offset[2]))
-    steps = [(_P[x], _P[y]) for x, y in _UPWARD]
-    steps += [(y, x) for x, y in reversed(steps)]
-    for x, y in steps:
-        dz, grow = _step(x, y, dims, adj)
-        out.append((-1, base + y, base + x, grow, KIND_REFINE, dz))
     return out
 
 
@@ -556,10 +526,10 @@ def _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status,
             centre[ra, x] = p[b, i, x] + regions[ra, 1 + x]
         region_std[ra] = std[b, i]
     # The refinements, in order: each region becomes the smaller of the lens balls of the
-    # ball derived across a step (from a neighbour's region, or from a tracked point) with
-    # the region's ball and with its first ball (the lens ball of a lens ball may stick out
-    # of the first: the smaller holds the point too). A tracked point's own ball is kept
-    # while its body is tracked (its allowance is the smallest; the truth stays exact).
+    # ball derived from a tracked point with the region's ball and with its first ball
+    # (the lens ball of a lens ball may stick out of the first: the smaller holds the
+    # point too). A tracked point's own ball is kept while its body is tracked (its
+    # allowance is the smallest; the truth stays exact).
     for c in range(candidates.shape[0]):
         if candidates[c, 4] != KIND_REFINE:
             continue
@@ -577,10 +547,13 @@ def _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status,
         first = regions[t, 4] + allowance
         if status[b, i] == hidden:
             first += hidden_ball_radius(unseen[b, i], occlusion_speed)
-        f0, f1, f2, q = lens_ball(p[b, i, 0] + regions[t, 1], p[b, i, 1] + regions[t, 2],
-                                  p[b, i, 2] + regions[t, 3], first, s0, s1, s2, u)
-        if q < r:
-            c0, c1, c2, r = f0, f1, f2, q
+        f0, f1, f2 = (p[b, i, 0] + regions[t, 1], p[b, i, 1] + regions[t, 2],
+                      p[b, i, 2] + regions[t, 3])
+        if not (grow[t] == first and centre[t, 0] == f0 and centre[t, 1] == f1
+                and centre[t, 2] == f2):  # (refined before: try the first ball too)
+            f0, f1, f2, q = lens_ball(f0, f1, f2, first, s0, s1, s2, u)
+            if q < r:
+                c0, c1, c2, r = f0, f1, f2, q
         if not (r == grow[t] and c0 == centre[t, 0] and c1 == centre[t, 1]
                 and c2 == centre[t, 2]):
             region_std[t] = max(region_std[t], region_std[s])
