@@ -52,38 +52,84 @@ the neck base lies at most ``neck_lean_deg`` (60) from straight below the head c
 (head tilt and trunk lean together), and the cell's z axis points up.
 
 **Envelopes.** The monitor sees some points (those tracked: a glove, a head, an elbow
-marker, a suit's bones) and must bound every segment. Each point gets a *region*, a ball
-certain to hold it: a tracked point's is its estimate grown by the tracking allowance
-(``tracking_allowance``, which the proof checks covers the tracker's error) and, while
-hidden, by ``occlusion_speed`` times the time unseen; an untracked point's is derived
-from a tracked one along the tree (:func:`envelope_recipe`): one edge of length l moves
-a region's centre by nothing and grows its radius by l, or, under a lean limit of angle
-a about the vertical, moves the centre l cos(a) along it and grows the radius by
-l sin(a) (the smallest ball about the axis holding every point within l of the edge's
-start and a of the vertical, for a >= 45 deg; below 45 deg the centre moves
-l / (2 cos(a)) and the radius grows as much: :func:`lean_ball`);
-the shoulders can also be derived from the head through ``head_shoulder``. The tightest
-derivation is kept.
+marker, a suit's bones) and must bound every segment from all of them together. Each
+point gets a *region*, a ball certain to hold it, computed afresh at every evaluation:
 
-A segment on the tree path between two points A and B (regions of centre c and radius
-u, path length L) lies in the ellipsoid {x : |x - c_A| + |x - c_B| <= L + u_A + u_B}:
-every point x of the path is reached from the true A and the true B along the path, so
-|x - A| + |x - B| <= L, and the true points are within u of the centres. That is why an
-elbow away from the line between hand and shoulder is covered: the ellipsoid's width
-is what the segment lengths allow, not the line. Its semi-axes are a = (L + u_A + u_B) /
-2 along the foci and b = sqrt(a^2 - c^2) across (c half the foci's distance); it lies in
-the capsule of radius b about the foci's axis, of half length a - b about their midpoint
-(a point at t along the axis and rho from it with t^2 / a^2 + rho^2 / b^2 <= 1 has
-(|t| - a + b)^2 + rho^2 <= b^2 when |t| > a - b, as |t| <= a). A segment with both points
-tracked is the capsule between their estimates, grown by the larger uncertainty. The
-segment's envelope is its smallest candidate capsule at each frame (every candidate
-holds it) grown by the segment's radius. Foci farther apart than L + u_A + u_B (a posture
-the dimensions do not allow: a larger person, a marker that is not where the mapping says)
-give the capsule between the foci.
+1. *First ball.* A tracked point's is its estimate grown by the tracking allowance
+   (``tracking_allowance``, which the proof checks covers the tracker's error) and, while
+   hidden, by ``occlusion_speed`` times the time unseen. An untracked point's is derived
+   from one tracked point along the tree, the tightest such derivation
+   (:func:`envelope_recipe`, Dijkstra on the radius): one edge of length l moves a
+   region's centre by nothing and grows its radius by l, or, under a lean limit of angle
+   a about the vertical, moves the centre l cos(a) along it and grows the radius by
+   l sin(a) (the smallest ball about the axis holding every point within l of the edge's
+   start and a of the vertical, for a >= 45 deg; below 45 deg the centre moves
+   l / (2 cos(a)) and the radius grows as much: :func:`lean_ball`); the shoulders can
+   also be derived from the head through ``head_shoulder``. Sound: each step's ball holds
+   every point the step's length (and lean limit) allows from any point of the ball
+   before it (the triangle inequality; for the lean, :func:`lean_ball`).
+2. *Refinement.* Then each region is cut, one tracked point at a time, by the ball
+   derived from that point alone (its tightest derivation from it, as above): each time
+   it becomes the smaller of the balls holding the intersection of the derived ball with
+   its ball and with its first ball, in closed form (``ball_bounds.lens_ball``: the
+   smaller ball, or the ball on their circle of intersection, by the cap lemma there;
+   the lens ball of a lens ball may stick out of the balls before it, so the first ball
+   is tried again). Sound: the true point lies in every derived ball (each holds it, by
+   step 1), so in each intersection, which the lens ball holds, and by induction over
+   the rows in the region. So a shoulder is bounded by the head, its own hand and the
+   other hand at once, an elbow by its hand and the head, a hidden glove's growing ball
+   by the helmet and the other glove. A tracked point's ball is kept while its body is
+   tracked (the allowance is the smallest of its balls; the truth's known points stay
+   exact); a hidden body's is refined. Balls that do not meet (the facts contradict each
+   other: a larger person, an estimate off by more than its allowance) give the ball
+   holding both: a broken premise never shrinks a region. (Cutting the regions by their
+   neighbours' too, one step of the tree at a time, as commit 5460aa3 did, moved the
+   real recordings' mean gaps by 0.3% at most, gloves alone, where leaving it out cuts
+   the cost per row to 0.70-0.76 of it (``benchmarks/bench_envelopes.py --reference
+   5460aa3``, sets short of a full suit). Not done.)
 
-Every envelope carries its foci's velocities at its ends (the nearer focus' at each end),
-so that the monitor's speeds of a segment are those of its tracked points
-(``robot_geometry.segments_pair``).
+A segment's envelope is its smallest candidate capsule at each frame (every candidate
+holds it; "smallest": least r^2 (2 L + 4 r / 3), the capsule's volume with its cylinder
+weighed twice), grown by the segment's radius. The candidates, each sound:
+
+- *the hull* of its two points' regions: the segment between the true points lies in the
+  convex hull of the two balls (each end in its ball), which lies in the capsule of the
+  larger radius U between the centres, the smaller ball's end (radius u) moved up to
+  U - u towards the other centre (a ball of radius u lies in one of radius U about any
+  centre within U - u of its own: :func:`hull_capsule`); with both points tracked, the
+  capsule between their estimates, the only candidate;
+- *the ellipsoid* of two points A and B whose tree path holds the segment, each the
+  segment's own point or a tracked point with no tracked point inside the path (regions
+  of centre c and radius u, path length L): {x : |x - c_A| + |x - c_B| <= L + u_A + u_B}:
+  every point x of the path is reached from the true A and the true B along the path, so
+  |x - A| + |x - B| <= L, and the true points are within u of the centres. That is why an
+  elbow away from the line between hand and shoulder is covered: the ellipsoid's width is
+  what the segment lengths allow, not the line. Its semi-axes are a = (L + u_A + u_B) / 2
+  along the foci and b = sqrt(a^2 - c^2) across (c half the foci's distance); it lies in
+  the capsule of radius b about the foci's axis, of half length a - b about their
+  midpoint (a point at t along the axis and rho from it with t^2 / a^2 + rho^2 / b^2 <= 1
+  has (|t| - a + b)^2 + rho^2 <= b^2 when |t| > a - b, as |t| <= a). Foci farther apart
+  than L + u_A + u_B (a posture the dimensions do not allow) give the capsule between
+  the foci. (Pairs with an untracked far focus changed no figure of the real recordings
+  and are not tried.)
+- *the cone* of a lean-limited edge from one end's region: the capsule from its centre
+  l cos(a) along the vertical, of radius u + l sin(a) (every point within l of the apex
+  and a of the vertical, for any a < 90 deg).
+
+A floor was weighed and left out: a standing operator's feet on a floor the cell states
+would bound the pelvis from above (no higher than the legs' length above the floor,
+soundly only while both feet are on that floor: not on a step or a ladder) and every
+point from below (nothing under the floor). A half-space cuts a ball's bounding radius
+only where it passes beyond the ball's centre (the cap lemma of ``ball_bounds``). On
+CMU's subject 131 (``tests/test_cmu_envelope.py``: the floor the lowest toe joint, the
+legs' premise as tight as that person allows, the highest their hips rose above it) the
+floor and the legs would have shrunk the pelvis's first ball (1.475 m from a glove,
+0.619 m from the helmet) by 4.1 mm at most, so the cell is asked for no such premise.
+
+Every envelope carries its regions' bodies' velocities at its ends (each region's first
+ball's body), so that the monitor's speeds of a segment are those of its tracked points
+(``robot_geometry.segments_pair``), and the largest std of the bodies that shaped its
+regions.
 """
 
 import dataclasses
@@ -92,6 +138,7 @@ import math
 import numba
 import numpy as np
 
+from safety_systems.cell.ball_bounds import lens_ball
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_LOST, TRACK_NONE, TRACK_TRACKING
 from safety_systems.ssm.formulas import hidden_ball_radius
 
@@ -145,14 +192,19 @@ LENGTHS = ("neck", "upper_trunk", "lower_trunk", "shoulder", "upper_arm", "forea
 LEGACY_POINTS = {"head": "head", "hand": "hand_right", "other_hand": "hand_left",
                  "right_glove": "hand_right", "left_glove": "hand_left"}
 
-# Region rows: (tracked body slot, centre offset x, y, z from its estimate, extra radius).
+# Region rows, one per body point and operator, in point order: (tracked body slot, centre
+# offset x, y, z from its estimate, extra radius): the tightest single derivation, each
+# region's first ball (a tracked point: its own slot, no offset, no extra).
 REGION_COLUMNS = 5
-# Candidate rows: (segment, region A, region B, static term, kind, dz); kind 0: the
-# ellipsoid |x - c_A| + |x - c_B| <= term + u_A + u_B; kind 1: the capsule between two
-# tracked points; kind 2: the cone of a lean-limited edge from A's region, the capsule from
-# c_A to c_A + dz z of radius term + u_A.
+# The recipe's program rows: (segment or -1, region A, region B, static term, kind, dz),
+# run in order. Kind 3 (first, before any segment's): refine region A by the ball derived
+# from region B, a tracked point's: B's ball moved dz along z and grown by the term
+# (``ball_bounds.lens_ball``). Then each segment's candidates: kind 0, the ellipsoid
+# |x - c_A| + |x - c_B| <= term + u_A + u_B (term: the tree path's length); kind 1, the
+# capsule holding the two regions (their convex hull); kind 2, the cone of a lean-limited
+# edge from A's region, the capsule from c_A to c_A + dz z of radius term + u_A.
 CANDIDATE_COLUMNS = 6
-KIND_ELLIPSOID, KIND_DIRECT, KIND_CONE = 0, 1, 2
+KIND_ELLIPSOID, KIND_DIRECT, KIND_CONE, KIND_REFINE = 0, 1, 2, 3
 
 
 def point_index(name: str) -> int:
@@ -184,10 +236,11 @@ def dimensions(overrides: dict | None = None) -> dict:
 @dataclasses.dataclass(frozen=True, eq=False)
 class Recipe:
     """How to bound every segment of a cell's operators from their tracked bodies (see the
-    module docstring): R regions, C candidates and M = 12 x operators segments, all
-    static for a run. ``regions`` (R, 5) and ``candidates`` (C, 5) as the module's
-    column constants say; ``radius`` (M,) each segment's radius, ``operator`` (M,) its
-    operator, ``slots`` (operators, most bodies) each operator's body slots (-1 pads)."""
+    module docstring): R = 10 x operators regions, C program rows and M = 12 x operators
+    segments, all static for a run. ``regions`` (R, 5) and ``candidates`` (C, 6, the
+    regions' refinements first, then the segments' candidates) as the module's column
+    constants say; ``radius`` (M,) each segment's radius, ``operator`` (M,) its operator,
+    ``slots`` (operators, most bodies) each operator's body slots (-1 pads)."""
 
     regions: np.ndarray
     candidates: np.ndarray
@@ -281,6 +334,21 @@ def _path_length(path: list[int], dims: dict, adj) -> float:
     return total
 
 
+def _refinement_rows(tracked: dict[int, int], dims: dict, adj, base: int) -> list[tuple]:
+    """The program rows (kind 3) that refine an operator's regions by every tracked point
+    (see the module docstring): each point's region (a tracked one's too, for while it is
+    hidden) by the ball derived from each other tracked point alone, its tightest
+    derivation from that point; none when every point is tracked."""
+    if len(tracked) == NUM_POINTS:
+        return []
+    out = []
+    for t, slot in tracked.items():
+        for y, (_, offset, extra) in _regions({t: slot}, dims, adj).items():
+            if y != t:
+                out.append((-1, base + y, base + t, extra, KIND_REFINE, offset[2]))
+    return out
+
+
 def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
                     names: list[str] | None = None,
                     slots: list[list[int]] | None = None) -> Recipe:
@@ -292,7 +360,7 @@ def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
     operator has no body or two bodies mark one point."""
     dims = dimensions() if dims is None else dims
     adj = _tree()
-    regions, candidates, radius, operator, segment_names = [], [], [], [], []
+    regions, refine, candidates, radius, operator, segment_names = [], [], [], [], [], []
     slot_table = np.full((len(operators), max((len(o) for o in operators), default=0)), -1)
     first_slot = 0
     for k, points in enumerate(operators):
@@ -310,52 +378,38 @@ def envelope_recipe(operators: list[list[str]], dims: dict | None = None,
         for p in range(NUM_POINTS):
             slot, offset, extra = best[p]
             regions.append((slot, *offset, extra))
+        refine += _refinement_rows(tracked, dims, adj, base)
         for name, a, b, r in SEGMENTS:
             m = len(radius)
             radius.append(dims[r])
             operator.append(k)
             segment_names.append(f"{names[k] if names else k}/{name}")
             pa, pb = _P[a], _P[b]
-            if pa in tracked and pb in tracked:  # (a ball about a tracked point too)
-                candidates.append((m, base + pa, base + pb, 0.0, KIND_DIRECT, 0.0))
+            # The capsule holding both regions (a ball about a point too): with both points
+            # tracked, the capsule between their estimates, the only candidate.
+            candidates.append((m, base + pa, base + pb, 0.0, KIND_DIRECT, 0.0))
+            if (pa in tracked and pb in tracked) or pa == pb:
                 continue
             for x, y, length, lean, sign in _cones(pa, pb, dims, adj):
                 # the edge from x's region within the lean limit: a cone, in a capsule
                 angle = math.radians(lean)
-                candidates.append((m, base + x, base + x, best[x][2] + length * math.sin(angle),
+                candidates.append((m, base + x, base + x, length * math.sin(angle),
                                    KIND_CONE, sign * length * math.cos(angle)))
             # Every pair of points whose tree path holds the segment's axis; skipped where
             # a tracked point lies strictly inside the path (the shorter chain is inside).
-            if pa == pb:
-                sides = ([pa], [pa])
-            else:
-                cut = {i: [] for i in adj}
-                for x in adj:
-                    cut[x] = [e for e in adj[x] if {x, e[0]} != {pa, pb}]
-                sides = (_component(pa, cut), _component(pb, cut))
-            # Of two pairs whose regions are the same balls' centres, the smaller total
-            # is kept: its ellipsoid lies inside the other's, and so does its capsule
-            # (the capsule's radius b grows at least as fast as a, so its ends a - b + b
-            # = a reach less far and its sides are thinner), at most as large.
-            seen = {}
-            for A in sides[0]:
-                for B in sides[1]:
+            cut = {x: [e for e in adj[x] if {x, e[0]} != {pa, pb}] for x in adj}
+            for A in _component(pa, cut):
+                for B in _component(pb, cut):
+                    if not ((A == pa or A in tracked) and (B == pb or B in tracked)):
+                        continue
                     path = _path(A, B, adj)
                     if any(x in tracked for x in path[1:-1]):
                         continue
-                    key = (best[A][0], *np.round(best[A][1], 12), best[B][0],
-                           *np.round(best[B][1], 12))
-                    total = _path_length(path, dims, adj) + best[A][2] + best[B][2]
-                    if key in seen:
-                        c = seen[key]
-                        if total < candidates[c][3]:
-                            candidates[c] = (m, base + A, base + B, total, KIND_ELLIPSOID, 0.0)
-                        continue
-                    seen[key] = len(candidates)
-                    candidates.append((m, base + A, base + B, total, KIND_ELLIPSOID, 0.0))
+                    candidates.append((m, base + A, base + B, _path_length(path, dims, adj),
+                                       KIND_ELLIPSOID, 0.0))
         first_slot += len(points)
     return Recipe(np.array(regions, dtype=float).reshape(-1, REGION_COLUMNS),
-                  np.array(candidates, dtype=float).reshape(-1, CANDIDATE_COLUMNS),
+                  np.array(refine + candidates, dtype=float).reshape(-1, CANDIDATE_COLUMNS),
                   np.array(radius, dtype=float), np.array(operator, dtype=np.int64),
                   slot_table, tuple(segment_names))
 
@@ -403,14 +457,33 @@ def ellipsoid_capsule(c_A, c_B, total):
             b)
 
 
+@numba.njit(cache=True, inline="always")  # no call (and array refcounts) per element
+def hull_capsule(c_A, u_A, c_B, u_B):
+    """(end A, end B, radius) of a capsule holding the balls B(c_A, u_A) and B(c_B, u_B),
+    so their convex hull and every segment from a point of one to a point of the other
+    (see the module docstring): radius the larger u, the smaller ball's end moved towards
+    the other centre by the difference of the radii (a ball of radius u inside one of
+    radius U about a centre at most U - u away), at most onto it."""
+    d0, d1, d2 = c_B[0] - c_A[0], c_B[1] - c_A[1], c_B[2] - c_A[2]
+    dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    end_a, end_b, r = c_A, c_B, u_B
+    if u_A <= u_B:
+        w = min(u_B - u_A, dist) / dist if dist > 0.0 else 0.0
+        end_a = (c_A[0] + w * d0, c_A[1] + w * d1, c_A[2] + w * d2)
+    else:  # (also a NaN radius: then r is NaN)
+        w = min(u_A - u_B, dist) / dist if dist > 0.0 else 0.0
+        end_b, r = (c_B[0] - w * d0, c_B[1] - w * d1, c_B[2] - w * d2), u_A
+    return end_a, end_b, r
+
+
 @numba.njit(cache=True, inline="always")  # no call (and array refcounts) per row
 def _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status, std, unseen,
                   allowance, occlusion_speed, ends, end_velocities, out_radius, out_status,
-                  out_std, op_status, centre, grow, best, chosen):
+                  out_std, op_status, centre, grow, region_std, best, chosen):
     """:func:`envelope_rows` of row b of every tracker output and envelope array (one
     more leading axis each), with its working arrays given (``op_status`` (K,),
-    ``centre`` (regions, 3), ``grow`` (regions,), ``best`` (M,), ``chosen`` (M,) int):
-    a batch allocates them once, not per row."""
+    ``centre`` (regions, 3), ``grow`` (regions,), ``region_std`` (regions,), ``best``
+    (M,), ``chosen`` (M,) int): a batch allocates them once, not per row."""
     none, tracking, hidden, lost = TRACK_NONE, TRACK_TRACKING, TRACK_HIDDEN, TRACK_LOST
     K = slots.shape[0]
     for k in range(K):
@@ -442,32 +515,72 @@ def _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status,
             for x in range(3):
                 ends[b, m, e, x] = np.nan
                 end_velocities[b, m, e, x] = np.nan
-    # Each region's centre and radius once (candidates share them).
+    # Each region's first ball: its tracked body's estimate moved by the offset, its radius
+    # the extra plus the body's own (the allowance, and while hidden its ball's radius).
     for ra in range(regions.shape[0]):
         i = int(regions[ra, 0])
-        grow[ra] = allowance
+        grow[ra] = regions[ra, 4] + allowance
         if status[b, i] == hidden:
             grow[ra] += hidden_ball_radius(unseen[b, i], occlusion_speed)
         for x in range(3):
             centre[ra, x] = p[b, i, x] + regions[ra, 1 + x]
+        region_std[ra] = std[b, i]
+    # The refinements, in order: each region becomes the smaller of the lens balls of the
+    # ball derived from a tracked point with the region's ball and with its first ball
+    # (the lens ball of a lens ball may stick out of the first: the smaller holds the
+    # point too). A tracked point's own ball is kept while its body is tracked (its
+    # allowance is the smallest; the truth stays exact).
+    for c in range(candidates.shape[0]):
+        if candidates[c, 4] != KIND_REFINE:
+            continue
+        t, s = int(candidates[c, 1]), int(candidates[c, 2])
+        i = int(regions[t, 0])
+        k = t // NUM_POINTS
+        if not (op_status[k] == tracking or op_status[k] == hidden):
+            continue
+        if regions[t, 4] == 0.0 and status[b, i] == tracking:
+            continue
+        s0, s1, s2 = centre[s, 0], centre[s, 1], centre[s, 2] + candidates[c, 5]
+        u = grow[s] + candidates[c, 3]
+        c0, c1, c2, r = lens_ball(centre[t, 0], centre[t, 1], centre[t, 2], grow[t], s0, s1,
+                                  s2, u)
+        first = regions[t, 4] + allowance
+        if status[b, i] == hidden:
+            first += hidden_ball_radius(unseen[b, i], occlusion_speed)
+        f0, f1, f2 = (p[b, i, 0] + regions[t, 1], p[b, i, 1] + regions[t, 2],
+                      p[b, i, 2] + regions[t, 3])
+        if not (grow[t] == first and centre[t, 0] == f0 and centre[t, 1] == f1
+                and centre[t, 2] == f2):  # (refined before: try the first ball too)
+            f0, f1, f2, q = lens_ball(f0, f1, f2, first, s0, s1, s2, u)
+            if q < r:
+                c0, c1, c2, r = f0, f1, f2, q
+        if not (r == grow[t] and c0 == centre[t, 0] and c1 == centre[t, 1]
+                and c2 == centre[t, 2]):
+            region_std[t] = max(region_std[t], region_std[s])
+        centre[t, 0], centre[t, 1], centre[t, 2], grow[t] = c0, c1, c2, r
     # The smallest candidate of each segment, by its size alone (its axis' length and
     # radius, without its ends); then its ends, once.
     for m in range(radius.size):
         best[m], chosen[m] = np.inf, -1
     for c in range(candidates.shape[0]):
+        kind = candidates[c, 4]
+        if kind == KIND_REFINE:
+            continue
         m = int(candidates[c, 0])
         if not (out_status[b, m] == tracking or out_status[b, m] == hidden):
             continue
         ra, rb = int(candidates[c, 1]), int(candidates[c, 2])
-        kind = candidates[c, 4]
         if kind == KIND_CONE:
             length, r = abs(candidates[c, 5]), candidates[c, 3] + grow[ra]
         else:
             d0, d1 = centre[rb, 0] - centre[ra, 0], centre[rb, 1] - centre[ra, 1]
             d2 = centre[rb, 2] - centre[ra, 2]
             dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            if kind == KIND_DIRECT:
-                length, r = dist, max(grow[ra], grow[rb])
+            if kind == KIND_DIRECT:  # hull_capsule's axis length and radius
+                r = max(grow[ra], grow[rb])
+                length = dist - min(abs(grow[ra] - grow[rb]), dist)
+                if math.isnan(grow[ra]) or math.isnan(grow[rb]):
+                    r = np.nan
             else:  # ellipsoid_capsule's axis length and radius
                 a, half = 0.5 * (candidates[c, 3] + grow[ra] + grow[rb]), 0.5 * dist
                 if half >= a:
@@ -488,7 +601,7 @@ def _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status,
         c_a = (centre[ra, 0], centre[ra, 1], centre[ra, 2])
         c_b = (centre[rb, 0], centre[rb, 1], centre[rb, 2])
         if candidates[c, 4] == KIND_DIRECT:
-            end_a, end_b, r = c_a, c_b, max(grow[ra], grow[rb])
+            end_a, end_b, r = hull_capsule(c_a, grow[ra], c_b, grow[rb])
         elif candidates[c, 4] == KIND_CONE:
             end_a, end_b, r = c_a, (c_a[0], c_a[1], c_a[2] + candidates[c, 5]), \
                 candidates[c, 3] + grow[ra]
@@ -496,7 +609,7 @@ def _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status,
             end_a, end_b, r = ellipsoid_capsule(c_a, c_b, candidates[c, 3] + grow[ra]
                                                 + grow[rb])
         out_radius[b, m] = r + radius[m]
-        out_std[b, m] = max(std[b, ia], std[b, ib])
+        out_std[b, m] = max(region_std[ra], region_std[rb])
         for x in range(3):
             ends[b, m, 0, x], ends[b, m, 1, x] = end_a[x], end_b[x]
             end_velocities[b, m, 0, x], end_velocities[b, m, 1, x] = v[b, ia, x], v[b, ib, x]
@@ -524,7 +637,7 @@ def envelope_rows(regions, candidates, radius, operator, slots, p, v, status, st
                   v[np.newaxis], status[np.newaxis], std[np.newaxis], unseen[np.newaxis],
                   allowance, occlusion_speed, ends[np.newaxis], end_velocities[np.newaxis],
                   out_radius[np.newaxis], out_status[np.newaxis], out_std[np.newaxis],
-                  np.empty(K), np.empty((R, 3)), np.empty(R), np.empty(M),
+                  np.empty(K), np.empty((R, 3)), np.empty(R), np.empty(R), np.empty(M),
                   np.empty(M, dtype=np.int64))
 
 
@@ -537,11 +650,11 @@ def envelope_batch(regions, candidates, radius, operator, slots, p, v, status, s
     out_std (B, M), the same numbers; compiled, its working arrays made once."""
     K, R, M = slots.shape[0], regions.shape[0], radius.size
     op_status, centre, grow = np.empty(K), np.empty((R, 3)), np.empty(R)
-    best, chosen = np.empty(M), np.empty(M, dtype=np.int64)
+    region_std, best, chosen = np.empty(R), np.empty(M), np.empty(M, dtype=np.int64)
     for b in range(p.shape[0]):
         _envelope_row(b, regions, candidates, radius, operator, slots, p, v, status, std,
                       unseen, allowance, occlusion_speed, ends, end_velocities, out_radius,
-                      out_status, out_std, op_status, centre, grow, best, chosen)
+                      out_status, out_std, op_status, centre, grow, region_std, best, chosen)
 
 
 # An upright operator relative to its head, in its facing frame (forward f, left l, up z),
