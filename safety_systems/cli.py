@@ -794,12 +794,13 @@ def _interrupted(args: argparse.Namespace) -> int:
     """Says so and returns 130; after a real Ctrl-C, exits at once: the interpreter's
     own shutdown (Drake's, numba's) takes seconds more, and every result file is whole
     or absent already."""
-    from safety_systems.interrupts import interrupted
+    from safety_systems.interrupts import interrupted, stop_workers
 
     resume = (f" (the same command resumes it: the finished simulations are kept in "
               f"{args.out})" if args.command == "verify" else "")
     print(f"safety-systems: interrupted{resume}", file=sys.stderr, flush=True)
     if interrupted():
+        stop_workers()
         sys.stdout.flush()
         os._exit(EXIT_INTERRUPTED)
     return EXIT_INTERRUPTED

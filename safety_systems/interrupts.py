@@ -47,12 +47,35 @@ def ignore_in_worker(*_) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _exit_now(line: str) -> None:
+def stop_workers() -> None:
+    """Before an exit that skips the interpreter's shutdown: ends every worker process
+    registered with :func:`on_deadline` (the workers ignore SIGINT, and one left running
+    holds the command's stderr open until its task is done) and the fork server."""
     for stop in list(_stoppers.values()):
         try:
             stop()
         except Exception:  # noqa: BLE001 - exiting anyway
             pass
+    _stop_fork_server()
+
+
+def _stop_fork_server() -> None:
+    """Ends this process's multiprocessing fork server, if it started one: it ignores
+    Ctrl-C (``verification.search.runner``), and one still importing its preload when
+    the command exits would hold the command's stderr open for as long as that takes.
+    Only before an exit: a later pool in this process would find it gone mid-start."""
+    from multiprocessing import forkserver
+
+    pid = getattr(getattr(forkserver, "_forkserver", None), "_forkserver_pid", None)
+    if pid is not None:
+        try:
+            os.kill(pid, signal.SIGTERM)
+        except OSError:  # (ended already)
+            pass
+
+
+def _exit_now(line: str) -> None:
+    stop_workers()
     print(f"safety-systems: {line}", file=sys.stderr, flush=True)
     os._exit(EXIT_INTERRUPTED)
 
