@@ -45,10 +45,8 @@ import numpy as np
 
 from safety_systems.config import configuration
 from safety_systems.config.configuration import with_controller
-from safety_systems.cell.human_body import SEGMENT_NAMES
-from safety_systems.outputs.metrics import stop_reasons, true_separations
-from safety_systems.outputs.operator_figures import operator_figures
-from safety_systems.sensing.stops import STOP_SEPARATION
+from safety_systems.outputs.held import held_by
+from safety_systems.outputs.metrics import true_separations
 from safety_systems.config.scenario import Body, load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
 from verification.spaces.space import load_space
@@ -85,34 +83,12 @@ def exposure(task, distances: list[float]) -> list[float]:
 
 def held_on(task, config) -> tuple[float, dict[str, float], float]:
     """The chosen configuration on a task: the seconds the override held the robot on a
-    separation stop, those seconds by the segment nearest in the monitor's measure (an
-    envelope where the segment's points are untracked; under safety.mode ssm_pfl the
-    nearest of those whose power and force limiting cap in force is 0, the head, the neck
-    or a clamped one: a capped segment cannot stop the robot), and the median true
-    clearance of the nearest true segment at those ticks."""
-    run = simulate(with_controller(task, config))
-    dt = np.diff(run.time, append=run.time[-1])
-    held = stop_reasons(run) == STOP_SEPARATION
-    by_segment: dict[str, float] = {}
-    nearest_measured = np.full(run.time.size, np.inf)
-    nearest_name = np.full(run.time.size, -1.0)
-    true_least = np.full(run.time.size, np.inf)
-    for op in operator_figures(run):
-        closer = op["d_measured"] < nearest_measured
-        nearest_measured = np.where(closer, op["d_measured"], nearest_measured)
-        nearest_name = np.where(closer, op["nearest_measured"], nearest_name)
-        true_least = np.fmin(true_least, op["d_true"])
-    if config.safety.mode == "ssm_pfl":  # the nearest uncapped segment
-        d = np.where(run["override.segment_caps"] > 0.0, np.inf, run["monitor.distances"])
-        d = np.where(np.isnan(d), np.inf, d)
-        nearest_name = np.where(np.isfinite(d.min(axis=1)),
-                                np.argmin(d, axis=1) % len(SEGMENT_NAMES), -1.0)
-    for k in np.flatnonzero(held):
-        name = SEGMENT_NAMES[int(nearest_name[k])] if nearest_name[k] >= 0 else "none"
-        by_segment[name] = by_segment.get(name, 0.0) + float(dt[k])
-    true_held = true_least[held & np.isfinite(true_least)]
-    return (float(np.sum(dt[held])), by_segment,
-            float(np.median(true_held)) if true_held.size else float("nan"))
+    separation stop, those seconds by the segment that held it, and the median true
+    clearance of the nearest true segment at those ticks (``outputs.held.held_by``)."""
+    separation = held_by(simulate(with_controller(task, config)))["separation"]
+    median = separation["true_clearance_median"]
+    return (separation["time"], separation["by_segment"],
+            float("nan") if median is None else median)
 
 
 @contextlib.contextmanager

@@ -169,7 +169,14 @@ def simulate_line(summary: dict) -> str:
                f"{summary['min_separation_margin_time']:.2f} s"
                + (" (the separation invariant broken: d_true < S_true while the robot "
                   "was let move)" if margin < 0.0 else ""))
-            + f", stopped_time={summary['stopped_time']:.2f} s")
+            + f", stopped_time={summary['stopped_time']:.2f} s"
+            + (f"; {words}" if (words := _held_words(summary)) else ""))
+
+
+def _held_words(summary: dict) -> str:
+    from safety_systems.outputs.held import held_words
+
+    return held_words(summary["held"]) if "held" in summary else ""
 
 
 def _verify(args: argparse.Namespace) -> int:

@@ -126,10 +126,14 @@ def write_table(header: list[str], rows: np.ndarray, path: Path, *,
 
 
 def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
-    """``summarize(run)``, whether the stopping data is the built-in placeholder
+    """``summarize(run)``, what held the robot (``held``: ``outputs.held.held_by``),
+    whether the stopping data is the built-in placeholder
     (``braking_data``: ``placeholder`` with the warning, or ``configured``), and where
     the run came from (``provenance``: ``origin``, by default this process's)."""
+    from safety_systems.outputs.held import held_by
+
     summary = summarize(run)
+    summary["held"] = held_by(run)
     if placeholder_braking(run.scenario.controller):
         summary["braking_data"] = "placeholder"
         summary["braking_data_warning"] = braking_warning(robot_model_of(run.scenario.robot))
