@@ -113,6 +113,19 @@ def _serve_in_thread(**kw) -> tuple[threading.Thread, list]:
     return thread, announced
 
 
+def _as_the_run(scenario, loaded, length: float):
+    """``scenario`` for ``length`` s as ``run`` runs the certified parameters ``loaded``:
+    their controller and robot (kinematic: the model robot follows the path exactly),
+    the capture at their sensor's rate and latency, no noise (the stream carries the
+    recording as it is)."""
+    controller = loaded.controller
+    return dataclasses.replace(
+        scenario, duration=length, controller=controller,
+        robot=dataclasses.replace(loaded.robot, mode="kinematic", cycles=scenario.robot.cycles),
+        sensor=SensorConfig(rate_hz=controller.sensor.rate_hz, noise_std=0.0,
+                            latency=controller.sensor.latency))
+
+
 def test_natnet_packets_over_loopback_carry_the_recording(tmp_path):
     """Real NatNet-format UDP datagrams on 127.0.0.1, read by the natnet library: every
     body at the recording's position (float32), its gap flagged untracked; through the
@@ -196,12 +209,7 @@ def test_a_recorded_approach_gives_simulates_k_trace(tmp_path, exported_params, 
     start, length = 2.0, 6.0
     scenario = load_scenario(_far_scenario(tmp_path))
     scenario.operators[0].start = start
-    scenario = dataclasses.replace(
-        scenario, duration=length, controller=controller,
-        robot=dataclasses.replace(loaded.robot, mode="kinematic", cycles=scenario.robot.cycles),
-        sensor=SensorConfig(rate_hz=controller.sensor.rate_hz, noise_std=0.0,
-                            latency=controller.sensor.latency))
-    sim = simulate(scenario)
+    sim = simulate(_as_the_run(scenario, loaded, length))
     k_sim = sim["override.path_speed_commanded"][:, 0]
     code, trace, summary = _run(tmp_path, params,
                                 f"replay://{CSV}?start={start}&duration={length}",
@@ -267,13 +275,7 @@ def test_a_runs_log_replayed_by_simulate_gives_the_k_the_run_commanded(tmp_path,
     (tmp_path / "replay.yaml").write_text(text)
     loaded = load_certified_params(exported_params)
     controller = loaded.controller
-    scenario = load_scenario(tmp_path / "replay.yaml")
-    scenario = dataclasses.replace(
-        scenario, duration=length, controller=controller,
-        robot=dataclasses.replace(loaded.robot, mode="kinematic", cycles=scenario.robot.cycles),
-        sensor=SensorConfig(rate_hz=controller.sensor.rate_hz, noise_std=0.0,
-                            latency=controller.sensor.latency))
-    sim = simulate(scenario)
+    sim = simulate(_as_the_run(load_scenario(tmp_path / "replay.yaml"), loaded, length))
     k_sim = sim["override.path_speed_commanded"][:, 0]
     assert 0.0 < k_sim.mean() < 1.0 and len(set(np.round(k_sim, 3))) >= 2  # k changes
     t0 = segment.frames[0, 1]  # the first frame's capture time: the recording's time 0
