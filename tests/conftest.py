@@ -2,9 +2,19 @@
 measured, and those using a fixture that takes minutes to build (SLOW_FIXTURES).
 ``pytest -m "not slow"`` is the README's fast selection; CI runs every test."""
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+# Property tests draw the same examples on every run ("fixed", the default: a test run, and
+# CI's, passes or fails for the code, not the draw), or fresh ones with
+# HYPOTHESIS_PROFILE=explore (more of them, at random: run it after changing the maths; a
+# failure it finds prints the example to add as an @example).
+settings.register_profile("fixed", derandomize=True, print_blob=True)
+settings.register_profile("explore", derandomize=False, max_examples=2000, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fixed"))
 
 LIST = Path(__file__).with_name("slow_tests.txt")
 # Session or module fixtures whose building alone takes more than a minute: a small tune

@@ -16,6 +16,8 @@ import math
 
 import numba
 
+_EPS = 2.220446049250313e-16  # float64's machine epsilon
+
 
 @numba.njit(cache=True, inline="always")
 def lens_ball(a0, a1, a2, ra, b0, b1, b2, rb):
@@ -27,7 +29,9 @@ def lens_ball(a0, a1, a2, ra, b0, b1, b2, rb):
       along a -> b. The lens is a cap of each ball cut by that plane. For 0 <= x <= d
       both caps are at most hemispheres, and by the cap lemma both lie in the ball about
       the circle's centre of the circle's radius sqrt(ra^2 - x^2) (= sqrt(rb^2 - (d -
-      x)^2)), at most min(ra, rb). For x < 0 the lens holds a's equator (its points are
+      x)^2)), at most min(ra, rb), widened by a bound on float64's rounding (where the
+      balls barely meet the radius is a difference of near-equal squares: without it a
+      point of the lens lay 2e-9 m outside). For x < 0 the lens holds a's equator (its points are
       sqrt(d^2 + ra^2) < rb from b), so no ball smaller than B(a, ra) holds it: that
       ball (and B(b, rb) for x > d);
     - the balls disjoint or touching (d >= ra + rb, the facts contradict each other: a
@@ -53,5 +57,14 @@ def lens_ball(a0, a1, a2, ra, b0, b1, b2, rb):
         elif x >= 0.0:
             w = x / d
             c0, c1, c2 = a0 + w * d0, a1 + w * d1, a2 + w * d2
-            r = math.sqrt(max((ra - x) * (ra + x), 0.0))
+            # rounding, outward: r^2 by both of its forms (each cancels where the other
+            # does not) plus a bound on their error, the circle's centre off by at most
+            # the error of x (never more than d, since 0 <= x <= d) and that of the sum
+            big = ra * ra + rb * rb + d * d
+            y = d - x
+            r2 = max((ra - x) * (ra + x), (rb - y) * (rb + y), 0.0)
+            r = (math.sqrt(r2 + 16.0 * _EPS * big) + min(d, 8.0 * _EPS * big / d)
+                 + 4.0 * _EPS * (abs(a0) + abs(a1) + abs(a2) + abs(b0) + abs(b1) + abs(b2)))
+            if r >= min(ra, rb):  # (widened past a ball: that ball, sound as it is)
+                c0, c1, c2, r = (a0, a1, a2, ra) if ra <= rb else (b0, b1, b2, rb)
     return c0, c1, c2, r

@@ -56,6 +56,8 @@ def _lens_extremes(a, ra, b, rb, rng):
 @example(a=(0.0, 0.0, 0.0), ra=1.0, b=(0.3, 0.0, 0.0), rb=1.0, seed=0)  # a fat one
 @example(a=(0.0, 0.0, 0.0), ra=0.4, b=(0.5, 0.0, 0.0), rb=1.0, seed=0)  # x < 0: ball a
 @example(a=(0.0, 0.0, 0.0), ra=1.0, b=(0.0, 0.0, 0.0), rb=1.0, seed=0)  # one ball twice
+@example(a=(0.0, 0.0, 0.0), ra=1.5, b=(0.0, 0.0, 1.5), rb=5.960464477539063e-08,
+         seed=0)  # barely meeting: r^2 by cancellation (2e-9 m short before rounding's bound)
 def test_the_lens_ball_holds_the_intersection(a, ra, b, rb, seed):
     centre, r = _bound(a, ra, b, rb)
     d = math.dist(a, b)
