@@ -50,6 +50,7 @@ from safety_systems.outputs.metrics import true_separations
 from safety_systems.config.scenario import Body, load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
 from verification.spaces.space import load_space
+from verification.tune.levers import Lever, check_levers, lever_space, under, wearing
 from verification.tune.report import write_tune
 from verification.tune.tasks import lost_time, run_task, total
 from verification.tune.tuner import TASKS, Tuner, full_speed_distance, proofs_of
@@ -152,6 +153,27 @@ def task_scenarios(helmet: bool) -> list:
     return tasks
 
 
+def lever_space_file(space_path: Path, lever, out: Path | None) -> Path:
+    """The space of ``space_path`` with the lever's tracked points and latency bound
+    (``levers.lever_space``), written as a space file (in ``out``, else in a temporary
+    folder) so that every verification names the space it was over."""
+    import yaml
+
+    data = yaml.safe_load(space_path.read_text())
+    changed = lever_space(load_space(space_path), lever)
+    data["tracked"] = list(changed.tracked)
+    latency = changed.parameters.latency
+    data["parameters"]["latency"] = {"min": latency.min, "max": latency.max}
+    folder = out or Path(tempfile.mkdtemp(prefix="bench_tune_"))
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"space_{space_path.stem}_{lever.sensor_set.replace('+', '_')}_" \
+                    f"{lever.rate_hz:g}hz_{1000.0 * lever.latency:g}ms.yaml"
+    path.write_text(f"# {space_path.name} under the lever {lever.label} (bench_tune --lever)\n"
+                    + yaml.safe_dump(data, sort_keys=False))
+    load_space(path)  # (checked as any space file)
+    return path
+
+
 def _tune(config, block, space_path: Path, tasks: list, args, out: Path | None
           ) -> tuple[dict, float]:
     """One tune run of ``config`` over ``block`` on ``tasks`` (its result and wall
@@ -187,6 +209,11 @@ def main() -> int:
     parser.add_argument("--helmet", action="store_true",
                         help="every task operator also wears a tracked helmet (the seed "
                              "tracked gloves only; the default space's operators wear one)")
+    parser.add_argument("--lever", nargs=3, metavar=("SET", "RATE", "LATENCY"), default=None,
+                        help="tune under a sensing lever (verification.tune.levers): the "
+                             "tasks' operators wear sensor set SET, the capture runs at RATE "
+                             "Hz with LATENCY s, the space tracks SET's points; the frame "
+                             "timeout's and T_r's bounds move by what the sensing gains")
     args = parser.parse_args()
     figures: dict = {"budget": args.budget, "candidates": args.candidates,
                      "workers": args.workers}
@@ -197,12 +224,23 @@ def main() -> int:
     goal = GOAL_PFL if pfl else GOAL
     space_path = ROOT / "models" / "spaces" / "default.yaml"
     tasks = task_scenarios(args.helmet)
+    if args.lever:
+        lever = Lever(args.lever[0], float(args.lever[1]), float(args.lever[2]))
+        check_levers([lever])
+        figures["lever"] = dataclasses.asdict(lever)
+        tasks = [wearing(t, lever) for t in tasks]
+        space_path = lever_space_file(space_path, lever, args.out)
+        config, block = under(config, block, lever)
+        print(f"under the lever {lever.label}: the tasks' operators wear it, the space "
+              "tracks its points")
     result, wall = _tune(config, block, space_path, tasks, args, args.out)
     beside = None
     if pfl:  # the SSM-only tuned figure, from this run too
         ssm_config, ssm_block = load_tunable(ROOT / "models" / "configs" / "iso.yaml",
                                              ROOT / "models" / "tune" / "ssm.yaml")
         print("\n(and the SSM-only tune, models/tune/ssm.yaml, beside it)")
+        if args.lever:
+            ssm_config, ssm_block = under(ssm_config, ssm_block, lever)
         beside, beside_wall = _tune(ssm_config, ssm_block, space_path, tasks, args, None)
         figures["ssm_only"] = {"reduction": beside["lost_time_reduction_vs_iso"],
                                "chosen": beside["chosen"] and beside["chosen"]["verdict"],
@@ -238,7 +276,7 @@ def main() -> int:
               f"{beside['chosen']['verdict'] if beside['chosen'] else 'none'}): power and "
               f"force limiting adds {100.0 * ((reduction or 0.0) - (other or 0.0)):+.1f} "
               "points")
-    if reduction is not None and not args.helmet:  # its tasks: gloves only
+    if reduction is not None and not args.helmet and not args.lever:  # gloves only
         print(f"   beside the three-ball operator's {100.0 * THREE_BALL_FIGURE:.1f}%: "
               f"{100.0 * (reduction - THREE_BALL_FIGURE):+.1f} points (from gloves alone the "
               "monitor must place the arms and trunk anywhere they can reach: see the "

@@ -257,9 +257,10 @@ def _tune(args: argparse.Namespace) -> int:
     from verification.spaces.space import load_space
     from verification.tune.tuner import TASKS, Tuner
     from verification.tune.report import write_tune
-    from verification.tune.tunable import check_block, load_tunable
+    from verification.tune.tunable import check_block, load_levers, load_tunable
 
     config, block = load_tunable(args.config, args.tune)
+    levers = load_levers(args.tune)
     space = load_space(args.space)
     if space.recording is not None and args.allow == "proved":
         raise InputError("--allow", args.allow, "passed with a space built around a "
@@ -285,7 +286,7 @@ def _tune(args: argparse.Namespace) -> int:
                    budget=args.budget, candidates=args.candidates, screen=args.screen,
                    workers=args.workers, scheduler=args.scheduler, seed=args.seed,
                    origin=_origin(args.argv, {"search": args.seed}), say=say,
-                   progress=not args.quiet).run()
+                   progress=not args.quiet, levers=levers).run()
     write_tune(result, out)
     if not args.quiet:
         def seconds(x):
@@ -300,6 +301,11 @@ def _tune(args: argparse.Namespace) -> int:
             print(f"time lost: {100.0 * reduction:.1f}% less than iso.yaml"
                   + ("" if iso["verdict"] == "proved" else
                      f" (which is {iso['verdict']}, not proved, over this space)"))
+        for row in result["levers"]:
+            print(f"lever {row['label']}: {'proved' if row['proved'] else 'not proved'}, "
+                  f"lost {seconds(row['total_lost'])}"
+                  + ("" if row["reduction"] is None else
+                     f", {100.0 * row['reduction']:.1f}% less than iso.yaml"))
         print(f"-> {out / 'tune.md'}")
     if result["chosen"] is None:
         print(f"safety-systems: tune: no candidate was {args.allow}", file=sys.stderr)

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from safety_systems.cell import human_body as hb
+from safety_systems.cell.sensor_sets import SENSOR_SETS
 from safety_systems.sensing.bvh_file import read_bvh
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_TRACKING
 
@@ -50,16 +51,6 @@ DATA = Path(__file__).parent / "data"
 KTH = DATA / "kth_handover"
 CMU = DATA / "cmu_bvh" / "cmu_131_01_start_walk_stop.bvh"
 CMU_METRES = 2.54 / 100.0 / 0.45  # m per CMU length unit (CMU's FAQ)
-# The sensor sets of issue 47: the points each tracks.
-GLOVES = ("hand_left", "hand_right")
-SENSOR_SETS = {
-    "gloves": GLOVES,
-    "gloves+helmet": GLOVES + ("head",),
-    "gloves+helmet+chest": GLOVES + ("head", "chest"),
-    "gloves+helmet+belt": GLOVES + ("head", "pelvis"),
-    "gloves+helmet+elbows": GLOVES + ("head", "elbow_left", "elbow_right"),
-    "full suit": hb.POINTS,
-}
 SAMPLES = 21  # axis samples per real segment
 # The segments checked and measured: every segment but the head ball.
 MEASURED = tuple(name for name in hb.SEGMENT_NAMES if name != "head")

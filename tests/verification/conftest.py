@@ -74,6 +74,8 @@ tune:
 - {name: safety.robot_uncertainty, min: 0.4, max: 0.7}
 - {name: safety.reaction_time, min: 0.1, max: 0.2}
 - {name: safety.robot_speed, choices: [directed, fastest_point]}
+levers:
+- {sensor_set: gloves+helmet+belt+elbows, rate_hz: 120.0, latency: 0.02, cost: 3.0}
 """
 SMALL_SPACE = Path(__file__).parent / "small_space.yaml"
 

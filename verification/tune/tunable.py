@@ -34,6 +34,7 @@ from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import field_limits, type_hints
 from safety_systems.config.scenario import ControllerConfig, validate_controller
 from safety_systems.config.configuration import frame_timeout
+from verification.tune.levers import Lever, check_levers
 
 # Names (and what is under them) that tune refuses, with why.
 MEASURED = {
@@ -71,9 +72,11 @@ class TunedParameter:
 
 @dc.dataclass
 class TuneFile:
-    """A file of tunable parameters (``--tune``)."""
+    """A file of tunable parameters (``--tune``), and the sensing ``levers`` whose price
+    the chosen configuration is given in (``verification.tune.levers``)."""
 
     tune: list[TunedParameter] = dc.field(default_factory=list)
+    levers: list[Lever] = dc.field(default_factory=list)
 
 
 @dc.dataclass
@@ -244,3 +247,10 @@ def load_tunable(path: str | Path, tune_path: str | Path | None = None
     if tune_path is not None:
         block = load_document(tune_path, TuneFile).tune
     return plain_config(loaded), block
+
+
+def load_levers(tune_path: str | Path | None) -> list[Lever]:
+    """The ``levers:`` of a tune file (none without one), their sensor sets checked."""
+    if tune_path is None:
+        return []
+    return load_document(tune_path, TuneFile, lambda f: check_levers(f.levers)).levers

@@ -30,6 +30,11 @@ costs differ by orders of magnitude, so each candidate meets the cheap tests fir
 The references (``models/configs/iso.yaml`` and the seed's ``seed_estimated.yaml``)
 are verified and timed the same way, with a run with no operator beside each, for the
 comparison in ``tune.md``; a reference's counterexamples are kept too.
+
+Last, with ``levers`` (a tune file's ``levers:``), the chosen configuration is priced
+under each: fitted to that sensing and proved on the space with its tracked points
+(``verification.tune.levers``), and the tasks run with their operators wearing its
+sensor set, for the table of what each lever buys in ``tune.md``.
 """
 
 import dataclasses
@@ -61,6 +66,7 @@ from verification.properties import mode_properties
 from verification.search.runner import Runner
 from verification.search.strategies import sweep_points
 from verification.spaces.box import ScenarioSpace
+from verification.tune.levers import price, record
 from verification.tune.tasks import TaskRun, lost_time, run_task, total
 from verification.verify import CONFIRM, CROSS_CHECK
 from verification.tune.tunable import REACTION_TIME, TunedParameter, values_at, with_values
@@ -176,7 +182,8 @@ class Tuner:
                  allow: str = "proved", budget: int = 200, candidates: int = 24,
                  screen: int = SCREEN, workers: int | None = None,
                  scheduler: str | None = None, seed: int = 0, references: dict | None = None,
-                 origin: dict | None = None, say=None, progress: bool = False):
+                 origin: dict | None = None, say=None, progress: bool = False,
+                 levers: list | None = None):
         if allow not in ALLOW:
             raise ValueError(f"allow: got {allow!r}; allowed: {' | '.join(ALLOW)}")
         self.config, self.block, self.space, self.tasks = config, block, space, tasks
@@ -185,7 +192,9 @@ class Tuner:
         self.workers, self.scheduler, self.seed = workers, scheduler, seed
         self.references = REFERENCES if references is None else references
         self.origin, self._say = origin, say or (lambda line: None)
-        self.progress = Progress(progress, 5 if allow == "proved" else 4)
+        self.levers = list(levers or [])
+        self.progress = Progress(progress, (5 if allow == "proved" else 4)
+                                 + (1 if self.levers else 0))
         cores = 1 if scheduler is not None else workers or os.cpu_count() or 1
         # seconds of a verification and of one run of the tasks, for the estimates:
         # from the measured costs until measured here (verification.phases)
@@ -441,7 +450,25 @@ class Tuner:
                 chosen_row = self.row(runner, "chosen", best.config, best.report_dict,
                                       best.tasks)
                 bar.step()
-        return self.result(pool, evaluated, rows, best, chosen_row)
+            priced = []
+            if best is not None and self.levers:
+                bar.phase(f"pricing {len(self.levers)} levers for the chosen configuration",
+                          len(self.levers), left=self.left(0, 0))
+                iso = next((r for r in rows if r["configuration"] == "iso.yaml"), None)
+                baselines: dict = {}
+                for lever in self.levers:
+                    row = price(best.config, lever, self.space, self.tasks, baselines)
+                    self.counts["proofs"] += row.fitted.proofs_run
+                    self.counts["task_runs"] += len(self.tasks)
+                    priced.append(record(row, iso and iso["total_lost_time"]))
+                    self.say(f"lever {lever.label}: "
+                             f"{'proved' if row.fitted.proved else 'not proved'}, lost "
+                             + ("unfinished" if row.total is None else f"{row.total:.2f} s"))
+                    bar.step()
+                self.counts["task_runs"] += len(baselines)
+        result = self.result(pool, evaluated, rows, best, chosen_row)
+        result["levers"] = priced
+        return result
 
     def left(self, references: int, candidates: int | None = None) -> tuple[float, float]:
         """The least and the most time the rest of the run may take, from the start of

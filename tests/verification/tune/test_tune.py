@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from safety_systems.outputs.metrics import task_time
-from safety_systems.config.configuration import with_controller
+from safety_systems.config.configuration import frame_timeout, with_controller
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
 from verification.spaces.space import load_space
@@ -85,14 +85,15 @@ def test_tune_shows_its_progress_phase_by_phase(tuned):
     """Without --quiet, tune draws a progress bar per phase on stderr (it runs for
     minutes), with each candidate's fate printed above it."""
     err = (tuned / "tune_stderr.txt").read_text()
-    phases = ["tune: phase 1 of 5: verifying and timing 2 reference configurations "
+    phases = ["tune: phase 1 of 6: verifying and timing 2 reference configurations "
               "(iso.yaml, seed_estimated.yaml) (about ",
-              "tune: phase 2 of 5: screening ",
+              "tune: phase 2 of 6: screening ",
               " candidates: the counterexamples kept, then the proofs (about ",
-              "tune: phase 3 of 5: refining the 3 best proved candidates by their proofs",
-              "tune: phase 4 of 5: simulating the tasks of up to 4 candidates, verifying each "
+              "tune: phase 3 of 6: refining the 3 best proved candidates by their proofs",
+              "tune: phase 4 of 6: simulating the tasks of up to 4 candidates, verifying each "
               "one faster than the best so far (about ",
-              "tune: phase 5 of 5: timing the chosen configuration's tasks (about "]
+              "tune: phase 5 of 6: timing the chosen configuration's tasks (about ",
+              "tune: phase 6 of 6: pricing 1 levers for the chosen configuration"]
     at = [err.find(p) for p in phases]
     assert -1 not in at and at == sorted(at), (at, err[:3000])
     assert " left in all)" in err and "step" in err
@@ -159,6 +160,38 @@ def test_tune_refuses_measured_and_unknown_parameters(tmp_path, cli, name, needl
     assert code == 2 and needle in err and len(err.splitlines()) == 1
     assert name in err and str(block) in err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_tune_files_levers_are_priced_for_the_chosen_configuration(tuned):
+    """The fixture's tune file has one lever (a banded suit at 120 Hz, cost 3): tune.json
+    and tune.md give its fitted terms, proofs and time lost, and stdout says it."""
+    result = json.loads((tuned / "tune" / "tune.json").read_text())
+    (row,) = result["levers"]
+    assert row["lever"] == {"sensor_set": "gloves+helmet+belt+elbows", "rate_hz": 120.0,
+                            "latency": 0.02, "cost": 3.0}
+    assert row["proved"] and set(row["proofs"]) == {"contact", "separation"}
+    chosen = load_controller_config(result["chosen"]["config"])
+    assert row["frame_timeout"] < frame_timeout(chosen)  # 120 Hz against 20
+    assert row["reaction_time"] <= chosen.safety.reaction_time
+    assert row["total_lost"] == pytest.approx(sum(row["lost"].values()))
+    iso = next(r for r in result["table"] if r["configuration"] == "iso.yaml")
+    assert row["reduction"] == pytest.approx(1.0 - row["total_lost"] / iso["total_lost_time"])
+    text = (tuned / "tune" / "tune.md").read_text()
+    assert "## What sensing buys" in text and "| gloves+helmet+belt+elbows, 120 Hz, 20 ms | 3 |" \
+        in text
+    assert "lever gloves+helmet+belt+elbows, 120 Hz, 20 ms: proved, lost" in \
+        (tuned / "tune_stdout.txt").read_text()
+
+
+def test_tune_refuses_an_unknown_sensor_set(tmp_path, cli):
+    block = tmp_path / "tune.yaml"
+    block.write_text("tune:\n- {name: safety.d_min, min: 0.1, max: 0.2}\n"
+                     "levers:\n- {sensor_set: helmet only, rate_hz: 120}\n")
+    code, _, err = cli(["tune", ISO, "--tune", block, "--space", SMALL_SPACE, "--out",
+                        tmp_path / "out"])
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert "levers[0].sensor_set" in err and "helmet only" in err and "gloves+helmet" in err
+    assert str(block) in err and not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("entry, needle", [
