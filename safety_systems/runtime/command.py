@@ -268,6 +268,10 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
               f"{written['segments']} segment(s), {written['bytes'] / 1e6:.1f} MB, "
               f"{written['dropped_ticks'] + written['dropped_frames']} records dropped "
               f"-> {args.log}")
+        from safety_systems.outputs.held import held_words
+
+        if words := held_words(summary.get("held", {})):
+            print(f"run: {words}")
     if end.startswith("interrupted"):
         return EXIT_INTERRUPTED
     return 0 if end == "duration" else EXIT_FAULT

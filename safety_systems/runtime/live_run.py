@@ -141,6 +141,14 @@ class _OperatorColumns:
         row[self.at["S"]] = np.where(none, np.nan, s.reshape(self.K, -1)[self.rows, j])
         row[self.hidden_at] = _hidden(loop.status)
 
+    def nearest(self, row: np.ndarray) -> float:
+        """The segment (an index of ``SEGMENT_NAMES``) nearest in the monitor's measure
+        over every operator at the row's tick, NaN with none measured."""
+        d = row[self.at["d_measured"]]
+        if np.isnan(d).all():
+            return math.nan
+        return float(row[self.at["nearest_measured"]][np.nanargmin(d)])
+
 
 def log_columns(loop: SafetyLoop, names: list[str], joints: int) -> tuple[list, list]:
     """(the trace's columns, a /tick row's columns: ``run_log_format.tick_columns``)."""
@@ -264,7 +272,8 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
                                  mocap.bad_packets, late)
             row[at_log], row[at_log + 1], row[at_q:] = log.dropped, t_q, q
             log.tick(row)
-            tally.tick(t - t_start, reason, late, loop.rejected, _hidden(loop.status))
+            tally.tick(t - t_start, reason, late, loop.rejected, _hidden(loop.status),
+                       columns.nearest(row))
             if taken:
                 after_k(taken)
                 taken = []

@@ -22,7 +22,8 @@ import math
 
 import numpy as np
 
-from safety_systems.sensing.stops import STOP_REASONS, STOP_STALE_FRAME
+from safety_systems.cell.human_body import SEGMENT_NAMES
+from safety_systems.sensing.stops import STOP_REASONS, STOP_SEPARATION, STOP_STALE_FRAME
 from safety_systems.sensing.stops import REJECT_CAUSES
 
 BIN_LOW = 1e-7  # s: the lower edge of the first bin (below it: bin 0, read as 0)
@@ -40,6 +41,7 @@ T_FIRST, T_LAST, FIRST_FRAME_WAIT, HOLD_TIME, LATE_MAX, LATENCY_MAX, WRITER_LAG_
     range(7)
 TIMES = 7
 WRITER_RUNNING, WRITER_DONE, WRITER_FAILED = 0, 1, 2
+NO_SEGMENT = len(SEGMENT_NAMES)  # the ``held`` slot of a separation stop with no segment
 
 
 def bin_of(x: float) -> int:
@@ -72,6 +74,7 @@ def tally_dtype(bodies: int, width: int) -> np.dtype:
                      ("rejected", "<f8", (len(REJECT_CAUSES),)),
                      ("hidden_ticks", "<i8", (max(bodies, 1),)),
                      ("late", "<i8", (BINS,)), ("latency", "<i8", (BINS,)),
+                     ("held", "<f8", (NO_SEGMENT + 1,)),
                      ("row", "<f8", (max(width, 1),))])
 
 
@@ -94,6 +97,8 @@ class RunTally:
         self.stop_count, self.stop_time = field["stop_count"], field["stop_time"]
         self.rejected, self.hidden_ticks = field["rejected"], field["hidden_ticks"]
         self.late, self.latency, self.row = field["late"], field["latency"], field["row"]
+        self.held = field["held"]
+        self._segment = NO_SEGMENT
         self._scalars = [int(x) for x in self.count]  # the loop's counters as it goes
         self._times = [float(x) for x in self.time]
         self._rejected = None
@@ -111,11 +116,14 @@ class RunTally:
         self.block["rejected"][0] = math.nan
         self.block["row"][0] = math.nan
 
-    def tick(self, t: float, reason: int, late: float, rejected, hidden) -> None:
+    def tick(self, t: float, reason: int, late: float, rejected, hidden,
+             segment: float = math.nan) -> None:
         """A tick at ``t`` (s since the loop started) that stopped for ``reason`` (a
         ``stops`` code), started ``late`` s after its due time, with the tracker's
-        rejected counts so far ((4,), NaN: none known) and whether each body was hidden
-        (bool (N,)). The counters reach the block at :meth:`publish`."""
+        rejected counts so far ((4,), NaN: none known), whether each body was hidden
+        (bool (N,)) and the segment nearest in the monitor's measure (an index of
+        ``SEGMENT_NAMES``, NaN: none): a separation stop's seconds are counted to it. The
+        counters reach the block at :meth:`publish`."""
         s = self._scalars
         if s[TICKS] == 0:
             self._times[T_FIRST] = t
@@ -123,6 +131,8 @@ class RunTally:
             dt = t - self._times[T_LAST]
             if s[LAST_CODE] > 0:
                 self.stop_time[s[LAST_CODE]] += dt
+                if s[LAST_CODE] == STOP_SEPARATION:
+                    self.held[self._segment] += dt
             if s[HOLDING]:
                 self._times[HOLD_TIME] += dt
         code = int(reason)
@@ -134,6 +144,7 @@ class RunTally:
         if code > 0 and code != s[LAST_CODE]:
             self.stop_count[code] += 1
         s[LAST_CODE] = code
+        self._segment = int(segment) if 0 <= segment < NO_SEGMENT else NO_SEGMENT
         s[TICKS] += 1
         self._times[T_LAST] = t
         if rejected[0] == rejected[0]:
@@ -174,6 +185,9 @@ class RunTally:
             stop_count[STOP_STALE_FRAME] += 1
             stop_time[STOP_STALE_FRAME] += tm[HOLD_TIME]
         rejected = np.nan_to_num(self.rejected, nan=0.0)
+        held = self.held.copy()
+        by_segment = {name: float(x) for name, x in zip(SEGMENT_NAMES + ("none",), held)
+                      if x > 0.0}
         return {
             "end": end,
             "duration": float(tm[T_LAST]) if ticks else 0.0,
@@ -185,6 +199,15 @@ class RunTally:
                                         "time": float(stop_time[code])}
                                  for code, name in enumerate(STOP_REASONS) if code},
             "rejected_frames": {name: int(x) for name, x in zip(REJECT_CAUSES, rejected)},
+            # what held the robot (``outputs.held.held_by``'s fields; a live run has no
+            # true clearance)
+            "held": {"causes": {name: float(stop_time[code])
+                                for code, name in enumerate(STOP_REASONS)
+                                if code and stop_time[code] > 0.0},
+                     "separation": {"time": float(held.sum()),
+                                    "by_segment": dict(sorted(by_segment.items(),
+                                                              key=lambda x: -x[1])),
+                                    "true_clearance_median": None}},
             "hidden_time": {name: float(self.hidden_ticks[i] * period)
                             for i, name in enumerate(names)},
             "timing": {

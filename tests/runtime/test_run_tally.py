@@ -96,3 +96,27 @@ def test_run_summary_puts_the_fixed_fields_around_the_tally():
     assert summary["end"] == "interrupted while connecting" and summary["ticks"] == 0
     assert summary["log"]["segment_length"] == 600.0 and summary["log"]["segments"] == 0
     assert list(summary)[-2:] == ["clock_start", "provenance"]
+
+
+def test_a_separation_stops_seconds_go_to_the_segment_that_held_the_robot():
+    """Each tick's seconds (to the next) count to the stop it was in and, for a
+    separation stop, to the segment nearest in the monitor's measure at that tick; the
+    summary's ``held`` has ``outputs.held.held_by``'s fields."""
+    from safety_systems.cell.human_body import SEGMENT_NAMES
+    from safety_systems.sensing.stops import STOP_SEPARATION
+
+    lower, head = SEGMENT_NAMES.index("lower_trunk"), SEGMENT_NAMES.index("head")
+    ticks = [(0.0, 0, lower), (0.5, STOP_SEPARATION, lower), (1.5, STOP_SEPARATION, head),
+             (1.75, STOP_SEPARATION, math.nan), (2.0, 0, head), (3.0, STOP_SEPARATION, head)]
+    tally = RunTally(1, 3)
+    for t, reason, segment in ticks:
+        tally.tick(t, reason, 1e-4, np.zeros(4), np.array([False]), segment)
+    summary = tally.summary(["a"], 0.002, "duration")
+    held = summary["held"]
+    assert held["separation"]["by_segment"] == {"lower_trunk": 1.0, "head": 0.25,
+                                                "none": 0.25}
+    assert list(held["separation"]["by_segment"]) == ["lower_trunk", "head", "none"]
+    assert held["separation"]["time"] == 1.5 == \
+        summary["protective_stops"]["separation"]["time"]
+    assert held["causes"] == {"separation": 1.5}
+    assert held["separation"]["true_clearance_median"] is None

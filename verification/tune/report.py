@@ -119,8 +119,33 @@ def markdown(result: dict) -> str:
                   f"    safety-systems export {chosen['config']} --report {chosen['report']} "
                   f"--tune {Path(chosen['config']).parent / 'tune.json'}"
                   " --out OUTDIR", ""]
-    return "\n".join(lines + _comparison(result) + _levers(result) + _vacuous(result)
-                     + _search(result))
+    return "\n".join(lines + _comparison(result) + _held(result) + _levers(result)
+                     + _vacuous(result) + _search(result))
+
+
+def _held(result: dict) -> list[str]:
+    """What held the robot on each task under the chosen configuration."""
+    chosen = next((r for r in result["table"] if r["configuration"] == "chosen"), None)
+    if not chosen or not chosen.get("held"):
+        return []
+    lines = ["## What holds the robot under the chosen configuration", "",
+             "Each task run once more for its duration: the seconds each protective stop "
+             "held the robot, and for the separation stops the segment that held it (the "
+             "nearest in the monitor's measure: an untracked segment's envelope is bounded "
+             "from the tracked points) and the real body's median clearance then. A "
+             "clearance well above the protective distance says the envelope, not the "
+             "person, held the robot: tracking that segment's points would release it "
+             "(what each sensor set buys: the levers of a tune file).", "",
+             "| task | held [s] | by cause | separation stops by segment | true clearance "
+             "then (median) [m] |", "|---|---|---|---|---|"]
+    for task, held in chosen["held"].items():
+        sep = held.get("separation") or {}
+        causes = ", ".join(f"{k} {v:.1f} s" for k, v in held["causes"].items()) or "none"
+        segments = ", ".join(f"{k} {v:.1f} s" for k, v in sep.get("by_segment", {}).items())
+        median = sep.get("true_clearance_median")
+        lines.append(f"| {task} | {sum(held['causes'].values()):.1f} | {causes} | "
+                     f"{segments or '-'} | {'-' if median is None else f'{median:.2f}'} |")
+    return lines + [""]
 
 
 def _levers(result: dict) -> list[str]:

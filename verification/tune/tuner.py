@@ -449,6 +449,7 @@ class Tuner:
                           left=self.left(0, 0))
                 chosen_row = self.row(runner, "chosen", best.config, best.report_dict,
                                       best.tasks)
+                chosen_row["held"] = self.held(best.config)
                 bar.step()
             priced = []
             if best is not None and self.levers:
@@ -469,6 +470,24 @@ class Tuner:
         result = self.result(pool, evaluated, rows, best, chosen_row)
         result["levers"] = priced
         return result
+
+    def held(self, config: ControllerConfig) -> dict:
+        """What held the robot on each task under ``config`` (``outputs.held.held_by``: the
+        stop causes' seconds, and the segment that held it with the real body's clearance
+        then), each task run once more in the Drake diagram for its duration (counted)."""
+        from safety_systems.config.configuration import with_controller
+        from safety_systems.diagrams.simulation import simulate
+        from safety_systems.outputs.held import held_by
+        from verification.search.evaluate_drake import collect_diagram_garbage
+
+        out = {}
+        for task in self.tasks:
+            try:
+                out[task.name] = held_by(simulate(with_controller(task, config)))
+            finally:
+                collect_diagram_garbage()
+            self.counts["task_runs"] += 1
+        return out
 
     def left(self, references: int, candidates: int | None = None) -> tuple[float, float]:
         """The least and the most time the rest of the run may take, from the start of

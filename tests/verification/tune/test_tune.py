@@ -183,6 +183,23 @@ def test_the_tune_files_levers_are_priced_for_the_chosen_configuration(tuned):
         (tuned / "tune_stdout.txt").read_text()
 
 
+def test_the_report_says_what_holds_the_robot_under_the_chosen_configuration(tuned):
+    """tune.json's chosen row and tune.md name, per task, the stop causes' seconds and the
+    segment that held the robot, as simulate's summary does for the same run."""
+    result = json.loads((tuned / "tune" / "tune.json").read_text())
+    chosen = next(r for r in result["table"] if r["configuration"] == "chosen")
+    (task,) = result["tasks"]
+    held = chosen["held"][task]
+    config = load_controller_config(result["chosen"]["config"])
+    scenario = load_scenario(tuned / "task.yaml")
+    from safety_systems.outputs.held import held_by
+
+    assert held == json.loads(json.dumps(held_by(simulate(with_controller(scenario, config)))))
+    text = (tuned / "tune" / "tune.md").read_text()
+    assert "## What holds the robot under the chosen configuration" in text
+    assert f"| {task} | {sum(held['causes'].values()):.1f} |" in text
+
+
 def test_tune_refuses_an_unknown_sensor_set(tmp_path, cli):
     block = tmp_path / "tune.yaml"
     block.write_text("tune:\n- {name: safety.d_min, min: 0.1, max: 0.2}\n"
