@@ -10,7 +10,8 @@ Shared by ``simulate``'s summary.json and console line and by ``bench_tune``.
 
 import numpy as np
 
-from safety_systems.cell.human_body import SEGMENT_NAMES
+from safety_systems.cell.human_body import SEGMENT_NAMES, SEGMENTS
+from safety_systems.config.configuration import tracked_points
 from safety_systems.diagrams.simulation import Run
 from safety_systems.outputs.metrics import protective_stops, stop_reasons
 from safety_systems.outputs.operator_figures import operator_figures
@@ -52,11 +53,26 @@ def held_by(run: Run) -> dict:
         name = SEGMENT_NAMES[int(nearest[k])] if np.isfinite(nearest[k]) else "none"
         by_segment[name] = by_segment.get(name, 0.0) + float(dt[k])
     true_held = true_least[held & np.isfinite(true_least)]
+    measured_held = nearest_d[held & np.isfinite(nearest_d)]
+    ordered = dict(sorted(by_segment.items(), key=lambda x: -x[1]))
     out["separation"] = {
         "time": float(np.sum(dt[held])),
-        "by_segment": dict(sorted(by_segment.items(), key=lambda x: -x[1])),
-        "true_clearance_median": float(np.median(true_held)) if true_held.size else None}
+        "by_segment": ordered,
+        "true_clearance_median": float(np.median(true_held)) if true_held.size else None,
+        "measured_clearance_median": float(np.median(measured_held))
+        if measured_held.size else None,
+        "untracked_points": untracked_points(next(iter(ordered), "none"),
+                                             tracked_points(run.scenario))}
     return out
+
+
+def untracked_points(segment: str, tracked: list[list[str]]) -> list[str]:
+    """The body points of ``segment`` (its two ends, ``human_body.SEGMENTS``) that no
+    operator's bodies mark: tracking them is what would bound it by its own points
+    instead of an envelope of the others (empty: its points are tracked, or no segment)."""
+    ends = next((s[1:3] for s in SEGMENTS if s[0] == segment), ())
+    marked = {q for points in tracked for q in points}
+    return [q for q in dict.fromkeys(ends) if q not in marked]
 
 
 def held_words(held: dict) -> str:
@@ -67,6 +83,15 @@ def held_words(held: dict) -> str:
         return ""
     parts = ", ".join(f"{name} {t:.1f} s" for name, t in separation["by_segment"].items())
     clearance = separation["true_clearance_median"]
+    measured = separation.get("measured_clearance_median")
+    then = []
+    if clearance is not None:
+        then.append(f"the real body then {clearance:.2f} m away, median")
+    if measured is not None:
+        then.append(f"the monitor's measure {measured:.2f} m")
+    points = separation.get("untracked_points")
+    first = next(iter(separation["by_segment"]), None)
+    if points:
+        then.append(f"tracking {' and '.join(points)} would bound {first} by its own points")
     return (f"held on separation stops {separation['time']:.1f} s by {parts}"
-            + ("" if clearance is None else
-               f" (the real body then {clearance:.2f} m away, median)"))
+            + (f" ({'; '.join(then)})" if then else ""))

@@ -1,7 +1,8 @@
 """What held the robot (``outputs.held``), on the main job (as the README runs it): the technician at the desk
 holds the robot by the lower trunk's envelope (bounded from the gloves alone) while the
 real body stands well clear of it; the seconds add up to the separation stops', and
-simulate's summary.json and console line carry them."""
+simulate's summary.json and console line carry them, with the monitor's measure and the
+points whose tracking would release the robot."""
 
 import json
 from pathlib import Path
@@ -34,6 +35,10 @@ def test_the_separation_stops_are_told_by_the_segment_that_held_them(summary):
     # real body is farther than any d_min from it
     assert first == "lower_trunk", separation["by_segment"]
     assert separation["true_clearance_median"] > 0.5
+    # the monitor measures the envelope, nearer than the real body: tracking the trunk's
+    # points (chest, pelvis: gloves track neither) is what would release the robot
+    assert separation["measured_clearance_median"] < separation["true_clearance_median"] - 0.5
+    assert separation["untracked_points"] == ["chest", "pelvis"]
     times = list(separation["by_segment"].values())
     assert times == sorted(times, reverse=True)
 
@@ -41,5 +46,6 @@ def test_the_separation_stops_are_told_by_the_segment_that_held_them(summary):
 def test_the_console_line_says_it(summary):
     words = held_words(summary["held"])
     assert words.startswith("held on separation stops") and "lower_trunk" in words
+    assert "tracking chest and pelvis would bound lower_trunk by its own points" in words
     assert held_words({"causes": {}}) == ""
     assert np.isfinite(summary["held"]["separation"]["true_clearance_median"])

@@ -137,14 +137,17 @@ def _held(result: dict) -> list[str]:
              "person, held the robot: tracking that segment's points would release it "
              "(what each sensor set buys: the levers of a tune file).", "",
              "| task | held [s] | by cause | separation stops by segment | true clearance "
-             "then (median) [m] |", "|---|---|---|---|---|"]
+             "then (median) [m] | the monitor's measure then [m] | untracked points of the "
+             "first |", "|---|---|---|---|---|---|---|"]
     for task, held in chosen["held"].items():
         sep = held.get("separation") or {}
         causes = ", ".join(f"{k} {v:.1f} s" for k, v in held["causes"].items()) or "none"
         segments = ", ".join(f"{k} {v:.1f} s" for k, v in sep.get("by_segment", {}).items())
-        median = sep.get("true_clearance_median")
+        true, measured = sep.get("true_clearance_median"), sep.get("measured_clearance_median")
         lines.append(f"| {task} | {sum(held['causes'].values()):.1f} | {causes} | "
-                     f"{segments or '-'} | {'-' if median is None else f'{median:.2f}'} |")
+                     f"{segments or '-'} | {'-' if true is None else f'{true:.2f}'} | "
+                     f"{'-' if measured is None else f'{measured:.2f}'} | "
+                     f"{', '.join(sep.get('untracked_points') or []) or '-'} |")
     return lines + [""]
 
 
