@@ -175,7 +175,16 @@ BENCHES = {
     "bench_verify": ["benchmarks/bench_verify.py"],
     "bench_simulate": ["benchmarks/bench_simulate.py"],
     "bench_runtime": ["benchmarks/bench_runtime.py"],
+    "bench_levers": ["benchmarks/bench_levers.py", "--latencies", "0.02", "0.005"],
+    "bench_tune_banded": ["benchmarks/bench_tune.py", "--workers", "1", "--lever",
+                          "gloves+helmet+belt+elbows", "120", "0.005"],
+    "bench_new_robot": ["benchmarks/bench_new_robot.py"],
 }
+LEVERS, NEW_ROBOT, BANDED = "bench_levers", "bench_new_robot", "bench_tune_banded"
+LEVER_SETS = ("gloves", "gloves+helmet", "gloves+helmet+chest", "gloves+helmet+belt",
+              "gloves+helmet+elbows", "gloves+helmet+belt+elbows", "full suit")
+LEVER_SENSING = ((20.0, 0.02), (120.0, 0.02), (240.0, 0.02), (20.0, 0.005), (120.0, 0.005),
+                 (240.0, 0.005))  # the columns of tuning.md's table
 VERIFY, SIMULATE, RUNTIME = "bench_verify", "bench_simulate", "bench_runtime"
 THREE_BALL, ISSUE_33 = "9273221", "177f5a8"  # bench_verify's commits, measured beside
 
@@ -195,6 +204,56 @@ def search(config: str, budget: int, who: str, what: str) -> typing.Callable[[di
     ``budget``, ``who`` (ours, UniformRandom, DualAnnealing), ``what`` (falsified,
     median_evaluations, median_cpu, within_ours_cpu)."""
     return bench(VERIFY, f"search/{config}/{budget}/{who}/{what}")
+
+
+def lever_row(sensor_set: str, rate: float, latency: float, what: str
+              ) -> typing.Callable[[dict], float]:
+    """bench_levers' row of that lever: ``what`` (total_lost, reduction, ...)."""
+    def get(data: dict) -> float:
+        return next(r[what] for r in data[LEVERS]["rows"]
+                    if r["lever"] == dict(r["lever"], sensor_set=sensor_set, rate_hz=rate,
+                                          latency=latency))
+    return _source(get, ("bench", LEVERS))
+
+
+def _lever_figures() -> tuple:
+    """The levers' table in tuning.md (every cell's time lost and its reduction), and the
+    figures around it and in the speed page."""
+    out = []
+    for name in LEVER_SETS:
+        for i, (rate, latency) in enumerate(LEVER_SENSING):
+            cell = (r"\| " + name.replace("+", r"\+") + r" \|(?: [^|]+ \|){" + str(i) + "} ")
+            out.append(Figure(f"lever_lost_{name}_{rate:g}_{latency:g}", cell + NUM + " s",
+                              lever_row(name, rate, latency, "total_lost")))
+            out.append(Figure(f"lever_reduction_{name}_{rate:g}_{latency:g}",
+                              cell + r"[0-9.]+ s \(" + NUM + r"%\)",
+                              lever_row(name, rate, latency, "reduction"), scale=100.0))
+    return tuple(out) + (
+        Figure("levers_iso_lost", r"against `iso.yaml`'s " + NUM + " s lost on the tasks "
+               "as written", bench(LEVERS, "iso_lost")),
+        Figure("levers_wall", r"42 rows, each fitted, proved and run on the seed's two "
+               r"tasks\) took " + NUM + " s", bench(LEVERS, "wall"), TIME_NOISE),
+        Figure("levers_best", r"a full suit at 240 Hz and 5 ms, loses " + NUM
+               + "% less time", lever_row("full suit", 240.0, 0.005, "reduction"),
+               scale=100.0),
+        Figure("levers_banded", r"the banded set at 120 Hz and 5 ms: " + NUM + "%",
+               lever_row("gloves+helmet+belt+elbows", 120.0, 0.005, "reduction"),
+               scale=100.0),
+        Figure("banded_tune_lost", NUM + r" s lost against `iso.yaml`'s [0-9.]+ s on the "
+               "same worn tasks", bench(BANDED, "table/chosen/total_lost_time")),
+        Figure("banded_tune_iso", r"s lost against `iso.yaml`'s " + NUM + " s on the same "
+               "worn tasks", bench(BANDED, "table/iso.yaml/total_lost_time")),
+        Figure("banded_tune_reduction", r"on the same worn tasks \(" + NUM + "% less",
+               bench(BANDED, "reduction"), scale=100.0),
+        Figure("banded_tune_wall", r"120 0.005`, " + NUM + " s here",
+               bench(BANDED, "wall"), TIME_NOISE),
+        Figure("new_robot_first", r"its\s+first verify took " + NUM + " s of CPU",
+               bench(NEW_ROBOT, "runs/new robot (5 joints), first/cpu"), TIME_NOISE),
+        Figure("new_robot_second", r"s of CPU and its second " + NUM + " s",
+               bench(NEW_ROBOT, "runs/new robot (5 joints), second/cpu"), TIME_NOISE),
+        Figure("new_robot_ratio", r"a ratio of \*\*" + NUM + r"\*\*",
+               bench(NEW_ROBOT, "ratio"), TIME_NOISE),
+    )
 
 
 def _speed_figures() -> tuple:
@@ -486,4 +545,4 @@ FIGURES = (
            run("verify-tuned", f"{CONTACT}/proof/margin_at_worst_corner")),
     Figure("tuned_separation_margin", r"s here:\s+contact margin [0-9.]+ m, separation "
            + NUM + " m", run("verify-tuned", f"{SEPARATION}/proof/margin_at_worst_corner")),
-) + _speed_figures()
+) + _speed_figures() + _lever_figures()
