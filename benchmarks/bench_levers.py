@@ -10,7 +10,11 @@ configuration is fitted to that sensing (``verification.tune.levers.fit``: the f
 timeout and T_r the faster sensing allows, Z_r the least both proofs then allow) and
 proved on the default space with those tracked points and that latency bound; the two
 tasks (inspection, co-kitting, as ``tune`` runs them) are run with their operators
-wearing the set and their sensor at that rate. Printed: each row's verdict, frame
+wearing the set and their sensor at that rate. With ``--stopping-scale`` (0.7 by default)
+the ``--stopping-sets`` are priced again with stopping data of their own: the
+configuration's table with its times and distances at that fraction (an example standing
+for a cell's measured data: no measured UR5e data is shipped), T_s and B scaled alike
+(``levers.stopped``). Printed: each row's verdict, frame
 timeout, T_r and Z_r, the time lost on each task and in all, the seconds held at rest,
 and the reduction against iso.yaml's time lost on the tasks as written (gloves at 20
 Hz: the figure ``bench_tune`` compares with), beside the goal (at least 50% less, proved:
@@ -27,7 +31,8 @@ import time
 from pathlib import Path
 
 from safety_systems.cell.sensor_sets import SENSOR_SETS
-from safety_systems.config.scenario import load_controller_config, load_scenario
+from safety_systems.config.configuration import braking_table, robot_model_of
+from safety_systems.config.scenario import BrakingConfig, load_controller_config, load_scenario
 from verification.spaces.space import load_space
 from verification.tune.levers import Lever, price, record
 from verification.tune.tasks import lost_time, run_task, total
@@ -49,6 +54,12 @@ def main() -> int:
     parser.add_argument("--latencies", type=float, nargs="+", default=[0.02])
     parser.add_argument("--sets", nargs="+", default=list(SENSOR_SETS),
                         choices=list(SENSOR_SETS), metavar="SET")
+    parser.add_argument("--stopping-scale", type=float, default=0.7,
+                        help="also price stopping data: the configuration's table with its "
+                             "times and distances at this fraction (an example standing for "
+                             "a cell's measured data), for --stopping-sets (0: none)")
+    parser.add_argument("--stopping-sets", nargs="+", choices=list(SENSOR_SETS), metavar="SET",
+                        default=["gloves", "gloves+helmet+belt+elbows", "full suit"])
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     start = time.perf_counter()
@@ -62,24 +73,36 @@ def main() -> int:
         ROOT) else args.config
     print(f"levers for {name} on the seed's two tasks; iso.yaml as written (gloves, 20 Hz) "
           f"loses {iso_lost:.2f} s")
-    print(f"{'sensor set, rate, latency':<44} {'proofs':<10} {'tau':>6} {'T_r':>6} "
+    print(f"{'sensor set, rate, latency':<76} {'proofs':<10} {'tau':>6} {'T_r':>6} "
           f"{'Z_r':>6}  {'lost (inspection + co_kitting)':<34} {'held':>6}  vs iso")
     figures = {"config": str(name), "iso_lost": iso_lost, "goal": GOAL, "rows": []}
     baselines: dict = {}
-    for latency in args.latencies:
-        for rate in args.rates:
-            for set_name in args.sets:
-                row = price(config, Lever(set_name, rate, latency), space, tasks, baselines)
-                r = record(row, iso_lost)
-                parts = " + ".join(_s(v) for v in r["lost"].values())
-                total_text = parts + " = " + _s(r["total_lost"]) + ("" if r["total_lost"]
-                                                                    is None else " s")
-                print(f"{r['label']:<44} {'proved' if r['proved'] else 'not proved':<10} "
-                      f"{r['frame_timeout']:6.4f} {r['reaction_time']:6.4f} "
-                      f"{r['robot_uncertainty']:6.4f}  {total_text:<34} {r['held']:6.1f}  "
-                      + ("-" if r["reduction"] is None else f"{100.0 * r['reduction']:+.1f}%"),
-                      flush=True)
-                figures["rows"].append(r)
+    levers = [Lever(set_name, rate, latency) for latency in args.latencies
+              for rate in args.rates for set_name in args.sets]
+    if args.stopping_scale > 0.0:
+        table = braking_table(config, robot_model_of(space.robot))
+        scaled = BrakingConfig(
+            speed_fraction=[float(x) for x in table.speed_fraction],
+            stopping_time=[float(x) * args.stopping_scale for x in table.stopping_time],
+            stopping_distance=[float(x) * args.stopping_scale
+                               for x in table.stopping_distance])
+        example = f"{args.stopping_scale:g} x the placeholder"
+        levers += [Lever(set_name, rate, latency, braking=scaled, stopping_name=example)
+                   for latency in args.latencies for rate in args.rates
+                   for set_name in args.stopping_sets]
+        figures["stopping_scale"] = args.stopping_scale
+    for lever in levers:
+        row = price(config, lever, space, tasks, baselines)
+        r = record(row, iso_lost)
+        parts = " + ".join(_s(v) for v in r["lost"].values())
+        total_text = parts + " = " + _s(r["total_lost"]) + ("" if r["total_lost"]
+                                                            is None else " s")
+        print(f"{r['label']:<76} {'proved' if r['proved'] else 'not proved':<10} "
+              f"{r['frame_timeout']:6.4f} {r['reaction_time']:6.4f} "
+              f"{r['robot_uncertainty']:6.4f}  {total_text:<34} {r['held']:6.1f}  "
+              + ("-" if r["reduction"] is None else f"{100.0 * r['reduction']:+.1f}%"),
+              flush=True)
+        figures["rows"].append(r)
     met = [r for r in figures["rows"] if r["proved"] and r["reduction"] is not None
            and r["reduction"] >= GOAL]
     best = max((r for r in figures["rows"] if r["proved"] and r["reduction"] is not None),

@@ -212,7 +212,8 @@ def lever_row(sensor_set: str, rate: float, latency: float, what: str
     def get(data: dict) -> float:
         return next(r[what] for r in data[LEVERS]["rows"]
                     if r["lever"] == dict(r["lever"], sensor_set=sensor_set, rate_hz=rate,
-                                          latency=latency))
+                                          latency=latency)
+                    and not r["lever"].get("braking", {}).get("speed_fraction"))
     return _source(get, ("bench", LEVERS))
 
 

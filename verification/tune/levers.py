@@ -3,7 +3,8 @@ time it wins and proved or not (issue 47, part 2).
 
 A lever is a choice of the cell, not a setting of the controller: the sensor set its
 operators wear (``safety_systems.cell.sensor_sets``), the capture rate and the latency
-of its motion capture. ``tune`` refuses these as parameters (``tunable.MEASURED``: they
+of its motion capture, and the stopping data it has measured (or a robot, payload or
+speed limit that stops sooner). ``tune`` refuses these as parameters (``tunable.MEASURED``: they
 are the sensor's measured properties); here they are what the integrator may buy, and
 each is priced on the same tasks as ``tune``'s objective.
 
@@ -33,13 +34,15 @@ import typing
 
 from safety_systems.cell.human_body import POINTS
 from safety_systems.cell.sensor_sets import SENSOR_SETS, points_of
-from safety_systems.config.configuration import frame_timeout
+from safety_systems.config.configuration import braking_table, frame_timeout, robot_model_of
 from safety_systems.config.scenario import (
     Body,
+    BrakingConfig,
     ControllerConfig,
     Scenario,
     actual_sensor,
     operator_posture,
+    validate_controller,
 )
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import number
@@ -55,30 +58,64 @@ class Lever:
     ``sensor_set`` (a name of ``safety_systems.cell.sensor_sets.SENSOR_SETS``), the
     capture ``rate_hz`` and ``latency`` (s, the largest the cell's capture has), and
     ``cost``, the integrator's own weight for it (any unit: money, effort; reported beside
-    its lost time, never mixed into it; none: not given)."""
+    its lost time, never mixed into it; none: not given). ``braking``: stopping data of its
+    own (rows by speed fraction, as a configuration's ``braking``: the stops measured on
+    the cell, or another robot's, or a lower payload's), named ``stopping_name``; empty:
+    the configuration's. Its T_s and B then scale by the rows' full-speed stop against
+    the configuration's table's (:func:`stopped`)."""
 
     sensor_set: str = "gloves"
     rate_hz: float = number(20.0, ge=20.0, le=1000.0, unit="Hz")
     latency: float = number(0.02, ge=0.0, le=1.0, unit="s")
     cost: typing.Optional[float] = number(None, ge=0.0, le=1e9)
+    braking: BrakingConfig = dataclasses.field(default_factory=BrakingConfig)
+    stopping_name: str = ""
 
     @property
     def label(self) -> str:
-        return f"{self.sensor_set}, {self.rate_hz:g} Hz, {1000.0 * self.latency:g} ms"
+        text = f"{self.sensor_set}, {self.rate_hz:g} Hz, {1000.0 * self.latency:g} ms"
+        if self.braking.speed_fraction:
+            text += f", stopping data {self.stopping_name or 'given'}"
+        return text
 
 
 def check_levers(levers: list[Lever]) -> None:
-    """Raises InputError (naming ``levers[i].sensor_set``) for a set that is not known."""
+    """Raises InputError (naming ``levers[i]``'s field) for a sensor set that is not known,
+    or stopping data the configuration's rules refuse."""
     for i, lever in enumerate(levers):
         if lever.sensor_set not in SENSOR_SETS:
             raise InputError(f"levers[{i}].sensor_set", lever.sensor_set,
                              "a sensor set: " + " | ".join(SENSOR_SETS))
+        if lever.braking.speed_fraction or lever.braking.stopping_time or \
+                lever.braking.stopping_distance:
+            validate_controller(ControllerConfig(braking=lever.braking),
+                                prefix=f"levers[{i}]")
 
 
 def _due(rate_hz: float, latency: float, config: ControllerConfig) -> float:
     """The least a frame's age may reach before the next is due: one sensor period, the
     latency and the tracker's processing time."""
     return 1.0 / rate_hz + latency + config.tracker.processing_time
+
+
+def stopped(config: ControllerConfig, lever: Lever, model=None) -> ControllerConfig:
+    """``config`` with the lever's stopping data, if it gives any: its rows, and T_s and B
+    scaled by the ratio of its full-speed stop to the configuration's table's (T_s and B
+    are the configuration's stop on its cell's path; the rows' shape is the robot's)."""
+    if not lever.braking.speed_fraction:
+        return config
+    old = braking_table(config, model)
+    out = dataclasses.replace(config, braking=lever.braking)
+    new = braking_table(out, model)
+    time_ratio = new.stopping_time[-1] / old.stopping_time[-1]
+    distance_ratio = new.stopping_distance[-1] / old.stopping_distance[-1]
+    safety = out.safety
+    return dataclasses.replace(out, safety=dataclasses.replace(
+        safety,
+        stopping_time=None if safety.stopping_time is None
+        else safety.stopping_time * time_ratio,
+        stopping_distance=None if safety.stopping_distance is None
+        else safety.stopping_distance * distance_ratio))
 
 
 def sensed(config: ControllerConfig, lever: Lever, control_period: float) -> ControllerConfig:
@@ -123,7 +160,7 @@ def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
     from verification.tune.tuner import proofs_of
 
     h = 1.0 / space.robot.control_rate_hz
-    out = sensed(config, lever, h)
+    out = sensed(stopped(config, lever, robot_model_of(space.robot)), lever, h)
     box = lever_space(space, lever)
     proofs = proofs_of(out, box)
     run = len(proofs)

@@ -7,17 +7,29 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from safety_systems.cell.braking import default_braking_table
 from safety_systems.cell.human_body import POINTS
 from safety_systems.cell.sensor_sets import SENSOR_SETS, points_of
 from safety_systems.config.scenario import (
+    BrakingConfig,
     actual_sensor,
     load_controller_config,
     load_scenario,
     operator_posture,
 )
+from safety_systems.files.input_error import InputError
 from verification.spaces.space import load_space
-from verification.tune.levers import Lever, fit, lever_space, sensed, under, wearing
-from verification.tune.tunable import check_block, load_tunable
+from verification.tune.levers import (
+    Lever,
+    check_levers,
+    fit,
+    lever_space,
+    sensed,
+    stopped,
+    under,
+    wearing,
+)
+from verification.tune.tunable import check_block, load_levers, load_tunable
 from verification.tune.tuner import proofs_of
 
 MODELS = Path(__file__).parents[3] / "models"
@@ -100,3 +112,41 @@ def test_a_tune_under_a_lever_searches_the_same_headroom_above_the_faster_loop()
             assert after == before
     # the block stays one tune accepts: T_r's least above the faster loop's own reaction
     check_block(moved, moved_config, control_period=0.002)
+
+
+def _scaled_placeholder(scale: float) -> BrakingConfig:
+    table = default_braking_table()
+    return BrakingConfig(speed_fraction=[float(x) for x in table.speed_fraction],
+                         stopping_time=[float(x) * scale for x in table.stopping_time],
+                         stopping_distance=[float(x) * scale for x in table.stopping_distance])
+
+
+def test_stopping_data_as_a_lever_scales_the_configurations_stop_and_is_proved():
+    """A lever's stopping data (rows by speed): its rows replace the table, and T_s and B (the
+    configuration's stop on its path) scale by its full-speed stop against the table's; the
+    proofs then run on it (the simulated robot brakes by it too)."""
+    config = load_controller_config(TUNED)
+    lever = Lever("gloves+helmet+belt+elbows", 120.0, 0.005, braking=_scaled_placeholder(0.7),
+                  stopping_name="0.7 x the placeholder")
+    assert lever.label.endswith(", stopping data 0.7 x the placeholder")
+    out = stopped(config, lever)
+    assert out.braking == lever.braking
+    assert out.safety.stopping_time == pytest.approx(0.7 * config.safety.stopping_time)
+    assert out.safety.stopping_distance == pytest.approx(0.7 * config.safety.stopping_distance)
+    assert stopped(config, Lever("gloves")) is config  # none given: the configuration's
+    fitted = fit(config, lever, load_space(MODELS / "spaces" / "default.yaml"))
+    assert fitted.proved and fitted.config.braking == lever.braking
+
+
+def test_a_levers_stopping_data_is_checked_as_a_configurations(tmp_path):
+    bad = BrakingConfig(speed_fraction=[0.5, 0.9], stopping_time=[0.2, 0.4],
+                        stopping_distance=[0.1, 0.2])
+    with pytest.raises(InputError, match=r"levers\[1\]\.braking\.speed_fraction"):
+        check_levers([Lever("gloves"), Lever("gloves", braking=bad)])
+    block = tmp_path / "tune.yaml"
+    block.write_text("tune:\n- {name: safety.d_min, min: 0.1, max: 0.2}\nlevers:\n"
+                     "- {sensor_set: gloves, braking: {speed_fraction: [0.5, 0.9], "
+                     "stopping_time: [0.2, 0.4], stopping_distance: [0.1, 0.2]}}\n")
+    with pytest.raises(InputError, match=r"levers\[0\]\.braking\.speed_fraction") as e:
+        load_levers(block)
+    assert str(block) in str(e.value)
