@@ -159,7 +159,8 @@ def _levers(result: dict) -> list[str]:
     tasks = list(rows[0]["lost"])
     lines = ["## What sensing buys", "",
              "The chosen configuration under each lever of the tune file: its frame timeout "
-             "and T_r as that sensing allows, Z_r the least both proofs then allow, proved "
+             "and T_r as that sensing allows, its stopping data if it brings any (T_s and B "
+             "scaled by its full-speed stop), Z_r the least both proofs then allow, proved "
              "on the space with the lever's tracked points and latency bound; the tasks run "
              "with their operators wearing the lever's sensor set "
              "(`verification/tune/levers.py`). Not re-tuned: the other parameters stay the "
@@ -167,18 +168,25 @@ def _levers(result: dict) -> list[str]:
              "written.", "",
              "| sensor set, rate, latency | cost | proofs | tau [s] | T_r [s] | Z_r [m] | "
              + " | ".join(f"lost {t} [s]" for t in tasks) + " | lost [s] | held [s] | "
-             "vs iso.yaml |",
-             "|---|---|---|---|---|---|" + "---|" * len(tasks) + "---|---|---|"]
+             "vs iso.yaml | won [s] | won per cost [s] |",
+             "|---|---|---|---|---|---|" + "---|" * len(tasks) + "---|---|---|---|---|"]
+    chosen = next((r for r in result["table"] if r["configuration"] == "chosen"), None)
+    base = chosen and chosen["total_lost_time"]
     for r in rows:
         cost = r["lever"]["cost"]
+        won = None if base is None or r["total_lost"] is None else base - r["total_lost"]
+        per = "-" if won is None or not cost or not r["proved"] else f"{won / cost:.2f}"
         lines.append(
             f"| {r['label']} | {'-' if cost is None else f'{cost:g}'} | "
             f"{'proved' if r['proved'] else 'not proved'} | {r['frame_timeout']:.4f} | "
             f"{r['reaction_time']:.4f} | {r['robot_uncertainty']:.4f} | "
             + " | ".join(_s(r["lost"][t]) for t in tasks)
             + f" | **{_s(r['total_lost'])}** | {r['held']:.1f} | "
-            + ("-" if r["reduction"] is None else f"{100.0 * r['reduction']:.1f}%") + " |")
-    return lines + [""]
+            + ("-" if r["reduction"] is None else f"{100.0 * r['reduction']:.1f}%")
+            + f" | {'-' if won is None else f'{won:.2f}'} | {per} |")
+    return lines + ["", "*won*: the time lost under the chosen configuration as it is "
+                    "(its own sensing) less the lever's; *won per cost*: that over the "
+                    "lever's cost, for a proved lever with a cost.", ""]
 
 
 def write_tune(result: dict, out: Path) -> None:

@@ -179,6 +179,10 @@ def test_the_tune_files_levers_are_priced_for_the_chosen_configuration(tuned):
     text = (tuned / "tune" / "tune.md").read_text()
     assert "## What sensing buys" in text and "| gloves+helmet+belt+elbows, 120 Hz, 20 ms | 3 |" \
         in text
+    chosen_row = next(r for r in result["table"] if r["configuration"] == "chosen")
+    won = chosen_row["total_lost_time"] - row["total_lost"]
+    assert text.split("| gloves+helmet+belt+elbows, 120 Hz, 20 ms | 3 |")[1].split("\n")[0] \
+        .endswith(f" | {won:.2f} | {won / 3.0:.2f} |")
     assert "lever gloves+helmet+belt+elbows, 120 Hz, 20 ms: proved, lost" in \
         (tuned / "tune_stdout.txt").read_text()
 
