@@ -258,6 +258,7 @@ def _tune(args: argparse.Namespace) -> int:
     from verification.tune.tuner import TASKS, Tuner
     from verification.tune.report import write_tune
     from verification.tune.tunable import check_block, load_levers, load_tunable
+    from safety_systems.config.configuration import is_recorded
 
     config, block = load_tunable(args.config, args.tune)
     levers = load_levers(args.tune)
@@ -269,6 +270,11 @@ def _tune(args: argparse.Namespace) -> int:
     tasks = [load_scenario(path) for path in (args.tasks or TASKS)]
     for path, task in zip(args.tasks or TASKS, tasks):
         _same_robot(task.robot, space.robot, path, args.space)
+        if levers and is_recorded(task):
+            raise InputError("levers", f"{len(levers)} levers", "a tune file without levers "
+                             f"for a recorded task ({path}: its operators wear what the "
+                             "recording tracked, so no sensor set can be priced on it)"
+                             ).in_file(args.tune)
     try:
         check_block(block, config, control_period=1.0 / space.robot.control_rate_hz)
     except InputError as e:

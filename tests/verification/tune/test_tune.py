@@ -204,6 +204,17 @@ def test_the_report_says_what_holds_the_robot_under_the_chosen_configuration(tun
     assert f"| {task} | {sum(held['causes'].values()):.1f} |" in text
 
 
+def test_tune_refuses_levers_for_a_recorded_task(tmp_path, cli):
+    block = tmp_path / "tune.yaml"
+    block.write_text("tune:\n- {name: safety.d_min, min: 0.1, max: 0.2}\n"
+                     "levers:\n- {sensor_set: full suit, rate_hz: 120}\n")
+    code, _, err = cli(["tune", ISO, "--tune", block, "--space", SMALL_SPACE, "--tasks",
+                        MODELS / "recordings" / "approach.yaml", "--out", tmp_path / "out"])
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert "levers" in err and "approach.yaml" in err and str(block) in err
+    assert not (tmp_path / "out").exists()
+
+
 def test_tune_refuses_an_unknown_sensor_set(tmp_path, cli):
     block = tmp_path / "tune.yaml"
     block.write_text("tune:\n- {name: safety.d_min, min: 0.1, max: 0.2}\n"
