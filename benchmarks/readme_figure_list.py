@@ -144,6 +144,8 @@ EXTRA_RUNS = (
                              "out/verify-recording-iso --budget 64"),
     ("verify-tuned", ".venv/bin/safety-systems verify models/configs/tuned.yaml --space "
                      "models/spaces/default.yaml --out out/verify-tuned"),
+    ("inspection-banded", ".venv/bin/safety-systems simulate "
+                          "models/scenarios/inspection_banded.yaml --out out/inspection-banded"),
 )
 
 def chosen(name: str) -> typing.Callable[[dict], typing.Any]:
@@ -217,6 +219,20 @@ def lever_row(sensor_set: str, rate: float, latency: float, what: str,
                                           latency=latency)
                     and bool(r["lever"]["braking"]["speed_fraction"]) == stopping)
     return _source(get, ("bench", LEVERS))
+
+
+def _banded_figures() -> tuple:
+    """The main job with the banded set (tuning.md)."""
+    held = f"{SUMMARY}/held/separation"
+    return (
+        Figure("banded_held", r"is held on separation stops for " + NUM + " s",
+               run("inspection-banded", f"{held}/time")),
+        Figure("banded_held_segment", r"s, all of them by the " + TEXT + " while",
+               _source(lambda data: next(iter(run("inspection-banded", f"{held}/by_segment")(
+                   data))), ("runs", "inspection-banded")), "text"),
+        Figure("banded_margin", r"its least separation margin while moving is \+" + NUM
+               + " m", run("inspection-banded", f"{SUMMARY}/min_separation_margin")),
+    )
 
 
 def _lever_figures() -> tuple:
@@ -559,4 +575,4 @@ FIGURES = (
            run("verify-tuned", f"{CONTACT}/proof/margin_at_worst_corner")),
     Figure("tuned_separation_margin", r"s here:\s+contact margin [0-9.]+ m, separation "
            + NUM + " m", run("verify-tuned", f"{SEPARATION}/proof/margin_at_worst_corner")),
-) + _speed_figures() + _lever_figures()
+) + _speed_figures() + _lever_figures() + _banded_figures()
