@@ -68,6 +68,11 @@ PROVERS = {"contact": prove, "separation": prove_separation,
            "permitted_contact": prove_permitted_contact}
 
 
+def proofs_of(config: ControllerConfig, space: ScenarioSpace) -> dict:
+    """The proof of each property ``config`` is verified for (:data:`PROVERS`)."""
+    return {name: PROVERS[name](config, space) for name in mode_properties(config.safety.mode)}
+
+
 def selected_properties(choice: str, mode: str = "ssm") -> tuple[str, ...]:
     """The properties a ``--property`` choice names: ``both``, the two a configuration of
     ``safety.mode`` ``mode`` is verified for (``properties.mode_properties``: under

@@ -157,7 +157,7 @@ class Fitted:
 def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
     """``config`` as the lever's sensing allows it (the module's three rules), proved or
     not on ``space`` with the lever's points and latency."""
-    from verification.tune.tuner import proofs_of
+    from verification.verify import proofs_of
 
     h = 1.0 / space.robot.control_rate_hz
     out = sensed(stopped(config, lever, robot_model_of(space.robot)), lever, h)

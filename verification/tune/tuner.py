@@ -68,7 +68,7 @@ from verification.search.strategies import sweep_points
 from verification.spaces.box import ScenarioSpace
 from verification.tune.levers import price, record
 from verification.tune.tasks import TaskRun, lost_time, run_task, total
-from verification.verify import CONFIRM, CROSS_CHECK
+from verification.verify import CONFIRM, CROSS_CHECK, proofs_of
 from verification.tune.tunable import REACTION_TIME, TunedParameter, values_at, with_values
 
 MODELS = Path(__file__).parents[2] / "models"
@@ -85,14 +85,6 @@ def property_columns(config: ControllerConfig) -> dict:
     from verification.verify import column
 
     return {name: column(name) for name in mode_properties(config.safety.mode)}
-
-
-def proofs_of(config: ControllerConfig, space: ScenarioSpace) -> dict:
-    """The proof of each property ``config`` is verified for (``verify.PROVERS``)."""
-    from verification.verify import PROVERS
-
-    return {name: PROVERS[name](config, space) for name in mode_properties(
-        config.safety.mode)}
 
 
 @dataclasses.dataclass
