@@ -74,6 +74,9 @@ tune:
 - {name: safety.robot_uncertainty, min: 0.4, max: 0.7}
 - {name: safety.reaction_time, min: 0.1, max: 0.2}
 - {name: safety.robot_speed, choices: [directed, fastest_point]}
+"""
+# The tuned fixture's tune file prices one lever too (tests/verification/tune/test_tune.py).
+LEVERS_BLOCK = """\
 levers:
 - {sensor_set: gloves+helmet+belt+elbows, rate_hz: 120.0, latency: 0.02, cost: 3.0}
 """
@@ -91,7 +94,7 @@ def tuned(tmp_path_factory, worker_id) -> Path:
 def _tune_iso(root: Path) -> None:
     import yaml
 
-    (root / "tune.yaml").write_text(TUNE_BLOCK)
+    (root / "tune.yaml").write_text(TUNE_BLOCK + LEVERS_BLOCK)
     task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
     task["duration"], task["robot"]["cycles"] = 25.0, 3
     (root / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
