@@ -35,7 +35,7 @@ from safety_systems.config.configuration import braking_table, robot_model_of
 from safety_systems.config.scenario import BrakingConfig, load_controller_config, load_scenario
 from verification.spaces.space import load_space
 from verification.tune.levers import Lever, price, record
-from verification.tune.tasks import lost_time, run_task, total
+from verification.tune.tasks import total_lost
 from verification.tune.tuner import TASKS
 
 ROOT = Path(__file__).parents[1]
@@ -66,8 +66,7 @@ def main() -> int:
     space = load_space(ROOT / "models" / "spaces" / "default.yaml")
     tasks = [load_scenario(p) for p in TASKS]
     iso = load_controller_config(ROOT / "models" / "configs" / "iso.yaml")
-    iso_lost = total([lost_time(run_task(t, iso), run_task(t, iso, operators=False))
-                      for t in tasks])
+    iso_lost = total_lost(tasks, iso)
     config = load_controller_config(args.config)
     name = args.config.resolve().relative_to(ROOT) if args.config.resolve().is_relative_to(
         ROOT) else args.config

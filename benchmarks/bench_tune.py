@@ -45,14 +45,13 @@ import numpy as np
 
 from safety_systems.config import configuration
 from safety_systems.config.configuration import with_controller
-from safety_systems.outputs.held import held_by
 from safety_systems.outputs.metrics import true_separations
 from safety_systems.config.scenario import Body, load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
 from verification.spaces.space import load_space
 from verification.tune.levers import Lever, check_levers, lever_space, under, wearing
 from verification.tune.report import write_tune
-from verification.tune.tasks import lost_time, run_task, total
+from verification.tune.tasks import total_lost
 from verification.tune.tuner import TASKS, Tuner, full_speed_distance, proofs_of
 from verification.tune.tunable import load_tunable, with_values
 
@@ -82,16 +81,6 @@ def exposure(task, distances: list[float]) -> list[float]:
     return [float(np.count_nonzero(nearest < d) * dt) for d in distances]
 
 
-def held_on(task, config) -> tuple[float, dict[str, float], float]:
-    """The chosen configuration on a task: the seconds the override held the robot on a
-    separation stop, those seconds by the segment that held it, and the median true
-    clearance of the nearest true segment at those ticks (``outputs.held.held_by``)."""
-    separation = held_by(simulate(with_controller(task, config)))["separation"]
-    median = separation["true_clearance_median"]
-    return (separation["time"], separation["by_segment"],
-            float("nan") if median is None else median)
-
-
 @contextlib.contextmanager
 def uncapped_permitted_segments():
     """Within it, every segment with a cap gets the cap 1 (a what-if: no configuration
@@ -110,13 +99,6 @@ def uncapped_permitted_segments():
         configuration.segment_caps = original
 
 
-def lost_on(tasks: list, config) -> float:
-    """Total seconds ``config`` loses on ``tasks`` against its own runs with no operator
-    (as the tuner counts them), inf if a task did not finish."""
-    return total([lost_time(run_task(task, config), run_task(task, config, operators=False))
-                  for task in tasks])
-
-
 def what_remains(config, tasks: list, iso_lost: float, space) -> dict:
     """Section 4 (module docstring) for the chosen PFL configuration ``config`` on
     ``tasks``: ``uncapped`` (every permitted segment's cap at 1), ``z_r_0`` (Z_r = 0) and
@@ -127,10 +109,10 @@ def what_remains(config, tasks: list, iso_lost: float, space) -> dict:
                                                                    robot_uncertainty=0.0))
     proofs = {name: {"proved": p.proved, "needed_allowance": p.needed_allowance}
               for name, p in proofs_of(no_zr, space).items()}
-    out = {"z_r_0": {"lost": lost_on(tasks, no_zr), "proofs": proofs}}
+    out = {"z_r_0": {"lost": total_lost(tasks, no_zr), "proofs": proofs}}
     with uncapped_permitted_segments():
-        out["uncapped"] = {"lost": lost_on(tasks, config)}
-        out["z_r_0_uncapped"] = {"lost": lost_on(tasks, no_zr)}
+        out["uncapped"] = {"lost": total_lost(tasks, config)}
+        out["z_r_0_uncapped"] = {"lost": total_lost(tasks, no_zr)}
     for row in out.values():
         row["reduction"] = 1.0 - row["lost"] / iso_lost
     return out
@@ -309,8 +291,13 @@ def main() -> int:
           "sensing allowance)")
     if chosen:
         chosen_config = with_values(config, chosen["values"])
+        # what held it: the tuner's own runs of the chosen configuration (outputs.held)
+        chosen_row = next(r for r in result["table"] if r["configuration"] == "chosen")
         for task in tasks:
-            total, by_segment, true_median = held_on(task, chosen_config)
+            separation = chosen_row["held"][task.name]["separation"]
+            total, by_segment = separation["time"], separation["by_segment"]
+            median = separation["true_clearance_median"]
+            true_median = float("nan") if median is None else median
             figures.setdefault("held", {})[task.name] = {
                 "separation_stop": total, "by_segment": by_segment,
                 "true_nearest_median": true_median}

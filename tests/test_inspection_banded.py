@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from safety_systems.cell.sensor_sets import points_of
 from safety_systems.cli import main
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from verification.proof.theorems import prove, prove_separation
@@ -36,10 +37,7 @@ def test_the_banded_configuration_is_tuned_yaml_fitted_and_proved_on_its_space()
                                                         config.body, config.braking)
     assert dataclasses.replace(c.tracker, exits=[]) == config.tracker
     points = {b.point for b in scenario.operators[0].bodies}
-    assert points == set(BANDED_POINTS)
-
-
-BANDED_POINTS = ("hand_left", "hand_right", "head", "pelvis", "elbow_left", "elbow_right")
+    assert points == set(points_of(BANDED.sensor_set))
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,9 @@ segment's points are untracked, an envelope bounded from the tracked ones) with 
 clearance of the real body at those ticks. A large gap between the two says the envelope,
 not the person, held the robot: tracking that segment's points is what would release it.
 
-Shared by ``simulate``'s summary.json and console line and by ``bench_tune``.
+Shared by ``simulate``'s summary.json and console line and by ``tune`` (the chosen
+configuration's tasks, in tune.json and tune.md); the live run counts the same fields as
+its ticks come (``runtime.run_tally``).
 """
 
 import numpy as np

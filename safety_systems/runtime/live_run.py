@@ -123,12 +123,14 @@ class _OperatorColumns:
         self.rows = np.arange(K)
         self.levels = None if loop.levels is None else loop.levels[0].size - 1
 
-    def fill(self, row: np.ndarray, loop: SafetyLoop, k: float, rate: float) -> None:
+    def fill(self, row: np.ndarray, loop: SafetyLoop, k: float, rate: float) -> float:
         """Writes the operators' columns of ``row`` at a tick that commanded k under the
-        rate bound ``rate``."""
+        rate bound ``rate``; returns the segment nearest in the monitor's measure over
+        every operator (an index of ``SEGMENT_NAMES``, NaN with none measured)."""
         d = loop.out[0].reshape(self.K, -1)
         none = np.isnan(d).all(axis=1)
-        j = np.where(np.isnan(d), np.inf, d).argmin(axis=1)
+        finite = np.where(np.isnan(d), np.inf, d)
+        j = finite.argmin(axis=1)
         if self.levels is None:
             s = loop.out[1]
         else:
@@ -140,14 +142,10 @@ class _OperatorColumns:
         row[self.at["nearest_measured"]] = np.where(none, np.nan, self.which[self.rows, j])
         row[self.at["S"]] = np.where(none, np.nan, s.reshape(self.K, -1)[self.rows, j])
         row[self.hidden_at] = _hidden(loop.status)
-
-    def nearest(self, row: np.ndarray) -> float:
-        """The segment (an index of ``SEGMENT_NAMES``) nearest in the monitor's measure
-        over every operator at the row's tick, NaN with none measured."""
-        d = row[self.at["d_measured"]]
-        if np.isnan(d).all():
+        if none.all():
             return math.nan
-        return float(row[self.at["nearest_measured"]][np.nanargmin(d)])
+        o = int(finite[self.rows, j].argmin())
+        return float(self.which[o, j[o]])
 
 
 def log_columns(loop: SafetyLoop, names: list[str], joints: int) -> tuple[list, list]:
@@ -267,13 +265,13 @@ def run_live(loop: SafetyLoop, bodies: BodyMap, names: list[str], mocap: NatNetS
                         float(np.nanmax(np.linalg.norm(loop.end_velocities, axis=-1),
                                         initial=0.0)),
                         reason, s_max, *loop.rejected)
-            columns.fill(row, loop, k, state["rate"])
+            nearest = columns.fill(row, loop, k, state["rate"])
             row[width:at_log] = (state["good_frame"] - t_start, state["frames"],
                                  mocap.bad_packets, late)
             row[at_log], row[at_log + 1], row[at_q:] = log.dropped, t_q, q
             log.tick(row)
             tally.tick(t - t_start, reason, late, loop.rejected, _hidden(loop.status),
-                       columns.nearest(row))
+                       nearest)
             if taken:
                 after_k(taken)
                 taken = []

@@ -185,6 +185,8 @@ class RunTally:
             stop_count[STOP_STALE_FRAME] += 1
             stop_time[STOP_STALE_FRAME] += tm[HOLD_TIME]
         rejected = np.nan_to_num(self.rejected, nan=0.0)
+        stops = {name: {"count": int(stop_count[code]), "time": float(stop_time[code])}
+                 for code, name in enumerate(STOP_REASONS) if code}
         held = self.held.copy()
         by_segment = {name: float(x) for name, x in zip(SEGMENT_NAMES + ("none",), held)
                       if x > 0.0}
@@ -195,15 +197,12 @@ class RunTally:
             "frames": int(c[FRAMES]),
             "bad_packets": int(c[BAD_PACKETS]),
             "first_frame_wait": 0.0 if c[HOLDING] else float(tm[FIRST_FRAME_WAIT]),
-            "protective_stops": {name: {"count": int(stop_count[code]),
-                                        "time": float(stop_time[code])}
-                                 for code, name in enumerate(STOP_REASONS) if code},
+            "protective_stops": stops,
             "rejected_frames": {name: int(x) for name, x in zip(REJECT_CAUSES, rejected)},
             # what held the robot (``outputs.held.held_by``'s fields; a live run has no
             # true clearance)
-            "held": {"causes": {name: float(stop_time[code])
-                                for code, name in enumerate(STOP_REASONS)
-                                if code and stop_time[code] > 0.0},
+            "held": {"causes": {name: stop["time"] for name, stop in stops.items()
+                                if stop["time"] > 0.0},
                      "separation": {"time": float(held.sum()),
                                     "by_segment": dict(sorted(by_segment.items(),
                                                               key=lambda x: -x[1])),

@@ -14,6 +14,11 @@ def _s(x: float | None) -> str:
     return "unfinished" if x is None else f"{x:.2f}"
 
 
+def _row(result: dict, configuration: str) -> dict | None:
+    """The comparison's row of ``configuration`` (``chosen``, ``iso.yaml``), None if none."""
+    return next((r for r in result["table"] if r["configuration"] == configuration), None)
+
+
 def _share(v: dict) -> str:
     return "-" if v["share"] is None else f"{100.0 * v['share']:.0f}% ({v['vacuous']} of {v['of']})"
 
@@ -37,7 +42,7 @@ def _comparison(result: dict) -> list[str]:
     lines.append("")
     reduction = result["lost_time_reduction_vs_iso"]
     if reduction is not None:
-        iso = next(r for r in result["table"] if r["configuration"] == "iso.yaml")
+        iso = _row(result, "iso.yaml")
         lines += [f"Time lost to the operators: {100.0 * reduction:.1f}% less than "
                   "`iso.yaml` (negative: more)"
                   + ("." if iso["verdict"] == "proved" else
@@ -125,7 +130,7 @@ def markdown(result: dict) -> str:
 
 def _held(result: dict) -> list[str]:
     """What held the robot on each task under the chosen configuration."""
-    chosen = next((r for r in result["table"] if r["configuration"] == "chosen"), None)
+    chosen = _row(result, "chosen")
     if not chosen or not chosen.get("held"):
         return []
     lines = ["## What holds the robot under the chosen configuration", "",
@@ -170,7 +175,7 @@ def _levers(result: dict) -> list[str]:
              + " | ".join(f"lost {t} [s]" for t in tasks) + " | lost [s] | held [s] | "
              "vs iso.yaml | won [s] | won per cost [s] |",
              "|---|---|---|---|---|---|" + "---|" * len(tasks) + "---|---|---|---|---|"]
-    chosen = next((r for r in result["table"] if r["configuration"] == "chosen"), None)
+    chosen = _row(result, "chosen")
     base = chosen and chosen["total_lost_time"]
     for r in rows:
         cost = r["lever"]["cost"]

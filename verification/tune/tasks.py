@@ -97,3 +97,10 @@ def lost_time(run: TaskRun, baseline: TaskRun) -> float | None:
     if run.task_time is None or baseline.task_time is None:
         return None
     return run.task_time - baseline.task_time
+
+
+def total_lost(tasks: list[Scenario], config: ControllerConfig) -> float:
+    """Total seconds ``config`` loses on ``tasks`` against its own runs with no operator
+    (as the tuner counts them), inf if a task did not finish."""
+    return total([lost_time(run_task(task, config), run_task(task, config, operators=False))
+                  for task in tasks])
