@@ -66,9 +66,14 @@ class JointPath:
         return self.cycle_time * self.cycles
 
     @property
+    def peak_joint_speeds(self) -> np.ndarray:
+        """Each joint's largest speed at nominal speed (sigma = 1), radians per second."""
+        return np.max(_PEAK_BLEND_RATE * np.abs(self.deltas) / self.durations[:, None], axis=0)
+
+    @property
     def peak_joint_speed(self) -> float:
         """Largest joint speed at nominal speed (sigma = 1), radians per second."""
-        return float(np.max(_PEAK_BLEND_RATE * np.abs(self.deltas) / self.durations[:, None]))
+        return float(np.max(self.peak_joint_speeds))
 
 
 def make_joint_path(
