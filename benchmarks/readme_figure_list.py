@@ -127,8 +127,6 @@ CONTACT, SEPARATION = f"{REPORT}/properties/contact", f"{REPORT}/properties/sepa
 
 # Runs the pages' prose quotes beyond their code blocks: (id, command), run after them.
 EXTRA_RUNS = (
-    ("inspection-100", ".venv/bin/safety-systems simulate models/scenarios/inspection.yaml "
-                       "--out out/inspection-100 --duration 100"),
     ("inspection-deployed-100", ".venv/bin/safety-systems simulate "
                                 "models/scenarios/inspection.yaml --config "
                                 "out/deploy/params.yaml --out out/inspection-deployed-100 "
@@ -144,6 +142,8 @@ EXTRA_RUNS = (
                              "out/verify-recording-iso --budget 64"),
     ("verify-tuned", ".venv/bin/safety-systems verify models/configs/tuned.yaml --space "
                      "models/spaces/default.yaml --out out/verify-tuned"),
+    ("inspection-seed", ".venv/bin/safety-systems simulate "
+                        "models/scenarios/inspection_seed.yaml --out out/inspection-seed"),
     ("inspection-banded", ".venv/bin/safety-systems simulate "
                           "models/scenarios/inspection_banded.yaml --out out/inspection-banded"),
 )
@@ -414,10 +414,16 @@ def _speed_figures() -> tuple:
 
 FIGURES = (
     # The README's main job: what the inspection scenario shows.
-    Figure("main_job_held", r"holds it still for " + NUM + " s while they work",
-           run("inspection", f"{SUMMARY}/stopped_time")),
-    Figure("main_job_closest", r"its tool never came within " + NUM + " m of the",
-           run("inspection", f"{SUMMARY}/min_separation_while_moving")),
+    Figure("main_job_held", r"they lean in \(held " + NUM + " s, by the",
+           run("inspection", f"{SUMMARY}/held/separation/time")),
+    Figure("main_job_task_time", r"its 7 cycles end at " + NUM + " s of the",
+           run("inspection", f"{SUMMARY}/task_time")),
+    Figure("main_job_margin", r"its least separation margin was \+" + NUM + " m",
+           run("inspection", f"{SUMMARY}/min_separation_margin")),
+    Figure("seed_job_held", r"it holds the robot " + NUM + " s and does not finish",
+           run("inspection-seed", f"{SUMMARY}/held/separation/time")),
+    Figure("seed_job_held_tuning", r"the robot is held " + NUM + r" s and does not\s+finish",
+           run("inspection-seed", f"{SUMMARY}/held/separation/time")),
     # The README's test command (the fast selection), as walked through (run --only tests).
     Figure("tests_minutes", r"tests marked slow, took " + NUM + " min of wall time",
            scaled(run("tests", "wall"), 1.0 / 60.0), TIME_NOISE),
@@ -447,14 +453,16 @@ FIGURES = (
     Figure("verify_elbow_wall", r"s for the first, the occluded approach, and " + NUM
            + " s for the elbow", run("verify-elbow", "wall"), TIME_NOISE),
     # Export, check and load: the certified parameters on the inspection task.
-    Figure("deployed_held", r"the certified parameters hold the robot still for " + NUM
+    Figure("deployed_held", r"they hold the robot still for " + NUM
            + " s", run("inspection-deployed-100", f"{SUMMARY}/stopped_time")),
     Figure("deployed_task_time", r"and its 7 cycles need " + NUM + r" s \(`--duration 100`",
            run("inspection-deployed-100", f"{SUMMARY}/task_time")),
-    Figure("own_task_time", r"does not finish them in 55 s either \(" + NUM + " s, held",
-           run("inspection-100", f"{SUMMARY}/task_time")),
-    Figure("own_held", r"does not finish them in 55 s either \([0-9.]+ s, held " + NUM
-           + " s", run("inspection-100", f"{SUMMARY}/stopped_time")),
+    Figure("deployed_main_held", r"stops only when they\s+lean in \(held " + NUM + r" s\)",
+           run("inspection-deployed-main", f"{SUMMARY}/held/separation/time")),
+    Figure("deployed_main_task_time", r"its 7 cycles end at " + NUM + " s, as in",
+           run("inspection-deployed-main", f"{SUMMARY}/task_time")),
+    Figure("live_held", r"the run was\s+held by separation stops for " + NUM + " s",
+           run("live-approach", f"{SUMMARY}/held/separation/time"), TIME_NOISE),
     # The scenario space around a recording.
     Figure("recording_wall", r"With a budget of 64 \(" + NUM + " s of wall time here",
            run("verify-recording", "wall"), TIME_NOISE),

@@ -670,7 +670,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="scenario space YAML file (required; no default)")
     tune.add_argument("--tasks", nargs="+",
                       help="task scenario YAML files (default: models/scenarios/"
-                           "inspection.yaml and co_kitting.yaml)")
+                           "inspection_seed.yaml and co_kitting.yaml)")
     tune.add_argument("--out", required=True,
                       help="output folder, created if missing (required; no default)")
     tune.add_argument("--tune", help="YAML file with a tune: block (default: the "

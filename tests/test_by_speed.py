@@ -123,7 +123,7 @@ def test_the_speed_override_system_reads_the_rate_and_the_levels():
 
 
 def test_stops_by_rate_grow_with_the_rate_and_end_at_the_full_speed_stop():
-    sc = load_scenario("models/scenarios/inspection.yaml")
+    sc = load_scenario("models/scenarios/inspection_seed.yaml")
     args = (joint_path(sc.robot), contact_capsules(sc.robot, "capsules"),
             braking_table(sc.controller), 1.3, 0.002)
     by_rate = stops_by_rate(*args)
@@ -137,7 +137,7 @@ def test_stops_by_rate_grow_with_the_rate_and_end_at_the_full_speed_stop():
 
 
 def test_s_true_by_speed_takes_the_stop_from_the_rate_now():
-    sc = dataclasses.replace(load_scenario("models/scenarios/inspection.yaml"),
+    sc = dataclasses.replace(load_scenario("models/scenarios/inspection_seed.yaml"),
                              controller=BY_SPEED)
     full = dataclasses.replace(sc, controller=ISO)
     v_h, v_r = np.full((3, 2), 0.5), np.full((3, 2), 0.2)

@@ -14,7 +14,7 @@ import pytest
 from safety_systems.cli import build_parser, main
 from safety_systems.sensing.stops import STOP_REASONS
 
-INSPECTION = Path(__file__).parents[1] / "models" / "scenarios" / "inspection.yaml"
+INSPECTION = Path(__file__).parents[1] / "models" / "scenarios" / "inspection_seed.yaml"
 
 
 def test_simulate_writes_every_output(tmp_path, capsys, caplog):

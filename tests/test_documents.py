@@ -28,7 +28,7 @@ from verification.spaces.space import load_space
 from verification.tune.tunable import TunableConfig, TuneFile
 
 MODELS = Path(__file__).parents[1] / "models"
-INSPECTION = MODELS / "scenarios" / "inspection.yaml"
+INSPECTION = MODELS / "scenarios" / "inspection_seed.yaml"
 
 
 def _load(tmp_path, data, schema=Scenario, validate=None):

@@ -91,7 +91,7 @@ def test_ctrl_c_ends_tune_in_every_phase_drake_runs_included(phase, delay, tmp_p
     """Phases 1, 4 and 5 run the Drake diagram in worker processes (--workers 2), and
     phase 1's verifications replay scenarios in it in the command's own process."""
     (tmp_path / "tune.yaml").write_text(TUNE_BLOCK)
-    task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
+    task = yaml.safe_load((MODELS / "scenarios" / "inspection_seed.yaml").read_text())
     task["duration"], task["robot"]["cycles"] = 25.0, 3
     (tmp_path / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
     argv = ["tune", str(MODELS / "configs" / "iso.yaml"), "--tune", str(tmp_path / "tune.yaml"),

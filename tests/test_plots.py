@@ -26,7 +26,7 @@ SCENARIOS = Path(__file__).parents[1] / "models" / "scenarios"
 
 @pytest.fixture(scope="module")
 def inspection():
-    return simulate(load_scenario(SCENARIOS / "inspection.yaml"), duration=36.0)
+    return simulate(load_scenario(SCENARIOS / "inspection_seed.yaml"), duration=36.0)
 
 
 def _legends_off_the_axes(fig) -> int:

@@ -24,7 +24,7 @@ SCENARIOS = Path(__file__).parents[1] / "models" / "scenarios"
 
 @pytest.fixture(scope="module")
 def inspection(tmp_path_factory):
-    scenario = load_scenario(SCENARIOS / "inspection.yaml")
+    scenario = load_scenario(SCENARIOS / "inspection_seed.yaml")
     run = simulate(scenario)
     out = tmp_path_factory.mktemp("inspection")
     summary = write_outputs(run, out)
@@ -248,7 +248,7 @@ def test_dynamic_and_kinematic_modes_agree_on_the_tool_path():
     """The dynamic plant (inverse-dynamics tracking) follows the braked reference:
     over the approach and slow-down of the inspection task the tool positions of the
     two modes agree within 5 mm."""
-    scenario = load_scenario(SCENARIOS / "inspection.yaml")
+    scenario = load_scenario(SCENARIOS / "inspection_seed.yaml")
     runs = {
         mode: simulate(dataclasses.replace(
             scenario, robot=dataclasses.replace(scenario.robot, mode=mode)), duration=12.0)
@@ -267,7 +267,7 @@ def test_a_run_stops_on_purpose_only_when_the_whole_run_shows_it():
     from safety_systems.diagrams.simulation import simulate_workcell
     from safety_systems.diagrams.workcell import MakeWorkcell
 
-    scenario = dataclasses.replace(load_scenario("models/scenarios/inspection.yaml"),
+    scenario = dataclasses.replace(load_scenario("models/scenarios/inspection_seed.yaml"),
                                    duration=3.0)
     whole = simulate(scenario)
     looks = []

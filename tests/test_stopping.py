@@ -17,7 +17,7 @@ from safety_systems.config.scenario import load_scenario
 from safety_systems.cell.stopping import true_stopping
 from safety_systems.config.configuration import joint_path
 
-SCENARIO = load_scenario("models/scenarios/inspection.yaml")
+SCENARIO = load_scenario("models/scenarios/inspection_seed.yaml")
 PATH = joint_path(SCENARIO.robot)
 TABLE = default_braking_table()
 DT = 0.002

@@ -85,7 +85,7 @@ def test_a_urdf_robot_without_stopping_data_is_refused(tmp_path):
 
 
 def test_a_scenarios_operators_give_the_points():
-    scenario = load_scenario(MODELS / "scenarios" / "inspection.yaml")
+    scenario = load_scenario(MODELS / "scenarios" / "inspection_seed.yaml")
     cell = resolve_scenario(scenario)
     assert cell.points == tuple(tuple(p) for p in derive.tracked_points(scenario))
     assert cell.segment_names == derive.scenario_monitor_recipe(scenario).names

@@ -23,7 +23,7 @@ from safety_systems.files.input_error import InputError
 
 MODELS = Path(__file__).parents[2] / "models"
 ROBOTS = MODELS / "scenarios" / "robots"
-INSPECTION = MODELS / "scenarios" / "inspection.yaml"
+INSPECTION = MODELS / "scenarios" / "inspection_seed.yaml"
 
 
 def test_shipped_robot_scenarios_load_with_their_models():

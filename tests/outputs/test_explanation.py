@@ -37,7 +37,7 @@ def _farther(scenario, dx: float):
 @pytest.fixture(scope="module", params=CONFIGS)
 def run(request):
     scenario = with_controller(
-        _farther(load_scenario(MODELS / "scenarios" / "inspection.yaml"), 1.5),
+        _farther(load_scenario(MODELS / "scenarios" / "inspection_seed.yaml"), 1.5),
         load_controller_config(MODELS / "configs" / f"{request.param}.yaml"))
     return resolve_scenario(scenario), simulate(scenario, duration=8.0)
 

@@ -19,7 +19,7 @@ MODELS = Path(__file__).parents[2] / "models"
 @pytest.fixture(scope="module")
 def summary(tmp_path_factory) -> dict:
     folder = tmp_path_factory.mktemp("held")
-    assert main(["simulate", str(MODELS / "scenarios" / "inspection.yaml"), "--out",
+    assert main(["simulate", str(MODELS / "scenarios" / "inspection_seed.yaml"), "--out",
                  str(folder / "out"), "--quiet"]) == 0
     return json.loads((folder / "out" / "summary.json").read_text())
 

@@ -95,7 +95,7 @@ def _tune_iso(root: Path) -> None:
     import yaml
 
     (root / "tune.yaml").write_text(TUNE_BLOCK + LEVERS_BLOCK)
-    task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
+    task = yaml.safe_load((MODELS / "scenarios" / "inspection_seed.yaml").read_text())
     task["duration"], task["robot"]["cycles"] = 25.0, 3
     (root / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
     code, out, err = run_cli(["tune", ISO, "--tune", root / "tune.yaml", "--space", SMALL_SPACE,

@@ -24,7 +24,7 @@ from verification.spaces.box import Range
 from verification.spaces.space import load_space
 from verification.verify import verify
 
-INSPECTION = load_scenario("models/scenarios/inspection.yaml")
+INSPECTION = load_scenario("models/scenarios/inspection_seed.yaml")
 
 
 def _suited(scenario):

@@ -1,7 +1,7 @@
 """Task time: how long the nominal task scenarios take under a configuration, and how
 much of it is lost to the operators (the objective of ``safety-systems tune``).
 
-A task scenario (``models/scenarios/inspection.yaml``, ``co_kitting.yaml``: seed 000,
+A task scenario (``models/scenarios/inspection_seed.yaml``, ``co_kitting.yaml``: seed 000,
 Section 7, with the operators' scripted motions) is run in the Drake diagram under the
 configuration (``configuration.with_controller``: the scenario's cell, real sensor,
 exits and walls stay) until the robot finishes its cycles, for at most ``HORIZON``

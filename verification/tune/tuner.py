@@ -74,7 +74,7 @@ from verification.tune.tunable import REACTION_TIME, TunedParameter, values_at, 
 MODELS = Path(__file__).parents[2] / "models"
 REFERENCES = {"iso.yaml": MODELS / "configs" / "iso.yaml",
               "seed_estimated.yaml": MODELS / "configs" / "seed_estimated.yaml"}
-TASKS = (MODELS / "scenarios" / "inspection.yaml", MODELS / "scenarios" / "co_kitting.yaml")
+TASKS = (MODELS / "scenarios" / "inspection_seed.yaml", MODELS / "scenarios" / "co_kitting.yaml")
 ALLOW = ("proved", "passed")
 SCREEN = 16  # screened points per simulated candidate
 

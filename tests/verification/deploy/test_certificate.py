@@ -194,7 +194,7 @@ def test_check_still_reads_files_of_a_kind(tmp_path, cli):
 def test_simulate_and_verify_take_params_and_refuse_unchecked_ones(exported, tmp_path, cli):
     folder = _copy(exported, tmp_path)
     params = folder / "params.yaml"
-    scenario = MODELS / "scenarios" / "inspection.yaml"
+    scenario = MODELS / "scenarios" / "inspection_seed.yaml"
     code, _, err = cli(["simulate", scenario, "--config", params, "--out", tmp_path / "a",
                             "--duration", "1", "--quiet"])
     assert code == 0 and "UNVERIFIED" not in err

@@ -9,7 +9,7 @@ from safety_systems.config.scenario import load_controller_config
 
 MODELS = Path(__file__).parents[3] / "models"
 ISO = MODELS / "configs" / "iso.yaml"
-SCENARIO = MODELS / "scenarios" / "inspection.yaml"
+SCENARIO = MODELS / "scenarios" / "inspection_seed.yaml"
 
 
 def test_export_load_and_simulate_behaves_as_the_source_configuration(exported, tmp_path,

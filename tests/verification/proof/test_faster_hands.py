@@ -84,7 +84,7 @@ def test_a_three_metre_per_second_configuration_is_tuned_exported_and_checked(tm
     (tmp_path / "space.yaml").write_text(space.replace("peak_speed: {min: 1.0, max: 2.0}",
                                                        "peak_speed: {min: 1.0, max: 3.0}"))
     (tmp_path / "tune.yaml").write_text(TUNE_BLOCK)
-    task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
+    task = yaml.safe_load((MODELS / "scenarios" / "inspection_seed.yaml").read_text())
     task["duration"], task["robot"]["cycles"] = 25.0, 3
     (tmp_path / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
     code, _, err = run_cli(["tune", tmp_path / "fast.yaml", "--tune", tmp_path / "tune.yaml",

@@ -44,7 +44,7 @@ def test_a_sensor_set_names_body_points_and_an_unknown_one_is_refused():
 
 
 def test_an_operator_wears_the_set_at_its_own_posture_and_keeps_its_gloves():
-    task = load_scenario(MODELS / "scenarios" / "inspection.yaml")
+    task = load_scenario(MODELS / "scenarios" / "inspection_seed.yaml")
     worn = wearing(task, Lever("gloves+helmet+belt", 120.0, 0.005))
     before, after = task.operators[0], worn.operators[0]
     assert after.bodies[:len(before.bodies)] == before.bodies  # the gloves as written

@@ -22,7 +22,7 @@ PFL_BLOCK = TUNE_BLOCK + """\
 
 def test_a_power_and_force_limiting_configuration_is_tuned_exported_and_checked(tmp_path):
     (tmp_path / "tune.yaml").write_text(PFL_BLOCK)
-    task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
+    task = yaml.safe_load((MODELS / "scenarios" / "inspection_seed.yaml").read_text())
     task["duration"], task["robot"]["cycles"] = 25.0, 3
     (tmp_path / "task.yaml").write_text(yaml.safe_dump(task, sort_keys=False))
     code, _, err = run_cli(["tune", MODELS / "configs" / "iso.yaml", "--tune",

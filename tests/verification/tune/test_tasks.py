@@ -23,7 +23,7 @@ def _log_task(folder: Path) -> Path:
     task) and its technician's walk brought forward to the log's 9 s: in from 3 m, at
     the desk from 3 s to 8 s, gone by 14 s."""
     shutil.copy(LOG, folder / "robot.csv")
-    task = yaml.safe_load((MODELS / "scenarios" / "inspection.yaml").read_text())
+    task = yaml.safe_load((MODELS / "scenarios" / "inspection_seed.yaml").read_text())
     task["name"], task["duration"] = "logged_inspection", 15.0
     task["robot"]["cycles"] = 1
     task["robot"]["path"] = {"log": {"file": "robot.csv"}}
