@@ -149,7 +149,7 @@ def test_a_brief_impact_the_robot_itself_comes_off_is_permitted(monkeypatch):
     it within the window by its own motion. Each contact is an impact below the hand's
     limit and a compression within x_tr: permitted, in both evaluators alike. The same
     pass 20 mm deep (0.15 m off) is a counterexample: its compression is beyond x_tr."""
-    import safety_systems.config.configuration as configuration
+    from safety_systems.config import configuration
 
     monkeypatch.setattr(configuration, "pressing_speeds",
                         lambda x, *args: np.full(len(x), np.inf))
