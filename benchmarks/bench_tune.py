@@ -118,6 +118,24 @@ def what_remains(config, tasks: list, iso_lost: float, space) -> dict:
     return out
 
 
+def fastest_pfl(result: dict) -> dict | None:
+    """The fastest candidate of ``result`` (a tune's) that ran its tasks under
+    ``safety.mode: ssm_pfl`` (chosen or not: a slower one is not verified, only screened
+    by the proofs): its index, values, status, proofs, task times and the time it lost
+    (its total task time less the chosen configuration's runs with no operator: the tune
+    runs those for the table's configurations only). None if none ran."""
+    ran = [c for c in result["candidates"] if c["values"].get("safety.mode") == "ssm_pfl"
+           and c["total_task_time"] is not None]
+    if not ran:
+        return None
+    best = min(ran, key=lambda c: (c["total_task_time"], c["index"]))
+    chosen = next(r for r in result["table"] if r["configuration"] == "chosen")
+    no_operator = sum(t["no_operator"] for t in chosen["tasks"].values())
+    return {key: best[key] for key in ("index", "values", "status", "reason", "proved",
+                                       "verdict", "task_times", "total_task_time")} | {
+        "total_lost_time": best["total_task_time"] - no_operator}
+
+
 def task_scenarios(helmet: bool) -> list:
     """The seed's two tasks; with ``helmet``, every operator also wears a tracked helmet
     on its head, 0.45 m above the gloves' midpoint and 0.30 m behind it along x (the
@@ -224,6 +242,7 @@ def main() -> int:
         if args.lever:
             ssm_config, ssm_block = under(ssm_config, ssm_block, lever)
         beside, beside_wall = _tune(ssm_config, ssm_block, space_path, tasks, args, None)
+        figures["fastest_pfl"] = fastest_pfl(result)
         figures["ssm_only"] = {"reduction": beside["lost_time_reduction_vs_iso"],
                                "chosen": beside["chosen"] and beside["chosen"]["verdict"],
                                "wall": beside_wall}

@@ -424,6 +424,11 @@ FIGURES = (
            run("inspection-seed", f"{SUMMARY}/held/separation/time")),
     Figure("seed_job_held_tuning", r"the robot is held " + NUM + r" s and does not\s+finish",
            run("inspection-seed", f"{SUMMARY}/held/separation/time")),
+    # The README's tune paragraph: what power and force limiting buys (bench_tune's PFL run).
+    Figure("readme_pfl_reduction", r"the tune lost " + NUM + "% less time than iso.yaml and",
+           bench("bench_tune_pfl", "reduction"), scale=100.0),
+    Figure("readme_pfl_mode", r"iso.yaml and chose `" + TEXT + "`: at the robot's trusted",
+           bench("bench_tune_pfl", "chosen/values/safety.mode"), "text"),
     # The README's test command (the fast selection), as walked through (run --only tests).
     Figure("tests_minutes", r"tests marked slow, took " + NUM + " min of wall time",
            scaled(run("tests", "wall"), 1.0 / 60.0), TIME_NOISE),

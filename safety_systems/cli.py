@@ -151,6 +151,8 @@ def _simulate(args: argparse.Namespace) -> int:
     run = simulate(scenario, progress=not args.quiet)
     summary = write_outputs(run, out, html=args.html,
                             origin=_origin(args.argv, scenario_seeds(scenario)))
+    for line in summary.get("unknown_pivots", []):
+        _warn(line)
     if not args.quiet:
         print(f"{scenario.name}: {simulate_line(summary)} -> {args.out}")
     return 0
@@ -210,6 +212,11 @@ def _verify(args: argparse.Namespace) -> int:
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
     out = prepare_out(args.out)
+    if space.recording is not None:
+        from safety_systems.sensing.recording_mapping import pivot_warnings
+
+        for line in pivot_warnings(space.recording.mapping):
+            _warn(line)  # (the report's assumptions name them too)
     phases = Phases("verify", PHASES, on=not args.quiet)
     outcome = verify(config, space, out, budget=args.budget, method=args.method,
                      workers=args.workers, scheduler=args.scheduler, seed=args.seed,

@@ -2,6 +2,7 @@
 diagram with true positions equal to the file's; bad files are one line."""
 
 import dataclasses
+import json
 from pathlib import Path
 
 import ezc3d
@@ -219,6 +220,33 @@ def test_a_bad_number_or_mapping_gives_exit_2_and_one_line(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and f"operators[0]{field}" in err, err
         assert "allowed" in err
+
+
+def test_a_replay_names_each_body_whose_pivot_the_mapping_leaves_unknown(tmp_path, capsys):
+    """A rigid body reported at its markers' centroid is taken for the point it marks; the
+    replay says so in one line per body, naming it and the pivot offset a proof's tracking
+    allowance must then cover (sensing.pivots.PIVOT_BOUNDS), and summary.json keeps the
+    lines (issue 46). A mapping that places its bodies gets none."""
+    _write_motive(tmp_path, "Meters", "Quaternion")
+    (tmp_path / "s.yaml").write_text(SCENARIO.format(recording="rec.csv", start=0.0))
+    assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o"),
+                 "--quiet"]) == 0
+    warned = [line.removeprefix("safety-systems: warning: ")
+              for line in capsys.readouterr().err.splitlines() if ".pivot" in line]
+    assert len(warned) == 2
+    assert "bodies[0].pivot: tester's Glove (marking the hand_right)" in warned[0]
+    assert "bodies[1].pivot: tester's Helmet (marking the head)" in warned[1]
+    assert "may be 0.08 m off" in warned[0] and "may be 0.15 m off" in warned[1]
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["unknown_pivots"] == warned
+    placed = (MAPPING.format(up="y", a="Glove", b="Helmet", ida=7)
+              .replace("point: head}", "point: head, at_point: true}")
+              .replace("streaming_id: 7}", "streaming_id: 7, pivot: [0.0, -0.05, 0.0]}"))
+    (tmp_path / "map.yaml").write_text(placed)
+    assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o2"),
+                 "--quiet"]) == 0
+    assert ".pivot" not in capsys.readouterr().err
+    assert "unknown_pivots" not in json.loads((tmp_path / "o2" / "summary.json").read_text())
 
 
 def test_scripted_and_recorded_operators_do_not_mix(tmp_path, capsys):

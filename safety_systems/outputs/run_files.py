@@ -128,9 +128,12 @@ def write_table(header: list[str], rows: np.ndarray, path: Path, *,
 def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
     """``summarize(run)``, what held the robot (``held``: ``outputs.held.held_by``),
     whether the stopping data is the built-in placeholder
-    (``braking_data``: ``placeholder`` with the warning, or ``configured``), and where
+    (``braking_data``: ``placeholder`` with the warning, or ``configured``), a recorded
+    body whose mapping leaves its pivot unknown (``unknown_pivots``: one line each,
+    ``recording_mapping.pivot_warnings``), and where
     the run came from (``provenance``: ``origin``, by default this process's)."""
     from safety_systems.outputs.held import held_by
+    from safety_systems.sensing.recording_mapping import pivot_warnings
 
     summary = summarize(run)
     summary["held"] = held_by(run)
@@ -139,6 +142,10 @@ def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
         summary["braking_data_warning"] = braking_warning(robot_model_of(run.scenario.robot))
     else:
         summary["braking_data"] = "configured"
+    pivots = [line for o in run.scenario.operators if o.recording
+              for line in pivot_warnings(o.mapping, o.name)]
+    if pivots:  # recorded bodies taken for their points, which they may be off
+        summary["unknown_pivots"] = pivots
     summary["provenance"] = origin or provenance(scenario_seeds(run.scenario))
     write_json(path, summary)
     return summary

@@ -231,6 +231,32 @@ def unknown_pivots(mapping: RecordingMapping) -> list[tuple[str, float]]:
     return out
 
 
+def unknown_pivot_bodies(mapping: RecordingMapping, operator: str | None = None
+                         ) -> list[tuple[str, str, str, str, float]]:
+    """(field, operator, recorded name, point marked, how far the point may be from the
+    reported position, m) of every body of ``mapping`` (of its operator ``operator``; None:
+    every operator) whose pivot is unknown (:func:`unknown_pivots`)."""
+    return [(f"operators[{i}].bodies[{j}]", o.name, b.recorded, mapped_point(b), bound)
+            for i, o in enumerate(mapping.operators) if operator in (None, o.name)
+            for j, b in enumerate(o.bodies)
+            if (bound := pivot_bound(mapped_point(b), b.pivot, b.at_point)) > 0.0]
+
+
+def pivot_warnings(path: str | Path, operator: str | None = None) -> list[str]:
+    """One line per body of the mapping file ``path`` whose pivot is unknown
+    (:func:`unknown_pivot_bodies`): the body, the point it marks and the pivot offset a
+    proof's tracking allowance must then cover. Replays of recordings and verifications
+    over them take such a body's reported position for its point and say so with these
+    lines."""
+    return [f"{Path(path).name}: {field}.pivot: {name}'s {recorded} (marking the {point}) "
+            "gives neither pivot nor at_point: its reported position (a rigid body's pivot, "
+            f"by default its markers' centroid) is taken for the point, and may be {bound:g} "
+            "m off it, the pivot offset a proof's tracking allowance must then cover "
+            "(sensing.pivots)"
+            for field, name, recorded, point, bound in
+            unknown_pivot_bodies(load_mapping(path), operator)]
+
+
 def bodies(mapping: RecordingMapping) -> list[tuple[str, MappedBody]]:
     """Every mapped body with its operator's name, operator by operator."""
     return [(o.name, b) for o in mapping.operators for b in o.bodies]

@@ -1,6 +1,7 @@
 """Contact where ISO/TS 15066 allows it (safety.mode: ssm_pfl), in the Drake diagram: a
 head approach never touches while the robot moves, a hand pressed by a robot that keeps
-moving is a counterexample and a brief contact it comes off is not, a hand on the robot's
+moving is a counterexample and a brief contact it comes off is not (the hand drawn back, or
+the robot moving off a hand held still), a hand on the robot's
 own table and a forearm between two links keep pure SSM with no surface declared; and the
 proofs' power and force limiting premises (issues 36, 46)."""
 
@@ -139,6 +140,47 @@ def test_a_contact_ends_in_the_window_or_stops_within_the_quasi_static_limit():
     span = run.time[touching]
     assert span.size and span[-1] - span[0] < 0.5 and not touching[-1]  # over in the window
     assert 0.0 <= drake.permitted_contact <= x_tr
+
+
+def test_a_brief_impact_the_robot_itself_comes_off_is_permitted(monkeypatch):
+    """A hand held still beside the tool's path (the reach's hand moved 0.168 m off it, so
+    that the passing tool grazes it 2 mm deep), with the impact speeds' caps alone (as in
+    the pressed hand's test): the robot runs on, meets the hand at each pass and moves off
+    it within the window by its own motion. Each contact is an impact below the hand's
+    limit and a compression within x_tr: permitted, in both evaluators alike. The same
+    pass 20 mm deep (0.15 m off) is a counterexample: its compression is beyond x_tr."""
+    from safety_systems.config import configuration
+
+    monkeypatch.setattr(configuration, "pressing_speeds",
+                        lambda x, *args: np.full(len(x), np.inf))
+    config = dataclasses.replace(SEED_PFL, safety=dataclasses.replace(
+        SEED_PFL.safety, contact_stop_force=175.0))
+    base = make_scenario(SUIT, config, to_point(SUIT, np.array([0.0])), name="grazed")
+    (op,) = base.operators
+    held = op.waypoints[-1].time  # the hand holds still from here
+
+    def beside(offset):
+        moved = [Waypoint(w.time, (np.array(w.position) + [offset, 0.0, 0.0]).tolist())
+                 for w in op.waypoints]
+        return dataclasses.replace(base, operators=[dataclasses.replace(op, waypoints=moved)])
+
+    scenario = beside(0.168)
+    drake, run = evaluate_drake(scenario)
+    assert drake.permitted_contact == pytest.approx(
+        evaluate_many([scenario]).permitted_contact[0], abs=1e-9)
+    touching = _touching(run)
+    starts = np.flatnonzero(np.diff(touching.astype(int)) == 1) + 1
+    ends = np.flatnonzero(np.diff(touching.astype(int)) == -1) + 1
+    assert len(starts) >= 2 and len(ends) == len(starts) and not touching[-1]
+    assert run.time[starts[0]] > held  # the hand was still: the robot came and went
+    assert np.all(run.time[ends] - run.time[starts] < 0.5)  # each over within the window
+    segment, v = _contacts(run)
+    limits = pfl_terms(scenario.robot, scenario.controller).limits
+    assert np.any(segment == HAND) and np.all(v <= limits[segment])  # impacts, below limits
+    x_tr = pfl_terms(scenario.robot, scenario.controller).compressions[HAND, 0]
+    assert 0.0 <= drake.permitted_contact <= x_tr  # the contact's own figure: permitted
+    deeper, _ = evaluate_drake(beside(0.15))
+    assert deeper.permitted_contact < 0.0
 
 
 @pytest.mark.parametrize("start", [3.0, 3.5, 4.0])

@@ -501,8 +501,11 @@ def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> P
         (f"the robot's own contact detection stops it (a protective stop, held while the "
          f"contact lasts) once its contact force has reached {f.contact_stop_force:g} N "
          f"(its force limit plus that limit's tolerance) for "
-         f"{f.contact_detection_time:g} s, at any point of its links and tool, and it "
-         "then stops by its stopping data"),
+         f"{f.contact_detection_time:g} s, and it then stops by its stopping data; the "
+         "proof takes this for a contact anywhere on the links and tool, while Universal "
+         "Robots specify their force limit at the tool (the flange and the tool positions "
+         "set) and the elbow only (e-Series Tool Force and Elbow Force): for a contact "
+         "elsewhere on a link the integrator must show the robot detects it too"),
         (f"a transient contact's window is {f.transient_window:g} s from the impact; after it "
          "the quasi-static limits apply (ISO/TS 15066 5.5.5 and Annex A as applied)"),
     ]

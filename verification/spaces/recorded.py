@@ -64,6 +64,7 @@ from safety_systems.sensing.recording_mapping import (
     RecordedBodies,
     load_mapping,
     load_recorded_operator,
+    unknown_pivot_bodies,
 )
 from verification.spaces.box import (
     MIN_GAP,
@@ -308,7 +309,24 @@ def recording_assumptions(space: ScenarioSpace, config: ControllerConfig) -> lis
            f", times scaled by {span(p.braking_time_scale)}")
         + "; scenarios run until the recording ends"
         + (f" or for {block.duration:g} s" if block.duration else ""),
-    ]
+    ] + _pivot_assumption(block)
+
+
+def _pivot_assumption(block: RecordingBlock) -> list[str]:
+    """The assumption that the bodies whose mapping leaves their pivot unknown are at the
+    points they mark (``recording_mapping.unknown_pivot_bodies``), naming each and how
+    far off it may be; none when the mapping places every body."""
+    unknown = unknown_pivot_bodies(load_mapping(block.mapping))
+    if not unknown:
+        return []
+    largest = max(bound for *_, bound in unknown)
+    return [f"each recorded body's reported position is the body point it marks, though "
+            f"{Path(block.mapping).name} gives neither pivot nor at_point for "
+            + ", ".join(f"{name}'s {recorded} ({point}, up to {bound:g} m off)"
+                        for _, name, recorded, point, bound in unknown)
+            + f": a rigid body's pivot is by default its markers' centroid, and a proof's "
+            f"tracking allowance would have to cover a pivot offset of {largest:g} m "
+            "(sensing.pivots)"]
 
 
 def _shifted(block: RecordingBlock, shift: Range) -> Range:

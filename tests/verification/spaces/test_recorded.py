@@ -215,6 +215,35 @@ def test_verify_passes_iso_within_a_small_budget(tmp_path, cli):
         assert p["verdict"] == "passed" and p["min_robustness"] > 0.0
         assert not p["counterexamples"] and p["proof"]["proved"] is False
     assert report["box"]["time_scale"] == [0.7, 1.3]
+    # the shipped mapping places every body at its point (at_point): nothing to warn of
+    assert ".pivot" not in err
+    assert not any("neither pivot nor at_point" in a for a in report["assumptions"])
+
+
+def test_verify_names_a_recorded_body_whose_pivot_is_unknown(tmp_path, cli):
+    """A helmet reported at its markers' centroid (its mapping gives neither pivot nor
+    at_point): verify says so in one line naming it and the 0.15 m pivot offset a proof's
+    tracking allowance would have to cover, and the report's assumptions name it
+    (issue 46)."""
+    shutil.copytree(MODELS / "recordings", tmp_path / "recordings")
+    text = SPACE_FILE.read_text().replace("../recordings/", "recordings/")
+    (tmp_path / "recording.yaml").write_text(text)
+    mapping = tmp_path / "recordings" / "approach_mapping.yaml"
+    mapping.write_text(mapping.read_text().replace("streaming_id: 3, at_point: true",
+                                                   "streaming_id: 3"))
+    code, _, err = cli(["verify", MODELS / "configs" / "iso.yaml", "--space",
+                        tmp_path / "recording.yaml", "--out", tmp_path / "v", "--budget", "2",
+                        "--workers", "1", "--quiet"])
+    assert code == 0, err
+    warned = [line for line in err.splitlines() if ".pivot" in line]
+    assert len(warned) == 1 and warned[0].startswith("safety-systems: warning: ")
+    assert "operators[0].bodies[2].pivot: technician's Helmet (marking the head)" in warned[0]
+    assert "may be 0.15 m off it" in warned[0]
+    report = json.loads((tmp_path / "v" / "report.json").read_text())
+    named = [a for a in report["assumptions"] if "neither pivot nor at_point" in a]
+    assert len(named) == 1 and "technician's Helmet (head, up to 0.15 m off)" in named[0]
+    assert "pivot offset of 0.15 m" in named[0]
+    assert named[0] in (tmp_path / "v" / "report.md").read_text()
 
 
 def test_tune_over_a_recording_space_needs_allow_passed(tmp_path, cli):

@@ -7,7 +7,11 @@ from pathlib import Path
 import pytest
 import yaml
 
+from safety_systems.config.scenario import load_controller_config
 from tests.verification.conftest import MODELS, SMALL_SPACE, SPACE, TUNE_BLOCK, run_cli
+from verification.tune.tunable import load_tunable, with_values
+
+BENCH_TUNE_PFL = MODELS.parent / "benchmarks" / "results" / "bench_tune_pfl.json"
 
 # Power and force limiting that a proof can reach (issue 46): a robot force limit low
 # enough that its contact detection keeps a lasting contact within the quasi-static
@@ -62,6 +66,22 @@ def test_a_power_and_force_limiting_configuration_is_tuned_exported_and_checked(
                                        'controller.safety.mode: "ssm"'))
     code, _, err = run_cli(["check", params])
     assert code != 0
+
+
+def test_the_shipped_pfl_configuration_is_the_recorded_candidate_of_the_pfl_tune():
+    """models/configs/pfl.yaml is iso.yaml with the values of the fastest ssm_pfl candidate
+    that bench_tune's PFL run recorded (benchmarks/results/bench_tune_pfl.json,
+    ``fastest_pfl``), and its comment cites that candidate and the time it lost."""
+    row = json.loads(BENCH_TUNE_PFL.read_text())["fastest_pfl"]
+    assert row["values"]["safety.mode"] == "ssm_pfl"
+    assert row["proved"] == {"permitted_contact": True, "separation": True}
+    iso, _ = load_tunable(MODELS / "configs" / "iso.yaml", MODELS / "tune" / "ssm_pfl.yaml")
+    path = MODELS / "configs" / "pfl.yaml"
+    assert load_controller_config(path) == with_values(iso, row["values"])
+    comment = " ".join(line.lstrip("# ") for line in path.read_text().splitlines()
+                       if line.startswith("#"))
+    assert f"candidate {row['index']} " in comment
+    assert f"lost {row['total_lost_time']:.3f} s" in comment
 
 
 @pytest.mark.slow
