@@ -14,7 +14,10 @@ wearing the set and their sensor at that rate. With ``--stopping-scale`` (0.7 by
 the ``--stopping-sets`` are priced again with stopping data of their own: the
 configuration's table with its times and distances at that fraction (an example standing
 for a cell's measured data: no measured UR5e data is shipped), T_s and B scaled alike
-(``levers.stopped``). Printed: each row's verdict, frame
+(``levers.stopped``). With ``--path-stops-sets`` those sets are priced with the stops the
+tasks' paths allow (``safety_systems.cell.path_stops``: derived from the UR5/CB3 manual's
+per-joint stops at the paths' own joint speeds, not measured; T_s and B their full-speed
+row rounded up). Printed: each row's verdict, frame
 timeout, T_r and Z_r, the time lost on each task and in all, the seconds held at rest,
 and the reduction against iso.yaml's time lost on the tasks as written (gloves at 20
 Hz: the figure ``bench_tune`` compares with), beside the goal (at least 50% less, proved:
@@ -25,13 +28,15 @@ on what a tune under it would find.
 """
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
 from pathlib import Path
 
+from safety_systems.cell.path_stops import rounded_path_stops
 from safety_systems.cell.sensor_sets import SENSOR_SETS
-from safety_systems.config.configuration import braking_table, robot_model_of
+from safety_systems.config.configuration import braking_table, joint_path, robot_model_of
 from safety_systems.config.scenario import BrakingConfig, load_controller_config, load_scenario
 from verification.spaces.space import load_space
 from verification.tune.levers import Lever, price, record
@@ -40,6 +45,7 @@ from verification.tune.tuner import TASKS
 
 ROOT = Path(__file__).parents[1]
 GOAL = 0.50  # less time lost than iso.yaml, proved (issue 47)
+PATH_STOPS = "the paths' (derived)"
 
 
 def _s(x: float | None) -> str:
@@ -52,7 +58,7 @@ def main() -> int:
                         default=ROOT / "models" / "configs" / "tuned.yaml")
     parser.add_argument("--rates", type=float, nargs="+", default=[20.0, 120.0, 240.0])
     parser.add_argument("--latencies", type=float, nargs="+", default=[0.02])
-    parser.add_argument("--sets", nargs="+", default=list(SENSOR_SETS),
+    parser.add_argument("--sets", nargs="*", default=list(SENSOR_SETS),
                         choices=list(SENSOR_SETS), metavar="SET")
     parser.add_argument("--stopping-scale", type=float, default=0.7,
                         help="also price stopping data: the configuration's table with its "
@@ -60,6 +66,10 @@ def main() -> int:
                              "a cell's measured data), for --stopping-sets (0: none)")
     parser.add_argument("--stopping-sets", nargs="+", choices=list(SENSOR_SETS), metavar="SET",
                         default=["gloves", "gloves+helmet+belt+elbows", "full suit"])
+    parser.add_argument("--path-stops-sets", nargs="*", choices=list(SENSOR_SETS),
+                        metavar="SET", default=[],
+                        help="also price these sets with the stops the tasks' paths allow "
+                             "(cell/path_stops.py: derived from published per-joint stops)")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     start = time.perf_counter()
@@ -90,6 +100,18 @@ def main() -> int:
                    for latency in args.latencies for rate in args.rates
                    for set_name in args.stopping_sets]
         figures["stopping_scale"] = args.stopping_scale
+    if args.path_stops_sets:
+        paths = [joint_path(t.robot) for t in tasks] + [joint_path(space.robot)]
+        table, t_s, b = rounded_path_stops(paths)
+        rows = BrakingConfig(speed_fraction=table.speed_fraction.tolist(),
+                             stopping_time=table.stopping_time.tolist(),
+                             stopping_distance=table.stopping_distance.tolist())
+        levers += [Lever(set_name, rate, latency, braking=rows, stopping_name=PATH_STOPS,
+                         stopping_time=t_s, stopping_distance=b)
+                   for latency in args.latencies for rate in args.rates
+                   for set_name in args.path_stops_sets]
+        figures["path_stops"] = {"stopping_time": t_s, "stopping_distance": b,
+                                 "rows": dataclasses.asdict(rows)}
     for lever in levers:
         row = price(config, lever, space, tasks, baselines)
         r = record(row, iso_lost)

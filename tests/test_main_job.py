@@ -9,13 +9,12 @@ the 23.6 s the gloves alone held it. The seed's own controller stays runnable be
 
 import dataclasses
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from safety_systems.cell.path_stops import path_stops, peak_speeds_of
+from safety_systems.cell.path_stops import rounded_path_stops
 from safety_systems.cell.sensor_sets import points_of
 from safety_systems.cli import main
 from safety_systems.config.configuration import joint_path
@@ -29,22 +28,15 @@ BANDED = Lever("gloves+helmet+belt+elbows", 120.0, 0.005)
 GLOVES_HELD = 23.6  # s, the main job's separation stops under the gloves alone (issue 47)
 
 
-def _up(x: float, quantum: float, digits: int) -> float:
-    return round(math.ceil(x / quantum - 1e-9) * quantum, digits)
-
-
 def test_the_main_jobs_controller_is_tuned_yaml_with_its_paths_stops_fitted_and_proved():
     scenario = load_scenario(MODELS / "scenarios" / "inspection.yaml")
-    path = joint_path(scenario.robot)
-    table = path_stops(path, peak_speeds_of(path))
+    table, t_s, b = rounded_path_stops([joint_path(scenario.robot)])
     braking = BrakingConfig(stop_category=1, speed_fraction=table.speed_fraction.tolist(),
-                            stopping_time=[_up(x, 1e-4, 4) for x in table.stopping_time],
-                            stopping_distance=[_up(x, 1e-4, 4)
-                                               for x in table.stopping_distance])
+                            stopping_time=table.stopping_time.tolist(),
+                            stopping_distance=table.stopping_distance.tolist())
     tuned = load_controller_config(MODELS / "configs" / "tuned.yaml")
     base = dataclasses.replace(tuned, braking=braking, safety=dataclasses.replace(
-        tuned.safety, stopping_time=_up(table.stopping_time[-1], 0.01, 2),
-        stopping_distance=_up(table.stopping_distance[-1], 0.01, 2)))
+        tuned.safety, stopping_time=t_s, stopping_distance=b))
     config = load_controller_config(MODELS / "configs" / "main_job.yaml")
     assert fit(base, BANDED, load_space(MODELS / "spaces" / "default.yaml")).config == config
     space = load_space(MODELS / "spaces" / "banded.yaml")

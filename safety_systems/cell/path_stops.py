@@ -104,3 +104,23 @@ def peak_speeds_of(path) -> np.ndarray:
         return np.asarray(path.peak_joint_speeds, dtype=float)
     from safety_systems.cell.robot_log import peak_joint_speeds
     return peak_joint_speeds(path)
+
+
+def _up(x: float, quantum: float) -> float:
+    """``x`` rounded up to a multiple of ``quantum`` (a float's last bit aside)."""
+    return round(math.ceil(x / quantum - 1e-9) * quantum, 6)
+
+
+def rounded_path_stops(paths: list, robot: str = "ur5e", tool_position=None
+                       ) -> tuple[BrakingTable, float, float]:
+    """Stops valid on every one of ``paths`` (each run no faster than it is written): the
+    times from the joints' peaks over them all, each distance the farthest any path's
+    tool travels in that stop; the rows rounded up to 0.1 ms and 0.1 mm, and (T_s, B) the
+    full-speed row rounded up to 10 ms and 1 cm, as a configuration carries them."""
+    peaks = np.max([peak_speeds_of(p) for p in paths], axis=0)
+    tables = [path_stops(p, peaks, robot, tool_position) for p in paths]
+    f = tables[0].speed_fraction
+    t = np.array([_up(x, 1e-4) for x in tables[0].stopping_time])
+    d = np.array([_up(x, 1e-4) for x in np.max([x.stopping_distance for x in tables],
+                                                 axis=0)])
+    return BrakingTable(f, t, d), _up(t[-1], 0.01), _up(d[-1], 0.01)

@@ -36,6 +36,8 @@ from safety_systems.cell.human_body import POINTS
 from safety_systems.cell.sensor_sets import SENSOR_SETS, points_of
 from safety_systems.config.configuration import braking_table, frame_timeout, robot_model_of
 from safety_systems.config.scenario import (
+    MAX_STOPPING_DISTANCE,
+    MAX_STOPPING_TIME,
     Body,
     BrakingConfig,
     ControllerConfig,
@@ -61,8 +63,9 @@ class Lever:
     its lost time, never mixed into it; none: not given). ``braking``: stopping data of its
     own (rows by speed fraction, as a configuration's ``braking``: the stops measured on
     the cell, or another robot's, or a lower payload's), named ``stopping_name``; empty:
-    the configuration's. Its T_s and B then scale by the rows' full-speed stop against
-    the configuration's table's (:func:`stopped`)."""
+    the configuration's. Its T_s and B (``stopping_time``, ``stopping_distance``: the
+    stop the monitor assumes at full speed) as given with the rows, else scaled by the
+    rows' full-speed stop against the configuration's table's (:func:`stopped`)."""
 
     sensor_set: str = "gloves"
     rate_hz: float = number(20.0, ge=20.0, le=1000.0, unit="Hz")
@@ -70,6 +73,10 @@ class Lever:
     cost: typing.Optional[float] = number(None, ge=0.0, le=1e9)
     braking: BrakingConfig = dataclasses.field(default_factory=BrakingConfig)
     stopping_name: str = ""
+    stopping_time: typing.Optional[float] = number(None, gt=0.0, le=MAX_STOPPING_TIME,
+                                                   unit="s")
+    stopping_distance: typing.Optional[float] = number(None, gt=0.0,
+                                                       le=MAX_STOPPING_DISTANCE, unit="m")
 
     @property
     def label(self) -> str:
@@ -90,6 +97,10 @@ def check_levers(levers: list[Lever]) -> None:
                 lever.braking.stopping_distance:
             validate_controller(ControllerConfig(braking=lever.braking),
                                 prefix=f"levers[{i}]")
+        for name in ("stopping_time", "stopping_distance"):
+            if getattr(lever, name) is not None and not lever.braking.speed_fraction:
+                raise InputError(f"levers[{i}].{name}", getattr(lever, name),
+                                 "a value only with the lever's own stopping data (braking)")
 
 
 def _due(rate_hz: float, latency: float, config: ControllerConfig) -> float:
@@ -100,8 +111,9 @@ def _due(rate_hz: float, latency: float, config: ControllerConfig) -> float:
 
 def stopped(config: ControllerConfig, lever: Lever, model=None) -> ControllerConfig:
     """``config`` with the lever's stopping data, if it gives any: its rows, and T_s and B
-    scaled by the ratio of its full-speed stop to the configuration's table's (T_s and B
-    are the configuration's stop on its cell's path; the rows' shape is the robot's)."""
+    as the lever gives them, else scaled by the ratio of its full-speed stop to the
+    configuration's table's (T_s and B are the configuration's stop on its cell's path;
+    the rows' shape is the robot's)."""
     if not lever.braking.speed_fraction:
         return config
     old = braking_table(config, model)
@@ -112,9 +124,10 @@ def stopped(config: ControllerConfig, lever: Lever, model=None) -> ControllerCon
     safety = out.safety
     return dataclasses.replace(out, safety=dataclasses.replace(
         safety,
-        stopping_time=None if safety.stopping_time is None
-        else safety.stopping_time * time_ratio,
-        stopping_distance=None if safety.stopping_distance is None
+        stopping_time=lever.stopping_time if lever.stopping_time is not None
+        else None if safety.stopping_time is None else safety.stopping_time * time_ratio,
+        stopping_distance=lever.stopping_distance if lever.stopping_distance is not None
+        else None if safety.stopping_distance is None
         else safety.stopping_distance * distance_ratio))
 
 

@@ -150,3 +150,17 @@ def test_a_levers_stopping_data_is_checked_as_a_configurations(tmp_path):
     with pytest.raises(InputError, match=r"levers\[0\]\.braking\.speed_fraction") as e:
         load_levers(block)
     assert str(block) in str(e.value)
+
+
+def test_a_lever_may_give_the_stop_its_rows_imply_and_needs_rows_to_give_it():
+    """T_s and B given with a lever's rows (a path's stops, a cell's measured full-speed
+    stop) are taken as given, not scaled from the configuration's; without rows they are
+    refused in one line naming the lever's field."""
+    config = load_controller_config(TUNED)
+    lever = Lever("gloves", braking=_scaled_placeholder(0.3), stopping_time=0.17,
+                  stopping_distance=0.09)
+    out = stopped(config, lever)
+    assert (out.safety.stopping_time, out.safety.stopping_distance) == (0.17, 0.09)
+    assert out.braking == lever.braking
+    with pytest.raises(InputError, match=r"levers\[0\]\.stopping_distance"):
+        check_levers([Lever("gloves", stopping_distance=0.09)])
