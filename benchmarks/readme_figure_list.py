@@ -278,6 +278,12 @@ def _lever_figures() -> tuple:
                bench(BANDED, "reduction"), scale=100.0),
         Figure("banded_tune_wall", r"120 0.005`, " + NUM + " s here",
                bench(BANDED, "wall"), TIME_NOISE),
+        Figure("pfl_off_reduction", r"\| PFL off \(`models/tune/ssm.yaml`\) \| " + NUM
+               + "% less", bench("bench_tune_pfl", "ssm_only/reduction"), scale=100.0),
+        Figure("pfl_on_reduction", r"\| PFL on \(`models/tune/ssm_pfl.yaml`\) \| " + NUM
+               + "% less", bench("bench_tune_pfl", "reduction"), scale=100.0),
+        Figure("pfl_fastest_lost", r"\(`models/configs/pfl.yaml`\) lost\s+" + NUM + " s",
+               bench("bench_tune_pfl", "fastest_pfl/total_lost_time")),
         Figure("new_robot_first", r"its\s+first verify took " + NUM + " s of CPU",
                bench(NEW_ROBOT, "runs/new robot (5 joints), first/cpu"), TIME_NOISE),
         Figure("new_robot_second", r"s of CPU and its second " + NUM + " s",
