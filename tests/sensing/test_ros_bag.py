@@ -205,3 +205,25 @@ def test_an_mcap_file_is_read_as_what_it_is_a_bags_or_a_run_logs(tmp_path):
     assert not is_run_log(not_mcap)
     with pytest.raises(InputError):
         read_recording(not_mcap)
+
+
+def test_check_mapping_opens_the_bag_folder_it_names(tmp_path, capsys):
+    """A mapping's ``recording`` may name a rosbag2 folder: ``check mapping`` reads it
+    under every rule a simulation applies, and refuses a bad body in one line."""
+    _write_bag(tmp_path / "cell_bag", StoragePlugin.SQLITE3)
+    mapping = tmp_path / "map.yaml"
+    mapping.write_text(MAPPING.format(glove="/mocap/glove", helmet="helmet")
+                       + "recording: cell_bag\n")
+    assert main(["check", "mapping", str(mapping)]) == 0
+    assert capsys.readouterr().out.strip() == (
+        f"{mapping}: ok (its recording read as simulate reads it: 1 operator(s), 2 bodies, "
+        "401 frames, every body within the plausibility bounds)")
+    mapping.write_text(MAPPING.format(glove="/mocap/glove", helmet="visor")
+                       + "recording: cell_bag\n")
+    assert main(["check", "mapping", str(mapping)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "visor" in err and "TFMessage child frame" in err
+    mapping.write_text(MAPPING.format(glove="/mocap/glove", helmet="helmet")
+                       + "recording: no_such_bag\n")
+    assert main(["check", "mapping", str(mapping)]) == 2
+    assert "recording: got 'no_such_bag'" in capsys.readouterr().err
