@@ -4,6 +4,7 @@ repeated or decreasing stamp, a joint beyond its limit, in degrees or too fast i
 in one line naming the file, the row, the field and the value."""
 
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -195,3 +196,20 @@ def test_check_reads_a_robot_log_and_refuses_a_bad_one_in_one_line(tmp_path, cap
     assert main(["check", "robot-log", str(tmp_path / "gap.csv")]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "gap.csv: row 101: timestamp" in err
+
+
+def test_the_refusal_the_how_to_page_shows_is_the_one_its_command_gives(tmp_path, capsys,
+                                                                        monkeypatch):
+    """docs/how-to/robot-logs.md cuts samples out of the real log with ``sed`` and shows
+    the line ``check robot-log`` refuses it with: the same cut, the same line."""
+    page = (Path(__file__).parents[2] / "docs" / "how-to" / "robot-logs.md").read_text()
+    cut = re.search(r"^sed '(\d+),(\d+)d' tests/data/ur_rtde/ur3e_rad_moves.csv > "
+                    r"(\S+)\n(safety-systems check robot-log \3)$", page, flags=re.M)
+    shown = re.search(r"^safety-systems: " + re.escape(cut[3]) + ": row .*$", page,
+                      flags=re.M)
+    lines = _lines()
+    del lines[int(cut[1]) - 1:int(cut[2])]  # sed's line numbers count from 1, inclusive
+    monkeypatch.chdir(tmp_path)
+    Path(cut[3]).write_text("\n".join(lines) + "\n")
+    assert main(cut[4].split()[1:]) == 2
+    assert capsys.readouterr().err.strip() == shown[0]
