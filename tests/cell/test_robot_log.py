@@ -159,6 +159,45 @@ def test_a_joint_faster_than_its_limit_is_refused_in_one_line(tmp_path, capsys):
     assert "row 151: actual_q_3" in line and "joint speed limit (180 deg/s" in line
 
 
+def _sudden_start(speed_deg: float, samples: int) -> list[str]:
+    """The real log with its base joint held still to row 102 and then turned at
+    ``speed_deg`` deg/s for ``samples`` spacings (40 ms), held again after."""
+    lines = _lines()
+    header = lines[0].split(",")
+    c = header.index("actual_q_0")
+    t = [float(x.split(",")[0]) for x in lines[1:]]
+    q0 = float(lines[1].split(",")[c])
+    for k in range(1, len(lines)):
+        cells = lines[k].split(",")
+        turned = min(max(t[k - 1] - t[100], 0.0), samples * 0.04)
+        cells[c] = repr(q0 + turned * math.radians(speed_deg))
+        lines[k] = ",".join(cells)
+    return lines
+
+
+def test_a_path_faster_than_its_samples_and_the_limit_is_refused_in_one_line(tmp_path,
+                                                                           capsys):
+    """Samples at 177.6 deg/s keep within the UR5e's 180, but the spline through them,
+    which the robot runs, overshoots at the sudden start to 208.1 deg/s: refused."""
+    lines = _sudden_start(177.6, 3)
+    (tmp_path / "fast.csv").write_text("\n".join(lines) + "\n")
+    log = read_rtde_csv(tmp_path / "fast.csv")
+    steps = np.abs(np.diff(log.q[:, 0])) / np.diff(log.times)
+    assert math.degrees(steps.max()) == pytest.approx(177.6, abs=0.01)
+    check_joint_log(log, lower=UR5E.position_lower, upper=UR5E.position_upper,
+                    speed_limit=UR5E.velocity_limit, robot="ur5e", max_gap=0.05)
+    line = _refusal(tmp_path, lines, capsys)
+    assert f"log.csv: row 103: actual_q_0: got {float(log.q[101, 0])!r}; allowed: a path the " \
+        "robot runs within the ur5e's joint speed limit (180 deg/s): the spline through " \
+        "the samples peaks at 208.1 deg/s between the previous sample and this one" in line
+    assert main(["check", "robot-log", str(tmp_path / "fast.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "row 103: actual_q_0" in err and "208.1 deg/s" in err
+    # Slower, the same start keeps its spline within the limit (peak 152 deg/s).
+    _scenario(tmp_path, _sudden_start(130.0, 3))
+    assert main(["check", "scenario", str(tmp_path / "scenario.yaml")]) == 0
+
+
 def test_a_log_without_joint_columns_or_with_a_bad_number_is_one_line(tmp_path, capsys):
     lines = _lines()
     lines[0] = lines[0].replace("actual_q_2", "actual_qd_2")
