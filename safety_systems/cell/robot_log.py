@@ -150,9 +150,12 @@ def check_joint_log(log: JointLog, *, lower: np.ndarray, upper: np.ndarray,
     inside = finite & (q >= lower - 1e-12) & (q <= upper + 1e-12)
     if not inside.all():
         i, j = np.argwhere(~inside)[0]
+        alone = np.delete(inside, j, axis=1).all()  # the other joints within theirs
+        turns = _turns(q[:, j], q[i, j], dt, lower[j], upper[j],
+                       speed_limit[j]) if alone else ""
         raise InputError(f"{where} {rows[i]}: {f[j]}", float(q[i, j]), f"a finite angle in "
                          f"rad within the {robot}'s joint limits ({lower[j]:.4g} ... "
-                         f"{upper[j]:.4g} rad; a log in degrees falls outside them)",
+                         f"{upper[j]:.4g} rad; a log in degrees falls outside them{turns})",
                          file=log.file)
     speed = np.abs(np.diff(q, axis=0)) / dt[:, None]
     fast = speed > speed_limit[None, :]
@@ -162,6 +165,25 @@ def check_joint_log(log: JointLog, *, lower: np.ndarray, upper: np.ndarray,
                          f"a step from the previous sample at most the {robot}'s joint speed "
                          f"limit ({math.degrees(speed_limit[j]):.0f} deg/s; this one is "
                          f"{math.degrees(speed[i, j]):.1f} deg/s)", file=log.file)
+
+
+def _turns(column: np.ndarray, angle: float, dt: np.ndarray, lower: float, upper: float,
+           speed: float) -> str:
+    """What to say of a joint's samples ``column`` (T,) rad, ``angle`` among them outside
+    [lower, upper], where the same whole turns bring them all within and each step
+    keeps within ``speed`` (a wrist that turns without end has turned): "" otherwise (a
+    sample out of line, or a log in degrees)."""
+    if not np.all(np.isfinite(column)):
+        return ""
+    k = (math.ceil((angle - upper) / math.tau) if angle > upper
+         else -math.ceil((lower - angle) / math.tau))
+    back = column - k * math.tau
+    steady = np.all(np.abs(np.diff(column)) <= speed * dt)
+    if not (steady and np.all(back >= lower) and np.all(back <= upper)):
+        return ""
+    return (f"; {angle:.4g} rad is {abs(k)} whole turn{'s' if abs(k) > 1 else ''} from "
+            f"{angle - k * math.tau:.4g} rad, within them: a joint that turns without end "
+            "has turned so; take its turns out of the log")
 
 
 def window_index(log: JointLog, start: float, end: float | None) -> np.ndarray:

@@ -137,6 +137,29 @@ def test_a_decreasing_stamp_is_refused_in_one_line(tmp_path, capsys):
 def test_a_joint_beyond_its_limit_is_refused_in_one_line(tmp_path, capsys):
     line = _refusal(tmp_path, _edit(150, "actual_q_5", "6.5"), capsys)
     assert "row 150: actual_q_5: got 6.5" in line and "ur5e's joint limits" in line
+    assert "whole turn" not in line  # one sample out of line, not a turned wrist
+
+
+def test_a_wrist_that_has_turned_whole_turns_is_refused_and_told_so(tmp_path, capsys,
+                                                                    monkeypatch):
+    """The real log as recorded upstream (wrist 3 two whole turns on, 12.57 to 12.63 rad:
+    tests/data/ur_rtde/README.md) is refused, with the line robot-logs.md shows."""
+    lines = _lines()
+    header = lines[0].split(",")
+    for k in range(1, len(lines)):
+        cells = lines[k].split(",")
+        for c in (header.index("actual_q_5"), header.index("target_q_5")):
+            cells[c] = repr(float(cells[c]) + 4 * math.pi)
+        lines[k] = ",".join(cells)
+    assert _cell(lines, 2, "actual_q_5") == "12.6283422"  # the source's own text
+    monkeypatch.chdir(tmp_path)
+    Path("ur3e_as_recorded.csv").write_text("\n".join(lines) + "\n")
+    assert main(["check", "robot-log", "ur3e_as_recorded.csv"]) == 2
+    err = capsys.readouterr().err.strip()
+    page = (Path(__file__).parents[2] / "docs" / "how-to" / "robot-logs.md").read_text()
+    shown = re.search(r"^safety-systems: ur3e_as_recorded.csv: .*$", page, flags=re.MULTILINE)
+    assert err == shown[0]
+    assert "2 whole turns from 0.06197 rad" in err
 
 
 def test_a_log_in_degrees_is_refused_in_one_line(tmp_path, capsys):
@@ -151,6 +174,7 @@ def test_a_log_in_degrees_is_refused_in_one_line(tmp_path, capsys):
         out.append(",".join(cells))
     line = _refusal(tmp_path, out, capsys)
     assert "row 2: actual_q_0: got -122.06" in line and "a log in degrees" in line
+    assert "whole turn" not in line
 
 
 def test_a_joint_faster_than_its_limit_is_refused_in_one_line(tmp_path, capsys):
@@ -243,9 +267,9 @@ def test_the_refusal_the_how_to_page_shows_is_the_one_its_command_gives(tmp_path
     the line ``check robot-log`` refuses it with: the same cut, the same line."""
     page = (Path(__file__).parents[2] / "docs" / "how-to" / "robot-logs.md").read_text()
     cut = re.search(r"^sed '(\d+),(\d+)d' tests/data/ur_rtde/ur3e_rad_moves.csv > "
-                    r"(\S+)\n(safety-systems check robot-log \3)$", page, flags=re.M)
+                    r"(\S+)\n(safety-systems check robot-log \3)$", page, flags=re.MULTILINE)
     shown = re.search(r"^safety-systems: " + re.escape(cut[3]) + ": row .*$", page,
-                      flags=re.M)
+                      flags=re.MULTILINE)
     lines = _lines()
     del lines[int(cut[1]) - 1:int(cut[2])]  # sed's line numbers count from 1, inclusive
     monkeypatch.chdir(tmp_path)
