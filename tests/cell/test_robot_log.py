@@ -276,3 +276,19 @@ def test_the_refusal_the_how_to_page_shows_is_the_one_its_command_gives(tmp_path
     Path(cut[3]).write_text("\n".join(lines) + "\n")
     assert main(cut[4].split()[1:]) == 2
     assert capsys.readouterr().err.strip() == shown[0]
+
+
+def test_a_stop_near_a_one_pass_logs_end_rests_there(tmp_path):
+    """braking.tool_stopping_distance on a log run once: a stop that runs past the last
+    sample rests there (as the robot does), it does not jump back to the first sample's
+    pose (the real log ends 0.4 m of tool travel from where it starts)."""
+    from safety_systems.cell.braking import tool_stopping_distance
+    from safety_systems.cell.model_points import tool0_position
+    from safety_systems.cell.placeholder_stops import placeholder_braking_table
+
+    ur3e = robot_model("ur3e")
+    path = joint_path(load_scenario(_scenario(tmp_path)).robot)
+    tool = tool0_position(ur3e)
+    jump = np.linalg.norm(tool(read_rtde_csv(REAL).q[-1]) - tool(read_rtde_csv(REAL).q[0]))
+    got = tool_stopping_distance(path, placeholder_braking_table("ur3e"), tool_position=tool)
+    assert jump > 0.3 and 0.0 < got < 0.1 * jump
