@@ -292,3 +292,15 @@ def test_a_stop_near_a_one_pass_logs_end_rests_there(tmp_path):
     jump = np.linalg.norm(tool(read_rtde_csv(REAL).q[-1]) - tool(read_rtde_csv(REAL).q[0]))
     got = tool_stopping_distance(path, placeholder_braking_table("ur3e"), tool_position=tool)
     assert jump > 0.3 and 0.0 < got < 0.1 * jump
+
+
+def test_the_worked_cells_log_is_the_tests_real_log():
+    """models/robot_logs/ holds the real log of tests/data/ur_rtde/ byte for byte, with its
+    licence, for models/scenarios/robot_log_example.yaml."""
+    models = Path(__file__).parents[2] / "models" / "robot_logs"
+    for name in ("ur3e_rad_moves.csv", "ur3e_rad_moves.LICENSE"):
+        assert (models / name).read_bytes() == (REAL.parent / name).read_bytes()
+    scenario = load_scenario(Path(__file__).parents[2] / "models" / "scenarios"
+                             / "robot_log_example.yaml")
+    assert scenario.robot.model == "ur3e"
+    assert Path(scenario.robot.path.log.file).resolve() == (models / REAL.name).resolve()
