@@ -236,6 +236,18 @@ def _banded_figures() -> tuple:
     )
 
 
+def _robot_log_figures() -> tuple:
+    """The worked cell from a robot log (how-to/robot-logs.md)."""
+    return (
+        Figure("robot_log_task_time", r"The 9 s log takes " + NUM + " s:",
+               run("robot-log", f"{SUMMARY}/task_time")),
+        Figure("robot_log_held", r"the robot waits on separation stops for " + NUM
+               + r" s while the technician", run("robot-log", f"{SUMMARY}/held/separation/time")),
+        Figure("robot_log_separation", r"never moves within " + NUM + " m of them",
+               run("robot-log", f"{SUMMARY}/min_separation_while_moving")),
+    )
+
+
 def _lever_figures() -> tuple:
     """The levers' table in tuning.md (every cell's time lost and its reduction), and the
     figures around it and in the speed page."""
@@ -595,4 +607,4 @@ FIGURES = (
            run("verify-tuned", f"{CONTACT}/proof/margin_at_worst_corner")),
     Figure("tuned_separation_margin", r"s here:\s+contact margin [0-9.]+ m, separation "
            + NUM + " m", run("verify-tuned", f"{SEPARATION}/proof/margin_at_worst_corner")),
-) + _speed_figures() + _lever_figures() + _banded_figures()
+) + _speed_figures() + _lever_figures() + _banded_figures() + _robot_log_figures()

@@ -54,6 +54,8 @@ RESULTS = ROOT / "benchmarks" / "results"
 RECORD = RESULTS / "walkthrough.json"
 CLI = ".venv/bin/safety-systems"
 STDOUT_LINES = 60  # of each run's stdout, kept in the record
+CHECK_KINDS = ("scenario", "config", "space", "scene", "task-path", "mapping", "robot-log",
+               "recording", "params")  # ``check KIND FILE``'s kinds (safety_systems.cli)
 
 
 # ------------------------------------------------------------------ the pages' commands
@@ -108,8 +110,8 @@ def run_id(command: str, seen: dict) -> str:
     for flag in ("--out", "--log"):
         if name is None and flag in words:
             name = Path(words[words.index(flag) + 1]).name
-    if name is None:  # check PARAMS: the folder it checks
-        first = next(w for w in words[2:] if not w.startswith("-"))
+    if name is None:  # check PARAMS: the folder it checks (check KIND FILE: the file's)
+        first = next(w for w in words[2:] if not w.startswith("-") and w not in CHECK_KINDS)
         name = words[1] + "-" + Path(first).parent.name
     seen[name] = seen.get(name, 0) + 1
     return name if seen[name] == 1 else f"{name}#{seen[name]}"

@@ -519,7 +519,12 @@ def _loaders() -> dict:
 def _check_robot_log(path: str) -> None:
     """A robot log (an RTDE CSV, or a bag's only JointState topic) under the rules of
     ``cell.robot_log`` against the UR5e's joints (a scenario checks its own robot's)."""
-    from safety_systems.cell.robot_log import check_joint_log, read_joint_log
+    from safety_systems.cell.robot_log import (
+        check_joint_log,
+        check_path_speeds,
+        make_log_path,
+        read_joint_log,
+    )
     from safety_systems.cell.robot_model import default_model
     from safety_systems.config.scenario import RobotLogConfig
 
@@ -528,6 +533,8 @@ def _check_robot_log(path: str) -> None:
     check_joint_log(log, lower=model.position_lower, upper=model.position_upper,
                     speed_limit=model.velocity_limit, robot=model.name,
                     max_gap=RobotLogConfig().max_gap)
+    path = make_log_path(log.times - log.times[0], log.q)
+    check_path_speeds(log, path, speed_limit=model.velocity_limit, robot=model.name)
 
 
 KINDS = ("scenario", "config", "space", "scene", "task-path", "mapping", "robot-log",

@@ -218,7 +218,10 @@ def tool_stopping_distance(
     if tool_position is None:
         from safety_systems.cell.ur5e import tool0_position as tool_position
 
-    path = dataclasses.replace(path, cycles=2)  # a stop may run on into the next cycle
+    ends = joint_path_state(path, np.array([0.0, path.cycle_time]))[0]
+    if np.allclose(ends[0], ends[1], rtol=0.0, atol=1e-9):  # a cycle that closes:
+        path = dataclasses.replace(path, cycles=2)  # a stop may run on into the next one
+    # (a path run once, a robot log's, rests at its end; it does not jump to its start)
     s = np.linspace(0.0, path.cycle_time, starts, endpoint=False)
     sigma = np.full(starts, float(rate))
     p = tool_position(joint_path_state(path, s)[0])

@@ -14,7 +14,8 @@ value and what is allowed, as every bad input): time stamps finite and strictly
 increasing (a repeated or decreasing stamp is refused), no spacing longer than
 ``max_gap`` (samples lost), joint positions finite and within the robot model's joint
 limits (radians: a log in degrees falls outside them), and no joint faster between two
-samples than its speed limit.
+samples than its speed limit; and the path the robot runs through them
+(:func:`check_path_speeds`) no faster than that limit anywhere.
 
 The path (:func:`make_log_path`): a cubic spline through the samples (``SplinePath``,
 the kind a Cartesian path already is, so the PathFollower, the batched evaluator and
@@ -149,9 +150,12 @@ def check_joint_log(log: JointLog, *, lower: np.ndarray, upper: np.ndarray,
     inside = finite & (q >= lower - 1e-12) & (q <= upper + 1e-12)
     if not inside.all():
         i, j = np.argwhere(~inside)[0]
+        alone = np.delete(inside, j, axis=1).all()  # the other joints within theirs
+        turns = _turns(q[:, j], q[i, j], dt, lower[j], upper[j],
+                       speed_limit[j]) if alone else ""
         raise InputError(f"{where} {rows[i]}: {f[j]}", float(q[i, j]), f"a finite angle in "
                          f"rad within the {robot}'s joint limits ({lower[j]:.4g} ... "
-                         f"{upper[j]:.4g} rad; a log in degrees falls outside them)",
+                         f"{upper[j]:.4g} rad; a log in degrees falls outside them{turns})",
                          file=log.file)
     speed = np.abs(np.diff(q, axis=0)) / dt[:, None]
     fast = speed > speed_limit[None, :]
@@ -163,16 +167,41 @@ def check_joint_log(log: JointLog, *, lower: np.ndarray, upper: np.ndarray,
                          f"{math.degrees(speed[i, j]):.1f} deg/s)", file=log.file)
 
 
-def window(log: JointLog, start: float, end: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """(s, q): the samples from log time ``start`` (s after the first sample) to ``end``
-    (None: the last), s from 0; raises InputError when fewer than 2 samples remain."""
+def _turns(column: np.ndarray, angle: float, dt: np.ndarray, lower: float, upper: float,
+           speed: float) -> str:
+    """What to say of a joint's samples ``column`` (T,) rad, ``angle`` among them outside
+    [lower, upper], where the same whole turns bring them all within and each step
+    keeps within ``speed`` (a wrist that turns without end has turned): "" otherwise (a
+    sample out of line, or a log in degrees)."""
+    if not np.all(np.isfinite(column)):
+        return ""
+    k = (math.ceil((angle - upper) / math.tau) if angle > upper
+         else -math.ceil((lower - angle) / math.tau))
+    back = column - k * math.tau
+    steady = np.all(np.abs(np.diff(column)) <= speed * dt)
+    if not (steady and np.all(back >= lower) and np.all(back <= upper)):
+        return ""
+    return (f"; {angle:.4g} rad is {abs(k)} whole turn{'s' if abs(k) > 1 else ''} from "
+            f"{angle - k * math.tau:.4g} rad, within them: a joint that turns without end "
+            "has turned so; take its turns out of the log")
+
+
+def window_index(log: JointLog, start: float, end: float | None) -> np.ndarray:
+    """Which samples (T,) bool lie from log time ``start`` (s after the first sample) to
+    ``end`` (None: the last); raises InputError when fewer than 2 do."""
     t = log.times - log.times[0]
     keep = (t >= start - 1e-9) & (t <= (math.inf if end is None else end + 1e-9))
     if keep.sum() < 2:
         raise InputError("path.log.start", [start, end], f"a window of 2 or more samples of "
                          f"the log's {t[-1]:.4g} s", file=log.file)
-    s = t[keep] - t[keep][0]
-    return s, log.q[keep]
+    return keep
+
+
+def window(log: JointLog, start: float, end: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """(s, q): the samples of :func:`window_index`, s from 0."""
+    keep = window_index(log, start, end)
+    t = log.times[keep] - log.times[keep][0]
+    return t, log.q[keep]
 
 
 def closing_step(s: np.ndarray, q: np.ndarray) -> tuple[float, np.ndarray]:
@@ -217,14 +246,46 @@ def read_joint_log(path: str | Path, joint_names: tuple[str, ...], topic: str = 
     return _cached_csv(str(path), len(joint_names), digest)
 
 
-def peak_joint_speeds(path: SplinePath) -> np.ndarray:
-    """Each joint's largest |dq/ds| anywhere on a log's path (n,), rad/s at path rate 1:
-    on every cubic piece the slope's largest size is at an end or at its vertex."""
+def piece_speeds(path: SplinePath) -> np.ndarray:
+    """Each joint's largest |dq/ds| on each cubic piece of a log's path (pieces, n),
+    rad/s at path rate 1: on a piece the slope's largest size is at an end or at its
+    vertex."""
     c, h = path.spline.c, np.diff(path.spline.x)[:, None]  # c (4, pieces, n)
     ends = np.maximum(np.abs(c[2]), np.abs(3.0 * c[0] * h * h + 2.0 * c[1] * h + c[2]))
     with np.errstate(divide="ignore", invalid="ignore"):
         vertex = np.where(c[0] != 0.0, -c[1] / (3.0 * c[0]), -1.0)
         at = np.abs(c[2] - c[1] ** 2 / (3.0 * np.where(c[0] != 0.0, c[0], 1.0)))
     inside = (vertex > 0.0) & (vertex < h)
-    return np.max(np.maximum(ends, np.where(inside, at, 0.0)), axis=0)
+    return np.maximum(ends, np.where(inside, at, 0.0))
+
+
+def peak_joint_speeds(path: SplinePath) -> np.ndarray:
+    """Each joint's largest |dq/ds| anywhere on a log's path (n,), rad/s at path rate 1."""
+    return piece_speeds(path).max(axis=0)
+
+
+def check_path_speeds(log: JointLog, path: SplinePath, keep: np.ndarray | None = None,
+                      *, speed_limit: np.ndarray, robot: str) -> None:
+    """The path the robot runs (``path``, :func:`make_log_path` of the samples ``keep``
+    (T,) bool of ``log``; None: all) within the joint speed limits ``speed_limit`` (n,)
+    rad/s of ``robot`` at path rate 1. A spline may overshoot its samples' steps (a
+    sudden start or stop), so samples within the limit do not make a path within it.
+    Raises InputError naming the file, the row its fastest piece ends at, the joint,
+    the figure and the limit."""
+    speeds = piece_speeds(path)
+    over = speeds / speed_limit[None, :]
+    if np.all(over <= 1.0):
+        return
+    i, j = np.unravel_index(int(np.argmax(over)), over.shape)
+    rows, q = (log.rows, log.q) if keep is None else (log.rows[keep], log.q[keep])
+    closing = i + 1 >= len(rows)  # a repeated log's step back to its first sample
+    k = len(rows) - 1 if closing else i + 1
+    between = ("this sample and the log's first (its step back, repeat: true)" if closing
+               else "the previous sample and this one")
+    raise InputError(f"{log.row_name} {rows[k]}: {log.fields[j]}", float(q[k, j]),
+                     f"a path the robot runs within the {robot}'s joint speed limit "
+                     f"({math.degrees(speed_limit[j]):.0f} deg/s): the spline through the "
+                     f"samples peaks at {math.degrees(speeds[i, j]):.1f} deg/s between "
+                     f"{between} (a sudden start or stop makes the spline overshoot the "
+                     "samples' own steps)", file=log.file)
 

@@ -957,9 +957,16 @@ def validate_robot_log(r: RobotConfig, model: RobotModel, prefix: str = "robot")
     """A robot log path (``path.log``, its file already resolved by
     :func:`read_robot_log`): its window, and the log's samples under
     ``cell.robot_log.check_joint_log`` against the model's joint limits and speeds; a
-    repeated log's step back to its start too. Raises :class:`ScenarioError` (a bad log:
-    its file, row, field and value)."""
-    from safety_systems.cell.robot_log import check_joint_log, closing_step, window
+    repeated log's step back to its start too; and the path the robot runs through the
+    window's samples within the joint speed limits (``check_path_speeds``). Raises
+    :class:`ScenarioError` (a bad log: its file, row, field and value)."""
+    from safety_systems.cell.robot_log import (
+        check_joint_log,
+        check_path_speeds,
+        closing_step,
+        make_log_path,
+        window_index,
+    )
 
     g = r.path.log
     _check(bool(g.file), f"{prefix}.path.log.file", g.file, "an RTDE CSV or a ROS bag")
@@ -968,7 +975,8 @@ def validate_robot_log(r: RobotConfig, model: RobotModel, prefix: str = "robot")
     log = robot_log_of(r, prefix)
     check_joint_log(log, lower=model.position_lower, upper=model.position_upper,
                     speed_limit=model.velocity_limit, robot=model.name, max_gap=g.max_gap)
-    s, q = window(log, g.start, g.end)
+    keep = window_index(log, g.start, g.end)
+    s, q = log.times[keep] - log.times[keep][0], log.q[keep]
     if g.repeat:
         h, speed = closing_step(s, q)
         j = int(np.argmax(speed / model.velocity_limit))
@@ -978,6 +986,8 @@ def validate_robot_log(r: RobotConfig, model: RobotModel, prefix: str = "robot")
                f"{math.degrees(speed[j]):.0f} deg/s over one spacing, {h:.4g} s; the "
                f"{model.name}'s limit is {math.degrees(model.velocity_limit[j]):.0f}); or "
                "false (run it once)")
+    path = make_log_path(s, q, repeat=g.repeat, cycles=r.cycles)
+    check_path_speeds(log, path, keep, speed_limit=model.velocity_limit, robot=model.name)
 
 
 def robot_log_of(r: RobotConfig, prefix: str = "robot"):

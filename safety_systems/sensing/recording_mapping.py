@@ -408,9 +408,9 @@ def check_mapping(path: str | Path) -> list[RecordedBodies]:
     recording = mapped_recording(m, path)
     if recording is None:
         return []
-    if not recording.is_file():
-        raise InputError("recording", m.recording, f"an existing recording file ({recording})",
-                         file=str(path))
+    if not (recording.is_file() or recording.is_dir()):
+        raise InputError("recording", m.recording, f"an existing recording file or ROS bag "
+                         f"folder ({recording})", file=str(path))
     return [load_recorded_operator(recording, path, o.name) for o in m.operators]
 
 

@@ -32,6 +32,29 @@ POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 TF_TOPICS = ("/tf", "tf")
 RIGID_BODIES = "mocap4r2_msgs/msg/RigidBodies"
+# mocap4r2_msgs's message definitions (github.com/MOCAP4ROS2-Project/mocap4r2_msgs, msg/):
+# a bag that does not carry its types' definitions (a SQLite 3 bag of ROS 2 Humble's
+# rosbag2) is read with ROS 2 Humble's types and these.
+MOCAP4R2_MSGS = {
+    "mocap4r2_msgs/msg/Marker": "int8 USE_NAME=0\nint8 USE_INDEX=1\nint8 USE_BOTH=2\n"
+                                "int8 id_type\nint32 marker_index\nstring marker_name\n"
+                                "geometry_msgs/Point translation\n",
+    "mocap4r2_msgs/msg/RigidBody": "string rigid_body_name\nMarker[] markers\n"
+                                   "geometry_msgs/Pose pose\n",
+    RIGID_BODIES: "std_msgs/Header header\nuint32 frame_number\n"
+                  "mocap4r2_msgs/RigidBody[] rigidbodies\n",
+}
+
+
+def typestore():
+    """ROS 2 Humble's message types and mocap4r2_msgs's (``MOCAP4R2_MSGS``): the types
+    of a bag that carries no definitions of its own (one that does is read with its)."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    for name, text in MOCAP4R2_MSGS.items():
+        store.register(get_types_from_msg(text, name))
+    return store
 
 
 def bag_files(path: str | Path) -> list[Path]:
@@ -54,13 +77,12 @@ def bag_digest(path: str | Path) -> str:
 def _open(path: str | Path):
     """An open ``rosbags`` AnyReader of ``path``; raises InputError (one line)."""
     from rosbags.highlevel import AnyReader
-    from rosbags.typesys import Stores, get_typestore
 
     path = Path(path)
     if not path.exists():
         raise InputError("path", str(path), "an existing bag (a rosbag2 folder, or an .mcap, "
                          ".db3 or .bag file)")
-    reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+    reader = AnyReader([path], default_typestore=typestore())
     try:
         reader.open()
     except Exception as e:  # noqa: BLE001 - rosbags' own message, as one line
@@ -183,7 +205,7 @@ def read_bag(path: str | Path, bodies: Collection[str] | None = None, *,
         found = _samples(reader, bodies, file)
     finally:
         reader.close()
-    frames = set()
+    frames: dict = {}  # {frame: the first body found in it}
     for name, rows in found.items():
         if not rows:
             raise InputError("<bodies>", name, f"a {POSE_STAMPED} topic, a {TF_MESSAGE} child "
@@ -195,10 +217,13 @@ def read_bag(path: str | Path, bodies: Collection[str] | None = None, *,
                              int(stamps[bad[0] + 1]), f"later than the previous message's "
                              f"({int(stamps[bad[0]])} ns): a repeated or decreasing stamp",
                              file=file)
-        frames |= {r[1] for r in rows}
+        for r in rows:
+            frames.setdefault(r[1], name)
     if len(frames) != 1:
-        raise InputError("header.frame_id", sorted(frames), "one frame for every mapped body "
-                         "(the capture frame the mapping's capture_to_cell places)", file=file)
+        raise InputError("header.frame_id", ", ".join(f"{b} in {f!r}" for f, b in
+                                                      sorted(frames.items())),
+                         "one frame for every mapped body (the capture frame the mapping's "
+                         "capture_to_cell places)", file=file)
     times = np.unique(np.concatenate([np.array([r[0] for r in rows], dtype=np.int64)
                                       for rows in found.values()]))
     if times.size > MAX_SAMPLES:

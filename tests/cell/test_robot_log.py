@@ -4,6 +4,7 @@ repeated or decreasing stamp, a joint beyond its limit, in degrees or too fast i
 in one line naming the file, the row, the field and the value."""
 
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -136,6 +137,29 @@ def test_a_decreasing_stamp_is_refused_in_one_line(tmp_path, capsys):
 def test_a_joint_beyond_its_limit_is_refused_in_one_line(tmp_path, capsys):
     line = _refusal(tmp_path, _edit(150, "actual_q_5", "6.5"), capsys)
     assert "row 150: actual_q_5: got 6.5" in line and "ur5e's joint limits" in line
+    assert "whole turn" not in line  # one sample out of line, not a turned wrist
+
+
+def test_a_wrist_that_has_turned_whole_turns_is_refused_and_told_so(tmp_path, capsys,
+                                                                    monkeypatch):
+    """The real log as recorded upstream (wrist 3 two whole turns on, 12.57 to 12.63 rad:
+    tests/data/ur_rtde/README.md) is refused, with the line robot-logs.md shows."""
+    lines = _lines()
+    header = lines[0].split(",")
+    for k in range(1, len(lines)):
+        cells = lines[k].split(",")
+        for c in (header.index("actual_q_5"), header.index("target_q_5")):
+            cells[c] = repr(float(cells[c]) + 4 * math.pi)
+        lines[k] = ",".join(cells)
+    assert _cell(lines, 2, "actual_q_5") == "12.6283422"  # the source's own text
+    monkeypatch.chdir(tmp_path)
+    Path("ur3e_as_recorded.csv").write_text("\n".join(lines) + "\n")
+    assert main(["check", "robot-log", "ur3e_as_recorded.csv"]) == 2
+    err = capsys.readouterr().err.strip()
+    page = (Path(__file__).parents[2] / "docs" / "how-to" / "robot-logs.md").read_text()
+    shown = re.search(r"^safety-systems: ur3e_as_recorded.csv: .*$", page, flags=re.MULTILINE)
+    assert err == shown[0]
+    assert "2 whole turns from 0.06197 rad" in err
 
 
 def test_a_log_in_degrees_is_refused_in_one_line(tmp_path, capsys):
@@ -150,12 +174,52 @@ def test_a_log_in_degrees_is_refused_in_one_line(tmp_path, capsys):
         out.append(",".join(cells))
     line = _refusal(tmp_path, out, capsys)
     assert "row 2: actual_q_0: got -122.06" in line and "a log in degrees" in line
+    assert "whole turn" not in line
 
 
 def test_a_joint_faster_than_its_limit_is_refused_in_one_line(tmp_path, capsys):
     q = float(_cell(_lines(), 150, "actual_q_3"))
     line = _refusal(tmp_path, _edit(151, "actual_q_3", repr(q + 0.2)), capsys)  # 5 rad/s
     assert "row 151: actual_q_3" in line and "joint speed limit (180 deg/s" in line
+
+
+def _sudden_start(speed_deg: float, samples: int) -> list[str]:
+    """The real log with its base joint held still to row 102 and then turned at
+    ``speed_deg`` deg/s for ``samples`` spacings (40 ms), held again after."""
+    lines = _lines()
+    header = lines[0].split(",")
+    c = header.index("actual_q_0")
+    t = [float(x.split(",")[0]) for x in lines[1:]]
+    q0 = float(lines[1].split(",")[c])
+    for k in range(1, len(lines)):
+        cells = lines[k].split(",")
+        turned = min(max(t[k - 1] - t[100], 0.0), samples * 0.04)
+        cells[c] = repr(q0 + turned * math.radians(speed_deg))
+        lines[k] = ",".join(cells)
+    return lines
+
+
+def test_a_path_faster_than_its_samples_and_the_limit_is_refused_in_one_line(tmp_path,
+                                                                           capsys):
+    """Samples at 177.6 deg/s keep within the UR5e's 180, but the spline through them,
+    which the robot runs, overshoots at the sudden start to 208.1 deg/s: refused."""
+    lines = _sudden_start(177.6, 3)
+    (tmp_path / "fast.csv").write_text("\n".join(lines) + "\n")
+    log = read_rtde_csv(tmp_path / "fast.csv")
+    steps = np.abs(np.diff(log.q[:, 0])) / np.diff(log.times)
+    assert math.degrees(steps.max()) == pytest.approx(177.6, abs=0.01)
+    check_joint_log(log, lower=UR5E.position_lower, upper=UR5E.position_upper,
+                    speed_limit=UR5E.velocity_limit, robot="ur5e", max_gap=0.05)
+    line = _refusal(tmp_path, lines, capsys)
+    assert f"log.csv: row 103: actual_q_0: got {float(log.q[101, 0])!r}; allowed: a path the " \
+        "robot runs within the ur5e's joint speed limit (180 deg/s): the spline through " \
+        "the samples peaks at 208.1 deg/s between the previous sample and this one" in line
+    assert main(["check", "robot-log", str(tmp_path / "fast.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "row 103: actual_q_0" in err and "208.1 deg/s" in err
+    # Slower, the same start keeps its spline within the limit (peak 152 deg/s).
+    _scenario(tmp_path, _sudden_start(130.0, 3))
+    assert main(["check", "scenario", str(tmp_path / "scenario.yaml")]) == 0
 
 
 def test_a_log_without_joint_columns_or_with_a_bad_number_is_one_line(tmp_path, capsys):
@@ -195,3 +259,48 @@ def test_check_reads_a_robot_log_and_refuses_a_bad_one_in_one_line(tmp_path, cap
     assert main(["check", "robot-log", str(tmp_path / "gap.csv")]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "gap.csv: row 101: timestamp" in err
+
+
+def test_the_refusal_the_how_to_page_shows_is_the_one_its_command_gives(tmp_path, capsys,
+                                                                        monkeypatch):
+    """docs/how-to/robot-logs.md cuts samples out of the real log with ``sed`` and shows
+    the line ``check robot-log`` refuses it with: the same cut, the same line."""
+    page = (Path(__file__).parents[2] / "docs" / "how-to" / "robot-logs.md").read_text()
+    cut = re.search(r"^sed '(\d+),(\d+)d' tests/data/ur_rtde/ur3e_rad_moves.csv > "
+                    r"(\S+)\n(safety-systems check robot-log \3)$", page, flags=re.MULTILINE)
+    shown = re.search(r"^safety-systems: " + re.escape(cut[3]) + ": row .*$", page,
+                      flags=re.MULTILINE)
+    lines = _lines()
+    del lines[int(cut[1]) - 1:int(cut[2])]  # sed's line numbers count from 1, inclusive
+    monkeypatch.chdir(tmp_path)
+    Path(cut[3]).write_text("\n".join(lines) + "\n")
+    assert main(cut[4].split()[1:]) == 2
+    assert capsys.readouterr().err.strip() == shown[0]
+
+
+def test_a_stop_near_a_one_pass_logs_end_rests_there(tmp_path):
+    """braking.tool_stopping_distance on a log run once: a stop that runs past the last
+    sample rests there (as the robot does), it does not jump back to the first sample's
+    pose (the real log ends 0.4 m of tool travel from where it starts)."""
+    from safety_systems.cell.braking import tool_stopping_distance
+    from safety_systems.cell.model_points import tool0_position
+    from safety_systems.cell.placeholder_stops import placeholder_braking_table
+
+    ur3e = robot_model("ur3e")
+    path = joint_path(load_scenario(_scenario(tmp_path)).robot)
+    tool = tool0_position(ur3e)
+    jump = np.linalg.norm(tool(read_rtde_csv(REAL).q[-1]) - tool(read_rtde_csv(REAL).q[0]))
+    got = tool_stopping_distance(path, placeholder_braking_table("ur3e"), tool_position=tool)
+    assert jump > 0.3 and 0.0 < got < 0.1 * jump
+
+
+def test_the_worked_cells_log_is_the_tests_real_log():
+    """models/robot_logs/ holds the real log of tests/data/ur_rtde/ byte for byte, with its
+    licence, for models/scenarios/robot_log_example.yaml."""
+    models = Path(__file__).parents[2] / "models" / "robot_logs"
+    for name in ("ur3e_rad_moves.csv", "ur3e_rad_moves.LICENSE"):
+        assert (models / name).read_bytes() == (REAL.parent / name).read_bytes()
+    scenario = load_scenario(Path(__file__).parents[2] / "models" / "scenarios"
+                             / "robot_log_example.yaml")
+    assert scenario.robot.model == "ur3e"
+    assert Path(scenario.robot.path.log.file).resolve() == (models / REAL.name).resolve()

@@ -68,27 +68,32 @@ def _operator() -> tuple[np.ndarray, np.ndarray]:
     return k * (1_000_000_000 // RATE), p
 
 
-def _header(ns: int, frame: str = ""):
-    Header, Time = TS.types["std_msgs/msg/Header"], TS.types["builtin_interfaces/msg/Time"]
-    return Header(stamp=Time(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000)),
-                  frame_id=frame)
+def _header(ns: int, frame: str = "", ts=TS):
+    Header, Time = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
+    seq = {"seq": 0} if "seq" in Header.__dataclass_fields__ else {}  # ROS 1's header
+    return Header(**seq, stamp=Time(sec=int(ns // 1_000_000_000),
+                                    nanosec=int(ns % 1_000_000_000)), frame_id=frame)
 
 
-def _write_bag(path: Path, storage: StoragePlugin, *, tf: bool = True) -> None:
-    JointState = TS.types["sensor_msgs/msg/JointState"]
-    PoseStamped, Pose = TS.types["geometry_msgs/msg/PoseStamped"], TS.types["geometry_msgs/msg/Pose"]
-    Point, Quaternion = TS.types["geometry_msgs/msg/Point"], TS.types["geometry_msgs/msg/Quaternion"]
-    TFMessage = TS.types["tf2_msgs/msg/TFMessage"]
-    TransformStamped = TS.types["geometry_msgs/msg/TransformStamped"]
-    Transform, Vector3 = TS.types["geometry_msgs/msg/Transform"], TS.types["geometry_msgs/msg/Vector3"]
+def _bag_messages(ts, *, tf: bool = True, helmet_frame: str = "mocap",
+                  drop_joint: str = "") -> list[tuple]:
+    """(arrival stamp ns, topic, message, type) of the bag's messages in typestore ``ts``:
+    the robot's JointState (without ``drop_joint``), the glove's PoseStamped and the
+    helmet's TF child frame (``tf``) or PoseStamped in ``helmet_frame``."""
+    JointState = ts.types["sensor_msgs/msg/JointState"]
+    PoseStamped, Pose = ts.types["geometry_msgs/msg/PoseStamped"], ts.types["geometry_msgs/msg/Pose"]
+    Point, Quaternion = ts.types["geometry_msgs/msg/Point"], ts.types["geometry_msgs/msg/Quaternion"]
+    TFMessage = ts.types["tf2_msgs/msg/TFMessage"]
+    TransformStamped = ts.types["geometry_msgs/msg/TransformStamped"]
+    Transform, Vector3 = ts.types["geometry_msgs/msg/Transform"], ts.types["geometry_msgs/msg/Vector3"]
     names = list(robot_model("ur5e").joint_names)
     messages = []
     for ns, q in zip(*_robot()):
         # The bag's joint order differs from the model's, and a gripper joint comes too.
-        order = [5, 0, 3, 1, 4, 2]
-        msg = JointState(header=_header(T0 + ns), name=[names[j] for j in order] + ["gripper"],
-                         position=np.r_[q[order], 0.01], velocity=np.zeros(0),
-                         effort=np.zeros(0))
+        order = [j for j in [5, 0, 3, 1, 4, 2] if names[j] != drop_joint]
+        msg = JointState(header=_header(T0 + ns, ts=ts), name=[names[j] for j in order]
+                         + ["gripper"], position=np.r_[q[order], 0.01],
+                         velocity=np.zeros(0), effort=np.zeros(0))
         messages.append((T0 + ns, "/joint_states", msg, JointState.__msgtype__))
     ns_op, p = _operator()
     unit = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
@@ -96,26 +101,38 @@ def _write_bag(path: Path, storage: StoragePlugin, *, tf: bool = True) -> None:
         if np.isfinite(glove).all():
             pose = Pose(position=Point(x=glove[0], y=glove[1], z=glove[2]), orientation=unit)
             messages.append((T0 + ns, "/mocap/glove", PoseStamped(
-                header=_header(T0 + ns, "mocap"), pose=pose), PoseStamped.__msgtype__))
+                header=_header(T0 + ns, "mocap", ts), pose=pose), PoseStamped.__msgtype__))
         if tf:
-            x = TransformStamped(header=_header(T0 + ns, "mocap"), child_frame_id="helmet",
-                                 transform=Transform(translation=Vector3(
-                                     x=helmet[0], y=helmet[1], z=helmet[2]), rotation=unit))
+            x = TransformStamped(header=_header(T0 + ns, helmet_frame, ts),
+                                 child_frame_id="helmet", transform=Transform(
+                                     translation=Vector3(x=helmet[0], y=helmet[1], z=helmet[2]),
+                                     rotation=unit))
             messages.append((T0 + ns, "/tf", TFMessage(transforms=[x]), TFMessage.__msgtype__))
         else:
             pose = Pose(position=Point(x=helmet[0], y=helmet[1], z=helmet[2]), orientation=unit)
             messages.append((T0 + ns, "/mocap/helmet", PoseStamped(
-                header=_header(T0 + ns, "mocap"), pose=pose), PoseStamped.__msgtype__))
+                header=_header(T0 + ns, helmet_frame, ts), pose=pose),
+                PoseStamped.__msgtype__))
+    return messages
+
+
+def _write(writer, messages: list[tuple], ts, serialize) -> None:
+    """``messages`` into an open bag ``writer``, each arriving later than its stamp."""
+    connections = {}
+    for _, topic, _, msgtype in messages:
+        if topic not in connections:
+            connections[topic] = writer.add_connection(topic, msgtype, typestore=ts)
+    for k, (ns, topic, msg, msgtype) in enumerate(sorted(messages, key=lambda m: m[0])):
+        # Arrival: later than the stamp by 37 ms and a jitter of up to 4 ms (less than
+        # a spacing, so the order stays), which the reader must not take for time.
+        late = ARRIVAL + (k % 5) * 1_000_000
+        writer.write(connections[topic], int(ns + late), serialize(msg, msgtype))
+
+
+def _write_bag(path: Path, storage: StoragePlugin, *, tf: bool = True, **kwargs) -> None:
+    """A rosbag2 bag of :func:`_bag_messages` in ``storage``."""
     with Writer(path, version=9, storage_plugin=storage) as writer:
-        connections = {}
-        for _, topic, _, msgtype in messages:
-            if topic not in connections:
-                connections[topic] = writer.add_connection(topic, msgtype, typestore=TS)
-        for k, (ns, topic, msg, msgtype) in enumerate(sorted(messages, key=lambda m: m[0])):
-            # Arrival: later than the stamp by 37 ms and a jitter of up to 4 ms (less than
-            # a spacing, so the order stays), which the reader must not take for time.
-            late = ARRIVAL + (k % 5) * 1_000_000
-            writer.write(connections[topic], int(ns + late), TS.serialize_cdr(msg, msgtype))
+        _write(writer, _bag_messages(TS, tf=tf, **kwargs), TS, TS.serialize_cdr)
 
 
 def _csv_twin(folder: Path) -> None:
@@ -205,3 +222,108 @@ def test_an_mcap_file_is_read_as_what_it_is_a_bags_or_a_run_logs(tmp_path):
     assert not is_run_log(not_mcap)
     with pytest.raises(InputError):
         read_recording(not_mcap)
+
+
+def test_check_mapping_opens_the_bag_folder_it_names(tmp_path, capsys):
+    """A mapping's ``recording`` may name a rosbag2 folder: ``check mapping`` reads it
+    under every rule a simulation applies, and refuses a bad body in one line."""
+    _write_bag(tmp_path / "cell_bag", StoragePlugin.SQLITE3)
+    mapping = tmp_path / "map.yaml"
+    mapping.write_text(MAPPING.format(glove="/mocap/glove", helmet="helmet")
+                       + "recording: cell_bag\n")
+    assert main(["check", "mapping", str(mapping)]) == 0
+    assert capsys.readouterr().out.strip() == (
+        f"{mapping}: ok (its recording read as simulate reads it: 1 operator(s), 2 bodies, "
+        "401 frames, every body within the plausibility bounds)")
+    mapping.write_text(MAPPING.format(glove="/mocap/glove", helmet="visor")
+                       + "recording: cell_bag\n")
+    assert main(["check", "mapping", str(mapping)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "visor" in err and "TFMessage child frame" in err
+    mapping.write_text(MAPPING.format(glove="/mocap/glove", helmet="helmet")
+                       + "recording: no_such_bag\n")
+    assert main(["check", "mapping", str(mapping)]) == 2
+    assert "recording: got 'no_such_bag'" in capsys.readouterr().err
+
+
+def test_a_ros1_bag_is_read_as_a_recording_and_as_joint_states(tmp_path, capsys):
+    """The same messages in a ROS 1 .bag (rosbags' rosbag1 writer, ROS 1's message
+    types): the robot's joints and the operator's bodies at their header stamps."""
+    from rosbags.rosbag1 import Writer as Writer1
+    from rosbags.typesys import get_types_from_msg
+
+    from safety_systems.cell.robot_log import read_joint_log
+
+    ts1 = get_typestore(Stores.ROS1_NOETIC)  # without tf2_msgs: its one-line definition
+    ts1.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms",
+                                    "tf2_msgs/msg/TFMessage"))
+    with Writer1(tmp_path / "cell.bag") as writer:
+        _write(writer, _bag_messages(ts1), ts1, ts1.serialize_ros1)
+    rec = read_recording(tmp_path / "cell.bag", ["/mocap/glove", "helmet"])
+    np.testing.assert_array_equal(rec.positions, _operator()[1])
+    assert rec.times[1] == 0.01
+    names = tuple(robot_model("ur5e").joint_names)
+    log = read_joint_log(tmp_path / "cell.bag", names, "/joint_states")
+    ns, q = _robot()
+    np.testing.assert_array_equal(log.q, q)
+    np.testing.assert_array_equal(log.times, ns / 1e9)
+    assert log.row_name == "message" and log.rows[0] == 1
+    assert main(["check", "robot-log", str(tmp_path / "cell.bag")]) == 0
+    assert main(["check", "recording", str(tmp_path / "cell.bag")]) == 0  # its PoseStamped
+
+
+@pytest.mark.parametrize("storage,definitions", [
+    (StoragePlugin.SQLITE3, True), (StoragePlugin.MCAP, True), (StoragePlugin.SQLITE3, False)],
+    ids=["sqlite3", "mcap", "sqlite3_without_definitions"])
+def test_mocap4r2_rigid_bodies_are_read_by_their_names(tmp_path, storage, definitions):
+    """A rosbag2 bag of mocap4r2_msgs/msg/RigidBodies (its types registered from its .msg
+    definitions): the glove and the helmet by rigid_body_name, at each frame's header
+    stamp; from the definitions the bag carries, or, where it carries none (as ROS 2
+    Humble's SQLite 3 bags), from the reader's own."""
+    import sqlite3
+
+    from safety_systems.sensing.ros_bag import typestore
+
+    ts = typestore()
+    RigidBodies, RigidBody = (ts.types[f"mocap4r2_msgs/msg/{x}"] for x in ("RigidBodies",
+                                                                         "RigidBody"))
+    Pose, Point = ts.types["geometry_msgs/msg/Pose"], ts.types["geometry_msgs/msg/Point"]
+    unit = ts.types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+    messages = []
+    ns_op, p = _operator()
+    for k, (ns, frame) in enumerate(zip(ns_op, p)):
+        seen = [RigidBody(rigid_body_name=name, markers=[], pose=Pose(
+            position=Point(x=x[0], y=x[1], z=x[2]), orientation=unit))
+            for name, x in zip(("glove", "helmet"), frame) if np.isfinite(x).all()]
+        messages.append((T0 + ns, "/rigid_bodies", RigidBodies(
+            header=_header(T0 + ns, "mocap", ts), frame_number=k, rigidbodies=seen),
+            RigidBodies.__msgtype__))
+    with Writer(tmp_path / "b", version=9, storage_plugin=storage) as writer:
+        _write(writer, messages, ts, ts.serialize_cdr)
+    if not definitions:
+        (db,) = (tmp_path / "b").glob("*.db3")
+        with sqlite3.connect(db) as c:
+            assert c.execute("DELETE FROM message_definitions").rowcount == 1
+    rec = read_recording(tmp_path / "b", ["glove", "helmet"])
+    np.testing.assert_array_equal(rec.positions, p)
+    np.testing.assert_array_equal(rec.times, (ns_op - ns_op[0]) / 1e9)
+
+
+def test_bodies_in_different_frames_are_refused_in_one_line(tmp_path, capsys):
+    _write_bag(tmp_path / "b", StoragePlugin.MCAP, tf=False, helmet_frame="world")
+    with pytest.raises(InputError, match=r"header.frame_id: got \"/mocap/glove in 'mocap', "
+                                         r"/mocap/helmet in 'world'\"; allowed: "
+                                         r"one frame for every mapped body"):
+        read_recording(tmp_path / "b", ["/mocap/glove", "/mocap/helmet"])
+    assert main(["check", "recording", str(tmp_path / "b")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "header.frame_id" in err and str(tmp_path / "b") in err
+
+
+def test_a_joint_state_without_one_of_the_models_joints_is_refused_in_one_line(tmp_path,
+                                                                              capsys):
+    _write_bag(tmp_path / "b", StoragePlugin.SQLITE3, drop_joint="elbow_joint")
+    assert main(["check", "robot-log", str(tmp_path / "b")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and f"{tmp_path / 'b'}: message 1: name: got " in err
+    assert "(missing elbow_joint)" in err

@@ -14,7 +14,7 @@ import pytest
 import yaml
 
 from safety_systems.config.configuration import joint_path
-from safety_systems.config.scenario import load_controller_config
+from safety_systems.config.scenario import load_controller_config, robot_model_of
 from tests.verification.conftest import run_cli
 from tests.verification.search.test_evaluate_batch import _assert_agree, _three_scenarios
 from verification.search.evaluate_batch import evaluate_many
@@ -28,13 +28,16 @@ ISO = ROOT / "models" / "configs" / "iso.yaml"
 RECORDINGS = ROOT / "models" / "recordings"
 
 
-def _space(folder: Path) -> Path:
+def _space(folder: Path, model: str = "") -> Path:
     """tests/verification/small_space.yaml with the real log as the robot's path (the
-    log beside the space, named relative to it), approaches from farther out."""
+    log beside the space, named relative to it), approaches from farther out; the robot
+    ``model`` (empty: the default, a UR5e)."""
     (folder / "robot.csv").write_bytes(LOG.read_bytes())
     space = yaml.safe_load(SMALL_SPACE.read_text())
     space["name"] = "small_logged"
     space["robot"]["path"] = {"log": {"file": "robot.csv"}}
+    if model:
+        space["robot"]["model"] = model
     # From as far as 4.5 m: under iso.yaml the robot runs only while every envelope of
     # the operator is beyond S (2.41 m), and a comparison needs it to run.
     space["parameters"]["start_distance"] = {"min": 0.6, "max": 4.5}
@@ -43,8 +46,11 @@ def _space(folder: Path) -> Path:
     return path
 
 
-def test_the_logged_path_drives_drake_and_the_batch_alike(tmp_path):
-    space = load_space(_space(tmp_path))
+@pytest.mark.parametrize("model", ["", "ur3e"], ids=["ur5e", "ur3e"])
+def test_the_logged_path_drives_drake_and_the_batch_alike(tmp_path, model):
+    """On the default UR5e and on the UR3e, the arm that recorded the log."""
+    space = load_space(_space(tmp_path, model))
+    assert robot_model_of(space.robot).name == (model or "ur5e")
     path = joint_path(space.robot)
     assert path.cycles == 1 and abs(path.cycle_time - 8.96) < 1e-6
     scenarios = _three_scenarios(space, load_controller_config(ISO), 20261127)
