@@ -181,6 +181,8 @@ BENCHES = {
                      "--path-stops-sets", "gloves", "gloves+helmet+belt+elbows", "full suit"],
     "bench_tune_banded": ["benchmarks/bench_tune.py", "--workers", "1", "--lever",
                           "gloves+helmet+belt+elbows", "120", "0.005"],
+    "bench_tune_banded_stops": ["benchmarks/bench_tune.py", "--workers", "1", "--lever",
+                                "gloves+helmet+belt+elbows", "120", "0.005", "--path-stops"],
     "bench_new_robot": ["benchmarks/bench_new_robot.py"],
 }
 LEVERS, NEW_ROBOT, BANDED = "bench_levers", "bench_new_robot", "bench_tune_banded"

@@ -79,3 +79,18 @@ def test_the_main_job_finishes_beside_the_technician_held_at_most_half_as_long(r
 
 def summary_d_min() -> float:
     return load_controller_config(MODELS / "configs" / "main_job.yaml").safety.d_min
+
+
+def test_what_held_it_is_the_lean_within_d_min_and_the_untracked_upper_trunk(run):
+    summary, _ = run
+    separation = summary["held"]["separation"]
+    assert next(iter(separation["by_segment"])) == "upper_trunk"
+    assert separation["untracked_points"] == ["neck", "chest"]
+    low = separation["lowest_speed"]
+    assert low["binding"] == ("d_min" if low["d_min"] >= low["S"] else "S")
+    assert low["binding"] == "d_min"  # the lean: within d_min, as the seed's Figure 7
+    assert low["S"] == pytest.approx(sum(low["terms"].values()))  # (C is 0 here)
+    assert low["dominant"] == max(low["terms"], key=low["terms"].get)
+    assert low["envelope_beyond_body"] == pytest.approx(
+        separation["true_clearance_median"] - separation["measured_clearance_median"])
+

@@ -65,7 +65,39 @@ def held_by(run: Run) -> dict:
         if measured_held.size else None,
         "untracked_points": untracked_points(next(iter(ordered), "none"),
                                              tracked_points(run.scenario))}
+    out["separation"]["lowest_speed"] = lowest_speed_terms(
+        run.scenario, next(iter(ordered), "none"), out["separation"])
     return out
+
+
+def lowest_speed_terms(scenario, segment: str, separation: dict) -> dict | None:
+    """What the monitor asked of ``segment`` before the robot could move at all: S at the
+    lowest speed level (the human's speed bound, ``explanation.segment_figures``) with its
+    terms, d_min, which of the two binds, the largest term of S, and how far the segment's
+    envelope reached beyond the real body (the true minus the measured clearance, medians:
+    what tracking its points would give back). None for no segment, another controller,
+    or a human speed in S that is not a constant floor (``estimated``: S then follows the
+    tracker's speeds, not a bound the monitor keeps)."""
+    from safety_systems.config.resolved_cell import resolve_scenario
+    from safety_systems.outputs.explanation import TERMS, segment_figures
+    from safety_systems.ssm.formulas import SPEED_LEVELS
+
+    if segment == "none" or scenario.controller.type != "ssm_override" or \
+            scenario.controller.safety.human_speed == "estimated":
+        return None
+    figures = [f for f in segment_figures(resolve_scenario(scenario),
+                                          rates=(1.0 / SPEED_LEVELS,))
+               if f.segment.rsplit("/", 1)[-1] == segment]
+    if not figures:
+        return None
+    f = max(figures, key=lambda x: x.s)
+    terms = {t: float(f.terms[t]) for t in TERMS if t != "C + envelope"}
+    d_min = float(scenario.controller.safety.d_min)
+    true, measured = separation["true_clearance_median"], separation["measured_clearance_median"]
+    return {"S": float(f.s), "terms": terms, "dominant": max(terms, key=terms.get),
+            "d_min": d_min, "binding": "d_min" if d_min >= f.s else "S",
+            "envelope_beyond_body": None if true is None or measured is None
+            else max(0.0, float(true) - float(measured))}
 
 
 def untracked_points(segment: str, tracked: list[list[str]]) -> list[str]:
@@ -91,6 +123,14 @@ def held_words(held: dict) -> str:
         then.append(f"the real body then {clearance:.2f} m away, median")
     if measured is not None:
         then.append(f"the monitor's measure {measured:.2f} m")
+    low = separation.get("lowest_speed")
+    if low:
+        binding = (f"d_min {low['d_min']:.3f} m binds" if low["binding"] == "d_min"
+                   else f"S binds, {low['dominant']} {low['terms'][low['dominant']]:.3f} m "
+                        "its largest term")
+        then.append(f"at the lowest speed S {low['S']:.3f} m and {binding}")
+        if low["envelope_beyond_body"]:
+            then.append(f"the envelope {low['envelope_beyond_body']:.2f} m beyond the body")
     points = separation.get("untracked_points")
     first = next(iter(separation["by_segment"]), None)
     if points:

@@ -49,3 +49,8 @@ def test_the_console_line_says_it(summary):
     assert "tracking chest and pelvis would bound lower_trunk by its own points" in words
     assert held_words({"causes": {}}) == ""
     assert np.isfinite(summary["held"]["separation"]["true_clearance_median"])
+
+
+def test_a_constant_floor_says_what_the_lowest_speed_asks_and_the_seeds_does_not(summary):
+    # the seed's controller takes the tracker's speeds in S: no bound to state
+    assert summary["held"]["separation"]["lowest_speed"] is None
