@@ -176,7 +176,7 @@ def simulate_line(summary: dict) -> str:
 
 
 def _held_words(summary: dict) -> str:
-    from safety_systems.outputs.held import held_words
+    from safety_systems.outputs.held_terms import held_words
 
     return held_words(summary["held"]) if "held" in summary else ""
 

@@ -12,10 +12,16 @@ its ticks come (``runtime.run_tally``).
 
 import numpy as np
 
-from safety_systems.cell.human_body import SEGMENT_NAMES, SEGMENTS
+from safety_systems.cell.human_body import SEGMENT_NAMES
 from safety_systems.config.configuration import tracked_points
+from safety_systems.config.resolved_cell import resolve_scenario
 from safety_systems.diagrams.simulation import Run
 from safety_systems.outputs.metrics import protective_stops, stop_reasons
+from safety_systems.outputs.held_terms import (
+    lowest_speed_of,
+    lowest_speed_table,
+    untracked_points,
+)
 from safety_systems.outputs.operator_figures import operator_figures
 from safety_systems.sensing.stops import STOP_SEPARATION
 
@@ -65,75 +71,9 @@ def held_by(run: Run) -> dict:
         if measured_held.size else None,
         "untracked_points": untracked_points(next(iter(ordered), "none"),
                                              tracked_points(run.scenario))}
-    out["separation"]["lowest_speed"] = lowest_speed_terms(
-        run.scenario, next(iter(ordered), "none"), out["separation"])
+    if run.scenario.controller.type == "ssm_override":
+        table = lowest_speed_table(resolve_scenario(run.scenario))
+        out["separation"]["lowest_speed"] = lowest_speed_of(
+            table, next(iter(ordered), "none"), out["separation"])
     return out
 
-
-def lowest_speed_terms(scenario, segment: str, separation: dict) -> dict | None:
-    """What the monitor asked of ``segment`` before the robot could move at all: S at the
-    lowest speed level (the human's speed bound, ``explanation.segment_figures``) with its
-    terms, d_min, which of the two binds, the largest term of S, and how far the segment's
-    envelope reached beyond the real body (the true minus the measured clearance, medians:
-    what tracking its points would give back). None for no segment, another controller,
-    or a human speed in S that is not a constant floor (``estimated``: S then follows the
-    tracker's speeds, not a bound the monitor keeps)."""
-    from safety_systems.config.resolved_cell import resolve_scenario
-    from safety_systems.outputs.explanation import TERMS, segment_figures
-    from safety_systems.ssm.formulas import SPEED_LEVELS
-
-    if segment == "none" or scenario.controller.type != "ssm_override" or \
-            scenario.controller.safety.human_speed == "estimated":
-        return None
-    figures = [f for f in segment_figures(resolve_scenario(scenario),
-                                          rates=(1.0 / SPEED_LEVELS,))
-               if f.segment.rsplit("/", 1)[-1] == segment]
-    if not figures:
-        return None
-    f = max(figures, key=lambda x: x.s)
-    terms = {t: float(f.terms[t]) for t in TERMS if t != "C + envelope"}
-    d_min = float(scenario.controller.safety.d_min)
-    true, measured = separation["true_clearance_median"], separation["measured_clearance_median"]
-    return {"S": float(f.s), "terms": terms, "dominant": max(terms, key=terms.get),
-            "d_min": d_min, "binding": "d_min" if d_min >= f.s else "S",
-            "envelope_beyond_body": None if true is None or measured is None
-            else max(0.0, float(true) - float(measured))}
-
-
-def untracked_points(segment: str, tracked: list[list[str]]) -> list[str]:
-    """The body points of ``segment`` (its two ends, ``human_body.SEGMENTS``) that no
-    operator's bodies mark: tracking them is what would bound it by its own points
-    instead of an envelope of the others (empty: its points are tracked, or no segment)."""
-    ends = next((s[1:3] for s in SEGMENTS if s[0] == segment), ())
-    marked = {q for points in tracked for q in points}
-    return [q for q in dict.fromkeys(ends) if q not in marked]
-
-
-def held_words(held: dict) -> str:
-    """The console's words for :func:`held_by`: the separation stops' segments, most
-    first, with the real body's median clearance; empty when nothing held the robot."""
-    separation = held.get("separation") or {}
-    if not separation.get("time"):
-        return ""
-    parts = ", ".join(f"{name} {t:.1f} s" for name, t in separation["by_segment"].items())
-    clearance = separation["true_clearance_median"]
-    measured = separation.get("measured_clearance_median")
-    then = []
-    if clearance is not None:
-        then.append(f"the real body then {clearance:.2f} m away, median")
-    if measured is not None:
-        then.append(f"the monitor's measure {measured:.2f} m")
-    low = separation.get("lowest_speed")
-    if low:
-        binding = (f"d_min {low['d_min']:.3f} m binds" if low["binding"] == "d_min"
-                   else f"S binds, {low['dominant']} {low['terms'][low['dominant']]:.3f} m "
-                        "its largest term")
-        then.append(f"at the lowest speed S {low['S']:.3f} m and {binding}")
-        if low["envelope_beyond_body"]:
-            then.append(f"the envelope {low['envelope_beyond_body']:.2f} m beyond the body")
-    points = separation.get("untracked_points")
-    first = next(iter(separation["by_segment"]), None)
-    if points:
-        then.append(f"tracking {' and '.join(points)} would bound {first} by its own points")
-    return (f"held on separation stops {separation['time']:.1f} s by {parts}"
-            + (f" ({'; '.join(then)})" if then else ""))

@@ -179,7 +179,8 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
                  log=dict(folder=str(out), format=f"MCAP, safety-systems run log "
                           f"{FORMAT_VERSION}", segment_length=args.log_segment,
                           flush_period=FLUSH_PERIOD, sync_period=SYNC_PERIOD),
-                 startup=phases.took)
+                 startup=phases.took, tracked=points,
+                 lowest_speed=_lowest_speed(params, points, mapping))
     from safety_systems.config.configuration import pfl_terms
 
     server = robot = mocap = log = None
@@ -268,7 +269,7 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
               f"{written['segments']} segment(s), {written['bytes'] / 1e6:.1f} MB, "
               f"{written['dropped_ticks'] + written['dropped_frames']} records dropped "
               f"-> {args.log}")
-        from safety_systems.outputs.held import held_words
+        from safety_systems.outputs.held_terms import held_words
 
         if words := held_words(summary.get("held", {})):
             print(f"run: {words}")
@@ -380,3 +381,15 @@ def end_words(end: str) -> str:
     if end.startswith("exception: "):
         return f"ended by a fault: {end[11:]}"
     return end
+
+
+def _lowest_speed(params, points: list, mapping) -> dict:
+    """What the monitor asks of each segment before the robot may move at all
+    (``outputs.held_terms.lowest_speed_table``), for the summary's ``held``."""
+    from safety_systems.config.resolved_cell import resolve
+    from safety_systems.outputs.held_terms import lowest_speed_table
+
+    cell = resolve(params.controller, params.robot, points=points,
+                   names=[o.name for o in mapping.operators])
+    return lowest_speed_table(cell)
+

@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from safety_systems.cell.human_body import SEGMENT_NAMES
+from safety_systems.outputs.held_terms import lowest_speed_of, untracked_points
 from safety_systems.sensing.stops import STOP_REASONS, STOP_SEPARATION, STOP_STALE_FRAME
 from safety_systems.sensing.stops import REJECT_CAUSES
 
@@ -247,6 +248,13 @@ def run_summary(fixed: dict, tally: RunTally, end: str) -> dict:
     ``startup``, ``provenance``), the tally's figures and the log's."""
     out = dict(fixed["fields"])
     out.update(tally.summary(fixed["names"], fixed["period"], end))
+    separation = out["held"]["separation"]
+    first = next(iter(separation["by_segment"]), "none")
+    if "tracked" in fixed:  # the segment's untracked points and what its stop asked
+        separation["untracked_points"] = untracked_points(first, fixed["tracked"])
+    if "lowest_speed" in fixed:
+        separation["lowest_speed"] = lowest_speed_of(fixed["lowest_speed"], first,
+                                                     separation)
     out["log"] = {**fixed["log"], **tally.log_figures()}
     for key in ("clock_start", "startup", "provenance"):
         if key in fixed:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from safety_systems.cli import main
-from safety_systems.outputs.held import held_words
+from safety_systems.outputs.held_terms import held_words
 
 MODELS = Path(__file__).parents[2] / "models"
 
