@@ -16,6 +16,7 @@ DEC_INT = DATA / "sample02_dec_int.c3d"  # DEC processor, 16-bit integers, 16 an
 SGI_INT = DATA / "sample02_sgi_int.c3d"  # the same data from an SGI/MIPS machine
 PC_REAL = DATA / "sample02_pc_real.c3d"  # the same data, Intel floats
 KYOWA = DATA / "sample27_kyowadengyo.c3d"  # header 11 points, POINT:USED 12
+BIOGESTA = DATA / "sample30_biogesta_admarche2.c3d"  # MANUFACTURER: Biogesta Saga-3RT
 
 
 def parameters(raw: bytes) -> dict[tuple[str, str], int]:

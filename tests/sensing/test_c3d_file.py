@@ -12,7 +12,15 @@ from safety_systems.files.input_error import InputError
 from safety_systems.sensing.c3d_file import read_c3d, unit_scale
 from safety_systems.sensing.c3d_header import read_header
 from safety_systems.sensing.c3d_readers import read_ezc3d, read_py_c3d
-from tests.sensing.c3d_patches import DEC_INT, KYOWA, PC_REAL, SGI_INT, parameters, patched
+from tests.sensing.c3d_patches import (
+    BIOGESTA,
+    DEC_INT,
+    KYOWA,
+    PC_REAL,
+    SGI_INT,
+    parameters,
+    patched,
+)
 
 FEET = ["LFT1", "RFT3"]  # two of the 36 markers of the c3d.org sample 02 gait trial
 
@@ -161,6 +169,25 @@ def test_two_readings_that_differ_refuse_naming_both(tmp_path):
     assert "the same from both C3D readers" in line
 
 
+def test_every_refusal_names_the_vendor_the_file_states(tmp_path):
+    """Biogesta's real file (c3d.org sample 30, MANUFACTURER 'Biogesta' 'Saga-3RT'): its
+    residual words are -1 where ezc3d reads on, so the readers disagree from frame 1; the
+    refusal names the vendor, as one made from its structure does (the file cut short)."""
+    ez, py = read_ezc3d(str(BIOGESTA)), read_py_c3d(str(BIOGESTA))
+    assert ez.vendor == py.vendor == "Biogesta Saga-3RT"
+    k = ez.labels.index("GD")
+    assert np.isfinite(ez.positions[0, k]).all() and np.isnan(py.positions[0, k]).all()
+    with pytest.raises(InputError) as e:
+        read_c3d(BIOGESTA)
+    assert _line(e).startswith(f"{BIOGESTA}: C3D (Intel processor, floats, Biogesta "
+                               "Saga-3RT): frame 1, point 'GD': got 'ezc3d (-2174.0330, ")
+    raw = BIOGESTA.read_bytes()
+    (tmp_path / "cut.c3d").write_bytes(raw[:len(raw) - 2048])
+    with pytest.raises(InputError) as e:
+        read_c3d(tmp_path / "cut.c3d")
+    assert "C3D (Intel processor, floats, Biogesta Saga-3RT): data section: got" in _line(e)
+
+
 def test_what_is_not_a_c3d_file_or_has_no_point_parameters_is_one_clear_line(tmp_path):
     (tmp_path / "text.c3d").write_text("not a c3d file " * 100)
     with pytest.raises(InputError) as e:
@@ -190,3 +217,4 @@ def test_what_is_not_a_c3d_file_or_has_no_point_parameters_is_one_clear_line(tmp
     with pytest.raises(InputError) as e:
         read_c3d(tmp_path / "broken.c3d")
     assert "ignoreBadFormatting" not in _line(e) and "C3D (Intel processor, floats)" in _line(e)
+
