@@ -504,16 +504,14 @@ def _loaders() -> dict:
         load_scenario,
         load_typed,
     )
-    from safety_systems.sensing.recording_mapping import check_mapping
+    from safety_systems.sensing.recording_mapping import check_mapping, check_recording_file
     from safety_systems.planning.task_space import load_scene
     from verification.spaces.space import load_space
-
-    from safety_systems.sensing.recording_files import read_recording
 
     return {"scenario": load_scenario, "config": load_controller_config, "space": load_space,
             "scene": load_scene, "task-path": lambda path: load_typed(TaskPoints, path),
             "mapping": check_mapping, "robot-log": _check_robot_log,
-            "recording": lambda path: read_recording(path)}
+            "recording": check_recording_file}
 
 
 def _check_robot_log(path: str) -> None:
@@ -554,7 +552,8 @@ def _check(args: argparse.Namespace) -> int:
         for path in files:
             read = load(path)
             if not args.quiet:
-                print(f"{path}: ok" + (_recorded_line(read) if kind == "mapping" else ""))
+                print(f"{path}: ok" + (_recorded_line(read) if kind == "mapping" else
+                                       _recording_line(read) if kind == "recording" else ""))
         return 0
     from safety_systems.config.params_file import looks_like_params
     from verification.deploy.certificate import check
@@ -586,6 +585,15 @@ def _recorded_line(operators: list) -> str:
     bodies = sum(len(o.names) for o in operators)
     return (f" (its recording read as simulate reads it: {len(operators)} operator(s), "
             f"{bodies} bodies, {frames:,} frames, every body within the plausibility bounds)")
+
+
+def _recording_line(rec) -> str:
+    """What ``check recording`` read and checked (every body, at the default bounds)."""
+    from safety_systems.sensing.plausibility import MAX_ACCELERATION, MAX_SPEED
+
+    return (f" ({len(rec.names)} bodies, {rec.times.size:,} frames, every body within the "
+            f"default plausibility bounds, {MAX_SPEED:g} m/s and {MAX_ACCELERATION:g} m/s^2: "
+            "check mapping applies a mapping's own to its bodies)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -755,7 +763,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"params files; or a kind ({', '.join(KINDS)}) and files of it "
                             "(robot-log: an RTDE CSV or a ROS bag's only JointState topic, "
                             "against the UR5e's joints; recording: a Motive CSV, C3D, BVH "
-                            "or a ROS bag's PoseStamped topics)")
+                            "or a ROS bag's PoseStamped topics, every body under a mapping's "
+                            "glitch and plausibility rules at their defaults)")
     check.add_argument("--certificate",
                        help="the certificate of one params file (default: certificate.json "
                             "beside it)")

@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from safety_systems.cli import main
+from safety_systems.sensing.recording_mapping import load_mapping
 
 MODELS = Path(__file__).parents[1] / "models"
 SOURCES = {
@@ -137,6 +138,7 @@ def test_mutated_files_load_or_fail_with_one_line(kind):
         # ../recordings/...).
         shutil.copy(MODELS / "scenes" / "paper_task_path.yaml", root / "scenes")
         shutil.copytree(MODELS / "recordings", root / "recordings")
+        shutil.copy(MODELS / "recordings" / "approach.csv", root / "docs")  # the mapping's
         (root / "whole_operator.yaml").write_text(WHOLE_OPERATOR)
         sources = SOURCES[kind] + ([root / "whole_operator.yaml"] if kind == "scenario"
                                    else [])
@@ -181,6 +183,9 @@ def test_the_fuzzer_reaches_both_outcomes():
                     continue  # names a file relative to its own folder
                 copy = Path(folder) / source.name
                 copy.write_bytes(source.read_bytes())
+                named = load_mapping(source).recording if kind == "mapping" else ""
+                if named:  # the recording it names, relative to itself
+                    shutil.copy(source.parent / named, folder)
                 assert _check(kind, copy) == (0, "")
                 key = next(line for line in source.read_text().splitlines()
                            if line[:1].isalpha())  # a top-level key, once more

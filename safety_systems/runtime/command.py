@@ -25,18 +25,46 @@ SEGMENT = 600.0  # s of the run in each of the log's files (default)
 MIN_SEGMENT, MAX_SEGMENT = 1.0, 86400.0
 
 
-def start_replay(file: str, options: dict, rate: float, mapping=None
-                 ) -> tuple[subprocess.Popen, int]:
-    """Starts ``replay_server`` on 127.0.0.1 in its own process; (process, its port).
-    With a ``mapping`` it streams the mapping's bodies, read as the mapping reads them."""
+def replay_argv(file: str, options: dict, rate: float, mapping=None,
+                untracked: dict | None = None) -> list[str]:
+    """``replay_server``'s command line: with a ``mapping`` it streams the mapping's
+    bodies, read as the mapping reads them, and ``untracked`` (recorded name -> sample
+    runs, ``replay_server.sample_runs``) as untracked: the samples the mapping's
+    ``implausible: untracked`` reads so."""
     argv = [sys.executable, "-m", "safety_systems.runtime.replay_server", file,
             "--rate", repr(rate), "--parent-death"]
     if mapping is not None:
         bodies = {b.recorded: b.streaming_id for o in mapping.operators for b in o.bodies}
         argv += ["--bodies", json.dumps(bodies), "--units", mapping.units,
                  "--truncated", mapping.truncated]
+    if untracked:
+        argv += ["--untracked", json.dumps(untracked)]
     for key, value in options.items():
         argv += [f"--{key}", *value.split(":")]
+    return argv
+
+
+def replay_untracked(recording, mapping) -> dict[str, list[list[int]]]:
+    """Reads every operator of ``mapping`` from ``recording`` under simulate's rules
+    (raises InputError as simulate does); recorded name -> the sample runs the mapping's
+    ``implausible: untracked`` reads as untracked, for :func:`replay_argv`."""
+    from safety_systems.runtime.replay_server import sample_runs
+    from safety_systems.sensing.recording_mapping import find_operator, recorded_bodies
+
+    untracked = {}
+    for o in mapping.operators:
+        read = recorded_bodies(recording, mapping, find_operator(mapping, o.name, "name"))
+        for b, held in zip(o.bodies, read.held.T):
+            if held.any():
+                untracked[b.recorded] = sample_runs(held)
+    return untracked
+
+
+def start_replay(file: str, options: dict, rate: float, mapping=None,
+                 untracked: dict | None = None) -> tuple[subprocess.Popen, int]:
+    """Starts ``replay_server`` on 127.0.0.1 in its own process (:func:`replay_argv`);
+    (process, its port)."""
+    argv = replay_argv(file, options, rate, mapping, untracked)
     process = start_without_ctrl_c(argv, stdout=subprocess.PIPE, text=True)
     try:
         ready, _, _ = select.select([process.stdout], [], [], PORT_WAIT)
@@ -92,11 +120,9 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
         from safety_systems.runtime.safety_loop import SafetyLoop
         from safety_systems.sensing.recording_files import read_recording
         from safety_systems.sensing.recording_mapping import (
-            find_operator,
             load_mapping,
             mapped_names,
             mapped_point,
-            recorded_bodies,
             unknown_pivots,
         )
         from safety_systems.sensing.run_log_format import FORMAT_VERSION, SEGMENT_PATTERN
@@ -147,8 +173,7 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
         try:
             recording = read_recording(mocap_address.file, mapped_names(mapping),
                                        truncated=mapping.truncated, units=mapping.units)
-            for o in mapping.operators:
-                recorded_bodies(recording, mapping, find_operator(mapping, o.name, "name"))
+            untracked = replay_untracked(recording, mapping)
         except InputError as e:
             raise e.in_file(args.mapping) from None
         options = dict(mocap_address.options)
@@ -199,7 +224,8 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
                 locked = lock_for_run(args.priority)
         with phases.step("connecting", "connecting"):
             if mocap_address.kind == "replay":
-                server, port = start_replay(mocap_address.file, options, rate, mapping)
+                server, port = start_replay(mocap_address.file, options, rate, mapping,
+                                            untracked)
                 mocap_address = MocapAddress("natnet", "127.0.0.1", port, "127.0.0.1")
             mocap = NatNetSource(mocap_address, time.monotonic)
             robot = connect_robot(robot_address, params.robot, params.controller)

@@ -12,7 +12,10 @@ mapping's) streams those bodies only, read as the mapping reads them (``--units`
 ``--truncated``; a skeleton export's hundreds of columns are not read), each with the
 file's id or, where the file gives none (C3D points, BVH joints, markers), the given one.
 Without it every body of the file is streamed, those without ids as 1, 2, ... in file
-order. Keep-alives and other requests are read and ignored.
+order. ``--untracked`` (a JSON object: recorded name -> [first, last] sample runs) streams
+those samples as untracked, as the runtime passes what the mapping's ``implausible:
+untracked`` reads so (a body held still before a jump: the sensor did not see it then).
+Keep-alives and other requests are read and ignored.
 
 For tests and demonstrations it can misbehave on purpose (times are recording times):
 ``stop`` (no frame from then on: the stream stops), ``garbage`` (a packet of random
@@ -69,6 +72,25 @@ def stream_ids(rec: Recording, given: dict[str, int] | None = None) -> list[int]
     if given is not None:
         return [i or int(given[n]) for n, i in zip(rec.names, rec.ids)]
     return list(rec.ids) if all(rec.ids) else list(range(1, len(rec.names) + 1))
+
+
+def sample_runs(mask: np.ndarray) -> list[list[int]]:
+    """The runs of True in ``mask`` (T,) as [first, last] sample indices."""
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [[int(a), int(b)] for a, b in zip(starts, ends)]
+
+
+def without_samples(rec: Recording, runs: dict[str, list]) -> Recording:
+    """``rec`` with the samples ``runs`` names (recorded name -> [first, last] runs)
+    untracked (NaN)."""
+    positions, rotations = rec.positions.copy(), rec.rotations.copy()
+    for name, spans in runs.items():
+        k = rec.body(name)
+        for a, b in spans:
+            positions[a:b + 1, k] = np.nan
+            rotations[a:b + 1, k] = np.nan
+    return dataclasses.replace(rec, positions=positions, rotations=rotations)
 
 
 def stream_frames(rec: Recording, rate: float, start: float, count: int
@@ -175,7 +197,7 @@ def _end_with_parent() -> None:
         pass
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="replay_server", description=__doc__.split("\n")[0])
     parser.add_argument("recording")
     parser.add_argument("--rate", type=float, default=20.0)
@@ -189,13 +211,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bodies", type=json.loads)
     parser.add_argument("--units", default="")
     parser.add_argument("--truncated", default="refuse")
+    parser.add_argument("--untracked", type=json.loads, default={})
     parser.add_argument("--parent-death", action="store_true",
                         help="end when the process that started it ends (Linux)")
-    args = parser.parse_args(argv)
-    if args.parent_death:
-        _end_with_parent()
+    return parser.parse_args(argv)
+
+
+def streamed_recording(args: argparse.Namespace) -> Recording:
+    """The recording as the server streams it (see the module docstring)."""
     rec = read_recording(args.recording, None if args.bodies is None else list(args.bodies),
                          truncated=args.truncated, units=args.units)
+    return without_samples(rec, args.untracked)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    if args.parent_death:
+        _end_with_parent()
+    rec = streamed_recording(args)
     misbehave = Misbehaviour(args.stop, args.garbage, tuple(args.late) if args.late else None)
     serve(rec, rate=args.rate, start=args.start, duration=args.duration, port=args.port,
           misbehave=misbehave, linger=args.linger,

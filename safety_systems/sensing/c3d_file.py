@@ -74,9 +74,12 @@ def read_c3d(path: str | Path, bodies: Collection[str] | None = None, *,
         raise InputError(f"{what}: processor", header.processor, "84 (Intel), 85 (DEC) or "
                          "86 (SGI/MIPS), the byte the format allows", file=file)
     readings = {"ezc3d": read_ezc3d(file), "c3d": read_py_c3d(file)}
-    reading = _checked(header, readings, what, file)
-    what = f"C3D ({header.describe()}{', ' + reading.vendor if reading.vendor else ''})"
-    return _recording(reading, bodies, what, file)
+    # the vendor as the file states it, from whichever reader read it, so that every
+    # refusal from here on names it (a reading need not pass the checks to read it)
+    vendor = next((r.vendor for r in readings.values() if isinstance(r, Reading)
+                   and r.vendor), "")
+    what = f"C3D ({header.describe()}{', ' + vendor if vendor else ''})"
+    return _recording(_checked(header, readings, what, file), bodies, what, file)
 
 
 def _checked(header: Header, readings: dict, what: str, file: str) -> Reading:

@@ -29,7 +29,8 @@ untracked with a warning line naming the body, how many and the first one's time
 mapped body moves faster is refused, naming the body, the frame and the figure, before
 anything replays; ``implausible: untracked`` (default ``refuse``) reads the samples a
 body was held still on before such a jump as untracked, with a warning line, and
-refuses what is still implausible. ``recording`` (optional) names the recording the
+refuses what is still implausible (the live replay of ``run`` streams those samples
+as untracked too: ``RecordedBodies.held``). ``recording`` (optional) names the recording the
 mapping maps, relative to the mapping file: ``check mapping`` then opens it and applies
 every rule a simulation applies, and a scenario that names another recording with this
 mapping is refused.
@@ -289,6 +290,8 @@ class RecordedBodies:
     ids: tuple
     raw: np.ndarray  # (T, n, 3) the cell-frame samples, NaN where untracked
     flips: tuple = ()  # per body: samples taken as capture glitches (``recording.flips``)
+    held: np.ndarray | None = None  # (T, n) samples read as untracked by the mapping's
+    #                                 implausible: untracked (held still before a jump)
 
 
 def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedOperator
@@ -317,15 +320,7 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
             reported[:, i] = body_points(reported[:, i], rec.rotations[:, index[i]],
                                          b.pivot)
     raw = to_cell(mapping.capture_to_cell, reported)
-    glitch = flips(rec.times, raw, mapping.flip_speed)
-    raw[glitch] = np.nan
-    for i in np.flatnonzero(glitch.any(axis=0)):
-        first = float(rec.times[np.flatnonzero(glitch[:, i])[0]])
-        warnings.warn(f"{rec.file}: {operator.bodies[i].recorded}: {int(glitch[:, i].sum())} "
-                      f"sample(s) from t = {first:g} s read as untracked: capture glitches "
-                      f"(out of its track and back faster than flip_speed, "
-                      f"{mapping.flip_speed:g} m/s)", stacklevel=2)
-    _plausible(rec, mapping, operator, raw)
+    glitch, held = _repaired(rec, mapping, [b.recorded for b in operator.bodies], raw)
     tracked = np.all(np.isfinite(raw), axis=2)
     return RecordedBodies(
         times=rec.times, points=fill_gaps(rec.times, raw),
@@ -334,28 +329,39 @@ def recorded_bodies(rec: Recording, mapping: RecordingMapping, operator: MappedO
         names=tuple(b.name for b in operator.bodies),
         points_marked=tuple(mapped_point(b) for b in operator.bodies),
         ids=tuple(rec.ids[k] for k in index), raw=raw,
-        flips=tuple(int(n) for n in glitch.sum(axis=0)))
+        flips=tuple(int(n) for n in glitch.sum(axis=0)), held=held)
 
 
-def _plausible(rec: Recording, mapping: RecordingMapping, operator: MappedOperator,
-               raw: np.ndarray) -> None:
-    """Applies the mapping's plausibility rule to the cell-frame samples ``raw`` of
-    ``operator``'s bodies, in place (see the module docstring); raises InputError naming
-    the recording, its format, the body, the frame and the figure."""
+def _repaired(rec: Recording, mapping: RecordingMapping, names: list[str], raw: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Applies the mapping's glitch and plausibility rules to the samples ``raw`` (T, n,
+    3) of the recorded bodies ``names``, in place (see the module docstring): (capture
+    glitches, samples held before a jump) read as untracked, each (T, n) bool, with a
+    warning line per body; raises InputError naming the recording, its format, the body,
+    the frame and the figure of what is still implausible."""
+    glitch = flips(rec.times, raw, mapping.flip_speed)
+    raw[glitch] = np.nan
+    for i in np.flatnonzero(glitch.any(axis=0)):
+        first = float(rec.times[np.flatnonzero(glitch[:, i])[0]])
+        warnings.warn(f"{rec.file}: {names[i]}: {int(glitch[:, i].sum())} "
+                      f"sample(s) from t = {first:g} s read as untracked: capture glitches "
+                      f"(out of its track and back faster than flip_speed, "
+                      f"{mapping.flip_speed:g} m/s)", stacklevel=3)
+    held = np.zeros(raw.shape[:2], dtype=bool)
     if mapping.implausible == "untracked":
         held = held_before_jumps(rec.times, raw, max_speed=mapping.max_speed)
         raw[held] = np.nan
         for i in np.flatnonzero(held.any(axis=0)):
             frames = np.flatnonzero(held[:, i])
-            warnings.warn(f"{rec.file}: {operator.bodies[i].recorded}: {frames.size} sample(s) "
+            warnings.warn(f"{rec.file}: {names[i]}: {frames.size} sample(s) "
                           f"from frame {frames[0]} (t = {rec.times[frames[0]]:g} s) read as "
                           "untracked: held still, then left faster than max_speed "
                           f"({mapping.max_speed:g} m/s; implausible: untracked)", stacklevel=3)
     bad = first_implausible(rec.times, raw, max_speed=mapping.max_speed,
                             max_acceleration=mapping.max_acceleration)
     if bad is None:
-        return
-    body = operator.bodies[bad.body].recorded
+        return glitch, held
+    body = names[bad.body]
     what = rec.format or "the recording"
     if bad.what == "speed":
         figure, allowed = f"{bad.figure:.2f} m/s", (
@@ -370,6 +376,16 @@ def _plausible(rec: Recording, mapping: RecordingMapping, operator: MappedOperat
                      "jumping moves so: the mapping's max_speed and max_acceleration raise "
                      "the bounds, implausible: untracked reads held samples as untracked)",
                      file=rec.file)
+
+
+def check_recording_file(path: str | Path) -> Recording:
+    """``check recording``: the recording ``path`` read (every body, capture frame) under
+    the rules a mapping applies to its bodies at the default bounds (capture glitches,
+    then plausibility: a rigid transform to the cell keeps every speed); raises
+    InputError with the line a mapping of the offending body would give."""
+    rec = read_recording(path)
+    _repaired(rec, RecordingMapping(), list(rec.names), rec.positions.copy())
+    return rec
 
 
 def mapped_names(mapping: RecordingMapping) -> list[str]:

@@ -157,3 +157,46 @@ def test_a_folder_with_an_earlier_runs_log_is_refused(tmp_path, exported_params)
     lines = run.text().strip().splitlines()
     assert len(lines) == 1 and "--log" in lines[0] and "log-0000.mcap" in lines[0]
     assert (tmp_path / "log" / "log-0000.mcap").read_bytes() == b"an earlier run"
+
+
+def test_a_replay_streams_what_the_mapping_reads_as_untracked_as_untracked(tmp_path):
+    """A Motive export whose stick_right is held still and then jumps (issue 48), mapped
+    with implausible: untracked: run's replay server streams the held samples as
+    untracked (the sensor did not see the body then), as simulate reads them, not as
+    fresh positions where the body was not."""
+    import pytest
+
+    from safety_systems.runtime.command import replay_argv, replay_untracked
+    from safety_systems.runtime.replay_server import (
+        parse_args,
+        stream_frames,
+        streamed_recording,
+    )
+    from safety_systems.sensing.recording_files import read_recording
+    from safety_systems.sensing.recording_mapping import load_mapping, mapped_names
+    from tests.sensing.motive_holds import HOLDS, held_export
+
+    csv = held_export(tmp_path / "held.csv")
+    (tmp_path / "map.yaml").write_text(
+        "capture_to_cell: {up_axis: y}\nimplausible: untracked\noperators:\n- name: w\n"
+        "  bodies:\n  - {recorded: stick_right, name: r, point: hand_right}\n"
+        "  - {recorded: stick_left, name: l, point: hand_left}\n")
+    mapping = load_mapping(tmp_path / "map.yaml")
+    rec = read_recording(csv, mapped_names(mapping))
+    with pytest.warns(UserWarning, match="held still"):
+        untracked = replay_untracked(rec, mapping)
+    assert untracked == {"stick_right": [[a + 1, b - 1] for a, b in HOLDS]}
+    rate = 1.0 / float(np.median(np.diff(rec.times)))  # a frame on every sample
+    k = rec.body("stick_right")
+    for runs, hidden in ((untracked, True), (None, False)):
+        args = parse_args(replay_argv(str(csv), {}, rate, mapping, runs)[3:])
+        streamed = streamed_recording(args)
+        _, p, _, tracked = stream_frames(streamed, rate, 0.0, rec.times.size)
+        for a, b in HOLDS:
+            inside = slice(a + 2, b - 1)  # clear of the edges' rounding
+            assert not tracked[inside, k].any() if hidden else tracked[inside, k].all()
+            assert tracked[a - 1, k] and tracked[b + 1, k]
+            if hidden:  # crossed on the straight line, not held at frame a's position
+                assert np.all(np.linalg.norm(p[inside, k] - rec.positions[a, k], axis=1)
+                              > 1e-6)
+        assert tracked[:, 1 - k].all()  # stick_left, which never froze

@@ -48,6 +48,7 @@ CSV = MODELS / "recordings" / "approach.csv"
 MAPPING = MODELS / "recordings" / "approach_mapping.yaml"
 SCENARIO = MODELS / "recordings" / "approach.yaml"
 TRANSLATION = "translation: [0.6, -0.8, 0.0]"  # the mapping's, m
+NAMED = "recording: approach.csv"  # the mapping's, relative to it
 FAR = 1.0  # m farther along the cell's x (away from the robot) in :func:`_far_mapping`
 PERIOD = 0.002  # s: the UR5e's control period
 SLACK = 0.5  # s a tick may be late before the overrun watchdog acts, where it is not tested
@@ -72,13 +73,14 @@ def _trace(folder: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def _far_mapping(folder: Path) -> Path:
+def _far_mapping(folder: Path, recording: Path = CSV) -> Path:
     """approach_mapping.yaml with the capture frame ``FAR`` m farther from the robot (see
-    the module docstring), written into ``folder``."""
+    the module docstring), naming ``recording`` (its full path), written into ``folder``."""
     text = MAPPING.read_text()
-    assert TRANSLATION in text
+    assert TRANSLATION in text and NAMED in text
     path = folder / "far_mapping.yaml"
-    path.write_text(text.replace(TRANSLATION, f"translation: [{0.6 + FAR}, -0.8, 0.0]"))
+    path.write_text(text.replace(TRANSLATION, f"translation: [{0.6 + FAR}, -0.8, 0.0]")
+                    .replace(NAMED, f"recording: {recording}"))
     return path
 
 
@@ -269,7 +271,8 @@ def test_a_runs_log_replayed_by_simulate_gives_the_k_the_run_commanded(tmp_path,
     np.testing.assert_array_equal(segment.frame_sequence, np.arange(summary["frames"]))
     text = SCENARIO.read_text()
     for name, path in (("recording: approach.csv", f"recording: {segment.file}"),
-                       ("mapping: approach_mapping.yaml", f"mapping: {_far_mapping(tmp_path)}")):
+                       ("mapping: approach_mapping.yaml",
+                        f"mapping: {_far_mapping(tmp_path, segment.file)}")):
         assert name in text
         text = text.replace(name, path)
     (tmp_path / "replay.yaml").write_text(text)

@@ -16,19 +16,26 @@ DEC_INT = DATA / "sample02_dec_int.c3d"  # DEC processor, 16-bit integers, 16 an
 SGI_INT = DATA / "sample02_sgi_int.c3d"  # the same data from an SGI/MIPS machine
 PC_REAL = DATA / "sample02_pc_real.c3d"  # the same data, Intel floats
 KYOWA = DATA / "sample27_kyowadengyo.c3d"  # header 11 points, POINT:USED 12
+BIOGESTA = DATA / "sample30_biogesta_admarche2.c3d"  # MANUFACTURER: Biogesta Saga-3RT
 
 
 def parameters(raw: bytes) -> dict[tuple[str, str], int]:
-    """(GROUP, NAME) -> the offset of the parameter's type byte."""
+    """(GROUP, NAME) -> the offset of the parameter's type byte (offsets big-endian in
+    SGI/MIPS files; the walk ends at a record whose name is not ASCII: c3d.org's SGI float
+    sample 02 has a little-endian offset after POINT's records)."""
     i = (raw[0] - 1) * 512 + 4
+    order = ">" if raw[i - 1] == 86 else "<"
     groups, found = {}, {}
-    while True:
+    while 0 <= i < len(raw) - 2:
         n, gid = struct.unpack_from("bb", raw, i)
         if n == 0 or gid == 0:
             break
-        name = raw[i + 2:i + 2 + abs(n)].decode("ascii")
+        try:
+            name = raw[i + 2:i + 2 + abs(n)].decode("ascii")
+        except UnicodeDecodeError:
+            break
         at = i + 2 + abs(n)
-        step = struct.unpack_from("<h", raw, at)[0]
+        step = struct.unpack_from(order + "h", raw, at)[0]
         if gid < 0:
             groups[-gid] = name
         else:
@@ -36,7 +43,7 @@ def parameters(raw: bytes) -> dict[tuple[str, str], int]:
         if step == 0:
             break
         i = at + step
-    return {(groups[g], name): at for (g, name), at in found.items()}
+    return {(groups.get(g, ""), name): at for (g, name), at in found.items()}
 
 
 def data_of(raw: bytes, at: int) -> int:
@@ -89,5 +96,42 @@ def patched(source: Path, out: Path, *, analog_rate: float | None = None,
         xyz[:, :, :3] /= 1000.0
         frames[:, :4 * points] = xyz.reshape(-1, 4 * points)
         raw[start:start + frames.nbytes] = frames.tobytes()
+    out.write_bytes(bytes(raw))
+    return out
+
+
+def trimmed(source: Path, out: Path, frames: int, skip: int = 0) -> Path:
+    """``frames`` frames of ``source`` from its frame ``skip`` (counted from 0), written to
+    ``out``: the header and the parameter section as they are but the header's last frame,
+    ``POINT:FRAMES`` and ``TRIAL:ACTUAL_END_FIELD`` (where present) counting the frames
+    kept, the data section those frames' bytes, padded to a whole block. A frame's size is
+    that of the layout a reader reads that fills the file's data section (The
+    MotionMonitor's header understates its analog values per frame). How the vendors'
+    files in tests/data/c3d_org were cut to a few tens of KB."""
+    from safety_systems.sensing.c3d_header import BLOCK, read_header
+    from safety_systems.sensing.c3d_readers import Reading, read_ezc3d, read_py_c3d
+
+    header = read_header(source)
+    (layout, *_) = [r.layout for r in (read_ezc3d(str(source)), read_py_c3d(str(source)))
+                    if isinstance(r, Reading) and r.layout.fits(header.data_bytes)]
+    assert 0 <= skip and skip + frames <= layout.frames
+    raw = bytearray(source.read_bytes())
+    order = ">" if header.processor == 86 else "<"
+    start = (header.data_block - 1) * BLOCK
+    width = (4 * layout.points + layout.analog) * layout.word
+    raw = raw[:start] + raw[start + skip * width:start + (skip + frames) * width]
+    raw += bytes(-len(raw) % BLOCK)
+    first = struct.unpack_from(order + "H", raw, 6)[0]
+    last = first + frames - 1
+    struct.pack_into(order + "H", raw, 8, last)
+    where = parameters(bytes(raw))
+    if ("POINT", "FRAMES") in where:
+        at = where[("POINT", "FRAMES")]
+        assert raw[at] == 2  # 16-bit integer in every file cut here
+        struct.pack_into(order + "H", raw, data_of(raw, at), frames)
+    if ("TRIAL", "ACTUAL_END_FIELD") in where:  # a 32-bit frame number in two 16-bit words
+        at = where[("TRIAL", "ACTUAL_END_FIELD")]
+        assert raw[at] == 2
+        struct.pack_into(order + "2H", raw, data_of(raw, at), last & 0xFFFF, last >> 16)
     out.write_bytes(bytes(raw))
     return out

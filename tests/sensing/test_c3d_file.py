@@ -4,6 +4,7 @@ on files made from them to the class's specification (tests/sensing/c3d_patches.
 each held to the figures of a second reader."""
 
 import struct
+import warnings
 
 import numpy as np
 import pytest
@@ -12,7 +13,15 @@ from safety_systems.files.input_error import InputError
 from safety_systems.sensing.c3d_file import read_c3d, unit_scale
 from safety_systems.sensing.c3d_header import read_header
 from safety_systems.sensing.c3d_readers import read_ezc3d, read_py_c3d
-from tests.sensing.c3d_patches import DEC_INT, KYOWA, PC_REAL, SGI_INT, parameters, patched
+from tests.sensing.c3d_patches import (
+    BIOGESTA,
+    DEC_INT,
+    KYOWA,
+    PC_REAL,
+    SGI_INT,
+    parameters,
+    patched,
+)
 
 FEET = ["LFT1", "RFT3"]  # two of the 36 markers of the c3d.org sample 02 gait trial
 
@@ -161,6 +170,25 @@ def test_two_readings_that_differ_refuse_naming_both(tmp_path):
     assert "the same from both C3D readers" in line
 
 
+def test_every_refusal_names_the_vendor_the_file_states(tmp_path):
+    """Biogesta's real file (c3d.org sample 30, MANUFACTURER 'Biogesta' 'Saga-3RT'): its
+    residual words are -1 where ezc3d reads on, so the readers disagree from frame 1; the
+    refusal names the vendor, as one made from its structure does (the file cut short)."""
+    ez, py = read_ezc3d(str(BIOGESTA)), read_py_c3d(str(BIOGESTA))
+    assert ez.vendor == py.vendor == "Biogesta Saga-3RT"
+    k = ez.labels.index("GD")
+    assert np.isfinite(ez.positions[0, k]).all() and np.isnan(py.positions[0, k]).all()
+    with pytest.raises(InputError) as e:
+        read_c3d(BIOGESTA)
+    assert _line(e).startswith(f"{BIOGESTA}: C3D (Intel processor, floats, Biogesta "
+                               "Saga-3RT): frame 1, point 'GD': got 'ezc3d (-2174.0330, ")
+    raw = BIOGESTA.read_bytes()
+    (tmp_path / "cut.c3d").write_bytes(raw[:len(raw) - 2048])
+    with pytest.raises(InputError) as e:
+        read_c3d(tmp_path / "cut.c3d")
+    assert "C3D (Intel processor, floats, Biogesta Saga-3RT): data section: got" in _line(e)
+
+
 def test_what_is_not_a_c3d_file_or_has_no_point_parameters_is_one_clear_line(tmp_path):
     (tmp_path / "text.c3d").write_text("not a c3d file " * 100)
     with pytest.raises(InputError) as e:
@@ -190,3 +218,101 @@ def test_what_is_not_a_c3d_file_or_has_no_point_parameters_is_one_clear_line(tmp
     with pytest.raises(InputError) as e:
         read_c3d(tmp_path / "broken.c3d")
     assert "ignoreBadFormatting" not in _line(e) and "C3D (Intel processor, floats)" in _line(e)
+
+
+# Vendors' real files (tests/data/c3d_org/README.md: each cut to its first frames, or the
+# frames named there): (file, the refusals' words for it, metres per unit, the readers
+# that read it, the first body that moves as no person can under the default bounds
+# after the glitch rule, with its frame and figure, or None).
+VENDORS = [
+    ("sample00_codamotion_gaitwands.c3d", ("Intel processor, floats, File Import by "
+     "Charnwood Dynamics Ltd. Origin: MDF File"), 0.001, ("ezc3d", "c3d"), None),
+    ("sample00_nexgen_test1.c3d", "Intel processor, floats", 1.0, ("ezc3d", "c3d"), None),
+    ("sample02_dec_real.c3d", "DEC processor, floats", 0.001, ("ezc3d", "c3d"), None),
+    ("sample02_sgi_real.c3d", "SGI/MIPS processor, floats", 0.001, ("c3d",), None),
+    ("sample02_pc_int.c3d", "Intel processor, 16-bit integers", 0.001, ("ezc3d", "c3d"),
+     None),
+    ("sample22_bkin.c3d", "Intel processor, floats", 1.0, ("c3d",), None),
+    # The MotionMonitor: M7 leaves its track at 30 m/s for 2 frames (glitches, read as
+    # untracked) and then moves at 15.8 m/s
+    ("sample24_motionmonitor.c3d", "Intel processor, floats", 1.0, ("ezc3d", "c3d"),
+     ("M7", 24, "speed: got '15.76 m/s'")),
+    ("sample34_xsens_basketball.c3d", ("Intel processor, 16-bit integers, Xsens "
+     "Technologies B.V. MVN Studio C3D Exporter"), 0.001, ("ezc3d", "c3d"), None),
+    # ART's 16-bit file: a scale of 0.048 mm holds at most 32,767 steps, 1.5728 m; the
+    # head's Z-axis point passes it and wraps to -1.5725 m
+    ("sample37_art_human_tools.c3d", ("Intel processor, 16-bit integers, Advanced "
+     "Realtime Tracking GmbH & Co. KG ART-Human 2.1.2"), 0.001, ("ezc3d",),
+     ("Human3:HEADZ", 22, "speed: got '188.06 m/s'")),
+]
+
+
+def _raw_points(path, points: int, analog: int, frames: int) -> np.ndarray:
+    """(frames, points, 3) in the file's units, NaN where the residual word is negative,
+    read from the bytes with numpy alone (a third reader): Intel little-endian, SGI
+    big-endian, DEC F-floats (16-bit halves swapped, 4 times IEEE's value)."""
+    h = read_header(path)
+    word, raw = h.layout.word, path.read_bytes()
+    start = (h.data_block - 1) * 512
+    size = frames * (4 * points + analog) * word
+    data = raw[start:start + size]
+    if word == 2:
+        w = np.frombuffer(data, ">i2" if h.processor == 86 else "<i2").astype(float)
+    elif h.processor == 85:
+        halves = np.frombuffer(data, "<u2").reshape(-1, 2)[:, ::-1].copy()
+        w = halves.view("<f4").ravel().astype(float) / 4.0
+    else:
+        w = np.frombuffer(data, ">f4" if h.processor == 86 else "<f4").astype(float)
+    xyzr = w.reshape(frames, -1)[:, :4 * points].reshape(frames, points, 4)
+    xyz = xyzr[..., :3] * (h.scale if word == 2 else 1.0)
+    xyz[xyzr[..., 3] < 0] = np.nan
+    return xyz
+
+
+@pytest.mark.parametrize("case", VENDORS, ids=[c[0].split(".")[0] for c in VENDORS])
+def test_vendors_files_are_read_as_their_bytes_say_and_checked_for_plausibility(case,
+                                                                                tmp_path):
+    from safety_systems.sensing.plausibility import first_implausible
+    from safety_systems.sensing.recording import flips
+    from safety_systems.sensing.recording_mapping import check_mapping
+    from tests.sensing.c3d_patches import DATA
+
+    name, words, unit, readers, implausible = case
+    path = DATA / name
+    read = {r.library: r for r in (read_ezc3d(str(path)), read_py_c3d(str(path)))
+            if not isinstance(r, str)}
+    assert tuple(read) == readers  # (where both read, read_c3d holds them to each other)
+    rec = read_c3d(path)
+    assert rec.format == f"C3D ({words})"
+    r = next(iter(read.values()))
+    raw = _raw_points(path, r.layout.points, r.layout.analog, r.layout.frames)
+    labels = list(r.labels[:r.layout.points])
+    index = [labels.index(n) for n in rec.names]
+    expected = raw[:, index] * unit
+    expected[np.all(expected == 0.0, axis=2)] = np.nan  # a drop-out, as c3d_file reads it
+    assert np.isfinite(rec.positions).mean() > 0.8
+    np.testing.assert_array_equal(np.isnan(rec.positions), np.isnan(expected))
+    np.testing.assert_allclose(rec.positions, expected, rtol=1e-6, atol=1e-9)
+    # every body of the file under the mapping's rules, at the default bounds
+    p = rec.positions.copy()
+    p[flips(rec.times, p, 10.0)] = np.nan
+    bad = first_implausible(rec.times, p)
+    if implausible is None:
+        assert bad is None, (rec.names[bad.body], bad)
+        return
+    body, frame, figure = implausible
+    assert (rec.names[bad.body], bad.frame) == (body, frame)
+    (tmp_path / name).write_bytes(path.read_bytes())
+    (tmp_path / "map.yaml").write_text(
+        f"recording: {name}\ncapture_to_cell: {{up_axis: z}}\noperators:\n- name: worker\n"
+        f"  bodies:\n  - {{recorded: '{body}', name: b, point: head}}\n")
+    with warnings.catch_warnings(record=True) as seen, pytest.raises(InputError) as e:
+        warnings.simplefilter("always")
+        check_mapping(tmp_path / "map.yaml")
+    glitches = int(np.any(np.isnan(p) & ~np.isnan(rec.positions)))  # M7's 2 frames
+    assert [str(w.message).split(": ")[2] for w in seen] == (
+        ["2 sample(s) from t = 0.15 s read as untracked"] if glitches else [])
+    assert _line(e).startswith(f"{tmp_path / name}: C3D ({words}): '{body}' at frame "
+                               f"{frame} of the file (counted from 0; t = ")
+    assert f"{figure}; allowed: at most max_speed, 10 m/s" in _line(e)
+

@@ -86,3 +86,24 @@ def test_check_mapping_reads_a_good_recording_and_says_what_it_read(tmp_path, ca
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "map.yaml: recording: got 'gone.csv'" in err and "rec.csv" in err
+
+
+def test_check_recording_applies_the_glitch_and_plausibility_rules_to_every_body(tmp_path,
+                                                                                 capsys):
+    """check recording FILE reads every body under a mapping's rules at their defaults:
+    the frozen-then-jumping export is refused with the line a mapping of that body gives;
+    the untouched export passes and says what was checked."""
+    from tests.sensing.motive_holds import Z_HOP
+
+    held_export(tmp_path / "rec.csv")
+    (tmp_path / "map.yaml").write_text(MAPPING.format(up="y", recording="rec.csv", extra="",
+                                                      a="stick_right", b="stick_left"))
+    assert main(["check", "recording", str(tmp_path / "rec.csv")]) == 2
+    line = capsys.readouterr().err.strip()
+    assert main(["check", "mapping", str(tmp_path / "map.yaml")]) == 2
+    assert capsys.readouterr().err.strip() == line
+    assert "'stick_right' at frame" in line and "speed: got '" in line
+    assert main(["check", "recording", str(Z_HOP)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"{Z_HOP}: ok (") and "frames, every body within the default " \
+        "plausibility bounds, 10 m/s and 150 m/s^2" in out
