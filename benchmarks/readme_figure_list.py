@@ -303,6 +303,15 @@ def _lever_figures() -> tuple:
                bench(BANDED, "reduction"), scale=100.0),
         Figure("banded_tune_wall", r"120 0.005`, " + NUM + " s here",
                bench(BANDED, "wall"), TIME_NOISE),
+        Figure("stops_tune_wall", r"120 0.005 --path-stops`, " + NUM + " s here",
+               bench("bench_tune_banded_stops", "wall"), TIME_NOISE),
+        Figure("stops_tune_lost", NUM + r" s lost on the\s+seed's two tasks worn with the "
+               "banded set", bench("bench_tune_banded_stops", "table/chosen/total_lost_time")),
+        Figure("stops_tune_reduction", NUM + r"% less than `iso.yaml` on the same worn\s+tasks "
+               "and", bench("bench_tune_banded_stops", "reduction"), scale=100.0),
+        Figure("stops_tune_written", r"and " + NUM + r"% less than `iso.yaml` on the tasks as "
+               r"written \(issue", bench("bench_tune_banded_stops", "reduction_as_written"),
+               scale=100.0),
         Figure("pfl_off_reduction", r"\| PFL off \(`models/tune/ssm.yaml`\) \| " + NUM
                + "% less", bench("bench_tune_pfl", "ssm_only/reduction"), scale=100.0),
         Figure("pfl_on_reduction", r"\| PFL on \(`models/tune/ssm_pfl.yaml`\) \| " + NUM

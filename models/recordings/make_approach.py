@@ -8,7 +8,15 @@ left glove untracked from 6.0 s to 6.4 s (empty cells, as Motive leaves them). T
 positions are then put in Motive's Y-up capture frame by the inverse of
 approach_mapping.yaml's transform and written at 100 Hz in metres with quaternions.
 
-    python models/recordings/make_approach.py     # rewrites approach.csv beside it
+It also writes approach_banded.csv: the same technician (the same three bodies, sample
+for sample) wearing the banded set besides (safety_systems/cell/sensor_sets.py): a belt
+(id 4) at the pelvis and two elbow bands (left id 5, right id 6) at the elbows, placed on
+a skeleton the premises allow (cell/human_body.py's 95th-percentile lengths): the neck
+base 0.18 m below the head, each shoulder 0.18 m beside it towards its own glove, the
+pelvis 0.55 m below the neck base, each elbow 0.31 m from its shoulder and from its hand
+(bent downwards; straight where the hand is farther), with their own noise (seed 1).
+
+    python models/recordings/make_approach.py     # rewrites approach.csv and approach_banded.csv
 """
 
 from pathlib import Path
@@ -78,6 +86,47 @@ def main() -> None:
     text = motive_csv_text(t, names, [IDS[n] for n in names], capture, rotations,
                            rate_hz=RATE, take="approach (synthesized)")
     (HERE / "approach.csv").write_text(text)
+    worn = banded(cell) + np.random.default_rng(1).normal(scale=NOISE, size=(t.size, 3, 3))
+    all_cell = np.concatenate([cell, worn], axis=1)
+    all_capture = (all_cell - np.asarray(c.translation)) @ rotation_matrix(c)
+    text = motive_csv_text(t, names + list(BANDED_IDS), [IDS[n] for n in names]
+                           + list(BANDED_IDS.values()), all_capture,
+                           np.repeat(q[:, None], 6, axis=1), rate_hz=RATE,
+                           take="approach with the banded set (synthesized)")
+    (HERE / "approach_banded.csv").write_text(text)
+
+
+BANDED_IDS = {"Belt": 4, "LeftBand": 5, "RightBand": 6}
+ARM = 0.31  # m, shoulder to elbow and elbow to hand (the premises allow 0.40 and 0.41)
+
+
+def banded(cell: np.ndarray) -> np.ndarray:
+    """(T, 3, 3): the belt (pelvis) and the left and right elbow bands of the skeleton the
+    module docstring describes, from the gloves and the helmet of ``cell`` (T, 3, 3; the
+    left glove's gap filled by its neighbours: the band is worn throughout)."""
+    right, left, head = (_filled(cell[:, i]) for i in range(3))
+    down = np.array([0.0, 0.0, 1.0])
+    neck = head - 0.18 * down
+    side = left - right
+    side[:, 2] = 0.0
+    side /= np.linalg.norm(side, axis=1, keepdims=True)
+    out = [neck - 0.55 * down]
+    for hand, shoulder in ((left, neck + 0.18 * side), (right, neck - 0.18 * side)):
+        reach = hand - shoulder
+        d = np.linalg.norm(reach, axis=1, keepdims=True)
+        assert np.all(d <= 0.40 + 0.41), "a hand beyond the arm's reach"
+        bend = down - (reach @ down)[:, None] * reach / d**2  # down, across the reach
+        bend /= np.linalg.norm(bend, axis=1, keepdims=True)
+        h = np.sqrt(np.clip(ARM**2 - (d / 2) ** 2, 0.0, None))
+        out.append(shoulder + reach / 2 - h * bend)
+    return np.stack(out, axis=1)
+
+
+def _filled(x: np.ndarray) -> np.ndarray:
+    """``x`` (T, 3) with its NaN rows filled linearly from the tracked ones."""
+    ok = ~np.isnan(x[:, 0])
+    i = np.arange(x.shape[0])
+    return np.stack([np.interp(i, i[ok], x[ok, k]) for k in range(3)], axis=1)
 
 
 if __name__ == "__main__":
