@@ -170,7 +170,8 @@ def test_the_tune_files_levers_are_priced_for_the_chosen_configuration(tuned):
     assert row["lever"] == {"sensor_set": "gloves+helmet+belt+elbows", "rate_hz": 120.0,
                             "latency": 0.02, "cost": 3.0, "stopping_name": "",
                             "braking": {"stop_category": 1, "speed_fraction": [],
-                                        "stopping_time": [], "stopping_distance": []}}
+                                        "stopping_time": [], "stopping_distance": []},
+                            "stopping_time": None, "stopping_distance": None}
     assert row["proved"] and set(row["proofs"]) == {"contact", "separation"}
     chosen = load_controller_config(result["chosen"]["config"])
     assert row["frame_timeout"] < frame_timeout(chosen)  # 120 Hz against 20
