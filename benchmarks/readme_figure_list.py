@@ -256,6 +256,43 @@ def _robot_log_figures() -> tuple:
     )
 
 
+def _soak_figures() -> tuple:
+    """The soak benchmark's figures (how-to/live-run.md), from bench_soak.json."""
+    soak = "bench_soak"
+    return (
+        Figure("soak_load", r"one-minute load " + NUM + " at its start, the tail",
+               bench(soak, "load_1min")),
+        Figure("soak_steal", r"the host took " + NUM + " s of the machine's CPU, steal",
+               bench(soak, "steal_seconds")),
+        Figure("soak_runtime_mb", r"the runtime's resident memory was " + NUM + " MB",
+               bench(soak, "memory/runtime_end_mb")),
+        Figure("soak_runtime_slope", r"a slope\s+of " + NUM + " MB per hour",
+               bench(soak, "memory/runtime_slope_mb_per_hour")),
+        Figure("soak_writer_mb", r"the log writer's " + NUM + " MB",
+               bench(soak, "memory/writer_end_mb")),
+        Figure("soak_writer_slope", r"the log writer's [0-9.]+ MB, \+" + NUM
+               + r" MB per\s+hour", bench(soak, "memory/writer_slope_mb_per_hour")),
+        Figure("soak_segments", NUM + " segments of 600 s", bench(soak, "log/segments")),
+        Figure("soak_mb_hour", r"segments of 600 s, " + NUM + " MB per hour",
+               bench(soak, "log/mb_per_hour")),
+        Figure("soak_ticks", r"and all\s+" + NUM + " ticks", bench(soak, "log/read_back/ticks")),
+        Figure("soak_frames", r"ticks and " + NUM + " frames the run counted",
+               bench(soak, "log/read_back/frames")),
+        Figure("soak_flush", r"at most " + NUM + r" s after\s+its time",
+               bench(soak, "log/flush_age_max")),
+        Figure("soak_late_p50", r"tick lateness " + NUM + " ms at p50",
+               bench(soak, "timing/tick_late_p50"), scale=1000.0),
+        Figure("soak_late_p99", r"ms at p50, " + NUM + " ms at p99 and",
+               bench(soak, "timing/tick_late_p99"), scale=1000.0),
+        Figure("soak_late_max", r"ms at p99 and " + NUM + " ms at most",
+               bench(soak, "timing/tick_late_max"), scale=1000.0),
+        Figure("soak_k_p99", r"frame\s+to k " + NUM + " ms at p99",
+               bench(soak, "timing/frame_to_k_p99"), scale=1000.0),
+        Figure("soak_overruns", r"overrun stops: " + NUM + ", against a bound of 0",
+               bench(soak, "protective_stops/overrun/count")),
+    )
+
+
 def _lever_figures() -> tuple:
     """The levers' table in tuning.md (every cell's time lost and its reduction), and the
     figures around it and in the speed page."""
@@ -629,4 +666,4 @@ FIGURES = (
            run("verify-tuned", f"{CONTACT}/proof/margin_at_worst_corner")),
     Figure("tuned_separation_margin", r"s here:\s+contact margin [0-9.]+ m, separation "
            + NUM + " m", run("verify-tuned", f"{SEPARATION}/proof/margin_at_worst_corner")),
-) + _speed_figures() + _lever_figures() + _banded_figures() + _robot_log_figures()
+) + _speed_figures() + _lever_figures() + _banded_figures() + _soak_figures() + _robot_log_figures()
