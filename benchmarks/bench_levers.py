@@ -34,18 +34,16 @@ import sys
 import time
 from pathlib import Path
 
-from safety_systems.cell.path_stops import rounded_path_stops
 from safety_systems.cell.sensor_sets import SENSOR_SETS
 from safety_systems.config.configuration import braking_table, joint_path, robot_model_of
 from safety_systems.config.scenario import BrakingConfig, load_controller_config, load_scenario
 from verification.spaces.space import load_space
-from verification.tune.levers import Lever, price, record
+from verification.tune.levers import Lever, price, record, with_path_stops
 from verification.tune.tasks import total_lost
 from verification.tune.tuner import TASKS
 
 ROOT = Path(__file__).parents[1]
 GOAL = 0.50  # less time lost than iso.yaml, proved (issue 47)
-PATH_STOPS = "the paths' (derived)"
 
 
 def _s(x: float | None) -> str:
@@ -102,16 +100,13 @@ def main() -> int:
         figures["stopping_scale"] = args.stopping_scale
     if args.path_stops_sets:
         paths = [joint_path(t.robot) for t in tasks] + [joint_path(space.robot)]
-        table, t_s, b = rounded_path_stops(paths)
-        rows = BrakingConfig(speed_fraction=table.speed_fraction.tolist(),
-                             stopping_time=table.stopping_time.tolist(),
-                             stopping_distance=table.stopping_distance.tolist())
-        levers += [Lever(set_name, rate, latency, braking=rows, stopping_name=PATH_STOPS,
-                         stopping_time=t_s, stopping_distance=b)
+        derived = [with_path_stops(Lever(set_name, rate, latency), paths)
                    for latency in args.latencies for rate in args.rates
                    for set_name in args.path_stops_sets]
-        figures["path_stops"] = {"stopping_time": t_s, "stopping_distance": b,
-                                 "rows": dataclasses.asdict(rows)}
+        levers += derived
+        figures["path_stops"] = {"stopping_time": derived[0].stopping_time,
+                                 "stopping_distance": derived[0].stopping_distance,
+                                 "rows": dataclasses.asdict(derived[0].braking)}
     for lever in levers:
         row = price(config, lever, space, tasks, baselines)
         r = record(row, iso_lost)

@@ -44,12 +44,10 @@ from pathlib import Path
 import numpy as np
 
 from safety_systems.config import configuration
-from safety_systems.cell.path_stops import rounded_path_stops
 from safety_systems.config.configuration import joint_path, with_controller
 from safety_systems.outputs.metrics import true_separations
 from safety_systems.config.scenario import (
     Body,
-    BrakingConfig,
     load_controller_config,
     load_scenario,
 )
@@ -62,6 +60,7 @@ from verification.tune.levers import (
     stopped,
     under,
     wearing,
+    with_path_stops,
 )
 from verification.tune.report import write_tune
 from verification.tune.tasks import total_lost
@@ -207,18 +206,6 @@ def _tune(config, block, space_path: Path, tasks: list, args, out: Path | None
     return result, wall
 
 
-def path_stops_lever(lever: Lever, tasks: list, space) -> Lever:
-    """``lever`` with the stops the tasks' and the space's paths allow
-    (``path_stops.rounded_path_stops``), named as derived."""
-    table, t_s, b = rounded_path_stops([joint_path(t.robot) for t in tasks]
-                                       + [joint_path(space.robot)])
-    rows = BrakingConfig(speed_fraction=table.speed_fraction.tolist(),
-                         stopping_time=table.stopping_time.tolist(),
-                         stopping_distance=table.stopping_distance.tolist())
-    return dataclasses.replace(lever, braking=rows, stopping_name="the paths' (derived)",
-                               stopping_time=t_s, stopping_distance=b)
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--budget", type=int, default=100)
@@ -258,7 +245,8 @@ def main() -> int:
     if args.lever:
         lever = Lever(args.lever[0], float(args.lever[1]), float(args.lever[2]))
         if args.path_stops:
-            lever = path_stops_lever(lever, tasks, load_space(space_path))
+            lever = with_path_stops(lever, [joint_path(t.robot) for t in tasks]
+                                    + [joint_path(load_space(space_path).robot)])
         check_levers([lever])
         figures["lever"] = dataclasses.asdict(lever)
         written = total_lost(tasks, load_controller_config(

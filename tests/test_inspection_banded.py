@@ -5,15 +5,13 @@ stops when they lean in and resumes, held far less than under the gloves alone. 
 not yet finish its 7 cycles in 55 s (docs/explanation/tuning.md says so)."""
 
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from safety_systems.cell.sensor_sets import points_of
-from safety_systems.cli import main
 from safety_systems.config.scenario import load_controller_config, load_scenario
+from tests.shipped_jobs import assert_carries, simulated
 from verification.proof.theorems import prove, prove_separation
 from verification.spaces.space import load_space
 from verification.tune.levers import Lever, fit, lever_space
@@ -32,22 +30,13 @@ def test_the_banded_configuration_is_tuned_yaml_fitted_and_proved_on_its_space()
     assert dataclasses.replace(space, name="default") == lever_space(default, BANDED)
     assert prove(config, space).proved and prove_separation(config, space).proved
     scenario = load_scenario(MODELS / "scenarios" / "inspection_banded.yaml")
-    c = scenario.controller
-    assert (c.sensor, c.safety, c.body, c.braking) == (config.sensor, config.safety,
-                                                        config.body, config.braking)
-    assert dataclasses.replace(c.tracker, exits=[]) == config.tracker
-    points = {b.point for b in scenario.operators[0].bodies}
-    assert points == set(points_of(BANDED.sensor_set))
+    assert_carries(scenario, config, BANDED.sensor_set)
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory) -> tuple[dict, dict]:
-    out = tmp_path_factory.mktemp("banded") / "out"
-    assert main(["simulate", str(MODELS / "scenarios" / "inspection_banded.yaml"), "--out",
-                 str(out), "--quiet"]) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    trace = np.genfromtxt(out / "trace.csv", delimiter=",", names=True)
-    return summary, trace
+def run(tmp_path_factory) -> tuple[dict, np.ndarray]:
+    return simulated(tmp_path_factory.mktemp("banded"),
+                     MODELS / "scenarios" / "inspection_banded.yaml")
 
 
 def test_the_robot_works_beside_the_technician_and_stops_only_when_they_lean_in(run):

@@ -7,21 +7,17 @@ in, resumes, and finishes its 7 cycles within the scenario's 55 s, held at most 
 the 23.6 s the gloves alone held it. The seed's own controller stays runnable beside it
 (inspection_seed.yaml, its Figure 7)."""
 
-import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from safety_systems.cell.path_stops import rounded_path_stops
-from safety_systems.cell.sensor_sets import points_of
-from safety_systems.cli import main
 from safety_systems.config.configuration import joint_path
-from safety_systems.config.scenario import BrakingConfig, load_controller_config, load_scenario
+from safety_systems.config.scenario import load_controller_config, load_scenario
+from tests.shipped_jobs import assert_carries, simulated
 from verification.proof.theorems import prove, prove_separation
 from verification.spaces.space import load_space
-from verification.tune.levers import Lever, fit
+from verification.tune.levers import Lever, fit, with_path_stops
 
 MODELS = Path(__file__).parents[1] / "models"
 BANDED = Lever("gloves+helmet+belt+elbows", 120.0, 0.005)
@@ -30,23 +26,14 @@ GLOVES_HELD = 23.6  # s, the main job's separation stops under the gloves alone 
 
 def test_the_main_jobs_controller_is_tuned_yaml_with_its_paths_stops_fitted_and_proved():
     scenario = load_scenario(MODELS / "scenarios" / "inspection.yaml")
-    table, t_s, b = rounded_path_stops([joint_path(scenario.robot)])
-    braking = BrakingConfig(stop_category=1, speed_fraction=table.speed_fraction.tolist(),
-                            stopping_time=table.stopping_time.tolist(),
-                            stopping_distance=table.stopping_distance.tolist())
+    lever = with_path_stops(BANDED, [joint_path(scenario.robot)])
     tuned = load_controller_config(MODELS / "configs" / "tuned.yaml")
-    base = dataclasses.replace(tuned, braking=braking, safety=dataclasses.replace(
-        tuned.safety, stopping_time=t_s, stopping_distance=b))
     config = load_controller_config(MODELS / "configs" / "main_job.yaml")
-    assert fit(base, BANDED, load_space(MODELS / "spaces" / "default.yaml")).config == config
+    assert fit(tuned, lever, load_space(MODELS / "spaces" / "default.yaml")).config == config
     for name in ("banded.yaml", "default.yaml"):  # (the default space tracks fewer points)
         space = load_space(MODELS / "spaces" / name)
         assert prove(config, space).proved and prove_separation(config, space).proved
-    c = scenario.controller
-    assert (c.sensor, c.safety, c.body, c.braking) == (config.sensor, config.safety,
-                                                        config.body, config.braking)
-    assert dataclasses.replace(c.tracker, exits=[]) == config.tracker
-    assert {b.point for b in scenario.operators[0].bodies} == set(points_of(BANDED.sensor_set))
+    assert_carries(scenario, config, BANDED.sensor_set)
     # the seed's task: the same robot, technician and times as the seed's own scenario
     seed = load_scenario(MODELS / "scenarios" / "inspection_seed.yaml")
     assert (scenario.robot, scenario.duration) == (seed.robot, seed.duration)
@@ -54,13 +41,9 @@ def test_the_main_jobs_controller_is_tuned_yaml_with_its_paths_stops_fitted_and_
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory) -> tuple[dict, dict]:
-    out = tmp_path_factory.mktemp("main_job") / "out"
-    assert main(["simulate", str(MODELS / "scenarios" / "inspection.yaml"), "--out",
-                 str(out), "--quiet"]) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    trace = np.genfromtxt(out / "trace.csv", delimiter=",", names=True)
-    return summary, trace
+def run(tmp_path_factory) -> tuple[dict, np.ndarray]:
+    return simulated(tmp_path_factory.mktemp("main_job"),
+                     MODELS / "scenarios" / "inspection.yaml")
 
 
 def test_the_main_job_finishes_beside_the_technician_held_at_most_half_as_long(run):
@@ -70,7 +53,7 @@ def test_the_main_job_finishes_beside_the_technician_held_at_most_half_as_long(r
     assert summary["contact_while_moving"] is False and summary["min_separation_margin"] >= 0.0
     t, k = trace["time"], trace["k"]
     desk = (t >= 8.0) & (t < 20.0)
-    beyond = trace["techniciand_true"] > summary_d_min()  # (genfromtxt drops the ":")
+    beyond = trace["techniciand_true"] > summary_d_min()
     assert np.mean(k[desk & beyond] > 0.0) > 0.9  # most of the desk time it moves, slower
     assert np.mean(k[desk]) < 0.9
     lean, back = (t >= 20.0) & (t < 24.0), (t >= 25.0) & (t < 32.0)

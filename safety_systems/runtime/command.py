@@ -204,8 +204,7 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
                  log=dict(folder=str(out), format=f"MCAP, safety-systems run log "
                           f"{FORMAT_VERSION}", segment_length=args.log_segment,
                           flush_period=FLUSH_PERIOD, sync_period=SYNC_PERIOD),
-                 startup=phases.took, tracked=points,
-                 lowest_speed=_lowest_speed(params, points, mapping))
+                 startup=phases.took, tracked=points)
     from safety_systems.config.configuration import pfl_terms
 
     server = robot = mocap = log = None
@@ -217,6 +216,7 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
                    if params.controller.safety.mode == "ssm_pfl" else None)
             loop = SafetyLoop(params.controller, points, [o.name for o in mapping.operators],
                               model, pfl)
+            fixed["lowest_speed"] = _lowest_speed(params, points, mapping)  # (summary's held)
             trace, columns = log_columns(loop, names, model.n)
             log = RunLogPipe(out, width=len(columns), bodies=len(names))
         if args.priority:  # before connecting: once frames flow, the loop starts at once

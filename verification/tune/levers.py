@@ -131,6 +131,23 @@ def stopped(config: ControllerConfig, lever: Lever, model=None) -> ControllerCon
         else safety.stopping_distance * distance_ratio))
 
 
+PATH_STOPS = "the paths' (derived)"  # the stopping_name of :func:`with_path_stops`
+
+
+def with_path_stops(lever: Lever, paths: list) -> Lever:
+    """``lever`` with the stops ``paths`` allow (``path_stops.rounded_path_stops``: rows,
+    T_s and B derived from the robot's published per-joint stops, not measured), named
+    ``PATH_STOPS``."""
+    from safety_systems.cell.path_stops import rounded_path_stops
+
+    table, t_s, b = rounded_path_stops(paths)
+    rows = BrakingConfig(speed_fraction=table.speed_fraction.tolist(),
+                         stopping_time=table.stopping_time.tolist(),
+                         stopping_distance=table.stopping_distance.tolist())
+    return dataclasses.replace(lever, braking=rows, stopping_name=PATH_STOPS,
+                               stopping_time=t_s, stopping_distance=b)
+
+
 def sensed(config: ControllerConfig, lever: Lever, control_period: float) -> ControllerConfig:
     """``config`` with the lever's sensor (rate and latency) and the frame timeout and T_r
     that follow (the module's first two rules); Z_r as it was."""
