@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from safety_systems.config.configuration import joint_path
+from safety_systems.config.configuration import joint_path, level_stops
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from tests.shipped_jobs import assert_carries, simulated
 from verification.proof.theorems import prove, prove_separation
@@ -73,6 +73,14 @@ def test_what_held_it_is_the_lean_within_d_min_and_the_untracked_upper_trunk(run
     low = separation["lowest_speed"]
     assert low["binding"] == ("d_min" if low["d_min"] >= low["S"] else "S")
     assert low["binding"] == "d_min"  # the lean: within d_min, as the seed's Figure 7
+    # the terms from the configuration itself: level 1's stop (by_speed) at 2.0 m/s
+    config = load_controller_config(MODELS / "configs" / "main_job.yaml")
+    t_s, b = level_stops(config)
+    f = config.safety
+    assert low["terms"]["human speed x time"] == pytest.approx(
+        2.0 * (f.reaction_time + t_s[1]))
+    assert low["terms"]["stopping distance"] == pytest.approx(b[1])
+    assert low["terms"]["Z_d + Z_r"] == pytest.approx(f.robot_uncertainty)
     assert low["S"] == pytest.approx(sum(low["terms"].values()))  # (C is 0 here)
     assert low["dominant"] == max(low["terms"], key=low["terms"].get)
     assert low["envelope_beyond_body"] == pytest.approx(
