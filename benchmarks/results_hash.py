@@ -16,11 +16,19 @@ speed with a payload (``iso_pfl``). For each, every field of every scenario's
 ``BatchResult`` (their float64 bytes) is hashed; printed one line per batch and one for
 all, with the count of scenarios violating each property (a change that moved no figure
 keeps every line).
+
+    python benchmarks/results_hash.py --batch 64 --write   # records the baseline
+    python benchmarks/results_hash.py --batch 64 --check   # exit 1 if a hash moved
+
+The baseline (``benchmarks/results/results_hash.json``) was taken from the code before the
+configuration's derivations moved into one resolved cell (issue 52); tests/benchmarks/
+test_results_hash.py holds every batch's hash equal to it.
 """
 
 import argparse
 import dataclasses
 import hashlib
+import json
 import sys
 from pathlib import Path
 
@@ -30,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import bench_verify as b  # noqa: E402
 from safety_systems.config.scenario import Box  # noqa: E402
 
+BASELINE = Path(__file__).parent / "results" / "results_hash.json"
 TABLE = Box([-1.5, -1.5, -0.8], [1.5, 1.5, -0.3])  # test_evaluate_batch's bench
 
 
@@ -73,21 +82,41 @@ def batches(n: int) -> dict:
     }
 
 
+def hashes(batch: int, echo=None) -> dict:
+    """Each batch's hash of ``batch`` scenarios, and "all" over them in order; ``echo``
+    (None: silent) is called with each batch's line."""
+    whole, out = hashlib.sha256(), {}
+    for name, scenarios in batches(batch).items():
+        r = b.evaluate_many(scenarios, batch_size=batch)
+        out[name] = h = digest(r)
+        whole.update(h.encode())
+        if echo is not None:
+            echo(f"{name:12s} {h}  contact violated {int(np.sum(r.robustness < 0))}, "
+                 f"separation violated {int(np.sum(r.separation < 0))}, "
+                 f"min separation {np.min(r.min_separation_while_moving):+.6f}, "
+                 f"permitted contact exceeded {int(np.sum(r.permitted_contact < 0))}")
+    out["all"] = whole.hexdigest()[:16]
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batch", type=int, default=512)
+    what = parser.add_mutually_exclusive_group()
+    what.add_argument("--write", action="store_true", help="record the baseline")
+    what.add_argument("--check", action="store_true", help="compare with the baseline")
     args = parser.parse_args()
-    whole = hashlib.sha256()
-    for name, scenarios in batches(args.batch).items():
-        r = b.evaluate_many(scenarios, batch_size=args.batch)
-        h = digest(r)
-        whole.update(h.encode())
-        print(f"{name:12s} {h}  contact violated {int(np.sum(r.robustness < 0))}, "
-              f"separation violated {int(np.sum(r.separation < 0))}, "
-              f"min separation {np.min(r.min_separation_while_moving):+.6f}, "
-              f"permitted contact exceeded {int(np.sum(r.permitted_contact < 0))}",
-              flush=True)
-    print(f"{'all':12s} {whole.hexdigest()[:16]}")
+    got = hashes(args.batch, echo=lambda line: print(line, flush=True))
+    print(f"{'all':12s} {got['all']}")
+    if args.write:
+        BASELINE.write_text(json.dumps({"batch": args.batch, "hashes": got}, indent=1) + "\n")
+    elif args.check:
+        base = json.loads(BASELINE.read_text())
+        if base["batch"] != args.batch:
+            sys.exit(f"{BASELINE}: batch: {base['batch']}; --check needs --batch {base['batch']}")
+        moved = [k for k in base["hashes"] if base["hashes"][k] != got.get(k)]
+        print("unchanged" if not moved else f"moved: {', '.join(moved)}")
+        sys.exit(1 if moved else 0)
 
 
 if __name__ == "__main__":
