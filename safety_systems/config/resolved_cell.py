@@ -4,9 +4,9 @@
 terms, the body and its envelopes, the frame timeout, the capsules, power and force
 limiting's terms), never a copy of their maths.
 
-``safety-systems explain`` reads it; the Drake builders, the batched evaluator, the proofs
-and the runtime still call the derivations themselves (taking this value instead is a
-later step of issue 52).
+``safety-systems explain`` reads it; the Drake builders, the batched evaluator, the proofs,
+tune and the runtime take it. No module outside ``safety_systems/config/`` calls the
+derivations :data:`MEANING` names (tests/config/test_resolved_cell.py holds that).
 """
 
 import dataclasses
@@ -33,6 +33,8 @@ from safety_systems.config.configuration import (
     pfl_terms,
     placeholder_braking,
     tracked_points,
+    tracker_regions,
+    tracker_rules,
 )
 from safety_systems.config.scenario import (
     ControllerConfig,
@@ -41,6 +43,12 @@ from safety_systems.config.scenario import (
     robot_model_of,
 )
 
+# The derivations of what a configuration means, called by :func:`resolve` alone.
+MEANING = ("tracker_rules", "tracker_regions", "monitor_capsules", "body_dimensions",
+           "monitor_recipe", "scenario_monitor_recipe", "placeholder_braking",
+           "braking_table", "braking_warning", "assumed_stopping", "level_stops",
+           "level_terms", "monitor_terms", "frame_timeout", "monitor_speed_bound",
+           "pfl_terms")
 BRAKING_SOURCES = ("placeholder", "configuration")
 # The tracked points of an operator when the cell names none: a glove on each hand (the
 # shipped default space's operator, models/spaces/default.yaml).
@@ -75,14 +83,39 @@ class ResolvedCell:
     body: dict  # the body's dimensions, m and deg (``human_body.dimensions``)
     recipe: human_body.Recipe  # the envelopes of every segment from the tracked points
     frame_timeout: float  # s
+    tracker_rules: np.ndarray  # the tracker's rules (``sensing.tracks.make_rules``)
+    tracker_regions: np.ndarray  # the cell's walls and exits (``sensing.tracks.make_regions``)
     capsules: Capsules  # the robot as the monitor measures it
     speed_bound: float  # V_R, m/s: no monitor capsule axis point is faster at rate 1
     pfl: PflTerms  # power and force limiting's caps and clamping surfaces (0 under ssm)
+
+    # recipes of other operator sets, derived by :meth:`recipe_for` on first use and kept
+    _recipes: dict = dataclasses.field(default_factory=dict, repr=False)
 
     @property
     def segment_names(self) -> tuple[str, ...]:
         """Every operator's segments, "operator/segment"."""
         return self.recipe.names
+
+    def recipe_for(self, points, names=None) -> human_body.Recipe:
+        """The monitor's envelope recipe for operators whose tracked bodies mark ``points``
+        (per operator, in slot order) named ``names`` (None: ``operator_1``, ...): the
+        cell's own ``recipe`` for its ``points``, another set's derived on its first use
+        and kept (a space's scenarios track one or two operators, with or without a
+        helmet: each set is derived once)."""
+        key = (tuple(map(tuple, points)), None if names is None else tuple(names))
+        if key not in self._recipes:
+            self._recipes[key] = monitor_recipe(self.config, [list(p) for p in points],
+                                                None if names is None else list(names))
+        return self._recipes[key]
+
+    def check_config(self, config: ControllerConfig, what: str) -> None:
+        """Raises ValueError unless ``config`` is the configuration this cell was resolved
+        from (``what`` names the caller's input): a cell never stands for another
+        configuration."""
+        if config != self.config:
+            raise ValueError(f"{what}: the resolved cell is of another configuration; "
+                             "resolve the configuration the scenarios carry")
 
 
 def resolve(config: ControllerConfig, robot: RobotConfig | None = None,
@@ -101,7 +134,7 @@ def resolve(config: ControllerConfig, robot: RobotConfig | None = None,
     t_sr, const = level_terms(config, model)
     f = config.safety
     placeholder = placeholder_braking(config)
-    return ResolvedCell(
+    cell = ResolvedCell(
         config=config, robot=robot, model=model, points=tuple(map(tuple, points)),
         braking=braking_table(config, model),
         braking_source=BRAKING_SOURCES[0 if placeholder else 1],
@@ -112,8 +145,12 @@ def resolve(config: ControllerConfig, robot: RobotConfig | None = None,
         z_d_terms=(float(f.human_uncertainty), float(f.human_uncertainty_sigmas)),
         body=body_dimensions(config.body), recipe=monitor_recipe(config, points, names),
         frame_timeout=float(frame_timeout(config)),
+        tracker_rules=_frozen(tracker_rules(config)),
+        tracker_regions=_frozen(tracker_regions(config)),
         capsules=monitor_capsules(config, model),
         speed_bound=monitor_speed_bound(robot, config), pfl=pfl_terms(robot, config))
+    cell._recipes[(cell.points, None if names is None else tuple(names))] = cell.recipe
+    return cell
 
 
 def resolve_scenario(scenario: Scenario) -> ResolvedCell:

@@ -89,3 +89,21 @@ def test_a_scenarios_operators_give_the_points():
     cell = resolve_scenario(scenario)
     assert cell.points == tuple(tuple(p) for p in derive.tracked_points(scenario))
     assert cell.segment_names == derive.scenario_monitor_recipe(scenario).names
+
+
+def test_a_cells_recipe_for_another_operator_set_is_the_configurations_and_kept():
+    from safety_systems.config.configuration import monitor_recipe
+    from safety_systems.config.scenario import load_controller_config
+    config = load_controller_config(MODELS / "configs" / "iso.yaml")
+    cell = resolve(config)
+    assert cell.recipe_for(cell.points) is cell.recipe
+    two = [["hand_right", "hand_left", "head_top"], ["hand_right", "hand_left"]]
+    got = cell.recipe_for(two, ["a", "b"])
+    want = monitor_recipe(config, two, ["a", "b"])
+    assert got.names == want.names and np.array_equal(got.radius, want.radius)
+    assert cell.recipe_for(two, ["a", "b"]) is got
+    cell.check_config(config, "x")
+    other = dataclasses.replace(config, safety=dataclasses.replace(config.safety,
+                                                                   reaction_time=0.5))
+    with pytest.raises(ValueError, match="x: the resolved cell is of another"):
+        cell.check_config(other, "x")
