@@ -97,7 +97,7 @@ def test_a_cells_recipe_for_another_operator_set_is_the_configurations_and_kept(
     config = load_controller_config(MODELS / "configs" / "iso.yaml")
     cell = resolve(config)
     assert cell.recipe_for(cell.points) is cell.recipe
-    two = [["hand_right", "hand_left", "head_top"], ["hand_right", "hand_left"]]
+    two = [["hand_right", "hand_left", "head"], ["hand_right", "hand_left"]]
     got = cell.recipe_for(two, ["a", "b"])
     want = monitor_recipe(config, two, ["a", "b"])
     assert got.names == want.names and np.array_equal(got.radius, want.radius)
