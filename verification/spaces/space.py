@@ -61,6 +61,7 @@ from safety_systems.cell.operator_paths import segment_profile
 from safety_systems.cell.robot_geometry import LINK_SEGMENTS, robot_points
 from safety_systems.cell.robot_model import RobotModel
 from safety_systems.config.configuration import joint_path
+from safety_systems.config.resolved_cell import ResolvedCell, resolve
 from safety_systems.config.scenario import (
     ROBOT_GEOMETRIES,
     Body,
@@ -437,3 +438,13 @@ def explained_operators(space: ScenarioSpace) -> tuple[list[list[str]], list[str
     p = space.parameters
     return ([[q for _, q in tracked_bodies(space, p.heads.max >= 1.0)]], ["operator"],
             p.peak_speed.max, space.noise_bound_sigmas * p.noise_std.max)
+
+
+def space_cell(config: ControllerConfig, space: ScenarioSpace) -> ResolvedCell:
+    """What ``config`` means on the space's robot for the space's operators
+    (:func:`explained_operators`), resolved once (``config.resolved_cell``): the value the
+    proofs, the search and the Drake replays of a verification take. Another operator set
+    of the space (two operators, with or without a helmet) has its recipe from
+    ``ResolvedCell.recipe_for``."""
+    points, names, _, _ = explained_operators(space)
+    return resolve(config, space.robot, points=points, names=names)
