@@ -45,7 +45,7 @@ from safety_systems.config.params_file import (
 )
 from safety_systems.config.scenario import RobotConfig, robot_log_of, robot_model_of
 from safety_systems.files.ranges import type_hints
-from safety_systems.config.configuration import braking_table, placeholder_braking
+from safety_systems.config.resolved_cell import ResolvedCell, resolve
 from verification.verdicts import EXIT_REQUIREMENT, VERDICTS
 
 SCHEMA = "safety-systems certificate"
@@ -125,35 +125,45 @@ def params_log(params: Params, folder: str | Path | None) -> dict | None:
     return {"file": log.file, "sha256": robot_log_of(robot).sha256}
 
 
-def braking_data(params: Params, model: RobotModel | None = None) -> dict:
+def params_cell(params: Params, folder: str | Path | None,
+                model: RobotModel | None = None) -> ResolvedCell:
+    """What params.yaml's configuration means on the robot it certifies (files relative
+    to ``folder``, the params file's; ``model``: that robot's model if already built)."""
+    robot = robot_config(params.robot, RobotConfig(), None if folder is None else Path(folder))
+    return resolve(params.controller, robot, model=model)
+
+
+def braking_data(cell: ResolvedCell) -> dict:
     """The braking table the robot uses and its origin: ``measured`` (the configuration's
     rows, entered as measured on the cell) or ``placeholder`` (the built-in placeholder
-    of ``model``'s robot, None: the UR5e's UR5/CB3 figures,
-    ``safety_systems.cell.placeholder_stops``)."""
-    table = braking_table(params.controller, model)
-    return {"origin": "placeholder" if placeholder_braking(params.controller) else "measured",
-            "stop_category": int(params.controller.braking.stop_category),
+    of the cell's robot: the UR5e's UR5/CB3 figures, ``safety_systems.cell.placeholder_stops``)."""
+    table = cell.braking
+    return {"origin": "placeholder" if cell.braking_source == "placeholder" else "measured",
+            "stop_category": int(cell.config.braking.stop_category),
             "speed_fraction": [float(x) for x in table.speed_fraction],
             "stopping_time": [float(x) for x in table.stopping_time],
             "stopping_distance": [float(x) for x in table.stopping_distance]}
 
 
-def checksum_parts(params: Params, assumptions: dict, folder: str | Path | None = None
-                   ) -> dict:
+def checksum_parts(params: Params, assumptions: dict, folder: str | Path | None = None,
+                   cell: ResolvedCell | None = None) -> dict:
     """What the safety checksum covers (see the module docstring); ``folder``: the params
-    file's, which a URDF robot's file is relative to."""
+    file's, which a URDF robot's file is relative to; ``cell``: the params' resolved cell
+    if the caller has it (None: resolved here, :func:`params_cell`)."""
     parameters = plain(params.controller)
     del parameters["braking"]
-    model = params_model(params, folder)
+    cell = params_cell(params, folder) if cell is None else cell
+    model = cell.model
     return {"schema_version": SCHEMA_VERSION, "parameters": parameters,
-            "braking": braking_data(params, model), "path": plain(params.robot),
+            "braking": braking_data(cell), "path": plain(params.robot),
             "robot": robot_identity(model, params_log(params, folder)),
             "assumptions": assumptions}
 
 
-def safety_checksum(params: Params, assumptions: dict, folder: str | Path | None = None
-                    ) -> str:
-    return hashlib.sha256(canonical(checksum_parts(params, assumptions, folder))).hexdigest()
+def safety_checksum(params: Params, assumptions: dict, folder: str | Path | None = None,
+                    cell: ResolvedCell | None = None) -> str:
+    return hashlib.sha256(canonical(checksum_parts(params, assumptions, folder, cell))
+                          ).hexdigest()
 
 
 def short(checksum: str) -> str:

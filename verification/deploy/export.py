@@ -26,7 +26,8 @@ import json
 import platform
 from pathlib import Path
 
-from safety_systems.config.configuration import contact_capsules, monitor_capsules
+from safety_systems.config.configuration import contact_capsules
+from safety_systems.config.resolved_cell import ResolvedCell
 from safety_systems.files.documents import inputs_read, read_input, read_text
 from safety_systems.files.input_error import InputError
 from safety_systems.files.output_files import write_text
@@ -39,14 +40,13 @@ from safety_systems.config.params_file import (
 )
 from safety_systems.outputs.provenance import version
 from safety_systems.config.scenario import ControllerConfig
-from safety_systems.config.configuration import frame_timeout
 from verification.deploy.certificate import (
     SCHEMA,
     SCHEMA_VERSION,
     braking_data,
     certificate_text,
     params_log,
-    params_model,
+    params_cell,
     plain,
     read_json,
     robot_identity,
@@ -54,7 +54,6 @@ from verification.deploy.certificate import (
     short,
 )
 from safety_systems.cell.human_body import DIMENSION_NAMES
-from safety_systems.cell.robot_model import RobotModel
 from verification.properties import MODE_PROPERTIES, mode_properties
 from verification.spaces.box import ScenarioSpace
 from verification.spaces.space import load_space, tracked_bodies
@@ -171,13 +170,14 @@ def premises(report: dict) -> list[dict]:
     return list(out.values())
 
 
-def whole_cell(params: Params, space: ScenarioSpace, model: RobotModel | None = None) -> dict:
+def whole_cell(params: Params, space: ScenarioSpace, cell: ResolvedCell) -> dict:
     """The whole-cell settings the premises speak of, as figures: the robot as the
     monitor measures it (its capsules' radii) against the real robot the properties
     measure, the robot's speed in S, the operators' body model, how hidden bodies are kept and
-    how frames are gated (the proofs' premises say whether each suffices)."""
-    c, f, t = params.controller, params.controller.safety, params.controller.tracker
-    mine, real = monitor_capsules(c, model), contact_capsules(space.robot,
+    how frames are gated (the proofs' premises say whether each suffices); ``cell``: what
+    the params mean on their robot."""
+    f, t = params.controller.safety, params.controller.tracker
+    mine, real = cell.capsules, contact_capsules(space.robot,
                                                                space.contact_geometry)
     return {
         "monitor": {"robot_geometry": f.robot_geometry, "capsules": list(mine.names),
@@ -191,7 +191,7 @@ def whole_cell(params: Params, space: ScenarioSpace, model: RobotModel | None = 
         "hidden_bodies": {"rule": t.hidden_bodies, "occlusion_speed": float(f.occlusion_speed),
                           "exits": len(t.exits), "walls": t.cell is not None},
         "frames": {"gate": bool(t.gate), "gate_speed": float(t.gate_speed),
-                   "gate_width": float(t.gate_width), "timeout": float(frame_timeout(c))},
+                   "gate_width": float(t.gate_width), "timeout": float(cell.frame_timeout)},
     }
 
 
@@ -243,12 +243,13 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
     space, space_path, space_sha = _space(report, report_path)
     params = Params(controller=deployed_controller(config),
                     robot=deployed_robot(space.robot, out))
-    model = params_model(params, out)
+    cell = params_cell(params, out)
+    model = cell.model
     assumptions = {"space_file": space_path, "space_sha256": space_sha, "space": plain(space),
                    "assumptions": report["assumptions"], "box": report["box"],
                    "free_parameters": report["free_parameters"],
                    "robot_mode": report["robot_mode"]}
-    checksum = safety_checksum(params, assumptions, out)
+    checksum = safety_checksum(params, assumptions, out, cell)
     properties = {name: {"verdict": p["verdict"], "min_robustness": p["min_robustness"],
                          "proved": p["proof"]["proved"], "method": p["proof"]["method"],
                          "margin_at_worst_corner": p["proof"]["margin_at_worst_corner"],
@@ -277,8 +278,8 @@ def build(config: ControllerConfig, config_path: str, report: dict, report_path:
         "verdict": report["verdict"], "verdict_meaning": VERDICT_MEANING[report["verdict"]],
         "method": report["method"], "robot_mode": report["robot_mode"],
         "properties": properties, "premises": premises(report),
-        "cell": whole_cell(params, space, model),
-        "braking_data": braking_data(params, model), "assumptions": assumptions,
+        "cell": whole_cell(params, space, cell),
+        "braking_data": braking_data(cell), "assumptions": assumptions,
         "robot": robot_identity(model, params_log(params, out)),
         "simulations": int(report["simulations"]), "evaluations": evaluations,
         "counts_meaning": COUNTS_MEANING,
