@@ -35,9 +35,9 @@ import time
 from pathlib import Path
 
 from safety_systems.cell.sensor_sets import SENSOR_SETS
-from safety_systems.config.configuration import braking_table, joint_path, robot_model_of
+from safety_systems.config.configuration import joint_path
 from safety_systems.config.scenario import BrakingConfig, load_controller_config, load_scenario
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.tune.levers import Lever, price, record, with_path_stops
 from verification.tune.tasks import total_lost
 from verification.tune.tuner import TASKS
@@ -87,7 +87,7 @@ def main() -> int:
     levers = [Lever(set_name, rate, latency) for latency in args.latencies
               for rate in args.rates for set_name in args.sets]
     if args.stopping_scale > 0.0:
-        table = braking_table(config, robot_model_of(space.robot))
+        table = space_cell(config, space).braking
         scaled = BrakingConfig(
             speed_fraction=[float(x) for x in table.speed_fraction],
             stopping_time=[float(x) * args.stopping_scale for x in table.stopping_time],

@@ -52,7 +52,7 @@ from safety_systems.config.scenario import (
     load_scenario,
 )
 from safety_systems.diagrams.simulation import simulate
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.tune.levers import (
     Lever,
     check_levers,
@@ -254,7 +254,8 @@ def main() -> int:
         figures["iso_lost_as_written"] = written
         tasks = [wearing(t, lever) for t in tasks]
         space_path = lever_space_file(space_path, lever, args.out)
-        config, block = under(stopped(config, lever), block, lever)
+        config, block = under(stopped(space_cell(config, load_space(space_path)), lever),
+                              block, lever)
         print(f"under the lever {lever.label}: the tasks' operators wear it, the space "
               "tracks its points")
     result, wall = _tune(config, block, space_path, tasks, args, args.out)
@@ -264,7 +265,8 @@ def main() -> int:
                                              ROOT / "models" / "tune" / "ssm.yaml")
         print("\n(and the SSM-only tune, models/tune/ssm.yaml, beside it)")
         if args.lever:
-            ssm_config, ssm_block = under(stopped(ssm_config, lever), ssm_block, lever)
+            ssm_config, ssm_block = under(stopped(space_cell(
+                ssm_config, load_space(space_path)), lever), ssm_block, lever)
         beside, beside_wall = _tune(ssm_config, ssm_block, space_path, tasks, args, None)
         figures["fastest_pfl"] = fastest_pfl(result)
         figures["ssm_only"] = {"reduction": beside["lost_time_reduction_vs_iso"],
@@ -319,9 +321,11 @@ def main() -> int:
     proved = [c for c in result["candidates"] if c["proved"] and all(c["proved"].values())]
     values = [c["full_speed_distance"] for c in proved if c["full_speed_distance"]]
     smallest = min(values) if values else None
-    distances = [("iso.yaml", full_speed_distance(iso))]
+    cell_space = load_space(space_path)  # (the distances are the robot's stops: any cell)
+    distances = [("iso.yaml", full_speed_distance(space_cell(iso, cell_space)))]
     if chosen:
-        distances.append(("chosen", full_speed_distance(with_values(config, chosen["values"]))))
+        distances.append(("chosen", full_speed_distance(space_cell(
+            with_values(config, chosen["values"]), cell_space))))
     if smallest is not None:
         distances.append(("smallest proved among the simulated", smallest))
     # Smaller ones, for reference (below what the proofs here allow: see the note below).

@@ -90,18 +90,21 @@ def _screen_example() -> float:
     """The full-speed distance of iso.yaml with T_r 0.1 s, C 0, Z_r 0.38 m, if both
     proofs hold over the default space (NaN if not)."""
     from verification.proof.theorems import prove, prove_separation
+    from verification.spaces.space import space_cell
     from verification.tune.tuner import full_speed_distance
 
     config = _iso_with(reaction_time=0.1, intrusion_distance=0.0, robot_uncertainty=0.38)
     space = _default_space()
-    proved = prove(config, space).proved and prove_separation(config, space).proved
-    return full_speed_distance(config) if proved else float("nan")
+    cell = space_cell(config, space)
+    proved = prove(cell, space).proved and prove_separation(cell, space).proved
+    return full_speed_distance(cell) if proved else float("nan")
 
 
 def _iso_full_speed_distance() -> float:
+    from safety_systems.config.resolved_cell import resolve
     from verification.tune.tuner import full_speed_distance
 
-    return full_speed_distance(_iso_with())
+    return full_speed_distance(resolve(_iso_with()))
 
 
 # Figures computed in process, in seconds: ``run`` records them and the tests compute them

@@ -34,7 +34,7 @@ import typing
 
 from safety_systems.cell.human_body import POINTS
 from safety_systems.cell.sensor_sets import SENSOR_SETS, points_of
-from safety_systems.config.configuration import braking_table, frame_timeout, robot_model_of
+from safety_systems.config.resolved_cell import ResolvedCell, resolve
 from safety_systems.config.scenario import (
     MAX_STOPPING_DISTANCE,
     MAX_STOPPING_TIME,
@@ -49,6 +49,7 @@ from safety_systems.config.scenario import (
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import number
 from verification.spaces.box import Range, ScenarioSpace
+from verification.spaces.space import space_cell
 from verification.tune.tasks import lost_time, run_task
 
 PADS = (1e-9, 1e-6, 1e-4)  # m added to Z_r over the exact fit, the least that proves
@@ -109,16 +110,17 @@ def _due(rate_hz: float, latency: float, config: ControllerConfig) -> float:
     return 1.0 / rate_hz + latency + config.tracker.processing_time
 
 
-def stopped(config: ControllerConfig, lever: Lever, model=None) -> ControllerConfig:
-    """``config`` with the lever's stopping data, if it gives any: its rows, and T_s and B
-    as the lever gives them, else scaled by the ratio of its full-speed stop to the
-    configuration's table's (T_s and B are the configuration's stop on its cell's path;
-    the rows' shape is the robot's)."""
+def stopped(cell: ResolvedCell, lever: Lever) -> ControllerConfig:
+    """The cell's configuration with the lever's stopping data, if it gives any: its
+    rows, and T_s and B as the lever gives them, else scaled by the ratio of its
+    full-speed stop to the configuration's table's (T_s and B are the configuration's stop
+    on its cell's path; the rows' shape is the robot's)."""
+    config = cell.config
     if not lever.braking.speed_fraction:
         return config
-    old = braking_table(config, model)
+    old = cell.braking
     out = dataclasses.replace(config, braking=lever.braking)
-    new = braking_table(out, model)
+    new = resolve(out, cell.robot, cell.model, cell.points).braking
     time_ratio = new.stopping_time[-1] / old.stopping_time[-1]
     distance_ratio = new.stopping_distance[-1] / old.stopping_distance[-1]
     safety = out.safety
@@ -148,10 +150,11 @@ def with_path_stops(lever: Lever, paths: list) -> Lever:
                                stopping_time=t_s, stopping_distance=b)
 
 
-def sensed(config: ControllerConfig, lever: Lever, control_period: float) -> ControllerConfig:
-    """``config`` with the lever's sensor (rate and latency) and the frame timeout and T_r
-    that follow (the module's first two rules); Z_r as it was."""
-    tau = frame_timeout(config)
+def sensed(config: ControllerConfig, lever: Lever, control_period: float,
+           tau: float) -> ControllerConfig:
+    """``config``, whose frame timeout is ``tau`` (its resolved cell's), with the lever's
+    sensor (rate and latency) and the frame timeout and T_r that follow (the module's
+    first two rules); Z_r as it was."""
     headroom = tau - _due(config.sensor.rate_hz, config.sensor.latency, config)
     if not headroom > 0.0:
         headroom = 0.5 / config.sensor.rate_hz  # (the default rule's half period)
@@ -190,7 +193,8 @@ def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
     from verification.verify import proofs_of
 
     h = 1.0 / space.robot.control_rate_hz
-    out = sensed(stopped(config, lever, robot_model_of(space.robot)), lever, h)
+    cell = space_cell(config, space)
+    out = sensed(stopped(cell, lever), lever, h, cell.frame_timeout)
     box = lever_space(space, lever)
     proofs = proofs_of(out, box)
     run = len(proofs)

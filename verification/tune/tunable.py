@@ -33,7 +33,7 @@ from safety_systems.files.documents import load_document
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import field_limits, type_hints
 from safety_systems.config.scenario import ControllerConfig, validate_controller
-from safety_systems.config.configuration import frame_timeout
+from safety_systems.config.resolved_cell import resolve
 from verification.tune.levers import Lever, check_levers
 
 # Names (and what is under them) that tune refuses, with why.
@@ -179,7 +179,8 @@ def reaction_floor(config: ControllerConfig, block: list[TunedParameter],
     timeouts = [p.min for p in block if p.name == FRAME_TIMEOUT and p.min is not None]
     if timeouts:
         config = with_values(config, {FRAME_TIMEOUT: min(timeouts)})
-    return frame_timeout(config) + control_period
+    # (the frame timeout is the configuration's alone: any station resolves it)
+    return resolve(config).frame_timeout + control_period
 
 
 def _check_bounds(p: TunedParameter, where: str, leaf: type, limits) -> None:

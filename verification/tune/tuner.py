@@ -50,22 +50,21 @@ from pydrake.common.yaml import yaml_dump_typed
 from safety_systems.files.documents import read_text
 from safety_systems.files.input_error import InputError
 from safety_systems.files.output_files import write_text
-from safety_systems.cell.robot_model import RobotModel
 from safety_systems.config.scenario import (
     ControllerConfig,
     Scenario,
     load_controller_config,
     load_scenario,
-    robot_model_of,
     validate_controller,
 )
 from safety_systems.ssm.formulas import monitor_protective_distances
-from safety_systems.config.configuration import frame_timeout, level_stops
+from safety_systems.config.resolved_cell import ResolvedCell
 from verification.phases import DRAKE_REAL_TIME, Phases, verify_seconds
 from verification.properties import mode_properties
 from verification.search.runner import Runner
 from verification.search.strategies import sweep_points
 from verification.spaces.box import ScenarioSpace
+from verification.spaces.space import space_cell
 from verification.tune.levers import price, record
 from verification.tune.tasks import TaskRun, lost_time, run_task, total
 from verification.verify import CONFIRM, CROSS_CHECK, proofs_of
@@ -104,7 +103,7 @@ class Candidate:
 
     index: int
     values: dict
-    config: ControllerConfig | None
+    cell: ResolvedCell | None  # what its configuration means on the space (None: invalid)
     status: str = "screened"  # invalid | counterexample | unproved | ... | accepted
     reason: str = ""
     proved: dict = dataclasses.field(default_factory=dict)  # property -> bool
@@ -116,6 +115,10 @@ class Candidate:
     verdict: str | None = None
     report: str | None = None  # its report.json
     report_dict: dict | None = dataclasses.field(default=None, repr=False)
+
+    @property
+    def config(self) -> ControllerConfig | None:
+        return None if self.cell is None else self.cell.config
 
     def record(self) -> dict:
         return {"index": self.index, "values": self.values, "status": self.status,
@@ -131,14 +134,14 @@ REFINE_SEEDS = 3  # proved candidates of the lowest proxy that are refined
 REFINE_STEPS = 6  # bisections per number
 
 
-def level_distances(config: ControllerConfig, model: RobotModel | None = None) -> np.ndarray:
+def level_distances(cell: ResolvedCell) -> np.ndarray:
     """Beyond what distance a still operator lets the robot (at rest) run at each speed
     level g / SPEED_LEVELS: ΔS times the monitor's S (Eqs. 9-11) for a body and a robot at
-    rest with that level's stop (``configuration.level_stops``; every level's is the
+    rest with that level's stop (the cell's ``level_stops``; every level's is the
     full-speed stop under ``stopping: full_speed``), at least d_min (the human speed by
-    the configuration's mode; the stops ``model``'s, None: the UR5e's)."""
-    f = config.safety
-    t_s, b = level_stops(config, model)
+    the configuration's mode; the stops the cell's robot's)."""
+    f = cell.config.safety
+    t_s, b = cell.level_stops
     s = np.array([float(monitor_protective_distances(
         np.zeros(1), np.zeros(1), mode=f.human_speed, reaction_time=f.reaction_time,
         stopping_time=float(t), stopping_distance=float(d),
@@ -148,17 +151,17 @@ def level_distances(config: ControllerConfig, model: RobotModel | None = None) -
     return np.maximum(f.delta_s * np.maximum(s, 0.0), f.d_min)
 
 
-def full_speed_distance(config: ControllerConfig, model: RobotModel | None = None) -> float:
+def full_speed_distance(cell: ResolvedCell) -> float:
     """Beyond what distance a still operator lets the robot (at rest) run at full speed
     (:func:`level_distances` at the top level)."""
-    return float(level_distances(config, model)[-1])
+    return float(level_distances(cell)[-1])
 
 
-def proxy_distance(config: ControllerConfig, model: RobotModel | None = None) -> float:
+def proxy_distance(cell: ResolvedCell) -> float:
     """The proxy that orders candidates: the mean of :func:`level_distances` (the
     full-speed distance under ``stopping: full_speed``; lower under ``by_speed``, where
     the robot runs slower instead of standing nearer than that)."""
-    return float(np.mean(level_distances(config, model)))
+    return float(np.mean(level_distances(cell)))
 
 
 def config_text(config: ControllerConfig, header: list[str]) -> str:
@@ -200,7 +203,6 @@ class Tuner:
         self.counts = {"screened": 0, "proofs": 0, "counterexample_replays": 0,
                        "task_runs": 0, "verifications": 0, "simulations": 0}
         self.control_period = 1.0 / space.robot.control_rate_hz
-        self.model = robot_model_of(space.robot)
 
     def say(self, line: str) -> None:
         self.progress.write(line, self._say)
@@ -244,6 +246,8 @@ class Tuner:
         if not jobs:
             return
         scenarios = [dataclasses.replace(k.scenario, controller=c.config) for c, k in jobs]
+        # (each candidate's scenarios form their own batches: the evaluator resolves each
+        # batch's configuration with its scenarios' operators, which are the kept files')
         figures = runner.evaluate(scenarios)
         self.counts["counterexample_replays"] += len(jobs)
         for (c, k), row in zip(jobs, figures):
@@ -257,7 +261,7 @@ class Tuner:
             c.checked = len(self.kept)
 
     def prove(self, c: Candidate) -> None:
-        proofs = proofs_of(c.config, self.space)
+        proofs = proofs_of(c.cell, self.space)
         self.counts["proofs"] += len(proofs)
         c.proved = {name: p.proved for name, p in proofs.items()}
         if self.allow == "proved" and not all(c.proved.values()):
@@ -284,28 +288,34 @@ class Tuner:
         points = sweep_points("sobol", 1 << (wanted - 1).bit_length(),  # a power of two
                               len(self.block), seed=self.seed)
         base = {p.name: _get(self.config, p.name) for p in self.block}
-        out = [Candidate(0, base, self.config)]
+        out = [Candidate(0, base, self.cell_of(self.config))]
         for i, u in enumerate(points, start=1):
             values = values_at(self.block, u)
             out.append(Candidate(i, values, None))
             try:
-                out[-1].config = self.build(values)
+                out[-1].cell = self.build(values)
             except InputError as e:
                 out[-1].status, out[-1].reason = "invalid", str(e)
         self.counts["screened"] = len(out)
         return out
 
-    def build(self, values: dict) -> ControllerConfig:
-        """The configuration with these values, validated (raises InputError): its rules,
-        and T_r not below the loop's own reaction time."""
+    def cell_of(self, config: ControllerConfig) -> ResolvedCell:
+        """What ``config`` means on the space's robot for its operators, resolved once:
+        the value its proofs and its proxy take."""
+        return space_cell(config, self.space)
+
+    def build(self, values: dict) -> ResolvedCell:
+        """The resolved cell of the configuration with these values, validated (raises
+        InputError): its rules, and T_r not below the loop's own reaction time."""
         config = with_values(self.config, values)
         validate_controller(config)
-        floor = frame_timeout(config) + self.control_period
+        cell = self.cell_of(config)
+        floor = cell.frame_timeout + self.control_period
         if any(p.name == REACTION_TIME for p in self.block) and \
                 config.safety.reaction_time < floor - 1e-12:
             raise InputError(REACTION_TIME, config.safety.reaction_time,
                              f">= {floor:.4g} s, the loop's own reaction time")
-        return config
+        return cell
 
     def refine(self, c: Candidate, index: int) -> Candidate | None:
         """A proved candidate pushed, one parameter at a time, towards a lower proxy while
@@ -321,12 +331,12 @@ class Tuner:
         def assessed(trial: dict) -> tuple[bool, float, float] | None:
             """(both proved, proxy, the proofs' least margin); None if not valid."""
             try:
-                config = self.build(trial)
+                cell = self.build(trial)
             except InputError:
                 return None
-            proofs = list(proofs_of(config, self.space).values())
+            proofs = list(proofs_of(cell, self.space).values())
             self.counts["proofs"] += len(proofs)
-            return (all(x.proved for x in proofs), round(proxy_distance(config, self.model), 12),
+            return (all(x.proved for x in proofs), round(proxy_distance(cell), 12),
                     min(x.margin_at_worst_corner for x in proofs))
 
         def judged(trial: dict) -> tuple | None:  # (proxy, -least margin) if both prove
@@ -351,8 +361,8 @@ class Tuner:
                 continue
             if isinstance(values[p.name], int):
                 continue  # (a count: not bisected)
-            ends = {end: round(proxy_distance(with_values(
-                self.config, dict(values, **{p.name: end})), self.model), 12)
+            ends = {end: round(proxy_distance(self.cell_of(with_values(
+                self.config, dict(values, **{p.name: end})))), 12)
                 for end in (p.min, p.max)}
             if min(ends.values()) < key[0]:
                 target = min(ends, key=ends.get)
@@ -378,8 +388,8 @@ class Tuner:
             return None
         out = Candidate(index, values, self.build(values))
         out.proved = {name: True for name in mode_properties(out.config.safety.mode)}
-        out.proxy = proxy_distance(out.config, self.model)
-        out.full_speed = full_speed_distance(out.config, self.model)
+        out.proxy = proxy_distance(out.cell)
+        out.full_speed = full_speed_distance(out.cell)
         return out
 
     def run(self) -> dict:
@@ -403,8 +413,8 @@ class Tuner:
             for c in valid:
                 if c.status == "screened":
                     self.prove(c)
-                    c.proxy = proxy_distance(c.config, self.model)
-                    c.full_speed = full_speed_distance(c.config, self.model)
+                    c.proxy = proxy_distance(c.cell)
+                    c.full_speed = full_speed_distance(c.cell)
                 bar.step()
             if self.allow == "proved":  # the proofs are the constraint: descend on them
                 seeds = sorted((c for c in pool if c.status == "screened"),

@@ -19,6 +19,7 @@ from safety_systems.config.scenario import (
 )
 from safety_systems.files.input_error import InputError
 from verification.spaces.space import load_space
+from safety_systems.config.resolved_cell import resolve
 from verification.tune.levers import (
     Lever,
     check_levers,
@@ -62,7 +63,7 @@ def test_an_operator_wears_the_set_at_its_own_posture_and_keeps_its_gloves():
 
 def test_faster_sensing_shortens_the_frame_timeout_and_reaction_by_the_same_seconds():
     config = load_controller_config(TUNED)
-    out = sensed(config, Lever("gloves", 120.0, 0.02), 0.002)
+    out = sensed(config, Lever("gloves", 120.0, 0.02), 0.002, resolve(config).frame_timeout)
     # tuned.yaml: 0.074 s at 20 Hz, 20 ms, 1 ms processing: 3 ms above its sensor's due
     assert out.tracker.frame_timeout == pytest.approx(1 / 120 + 0.02 + 0.001 + 0.003)
     gained = config.tracker.frame_timeout - out.tracker.frame_timeout
@@ -129,11 +130,11 @@ def test_stopping_data_as_a_lever_scales_the_configurations_stop_and_is_proved()
     lever = Lever("gloves+helmet+belt+elbows", 120.0, 0.005, braking=_scaled_placeholder(0.7),
                   stopping_name="0.7 x the placeholder")
     assert lever.label.endswith(", stopping data 0.7 x the placeholder")
-    out = stopped(config, lever)
+    out = stopped(resolve(config), lever)
     assert out.braking == lever.braking
     assert out.safety.stopping_time == pytest.approx(0.7 * config.safety.stopping_time)
     assert out.safety.stopping_distance == pytest.approx(0.7 * config.safety.stopping_distance)
-    assert stopped(config, Lever("gloves")) is config  # none given: the configuration's
+    assert stopped(resolve(config), Lever("gloves")) is config  # none given: the configuration's
     fitted = fit(config, lever, load_space(MODELS / "spaces" / "default.yaml"))
     assert fitted.proved and fitted.config.braking == lever.braking
 
@@ -159,7 +160,7 @@ def test_a_lever_may_give_the_stop_its_rows_imply_and_needs_rows_to_give_it():
     config = load_controller_config(TUNED)
     lever = Lever("gloves", braking=_scaled_placeholder(0.3), stopping_time=0.17,
                   stopping_distance=0.09)
-    out = stopped(config, lever)
+    out = stopped(resolve(config), lever)
     assert (out.safety.stopping_time, out.safety.stopping_distance) == (0.17, 0.09)
     assert out.braking == lever.braking
     with pytest.raises(InputError, match=r"levers\[0\]\.stopping_distance"):
