@@ -107,3 +107,42 @@ def test_a_cells_recipe_for_another_operator_set_is_the_configurations_and_kept(
                                                                    reaction_time=0.5))
     with pytest.raises(ValueError, match="x: the resolved cell is of another"):
         cell.check_config(other, "x")
+
+
+def _derivations_named(path: Path) -> list[str]:
+    """The MEANING derivations ``path`` imports from config.configuration or reaches as
+    its attributes (``configuration.frame_timeout``)."""
+    import ast
+
+    from safety_systems.config.resolved_cell import MEANING
+
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module == "safety_systems.config.configuration":
+            found += [a.name for a in node.names if a.name in MEANING]
+        elif isinstance(node, ast.Attribute) and node.attr in MEANING and isinstance(
+                node.value, ast.Name) and node.value.id in ("configuration", "derive"):
+            found.append(node.attr)
+    return found
+
+
+def test_no_module_outside_the_configuration_room_derives_what_a_configuration_means():
+    """The Drake systems and builders, the batched evaluator, the proofs, tune, deploy,
+    the runtime, the outputs and the benchmarks take a ResolvedCell; only
+    safety_systems/config/ calls the derivations (issue 52)."""
+    root = Path(__file__).parents[2]
+    files = [p for d in ("safety_systems", "verification", "benchmarks")
+             for p in (root / d).rglob("*.py")
+             if not p.is_relative_to(root / "safety_systems" / "config")]
+    assert len(files) > 100
+    offenders = {str(p.relative_to(root)): names for p in files
+                 if (names := _derivations_named(p))}
+    assert offenders == {}
+
+
+def test_the_scan_sees_a_derivation_imported_or_reached(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("from safety_systems.config.configuration import frame_timeout, joint_path\n"
+                   "from safety_systems.config import configuration\n"
+                   "x = configuration.braking_table\n")
+    assert _derivations_named(bad) == ["frame_timeout", "braking_table"]
