@@ -117,6 +117,18 @@ class ResolvedCell:
             raise ValueError(f"{what}: the resolved cell is of another configuration; "
                              "resolve the configuration the scenarios carry")
 
+    def check_scenario(self, scenario: Scenario, what: str) -> None:
+        """Raises ValueError unless ``scenario`` runs this cell's configuration on its robot
+        station: the same but for the truth's braking time scale and the cycles it runs
+        (which a space's scenarios vary, and no term of the cell reads)."""
+        self.check_config(scenario.controller, what)
+        robot = dataclasses.replace(scenario.robot,
+                                    braking_time_scale=self.robot.braking_time_scale,
+                                    cycles=self.robot.cycles)
+        if robot != self.robot:
+            raise ValueError(f"{what}: the resolved cell is of another robot station; "
+                             "resolve the scenario's own")
+
 
 def resolve(config: ControllerConfig, robot: RobotConfig | None = None,
             model: RobotModel | None = None, points: list[list[str]] | None = None,

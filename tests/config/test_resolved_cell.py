@@ -146,3 +146,13 @@ def test_the_scan_sees_a_derivation_imported_or_reached(tmp_path):
                    "from safety_systems.config import configuration\n"
                    "x = configuration.braking_table\n")
     assert _derivations_named(bad) == ["frame_timeout", "braking_table"]
+
+
+def test_a_cell_refuses_a_scenario_of_another_robot_but_not_its_truths_brakes_or_cycles():
+    scenario = load_scenario(MODELS / "scenarios" / "inspection_seed.yaml")
+    cell = resolve_scenario(scenario)
+    cell.check_scenario(dataclasses.replace(scenario, robot=dataclasses.replace(
+        scenario.robot, braking_time_scale=1.5, cycles=9)), "x")
+    with pytest.raises(ValueError, match="x: the resolved cell is of another robot station"):
+        cell.check_scenario(dataclasses.replace(scenario, robot=dataclasses.replace(
+            scenario.robot, payload_radius=scenario.robot.payload_radius + 0.05)), "x")
