@@ -107,8 +107,7 @@ def body_roles(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
 
 def AddSafetyController(builder: DiagramBuilder, *, cell: ResolvedCell, num_bodies: int,
                         control_period: float, path=None, operator_of=None,
-                        is_hand=None, points=None, operator_names=None,
-                        pfl: bool = False) -> SafetyController:
+                        is_hand=None, points=None, operator_names=None) -> SafetyController:
     """Adds the tracker and the controller that the resolved cell's configuration
     (``cell.config.type``) names, for the cell's robot.
 
@@ -121,9 +120,9 @@ def AddSafetyController(builder: DiagramBuilder, *, cell: ResolvedCell, num_bodi
     the body roles (``body_roles``); left to connect: their ``path_state``. ``zones``
     (seed 001) needs ``path``; left to connect: its ``path_state`` and ``gesture``.
     Always left to connect: the tracker's ``positions_measured``, ``valid``,
-    ``sample_time``, ``frame_number`` and ``body_ids``. ``pfl``: whether the
-    SpeedOverride takes power and force limiting's caps and fixed surfaces
-    (``cell.pfl``; ``safety.mode: ssm_pfl``).
+    ``sample_time``, ``frame_number`` and ``body_ids``. Under ``safety.mode: ssm_pfl``
+    the SpeedOverride takes power and force limiting's caps and fixed surfaces
+    (``cell.pfl``).
     """
     config = cell.config
     s, t, f = config.sensor, config.tracker, config.safety
@@ -169,7 +168,7 @@ def AddSafetyController(builder: DiagramBuilder, *, cell: ResolvedCell, num_bodi
         human_uncertainty_sigmas=f.human_uncertainty_sigmas, iso_speed=f.iso_human_speed,
         iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed,
         level_terms=cell.level_terms if by_speed else None))
-    pfl = cell.pfl if pfl else None
+    pfl = cell.pfl if f.mode == "ssm_pfl" else None
     capped = pfl is not None
     override = builder.AddNamedSystem("override", SpeedOverride(
         num_bodies=m, delta_s=f.delta_s, d_min=f.d_min,
@@ -302,8 +301,7 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None,
     safety = AddSafetyController(builder, cell=cell, num_bodies=len(names),
                                  control_period=dt, path=path, operator_of=operator_of,
                                  is_hand=is_hand, points=tracked_points(scenario),
-                                 operator_names=[o.name for o in scenario.operators],
-                                 pfl=config.safety.mode == "ssm_pfl")
+                                 operator_names=[o.name for o in scenario.operators])
     for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")
