@@ -39,7 +39,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from safety_systems.cell.human_body import envelope_rows
 from safety_systems.ssm import separation
-from safety_systems.config.configuration import monitor_capsules, monitor_recipe
+from safety_systems.config.resolved_cell import ResolvedCell, resolve
 from safety_systems.cell.joint_path import default_joint_path, joint_path_state
 from safety_systems.cell.robot_geometry import Capsules, capsule_ends, tool_point
 from safety_systems.config.scenario import load_controller_config, load_scenario
@@ -126,16 +126,16 @@ def plant_floor(duration: float, repeats: int, systems: int = 0) -> float:
     return _best_factor(builder.Build(), duration, repeats)
 
 
-def monitor_and_override_us(capsules: Capsules, config, operators: int = 5,
+def monitor_and_override_us(capsules: Capsules, cell: ResolvedCell, operators: int = 5,
                             number: int = 5000) -> float:
     """Microseconds of one tick's envelopes (every segment from the tracked bodies),
     separation (Eqs. 5-11 over every segment and capsule) and override (Eq. 12 and the
     stop rules) for ``operators`` operators of two tracked gloves each (12 segments each,
-    the body model of ``config``), best of 5 x ``number``."""
+    the body model of the resolved ``cell``'s configuration), best of 5 x ``number``."""
     rng = np.random.default_rng(0)
     q = joint_path_state(default_joint_path(), 0.3)[0]
     ends, end_v = capsule_ends(q, capsules, rng.normal(size=6) * 0.5)
-    recipe = monitor_recipe(config, [["hand_right", "hand_left"]] * operators)
+    recipe = cell.recipe_for([["hand_right", "hand_left"]] * operators)
     n, m = 2 * operators, recipe.radius.size
     centre = rng.normal(size=(operators, 3)) + [0.0, 0.0, 1.0]
     p_B = np.repeat(centre, 2, axis=0) + np.tile([[0.0, -0.2, 0.0], [0.0, 0.2, 0.0]],
@@ -195,9 +195,9 @@ def main() -> None:
         what = f"+ {systems} idle Python" if systems else "alone"
         print(f"{'  floor: plant + inverse dyn. ' + what:44s} {rtf:9.1f}x "
               f"{'':>10s} {rtf / GOALS['dynamic']:12.2f}")
-    config = load_controller_config(ISO)
-    for name, capsules in (("7 capsules", monitor_capsules(config)), ("tool point", tool_point())):
-        us = monitor_and_override_us(capsules, config)
+    cell = resolve(load_controller_config(ISO))
+    for name, capsules in (("7 capsules", cell.capsules), ("tool point", tool_point())):
+        us = monitor_and_override_us(capsules, cell)
         figures[f"monitor_us_{name.replace(' ', '_')}"] = us
         what = f"env. + monitor + override, 60 segm. x {name}"
         print(f"{what:44s} {us:8.1f}us {MONITOR_GOAL_US:8.0f}us {us / MONITOR_GOAL_US:12.2f}")

@@ -110,14 +110,13 @@ def _same_robot(robot, reference, file: str, reference_file: str) -> None:
 def _simulate(args: argparse.Namespace) -> int:
     from safety_systems.files.output_files import prepare_out
     from safety_systems.outputs.provenance import scenario_seeds
+    from safety_systems.config.resolved_cell import resolve_scenario
     from safety_systems.config.scenario import (
         MAX_DURATION,
         load_scenario,
-        robot_model_of,
         validate_robot,
         validate_robot_controller,
     )
-    from safety_systems.config.configuration import braking_warning, placeholder_braking
 
     scenario = load_scenario(args.scenario)
     if args.config is not None:
@@ -142,13 +141,17 @@ def _simulate(args: argparse.Namespace) -> int:
             raise InputError("--duration", args.duration,
                              f"0 < duration <= {MAX_DURATION:g} s")
         scenario = dataclasses.replace(scenario, duration=args.duration)
+    try:  # what the configuration means on this robot in this cell, once
+        cell = resolve_scenario(scenario)
+    except InputError as e:
+        raise e.in_file(args.scenario if args.config is None else args.config) from None
     out = prepare_out(args.out)
-    if placeholder_braking(scenario.controller):
-        _warn(braking_warning(robot_model_of(scenario.robot)))
+    if cell.braking_source == "placeholder":
+        _warn(cell.braking_warning)
     from safety_systems.outputs.run_files import write_outputs
     from safety_systems.diagrams.simulation import simulate
 
-    run = simulate(scenario, progress=not args.quiet)
+    run = simulate(scenario, progress=not args.quiet, cell=cell)
     summary = write_outputs(run, out, html=args.html,
                             origin=_origin(args.argv, scenario_seeds(scenario)))
     for line in summary.get("unknown_pivots", []):
@@ -404,10 +407,13 @@ def _export(args: argparse.Namespace) -> int:
     written = write_export(params, certificate, space, report, Path(args.report).parent,
                            args.config, out)
     if written["braking_data"]["origin"] == "placeholder":
-        from safety_systems.config.configuration import braking_warning
-        from verification.deploy.certificate import params_model
+        from safety_systems.config.params_file import robot_config
+        from safety_systems.config.resolved_cell import resolve
+        from safety_systems.config.scenario import RobotConfig
 
-        _warn(braking_warning(params_model(params, Path(args.out))))
+        # the certified robot, its files relative to params.yaml (as params_model reads it)
+        robot = robot_config(params.robot, RobotConfig(), Path(args.out))
+        _warn(resolve(params.controller, robot).braking_warning)
     if written["verdict"] not in ("proved", "passed"):
         _warn(f"the verdict is {written['verdict']}: check refuses these parameters")
     if not args.quiet:

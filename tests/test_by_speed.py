@@ -16,6 +16,7 @@ from safety_systems.config.configuration import (
     joint_path,
     level_stops,
 )
+from safety_systems.config.resolved_cell import resolve
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from safety_systems.outputs.metrics import true_protective_distances
 from safety_systems.runtime.safety_loop import SafetyLoop
@@ -159,7 +160,7 @@ def test_the_runtime_takes_s_from_the_rate_bound_and_a_missing_one_as_full_speed
     # the glove (the other hand's envelope, a ball about the glove as wide as both arms and
     # the shoulders, is the nearest), so the glove stands at 4.0 m where it stood at 1.7 m
     # as a lone 0.05 m ball; the nearest segment's d lies between S's levels again.
-    loop = SafetyLoop(BY_SPEED, [["hand_right"]])
+    loop = SafetyLoop(resolve(BY_SPEED), [["hand_right"]])
     q = np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0])
     loop.robot(q, 0.0)
     loop.robot(q, 0.002)  # at rest

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from safety_systems.cell.human_body import SEGMENT_NAMES
-from safety_systems.config.configuration import scenario_monitor_recipe, truth_recipe
+from safety_systems.config.configuration import truth_recipe
+from safety_systems.config.resolved_cell import resolve_scenario
 from safety_systems.outputs.metrics import hidden, tool_state, true_separations
 from safety_systems.outputs.run_files import trace_table, write_outputs, write_trace
 from safety_systems.config.scenario import load_scenario
@@ -137,7 +138,7 @@ def test_trace_per_operator_is_its_nearest_segment(inspection):
     # has each (by name), and S of the monitored one; to the 6 digits written.
     scenario, run, out, _ = inspection
     trace = _read_trace(out / "trace.csv")
-    truth, monitored = truth_recipe(scenario), scenario_monitor_recipe(scenario)
+    truth, monitored = truth_recipe(scenario), resolve_scenario(scenario).recipe
     least, name, _ = _least(true_separations(run), truth.names, "technician")
     present = run["operators.operators_present"][:, 0] > 0.5
     assert np.all(np.isnan(least) == ~present) and (~present).sum() > 1000  # gone at 40 s
@@ -191,7 +192,7 @@ def test_trace_columns_per_operator_and_body(name, tmp_path):
         assert np.all(trace[f"{o.name}:nearest_true"] == segment)
         if ssm:
             least, segment, _ = _least(run["monitor.distances"],
-                                       scenario_monitor_recipe(scenario).names, o.name)
+                                       resolve_scenario(scenario).recipe.names, o.name)
             np.testing.assert_allclose(trace[f"{o.name}:d_measured"], least, rtol=1e-5,
                                        atol=1e-9)
             assert np.all(trace[f"{o.name}:nearest_measured"] == segment)
@@ -235,7 +236,7 @@ def test_trace_s_under_by_speed_is_the_level_the_override_used(inspection):
     decided = (reason <= STOP_SEPARATION) & np.isfinite(top)
     assert decided.sum() > 0.9 * t
     np.testing.assert_allclose(top[decided], run["override.max_protective_distance"][decided, 0])
-    _, _, column = _least(run["monitor.distances"], scenario_monitor_recipe(scenario).names,
+    _, _, column = _least(run["monitor.distances"], resolve_scenario(scenario).recipe.names,
                           "technician")
     tracked = np.isfinite(rows[:, header.index("technician:d_measured")])
     np.testing.assert_allclose(s[tracked], at_level[np.arange(t), column][tracked])

@@ -7,6 +7,7 @@ from pydrake.systems.analysis import Simulator
 from tqdm import tqdm
 
 from safety_systems.cell.joint_path import joint_path_state
+from safety_systems.config.resolved_cell import ResolvedCell
 from safety_systems.config.scenario import Scenario
 from safety_systems.diagrams.workcell import MakeWorkcell, Workcell
 
@@ -21,12 +22,15 @@ class Run:
 
     ``signals`` maps ``"system.port"`` (and ``"q"``, ``"v"``: the robot's actual joint
     positions and velocities) to arrays of shape (T, size); ``time`` has shape (T,).
+    ``cell``: the resolved cell the run was simulated with (what its configuration
+    means; what the run's figures read).
     """
 
     scenario: Scenario
     body_names: list[str]
     time: np.ndarray
     signals: dict[str, np.ndarray]
+    cell: ResolvedCell
 
     def __getitem__(self, key: str) -> np.ndarray:
         return self.signals[key]
@@ -84,10 +88,12 @@ def _logs(workcell: Workcell, context, first: int = 0) -> Run:
         time, data = log.sample_times()[first:].copy(), log.data()[:, first:].T
     signals = {key: data[:, cols].copy() if data.size else np.zeros((time.size, 0))
                for key, cols in workcell.columns.items()}
-    return Run(workcell.scenario, workcell.body_names, time, signals)
+    return Run(workcell.scenario, workcell.body_names, time, signals, workcell.cell)
 
 
 def simulate(scenario: Scenario, *, duration: float | None = None,
-             progress: bool = False) -> Run:
-    """Builds the workcell of ``scenario`` and simulates it (see ``simulate_workcell``)."""
-    return simulate_workcell(MakeWorkcell(scenario), duration=duration, progress=progress)
+             progress: bool = False, cell: ResolvedCell | None = None) -> Run:
+    """Builds the workcell of ``scenario`` from its resolved ``cell`` (None: resolved
+    from the scenario, ``MakeWorkcell``) and simulates it (see ``simulate_workcell``)."""
+    return simulate_workcell(MakeWorkcell(scenario, cell=cell), duration=duration,
+                             progress=progress)

@@ -22,28 +22,18 @@ from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Demultiplexer, Multiplexer, VectorLogSink
 
 from safety_systems.config.configuration import (
-    assumed_stopping,
     contact_capsules,
     truth_recipe,
-    level_terms,
-    braking_table,
-    frame_timeout,
     is_recorded,
     joint_path,
-    robot_model_of,
-    monitor_capsules,
-    monitor_recipe,
     tracked_points,
-    pfl_terms,
     recorded_operators,
     scripted_operators,
     sensor_faults,
-    tracker_regions,
-    tracker_rules,
 )
 from safety_systems.cell.joint_path import JointPath
+from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario
 from safety_systems.config.scenario import (
-    ControllerConfig,
     RobotConfig,
     Scenario,
     actual_sensor,
@@ -115,31 +105,31 @@ def body_roles(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     return np.array(operator_of), np.array(is_hand)
 
 
-def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, num_bodies: int,
+def AddSafetyController(builder: DiagramBuilder, *, cell: ResolvedCell, num_bodies: int,
                         control_period: float, path=None, operator_of=None,
-                        is_hand=None, points=None, operator_names=None,
-                        model: RobotModel | None = None, pfl=None) -> SafetyController:
-    """Adds the tracker and the controller ``config.type`` names, for the robot ``model``
-    (None: the UR5e).
+                        is_hand=None, points=None, operator_names=None) -> SafetyController:
+    """Adds the tracker and the controller that the resolved cell's configuration
+    (``cell.config.type``) names, for the cell's robot.
 
-    ``ssm_override`` (seed 000): RobotCapsules (the robot as
-    ``configuration.monitor_capsules`` gives it), OperatorEnvelopes (every operator's
-    segments from its tracked bodies, which mark the body points ``points``, per
-    operator in slot order: ``configuration.monitor_recipe``), SeparationMonitor and
+    ``ssm_override`` (seed 000): RobotCapsules (the robot as the monitor measures it,
+    ``cell.capsules``), OperatorEnvelopes (every operator's segments from its tracked
+    bodies, which mark the body points ``points``, per operator in slot order, named
+    ``operator_names``: ``cell.recipe_for``), SeparationMonitor and
     SpeedOverride; left to connect: the RobotCapsules' ``joint_positions``. The
     seed-004 controllers (``erga``, ``hwang``, ``bimodal``, ``none``) need ``path`` and
     the body roles (``body_roles``); left to connect: their ``path_state``. ``zones``
     (seed 001) needs ``path``; left to connect: its ``path_state`` and ``gesture``.
     Always left to connect: the tracker's ``positions_measured``, ``valid``,
-    ``sample_time``, ``frame_number`` and ``body_ids``. ``pfl``: the scenario's
-    ``configuration.pfl_terms`` under ``safety.mode: ssm_pfl`` (the SpeedOverride's caps
-    and fixed surfaces), None under ``ssm``.
+    ``sample_time``, ``frame_number`` and ``body_ids``. Under ``safety.mode: ssm_pfl``
+    the SpeedOverride takes power and force limiting's caps and fixed surfaces
+    (``cell.pfl``).
     """
+    config = cell.config
     s, t, f = config.sensor, config.tracker, config.safety
     tracker = builder.AddNamedSystem("tracker", KalmanTracker(
         num_bodies=num_bodies, period_sec=1.0 / s.rate_hz, latency_sec=s.latency,
-        processing_time=t.processing_time, frame_timeout=frame_timeout(config),
-        rules=tracker_rules(config), regions=tracker_regions(config)))
+        processing_time=t.processing_time, frame_timeout=cell.frame_timeout,
+        rules=cell.tracker_rules, regions=cell.tracker_regions))
     if config.type == "zones":
         zones = builder.AddNamedSystem("zones", ZonesController(
             path=path, config=config.zones, num_bodies=num_bodies))
@@ -157,15 +147,15 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
             builder.Connect(tracker.GetOutputPort(name), speed.GetInputPort(name))
         return SafetyController(tracker, {"speed": speed},
                                 speed.GetOutputPort("path_speed_commanded"))
-    t_s, b = assumed_stopping(config, model)
+    t_s, b = cell.stopping
     by_speed = f.stopping == "by_speed"
-    capsules = monitor_capsules(config, model)
+    capsules = cell.capsules
     robot = builder.AddNamedSystem("robot_capsules", RobotCapsules(
         capsules=capsules, period_sec=control_period))
     if points is None:
         raise ValueError("points: the body point of every tracked body, per operator "
                          "(the SSM monitor bounds the operators' segments from them)")
-    recipe = monitor_recipe(config, points, operator_names)
+    recipe = cell.recipe_for(points, operator_names)
     envelopes = builder.AddNamedSystem("envelopes", OperatorEnvelopes(
         num_bodies=num_bodies, recipe=recipe, tracking_allowance=config.body.tracking_allowance,
         occlusion_speed=f.occlusion_speed))
@@ -177,7 +167,8 @@ def AddSafetyController(builder: DiagramBuilder, *, config: ControllerConfig, nu
         human_uncertainty=f.human_uncertainty, robot_uncertainty=f.robot_uncertainty,
         human_uncertainty_sigmas=f.human_uncertainty_sigmas, iso_speed=f.iso_human_speed,
         iso_reduced_speed=f.iso_reduced_human_speed, robot_speed=f.robot_speed,
-        level_terms=level_terms(config, model) if by_speed else None))
+        level_terms=cell.level_terms if by_speed else None))
+    pfl = cell.pfl if f.mode == "ssm_pfl" else None
     capped = pfl is not None
     override = builder.AddNamedSystem("override", SpeedOverride(
         num_bodies=m, delta_s=f.delta_s, d_min=f.d_min,
@@ -222,6 +213,7 @@ class Workcell:
     systems: dict
     logger: VectorLogSink | None
     columns: dict[str, slice]
+    cell: ResolvedCell  # what the scenario's configuration means: every system's terms
     plant: MultibodyPlant | None = None
 
 
@@ -264,13 +256,14 @@ def AddUr5eWithInverseDynamics(builder: DiagramBuilder, dt: float
     return AddRobotWithInverseDynamics(builder, dt)
 
 
-def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollower,
-               dt: float) -> tuple[OutputPort, OutputPort, MultibodyPlant | None]:
-    """Adds the robot in its mode; returns its joint position and velocity ports."""
+def _add_robot(builder: DiagramBuilder, robot: RobotConfig, model: RobotModel,
+               follower: PathFollower, dt: float
+               ) -> tuple[OutputPort, OutputPort, MultibodyPlant | None]:
+    """Adds the robot (its model ``model``) in its mode; returns its joint position and
+    velocity ports."""
     if robot.mode == "kinematic":
         return (follower.GetOutputPort("joint_positions_desired"),
                 follower.GetOutputPort("joint_velocities_desired"), None)
-    model = robot_model_of(robot)
     n = model.n
     plant, controller = AddRobotWithInverseDynamics(builder, dt, model)
     desired = builder.AddNamedSystem("desired_state", Multiplexer([n, n]))
@@ -284,14 +277,20 @@ def _add_robot(builder: DiagramBuilder, robot: RobotConfig, follower: PathFollow
     return split.get_output_port(0), split.get_output_port(1), plant
 
 
-def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> Workcell:
-    """Builds the whole cell of a (validated) scenario.
+def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None,
+                 cell: ResolvedCell | None = None) -> Workcell:
+    """Builds the whole cell of a (validated) scenario, every system from the resolved
+    ``cell`` of its configuration (None: ``resolve_scenario(scenario)``, here once;
+    given, it must be of the scenario's configuration).
 
     Every output port is logged at the control period unless ``logged`` names the
     signals to keep (``"q"``, ``"v"`` and ``"system.port"`` keys).
     """
     robot, config = scenario.robot, scenario.controller
-    model = robot_model_of(robot)
+    if cell is None:
+        cell = resolve_scenario(scenario)
+    else:
+        cell.check_config(config, "MakeWorkcell")
     dt = 1.0 / robot.control_rate_hz
     path = joint_path(robot)
     names = body_names(scenario)
@@ -299,26 +298,24 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     motion, recorded_gaps = AddOperators(builder, scenario)
     sensor = _add_sensor(builder, scenario, motion, recorded_gaps)
     operator_of, is_hand = body_roles(scenario)
-    safety = AddSafetyController(builder, config=config, num_bodies=len(names),
+    safety = AddSafetyController(builder, cell=cell, num_bodies=len(names),
                                  control_period=dt, path=path, operator_of=operator_of,
                                  is_hand=is_hand, points=tracked_points(scenario),
-                                 operator_names=[o.name for o in scenario.operators],
-                                 model=model, pfl=pfl_terms(robot, config)
-                                 if config.safety.mode == "ssm_pfl" else None)
+                                 operator_names=[o.name for o in scenario.operators])
     for name in ("positions_measured", "valid", "sample_time", "frame_number", "body_ids"):
         builder.Connect(sensor.GetOutputPort(name), safety.tracker.GetInputPort(name))
     speed = safety.systems.get("speed")
     zones = safety.systems.get("zones")
-    follower = _add_follower(builder, scenario, path, safety, speed)
-    q_port, v_port, plant = _add_robot(builder, robot, follower, dt)
+    follower = _add_follower(builder, scenario, cell, path, safety, speed)
+    q_port, v_port, plant = _add_robot(builder, robot, cell.model, follower, dt)
     systems = dict(operators=motion, mocap=sensor, tracker=safety.tracker, **safety.systems,
                    follower=follower)
     if "robot_capsules" in safety.systems:
         builder.Connect(q_port, safety.systems["robot_capsules"].GetInputPort("joint_positions"))
     override = safety.systems.get("override")
     if override is not None and override.HasInputPort("contact_stop"):  # ssm_pfl
-        systems["contact_stop"] = AddContactStop(builder, scenario, motion, q_port, v_port,
-                                                 override)
+        systems["contact_stop"] = AddContactStop(builder, scenario, cell, motion, q_port,
+                                                 v_port, override)
     if override is not None and override.HasInputPort("path_state"):  # by_speed
         builder.Connect(follower.GetOutputPort("path_state"), override.GetInputPort("path_state"))
     for controller in (speed, zones):
@@ -333,16 +330,17 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None) -> 
     logger, columns = _log_signals(builder, systems, q_port, v_port, logged, dt)
     diagram = builder.Build()
     diagram.set_name("workcell")
-    return Workcell(diagram, scenario, path, names, systems, logger, columns, plant)
+    return Workcell(diagram, scenario, path, names, systems, logger, columns, cell, plant)
 
 
-def AddContactStop(builder: DiagramBuilder, scenario: Scenario, motion, q_port: OutputPort,
-                   v_port: OutputPort, override) -> ContactStop:
+def AddContactStop(builder: DiagramBuilder, scenario: Scenario, cell: ResolvedCell, motion,
+                   q_port: OutputPort, v_port: OutputPort, override) -> ContactStop:
     """Adds the robot's own contact detection under ``safety.mode: ssm_pfl``, named
     ``contact_stop`` (``ContactStop``, on the operators' truth ``motion`` and the real
-    robot's joints), into the SpeedOverride's ``contact_stop``."""
+    robot's joints, with the resolved ``cell``'s force limits and clamping surfaces),
+    into the SpeedOverride's ``contact_stop``."""
     robot, f = scenario.robot, scenario.controller.safety
-    pfl = pfl_terms(robot, scenario.controller)
+    pfl = cell.pfl
     capsules = contact_capsules(robot, scenario.contact_geometry)
     recipe = truth_recipe(scenario)
     per = recipe.radius.size // pfl.limits.size
@@ -377,12 +375,13 @@ def _add_sensor(builder: DiagramBuilder, scenario: Scenario, motion, recorded_ga
     return sensor
 
 
-def _add_follower(builder: DiagramBuilder, scenario: Scenario, path, safety: SafetyController,
-                  speed) -> PathFollower:
-    """The PathFollower, named ``follower``, driven by the safety controller's command."""
+def _add_follower(builder: DiagramBuilder, scenario: Scenario, cell: ResolvedCell, path,
+                  safety: SafetyController, speed) -> PathFollower:
+    """The PathFollower, named ``follower``, driven by the safety controller's command,
+    braking by the resolved ``cell``'s stopping data."""
     robot, config = scenario.robot, scenario.controller
     follower = builder.AddNamedSystem("follower", PathFollower(
-        path=path, braking=braking_table(config, robot_model_of(robot)),
+        path=path, braking=cell.braking,
         acceleration_limit=robot.acceleration_limit,
         braking_time_scale=robot.braking_time_scale, period_sec=1.0 / robot.control_rate_hz,
         max_rate=1.0 if speed is None else config.alteration.speed_limit

@@ -38,6 +38,7 @@ import numpy as np
 from safety_systems.config.configuration import contact_capsules, robot_model_of, truth_recipe
 from safety_systems.cell.robot_geometry import capsule_ends, robot_points
 from safety_systems.cell.robot_model import is_ur5e
+from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario
 from safety_systems.config.scenario import Scenario
 from safety_systems.ssm.separation import pair_figures
 from safety_systems.diagrams.simulation import Run
@@ -129,54 +130,69 @@ def commanded(run: Run) -> np.ndarray:
     return run[command_signal(run.scenario.controller.type)][:, 0]
 
 
-def robot_stopping(scenario: Scenario) -> StoppingData:
+def scenario_cell(scenario: Scenario, cell: ResolvedCell | None) -> ResolvedCell:
+    """``cell`` (checked to be of the scenario's configuration), or the scenario's own
+    resolved cell when None (``resolve_scenario``)."""
+    if cell is None:
+        return resolve_scenario(scenario)
+    cell.check_config(scenario.controller, "scenario")
+    return cell
+
+
+def robot_stopping(scenario: Scenario, cell: ResolvedCell | None = None) -> StoppingData:
     """The simulated robot's own stopping data on the scenario's path, for the real
-    robot's capsules (``safety_systems.cell.stopping``)."""
-    from safety_systems.config.configuration import braking_table, joint_path
+    robot's capsules (``safety_systems.cell.stopping``), under the stopping data of the
+    resolved ``cell`` (the PathFollower's; None: the scenario's, resolved here)."""
+    from safety_systems.config.configuration import joint_path
 
     robot = scenario.robot
     return true_stopping(joint_path(robot), contact_capsules(robot, scenario.contact_geometry),
-                         braking_table(scenario.controller, robot_model_of(robot)),
+                         scenario_cell(scenario, cell).braking,
                          robot.braking_time_scale, 1.0 / robot.control_rate_hz)
 
 
-def true_protective_args(scenario: Scenario) -> dict:
+def true_protective_args(scenario: Scenario, cell: ResolvedCell | None = None) -> dict:
     """The keywords of ``ssm.monitor_protective_distances`` that give S_true (see the
     module docstring): the configuration's human-speed mode and speeds, T_r and C, the
-    simulated robot's stopping time and distance, no Z_d or Z_r."""
+    simulated robot's stopping time and distance (:func:`robot_stopping`), no Z_d or Z_r."""
     f = scenario.controller.safety
-    stop = robot_stopping(scenario)
+    stop = robot_stopping(scenario, cell)
     return dict(mode=f.human_speed, reaction_time=f.reaction_time, stopping_time=stop.time,
                 stopping_distance=stop.distance, intrusion_distance=f.intrusion_distance,
                 iso_speed=f.iso_human_speed, iso_reduced_speed=f.iso_reduced_human_speed)
 
 
-def robot_stops_by_rate(scenario: Scenario) -> StoppingByRate:
+def robot_stops_by_rate(scenario: Scenario, cell: ResolvedCell | None = None
+                        ) -> StoppingByRate:
     """The simulated robot's stops from every grid rate on the scenario's path, for the
-    real robot's capsules (``safety_systems.cell.stopping.stops_by_rate``)."""
-    from safety_systems.config.configuration import braking_table, joint_path
+    real robot's capsules (``safety_systems.cell.stopping.stops_by_rate``), under the
+    stopping data of the resolved ``cell`` (None: the scenario's, resolved here)."""
+    from safety_systems.config.configuration import joint_path
 
     robot = scenario.robot
     return stops_by_rate(joint_path(robot), contact_capsules(robot, scenario.contact_geometry),
-                         braking_table(scenario.controller, robot_model_of(robot)),
+                         scenario_cell(scenario, cell).braking,
                          robot.braking_time_scale, 1.0 / robot.control_rate_hz)
 
 
 def true_protective_distances(scenario: Scenario, v_human_directed: np.ndarray,
                               v_robot_directed: np.ndarray,
-                              rate: np.ndarray | None = None) -> np.ndarray:
+                              rate: np.ndarray | None = None,
+                              cell: ResolvedCell | None = None) -> np.ndarray:
     """S_true of pairs with these true directed speeds (any shape). With ``safety.stopping:
     by_speed`` the stop is the simulated robot's from its path rate at each tick (``rate``,
     the first axis's; the grid rate at or above it, ``StoppingByRate.at``), as ISO/TS
-    15066's S_s from the current speed; else the stop from full speed."""
-    args = true_protective_args(scenario)
+    15066's S_s from the current speed; else the stop from full speed. ``cell``: the
+    scenario's resolved cell (None: resolved here)."""
+    cell = scenario_cell(scenario, cell)
+    args = true_protective_args(scenario, cell)
     if scenario.controller.safety.stopping != "by_speed":
         return monitor_protective_distances(v_human_directed, v_robot_directed, **args)
     if rate is None:
         raise ValueError("S_true by speed needs the path rate at each tick")
     v_h, v_r = np.broadcast_arrays(np.asarray(v_human_directed, dtype=float),
                                    np.asarray(v_robot_directed, dtype=float))
-    stops = robot_stops_by_rate(scenario)
+    stops = robot_stops_by_rate(scenario, cell)
     index = np.array([rate_index(r) for r in np.asarray(rate, dtype=float)], dtype=int)
     out = np.empty(v_h.shape)
     for j in np.unique(index):
@@ -210,7 +226,7 @@ def separation_margins(clearance: np.ndarray, s_true: np.ndarray,
 def run_separation_margins(run: Run) -> np.ndarray:
     """(T,) :func:`separation_margins` of a run."""
     clearance, v_h, v_r = true_pairs(run)
-    s_true = true_protective_distances(run.scenario, v_h, v_r, true_rate(run))
+    s_true = true_protective_distances(run.scenario, v_h, v_r, true_rate(run), run.cell)
     return separation_margins(clearance, s_true, permitted(commanded(run)))
 
 

@@ -4,8 +4,8 @@ nearest segment of each, the S the override used, and its bodies; shared by what
 
 import numpy as np
 
-from safety_systems.cell.human_body import SEGMENT_NAMES
-from safety_systems.config.configuration import scenario_monitor_recipe, truth_recipe
+from safety_systems.cell.human_body import SEGMENT_NAMES, Recipe
+from safety_systems.config.configuration import tracked_points, truth_recipe
 from safety_systems.diagrams.simulation import Run
 from safety_systems.outputs.metrics import tool_state, true_separations
 from safety_systems.ssm.formulas import held_level, separation_distances
@@ -16,6 +16,13 @@ def commanded_speed(run: Run) -> np.ndarray:
     key = next(k for k in ("override", "speed", "zones")
                if f"{k}.path_speed_commanded" in run.signals)
     return run[f"{key}.path_speed_commanded"][:, 0]
+
+
+def run_monitor_recipe(run: Run) -> Recipe:
+    """The SSM monitor's envelope recipe of the run's operators, as the run's resolved
+    cell gives it (the recipe its OperatorEnvelopes took)."""
+    scenario = run.scenario
+    return run.cell.recipe_for(tracked_points(scenario), [o.name for o in scenario.operators])
 
 
 def body_measured_distances(run: Run) -> np.ndarray:
@@ -102,7 +109,7 @@ def operator_figures(run: Run) -> list[dict]:
     true_parts = operator_segments(truth.operator, len(bodies))
     ssm = "monitor.distances" in run.signals
     if ssm:
-        recipe = scenario_monitor_recipe(scenario)
+        recipe = run_monitor_recipe(run)
         parts = operator_segments(recipe.operator, len(bodies))
         d = run["monitor.distances"]
         s = monitor_protective_distances(run)

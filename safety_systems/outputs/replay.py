@@ -234,14 +234,14 @@ def _protective_capsules(run: Run, meshcat: Meshcat, animation, frames: np.ndarr
                          rows: np.ndarray) -> None:
     """Per operator the translucent capsule of :func:`replay_html` (S about its nearest
     monitored segment's envelope)."""
-    from safety_systems.config.configuration import scenario_monitor_recipe
     from safety_systems.outputs.operator_figures import (
         monitor_protective_distances,
         nearest_segment,
         operator_segments,
+        run_monitor_recipe,
     )
 
-    recipe = scenario_monitor_recipe(run.scenario)
+    recipe = run_monitor_recipe(run)
     m = recipe.radius.size
     d = run["monitor.distances"][rows]
     s = monitor_protective_distances(run)[rows]

@@ -21,11 +21,6 @@ from safety_systems.files.output_files import atomic_path, save_figure, write_js
 from safety_systems.outputs.provenance import provenance, scenario_seeds
 from safety_systems.diagrams.simulation import Run
 from safety_systems.sensing.stops import REJECT_CAUSES, STOP_REASONS, STOP_SEPARATION
-from safety_systems.config.configuration import (
-    braking_warning,
-    placeholder_braking,
-    robot_model_of,
-)
 from safety_systems.planning.zones import ZONE_NAMES
 from safety_systems.outputs.operator_figures import (
     commanded_speed,
@@ -137,9 +132,9 @@ def write_summary(run: Run, path: Path, *, origin: dict | None = None) -> dict:
 
     summary = summarize(run)
     summary["held"] = held_by(run)
-    if placeholder_braking(run.scenario.controller):
+    if run.cell.braking_source == "placeholder":
         summary["braking_data"] = "placeholder"
-        summary["braking_data_warning"] = braking_warning(robot_model_of(run.scenario.robot))
+        summary["braking_data_warning"] = run.cell.braking_warning
     else:
         summary["braking_data"] = "configured"
     pivots = [line for o in run.scenario.operators if o.recording

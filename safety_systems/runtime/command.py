@@ -185,9 +185,14 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
             length = float(options.get("duration", recording.times[-1] - start))
             duration = max(length, 0.0) + REPLAY_TAIL + 0.1
     from safety_systems.cell.robot_model import KIND_UR
-    from safety_systems.config.scenario import robot_model_of
+    from safety_systems.config.resolved_cell import resolve
 
-    model = robot_model_of(params.robot)
+    try:  # what the parameters mean on their robot for these operators, once
+        cell = resolve(params.controller, params.robot, points=points,
+                       names=[o.name for o in mapping.operators])
+    except InputError as e:
+        raise e.in_file(args.params) from None
+    model = cell.model
     if robot_address.kind != "none" and model.kind != KIND_UR:
         raise InputError("--robot", args.robot, f"none for the {model.name} (RTDE drives "
                          "UR arms only; another arm: --robot none, the monitor alone)")
@@ -205,18 +210,13 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
                           f"{FORMAT_VERSION}", segment_length=args.log_segment,
                           flush_period=FLUSH_PERIOD, sync_period=SYNC_PERIOD),
                  startup=phases.took, tracked=points)
-    from safety_systems.config.configuration import pfl_terms
-
     server = robot = mocap = log = None
     end, locked = None, {}
     try:
         with phases.step("safety_loop", "loading the compiled safety loop (its first run "
                                         "on a machine compiles it: minutes)"):
-            pfl = (pfl_terms(params.robot, params.controller)
-                   if params.controller.safety.mode == "ssm_pfl" else None)
-            loop = SafetyLoop(params.controller, points, [o.name for o in mapping.operators],
-                              model, pfl)
-            fixed["lowest_speed"] = _lowest_speed(params, points, mapping)  # (summary's held)
+            loop = SafetyLoop(cell, points, [o.name for o in mapping.operators])
+            fixed["lowest_speed"] = _lowest_speed(cell)  # (summary's held)
             trace, columns = log_columns(loop, names, model.n)
             log = RunLogPipe(out, width=len(columns), bodies=len(names))
         if args.priority:  # before connecting: once frames flow, the loop starts at once
@@ -228,7 +228,7 @@ def _run(args: argparse.Namespace, origin, phases) -> int:
                                             untracked)
                 mocap_address = MocapAddress("natnet", "127.0.0.1", port, "127.0.0.1")
             mocap = NatNetSource(mocap_address, time.monotonic)
-            robot = connect_robot(robot_address, params.robot, params.controller)
+            robot = connect_robot(robot_address, cell)
             mocap.connect()  # last: frames flow from here on, and the loop starts at once
     except ConnectionError as e:
         end = f"fault while {phases.now}: {e}"
@@ -409,13 +409,11 @@ def end_words(end: str) -> str:
     return end
 
 
-def _lowest_speed(params, points: list, mapping) -> dict:
+def _lowest_speed(cell) -> dict:
     """What the monitor asks of each segment before the robot may move at all
-    (``outputs.held_terms.lowest_speed_table``), for the summary's ``held``."""
-    from safety_systems.config.resolved_cell import resolve
+    (``outputs.held_terms.lowest_speed_table`` of the run's resolved ``cell``), for the
+    summary's ``held``."""
     from safety_systems.outputs.held_terms import lowest_speed_table
 
-    cell = resolve(params.controller, params.robot, points=points,
-                   names=[o.name for o in mapping.operators])
     return lowest_speed_table(cell)
 

@@ -39,8 +39,8 @@ from safety_systems.cell.braking import stopping_time as table_stopping_time
 from safety_systems.files.input_error import InputError
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.cell.robot_model import KIND_UR
-from safety_systems.config.scenario import ControllerConfig, RobotConfig, robot_model_of
-from safety_systems.config.configuration import braking_table, joint_path
+from safety_systems.config.configuration import joint_path
+from safety_systems.config.resolved_cell import ResolvedCell
 
 ROBOT_TIMEOUT = 0.02  # s without a new RTDE sample before the robot counts as lost
 
@@ -82,12 +82,13 @@ def parse_robot(url: str) -> RobotAddress:
 
 class ModelRobot:
     """``--robot none``: the verified path followed at the commanded k (see the module
-    docstring); its time advances one control period per :meth:`step`."""
+    docstring), the path, control rate and stopping data of the resolved ``cell``'s
+    robot; its time advances one control period per :meth:`step`."""
 
     name = "none (model of the verified path)"
 
-    def __init__(self, robot: RobotConfig, config: ControllerConfig):
-        table = braking_table(config, robot_model_of(robot))
+    def __init__(self, cell: ResolvedCell):
+        robot, table = cell.robot, cell.braking
         self.path = joint_path(robot)
         self._brakes = (table.speed_fraction, table.deceleration, robot.acceleration_limit)
         self._dt = 1.0 / robot.control_rate_hz
@@ -238,12 +239,14 @@ def _keep_alive(interface) -> None:
     ctypes.pythonapi.Py_IncRef(ctypes.py_object(interface))
 
 
-def connect_robot(address: RobotAddress, robot: RobotConfig, config: ControllerConfig):
+def connect_robot(address: RobotAddress, cell: ResolvedCell):
+    """The robot at ``address``: the model of the resolved ``cell``'s robot, or its UR
+    over RTDE (its rate bound's window the cell's full-speed stopping time)."""
     if address.kind == "none":
-        return ModelRobot(robot, config)
-    model = robot_model_of(robot)
+        return ModelRobot(cell)
+    model = cell.model
     if model.kind != KIND_UR:  # (RTDE speaks to Universal Robots' controllers only)
         raise InputError("--robot", f"{address.kind}://", f"none for the {model.name} (RTDE "
                          "drives UR arms only; another arm: --robot none, the monitor alone)")
-    window = float(table_stopping_time(braking_table(config, model), 1.0))
-    return UrRtdeRobot(address, robot.control_rate_hz, window)
+    window = float(table_stopping_time(cell.braking, 1.0))
+    return UrRtdeRobot(address, cell.robot.control_rate_hz, window)

@@ -17,8 +17,8 @@ the order the Drake diagram calls them (no copy of any rule lives here).
   operator's segments are lost, a NaN stops); under ``safety.stopping: by_speed`` also
   ``separation.level_rows`` (S at every speed level) and
   ``ssm.by_speed_override_command``, given a bound on the robot's path rate now (the
-  robot link's ``rate_bound``). Under ``safety.mode: ssm_pfl`` (``pfl``: the robot's
-  ``configuration.pfl_terms``) the same with each segment's cap in force
+  robot link's ``rate_bound``). Under ``safety.mode: ssm_pfl`` (the resolved cell's
+  ``pfl``) the same with each segment's cap in force
   (``pfl.speed_caps.clamp_caps`` of the envelopes against the fixed surfaces and the
   robot's links) by ``ssm.capped_override_command`` or ``ssm.capped_by_speed_command``.
   The contact detection that ends a lasting contact (``pfl.contact_limits``; the
@@ -35,17 +35,7 @@ import numpy as np
 from safety_systems.cell.human_body import envelope_rows
 from safety_systems.cell.model_points import model_arrays, model_work
 from safety_systems.cell.robot_geometry import model_capsule_ends_at
-from safety_systems.cell.robot_model import RobotModel, default_model
-from safety_systems.config.configuration import (
-    frame_timeout,
-    level_terms,
-    monitor_capsules,
-    monitor_recipe,
-    monitor_terms,
-    tracker_regions,
-    tracker_rules,
-)
-from safety_systems.config.scenario import ControllerConfig
+from safety_systems.config.resolved_cell import ResolvedCell
 from safety_systems.sensing.tracks import TRACK_SLOT, estimate_rows, frame_step, tracker_fault
 from safety_systems.pfl.speed_caps import clamp_caps
 from safety_systems.ssm.formulas import override_decision
@@ -54,7 +44,8 @@ from safety_systems.ssm.separation import level_rows, separation_rows
 
 class SafetyLoop:
     """Tracker, operator envelopes, robot capsules, monitor and override state of one
-    live cell under ``config`` (``type: ssm_override``): operators whose tracked bodies
+    live cell whose configuration (``type: ssm_override``) on its robot is the resolved
+    ``cell`` (every term the loop takes is the cell's): operators whose tracked bodies
     mark the body points ``points`` (per operator, the point of each body in slot order,
     ``recording_mapping.mapped_point``), N body slots in all (ids 1..N, the operators'
     bodies in order), M = 12 segments per operator (``segment_names``:
@@ -66,28 +57,28 @@ class SafetyLoop:
     ``segment_std`` (M,)); after a decision, ``out`` (4, M: d, S, v_human, v_robot) and
     ``nearest`` (M,)."""
 
-    def __init__(self, config: ControllerConfig, points: list[list[str]],
-                 names: list[str] | None = None, model: RobotModel | None = None,
-                 pfl=None):
+    def __init__(self, cell: ResolvedCell, points: list[list[str]],
+                 names: list[str] | None = None):
+        config = cell.config
         if config.type != "ssm_override":
             raise ValueError(f"controller.type: got {config.type!r}; the runtime runs "
                              "ssm_override only")
         f = config.safety
         n = self.n = sum(len(o) for o in points)
-        self.rules, self.regions = tracker_rules(config), tracker_regions(config)
-        self.timeout = frame_timeout(config)
-        self.model = default_model() if model is None else model
-        self.capsules = monitor_capsules(config, self.model)
+        self.rules, self.regions = cell.tracker_rules, cell.tracker_regions
+        self.timeout = cell.frame_timeout
+        self.model = cell.model
+        self.capsules = cell.capsules
         self._arrays = model_arrays(self.model)
         self._work = model_work(self.model)
         self._points = np.empty((2, self.model.num_points, 3))
-        self.recipe = monitor_recipe(config, [list(o) for o in points], names)
+        self.recipe = cell.recipe_for(points, names)
         self.operator_names = [str(x) for x in (names or range(len(points)))]
         self.segment_names = list(self.recipe.names)
         self.envelope_terms = (float(config.body.tracking_allowance),
                                float(f.occlusion_speed))
-        self.monitor = monitor_terms(config, self.model)
-        self.z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas))
+        self.monitor = cell.monitor_terms
+        self.z_d_terms = cell.z_d_terms
         self.delta_s, self.d_min = f.delta_s, f.d_min
         self.tracks = np.zeros((n, TRACK_SLOT))
         self.t_good = np.array([-np.inf])
@@ -107,13 +98,10 @@ class SafetyLoop:
         self._robot_time = math.nan
         self.out = np.full((4, m), np.nan)  # d, S, v_human, v_robot per segment
         self.nearest = np.full(m, -1, dtype=np.int64)
-        self.levels = level_terms(config, self.model) if f.stopping == "by_speed" else None
+        self.levels = cell.level_terms if f.stopping == "by_speed" else None
         if self.levels is not None:  # S at each level, (G + 1, M)
             self.level_out = np.full((self.levels[0].size, m), np.nan)
-        self.pfl = pfl if f.mode == "ssm_pfl" else None
-        if f.mode == "ssm_pfl" and pfl is None:
-            raise ValueError("pfl: safety.mode ssm_pfl needs the robot's "
-                             "configuration.pfl_terms")
+        self.pfl = cell.pfl if f.mode == "ssm_pfl" else None
         self.caps = np.zeros(m)  # each segment's cap in force (0 under ssm)
         if self.pfl is not None:
             self._segment_caps = np.tile(self.pfl.caps, m // self.pfl.caps.size)

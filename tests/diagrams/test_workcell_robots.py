@@ -60,10 +60,9 @@ def test_robot_capsules_are_the_models(name):
     assert capsules.GetOutputPort("capsule_ends").size() == 6 * K
     ends = runs(name)["kinematic"]["robot_capsules.capsule_ends"].reshape(-1, K, 2, 3)
     from safety_systems.cell.robot_geometry import capsule_ends
-    from safety_systems.config.configuration import monitor_capsules
+    from safety_systems.config.resolved_cell import resolve_scenario
 
-    want = capsule_ends(runs(name)["kinematic"]["q"], monitor_capsules(scenario.controller,
-                                                                       model))[0]
+    want = capsule_ends(runs(name)["kinematic"]["q"], resolve_scenario(scenario).capsules)[0]
     np.testing.assert_allclose(ends, want, rtol=0, atol=1e-12)
 
 

@@ -48,10 +48,11 @@ def input_type(name: str) -> str:
 
 class Server:
     def __init__(self, host: str, drop_at: float | None):
+        from safety_systems.config.resolved_cell import resolve
+        from safety_systems.config.scenario import ControllerConfig
         from safety_systems.runtime.robot_link import ModelRobot
-        from safety_systems.config.scenario import ControllerConfig, RobotConfig
 
-        self.robot = ModelRobot(RobotConfig(), ControllerConfig())
+        self.robot = ModelRobot(resolve(ControllerConfig()))
         self.slider = 0.0
         self.lock = threading.Lock()
         self.recipes: list[list[str]] = []

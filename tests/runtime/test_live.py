@@ -41,7 +41,7 @@ from safety_systems.diagrams.simulation import simulate
 from safety_systems.sensing.run_log import read_run_log
 from safety_systems.sensing.run_log_format import FORMAT_VERSION
 from safety_systems.sensing.stops import STOP_REASONS
-from safety_systems.config.configuration import frame_timeout
+from safety_systems.config.resolved_cell import resolve
 
 MODELS = Path(__file__).parents[2] / "models"
 CSV = MODELS / "recordings" / "approach.csv"
@@ -293,7 +293,7 @@ def test_a_runs_log_replayed_by_simulate_gives_the_k_the_run_commanded(tmp_path,
 
 
 def _iso_timeout() -> float:
-    return frame_timeout(load_controller_config(MODELS / "configs" / "iso.yaml"))
+    return resolve(load_controller_config(MODELS / "configs" / "iso.yaml")).frame_timeout
 
 
 def test_the_stream_stopping_gives_k_0_within_a_control_period(tmp_path, exported_params):
@@ -438,9 +438,10 @@ def _live(folder, robot_kw, duration=1.5):
     source.connect()
     from safety_systems.config.scenario import RobotConfig
 
-    robot = _Faulty(RobotConfig(), config, **robot_kw)
+    cell = resolve(config, RobotConfig())
+    robot = _Faulty(cell, **robot_kw)
     names = [f"{o.name}/{b.name}" for o in mapping.operators for b in o.bodies]
-    loop = SafetyLoop(config, [[mapped_point(b) for b in o.bodies] for o in mapping.operators],
+    loop = SafetyLoop(cell, [[mapped_point(b) for b in o.bodies] for o in mapping.operators],
                       [o.name for o in mapping.operators])
     trace, columns = log_columns(loop, names, 6)
     folder.mkdir()

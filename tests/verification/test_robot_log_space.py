@@ -127,6 +127,7 @@ def test_the_export_names_the_log_and_check_refuses_it_edited(logged, tmp_path):
 def test_run_with_robot_none_follows_the_certified_log(logged, tmp_path):
     from safety_systems.cli import main
     from safety_systems.runtime.params import load_certified_params
+    from safety_systems.config.resolved_cell import resolve
     from safety_systems.runtime.robot_link import ModelRobot
 
     params = logged / "export" / "params.yaml"
@@ -148,7 +149,7 @@ def test_run_with_robot_none_follows_the_certified_log(logged, tmp_path):
     # The model robot of the certified parameters is the log's path: at the log's first
     # sample before it moves, then along the log as its path rate takes it.
     certified = load_certified_params(params)
-    robot = ModelRobot(certified.robot, certified.controller)
+    robot = ModelRobot(resolve(certified.controller, certified.robot))
     assert robot.path.cycle_time == pytest.approx(8.96) and robot.path.cycles == 1
     first = np.array([float(x) for x in LOG.read_text().splitlines()[1].split(",")[7:13]])
     assert np.abs(robot.read()[0] - first).max() < 1e-12
