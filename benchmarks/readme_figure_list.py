@@ -81,20 +81,24 @@ def _needed_allowance(robot_speed: str) -> float:
     """Z_d + Z_r the separation proof asks of iso.yaml over the default space, with this
     robot speed in S."""
     from verification.proof.theorems import prove_separation
+    from verification.spaces.space import space_cell
 
     config = _iso_with(robot_uncertainty=0.0, robot_speed=robot_speed)
-    return prove_separation(config, _default_space()).needed_allowance
+    space = _default_space()
+    return prove_separation(space_cell(config, space), space).needed_allowance
 
 
 def _screen_example() -> float:
     """The full-speed distance of iso.yaml with T_r 0.1 s, C 0, Z_r 0.38 m, if both
     proofs hold over the default space (NaN if not)."""
     from verification.proof.theorems import prove, prove_separation
+    from verification.spaces.space import space_cell
     from verification.tune.tuner import full_speed_distance
 
     config = _iso_with(reaction_time=0.1, intrusion_distance=0.0, robot_uncertainty=0.38)
     space = _default_space()
-    proved = prove(config, space).proved and prove_separation(config, space).proved
+    cell = space_cell(config, space)
+    proved = prove(cell, space).proved and prove_separation(cell, space).proved
     return full_speed_distance(config) if proved else float("nan")
 
 
