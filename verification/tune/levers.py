@@ -49,6 +49,7 @@ from safety_systems.config.scenario import (
 from safety_systems.files.input_error import InputError
 from safety_systems.files.ranges import number
 from verification.spaces.box import Range, ScenarioSpace
+from verification.spaces.space import space_cell
 from verification.tune.tasks import lost_time, run_task
 
 PADS = (1e-9, 1e-6, 1e-4)  # m added to Z_r over the exact fit, the least that proves
@@ -192,7 +193,7 @@ def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
     h = 1.0 / space.robot.control_rate_hz
     out = sensed(stopped(config, lever, robot_model_of(space.robot)), lever, h)
     box = lever_space(space, lever)
-    proofs = proofs_of(out, box)
+    proofs = proofs_of(space_cell(out, box), box)
     run = len(proofs)
     margins = [p.margin_at_worst_corner for p in proofs.values()
                if p.margin_at_worst_corner is not None and p.property != "permitted_contact"]
@@ -201,7 +202,7 @@ def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
             z_r = max(0.0, out.safety.robot_uncertainty - min(margins) + pad)
             trial = dataclasses.replace(out, safety=dataclasses.replace(
                 out.safety, robot_uncertainty=z_r))
-            trial_proofs = proofs_of(trial, box)
+            trial_proofs = proofs_of(space_cell(trial, box), box)
             run += len(trial_proofs)
             if all(p.proved for p in trial_proofs.values()):
                 out, proofs = trial, trial_proofs  # (else the sensed one stands)
