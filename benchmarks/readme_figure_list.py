@@ -81,9 +81,11 @@ def _needed_allowance(robot_speed: str) -> float:
     """Z_d + Z_r the separation proof asks of iso.yaml over the default space, with this
     robot speed in S."""
     from verification.proof.theorems import prove_separation
+    from verification.spaces.space import space_cell
 
     config = _iso_with(robot_uncertainty=0.0, robot_speed=robot_speed)
-    return prove_separation(config, _default_space()).needed_allowance
+    space = _default_space()
+    return prove_separation(space_cell(config, space), space).needed_allowance
 
 
 def _screen_example() -> float:

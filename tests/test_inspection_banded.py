@@ -13,7 +13,7 @@ import pytest
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from tests.shipped_jobs import assert_carries, simulated
 from verification.proof.theorems import prove, prove_separation
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.tune.levers import Lever, fit, lever_space
 
 MODELS = Path(__file__).parents[1] / "models"
@@ -28,7 +28,8 @@ def test_the_banded_configuration_is_tuned_yaml_fitted_and_proved_on_its_space()
                default).config == config
     space = load_space(MODELS / "spaces" / "banded.yaml")
     assert dataclasses.replace(space, name="default") == lever_space(default, BANDED)
-    assert prove(config, space).proved and prove_separation(config, space).proved
+    cell = space_cell(config, space)
+    assert prove(cell, space).proved and prove_separation(cell, space).proved
     scenario = load_scenario(MODELS / "scenarios" / "inspection_banded.yaml")
     assert_carries(scenario, config, BANDED.sensor_set)
 

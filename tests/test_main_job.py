@@ -16,7 +16,7 @@ from safety_systems.config.configuration import joint_path, level_stops
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from tests.shipped_jobs import assert_carries, simulated
 from verification.proof.theorems import prove, prove_separation
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.tune.levers import Lever, fit, with_path_stops
 
 MODELS = Path(__file__).parents[1] / "models"
@@ -32,7 +32,8 @@ def test_the_main_jobs_controller_is_tuned_yaml_with_its_paths_stops_fitted_and_
     assert fit(tuned, lever, load_space(MODELS / "spaces" / "default.yaml")).config == config
     for name in ("banded.yaml", "default.yaml"):  # (the default space tracks fewer points)
         space = load_space(MODELS / "spaces" / name)
-        assert prove(config, space).proved and prove_separation(config, space).proved
+        cell = space_cell(config, space)
+        assert prove(cell, space).proved and prove_separation(cell, space).proved
     assert_carries(scenario, config, BANDED.sensor_set)
     # the seed's task: the same robot, technician and times as the seed's own scenario
     seed = load_scenario(MODELS / "scenarios" / "inspection_seed.yaml")

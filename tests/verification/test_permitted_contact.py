@@ -23,7 +23,13 @@ from safety_systems.ssm.true_measures import moving
 from verification.proof.theorems import prove_permitted_contact
 from verification.search.evaluate_drake import evaluate_drake
 from verification.spaces.box import Range
-from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
+from verification.spaces.space import (
+    free_parameters,
+    load_space,
+    make_scenario,
+    space_cell,
+    to_point,
+)
 
 REACH = load_space("tests/verification/data/pfl_reach.yaml")
 DEFAULT = load_space("models/spaces/default.yaml")
@@ -254,7 +260,7 @@ def test_the_proof_states_and_checks_the_power_and_force_limiting_premises():
     # a robot force limit whose detection can hold a lasting contact: caps of a few mm/s
     config = _config("iso", mode="ssm_pfl", stopping="by_speed", contact_stop_force=50.0,
                      clamp_margin=2.0)
-    proof = prove_permitted_contact(config, DEFAULT)
+    proof = prove_permitted_contact(space_cell(config, DEFAULT), DEFAULT)
     assert proof.proved
     statements = [p.statement for p in proof.premises]
     assert any("c_i V_R <= v_i" in s for s in statements)
@@ -273,7 +279,7 @@ def test_the_proof_states_and_checks_the_power_and_force_limiting_premises():
     # premise fails, no proof
     tight = dataclasses.replace(config, safety=dataclasses.replace(config.safety,
                                                                    clamp_margin=0.3))
-    tight_proof = prove_permitted_contact(tight, DEFAULT)
+    tight_proof = prove_permitted_contact(space_cell(tight, DEFAULT), DEFAULT)
     assert not tight_proof.proved
     assert any("clamping" in p.statement and not p.holds for p in tight_proof.premises)
     # the robot's default force limit (150 N and its tolerance) holds no lasting contact

@@ -21,7 +21,7 @@ from verification.search.evaluate_drake import robustness_of_run
 from verification.proof.theorems import prove, prove_separation
 from verification.report import write_report
 from verification.spaces.box import Range
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.verify import verify
 
 INSPECTION = load_scenario("models/scenarios/inspection_seed.yaml")
@@ -203,21 +203,21 @@ def test_the_seed_configuration_breaks_the_invariant_on_the_default_space(tmp_pa
 
 
 def test_iso_is_proved_for_both_properties_and_needs_its_allowance():
-    assert prove(ISO, DEFAULT).proved
-    proof = prove_separation(ISO, DEFAULT)
+    assert prove(space_cell(ISO, DEFAULT), DEFAULT).proved
+    proof = prove_separation(space_cell(ISO, DEFAULT), DEFAULT)
     assert proof.proved and proof.needed_allowance == 0.0
     # Without the Z_r its file explains, the proof says how much is missing, and exactly
     # that much more proves it.
     bare = dataclasses.replace(ISO, safety=dataclasses.replace(ISO.safety,
                                                                robot_uncertainty=0.0))
-    short = prove_separation(bare, DEFAULT)
+    short = prove_separation(space_cell(bare, DEFAULT), DEFAULT)
     assert not short.proved and 0.5 < short.needed_allowance < ISO.safety.robot_uncertainty
     enough = dataclasses.replace(bare, safety=dataclasses.replace(
         bare.safety, robot_uncertainty=short.needed_allowance + 1e-9))
-    assert prove_separation(enough, DEFAULT).proved
+    assert prove_separation(space_cell(enough, DEFAULT), DEFAULT).proved
     slightly_less = dataclasses.replace(bare, safety=dataclasses.replace(
         bare.safety, robot_uncertainty=short.needed_allowance - 1e-6))
-    assert not prove_separation(slightly_less, DEFAULT).proved
+    assert not prove_separation(space_cell(slightly_less, DEFAULT), DEFAULT).proved
 
 
 def test_a_sensing_lag_beyond_what_t_r_covers_avoids_contact_but_breaks_the_invariant(
@@ -239,4 +239,4 @@ def test_a_sensing_lag_beyond_what_t_r_covers_avoids_contact_but_breaks_the_inva
     assert separation.verdict == "falsified" and outcome.verdict == "falsified"
     for c in separation.counterexamples:
         assert c["drake_robustness"] < 0.0 and c["drake"]["stopped_before_contact"] > 0.0
-    assert not prove_separation(mutant, space).proved
+    assert not prove_separation(space_cell(mutant, space), space).proved

@@ -34,7 +34,7 @@ from safety_systems.diagrams.simulation import simulate
 from verification.search.evaluate_drake import robustness_of_run
 from verification.proof.theorems import prove
 from verification.spaces.box import Range
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.verify import verify
 
 SUIT = list(POINTS)  # every body point tracked
@@ -114,7 +114,7 @@ def test_previous_behaviour_falsified_by_an_occluded_approach(tmp_path):
     hidden = run["tracker.track_status"] != 1
     assert hidden.all(axis=1).any()  # at some instant no body was tracked at all
     # The whole-cell configuration keeps the hidden bodies as growing balls: safe.
-    assert prove(ISO, space).proved
+    assert prove(space_cell(ISO, space), space).proved
     outcome = _verify(ISO, space, tmp_path / "iso", budget=20)
     assert outcome.verdict == "proved" and outcome.log.robustness.min() > 0.0
 
@@ -132,7 +132,8 @@ def test_previous_behaviour_falsified_by_an_approach_to_the_elbow(tmp_path):
 
 
 def test_iso_is_proved_and_the_previous_one_falsified_on_the_whole_space(tmp_path):
-    assert prove(ISO, DEFAULT).proved and not prove(PREVIOUS, DEFAULT).proved
+    assert prove(space_cell(ISO, DEFAULT), DEFAULT).proved
+    assert not prove(space_cell(PREVIOUS, DEFAULT), DEFAULT).proved
     _assert_falsified(_verify(PREVIOUS, DEFAULT, tmp_path / "previous"))
 
 
@@ -173,11 +174,11 @@ def test_mutant_capsule_too_small_is_falsified(tmp_path):
                                                                    payload_radius=0.65))
     tight = dataclasses.replace(ISO_CONTACT, safety=dataclasses.replace(
         ISO_CONTACT.safety, reaction_time=0.1, payload_radius=0.65))
-    proof = prove(tight, space)
+    proof = prove(space_cell(tight, space), space)
     assert proof.proved and proof.margin_at_worst_corner < 0.02
     mutant = dataclasses.replace(tight, safety=dataclasses.replace(tight.safety,
                                                                    payload_radius=0.05))
-    assert not prove(mutant, space).proved
+    assert not prove(space_cell(mutant, space), space).proved
     _assert_falsified(_verify(mutant, space, tmp_path / "mutant", budget=40, candidates=8192))
     outcome = _verify(tight, space, tmp_path / "tight", budget=20, candidates=8192)
     assert outcome.verdict == "proved" and outcome.log.robustness.min() > 0.0
@@ -194,7 +195,7 @@ FROM_OUTSIDE = dict(start_distance=(1.5, 2.5), peak_speed=(1.6, 2.0), accelerati
 
 def test_reaction_time_left_out_of_s(tmp_path):
     space = _space(FLANGE, **FROM_OUTSIDE)
-    assert prove(ISO_POINT, space).proved
+    assert prove(space_cell(ISO_POINT, space), space).proved
     broken = dataclasses.replace(ISO_POINT, safety=dataclasses.replace(ISO_POINT.safety,
                                                                        reaction_time=0.0))
     _assert_falsified(_verify(broken, space, tmp_path))
@@ -207,12 +208,12 @@ def test_latency_larger_than_the_configuration_assumes(tmp_path):
     _assert_falsified(_verify(_mutant(ISO_POINT, frame_timeout=0.4), space,
                               tmp_path / "tolerant"))
     # With its own timeout the iso configuration stops on the stale frames instead.
-    assert prove(ISO_POINT, space).proved
+    assert prove(space_cell(ISO_POINT, space), space).proved
 
 
 def test_braking_weaker_than_the_stopping_data_says(tmp_path):
     space = _space(FLANGE, **FROM_OUTSIDE, braking_time_scale=(1.5, 2.0))
-    assert not prove(ISO_POINT, space).proved
+    assert not prove(space_cell(ISO_POINT, space), space).proved
     _assert_falsified(_verify(ISO_POINT, space, tmp_path))
 
 

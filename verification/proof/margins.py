@@ -9,14 +9,8 @@ import numpy as np
 import z3
 
 from safety_systems.cell.stopping import TRUTH_RATES, rate_index
-from safety_systems.config.configuration import (
-    assumed_stopping,
-    braking_table,
-    frame_timeout,
-    joint_path,
-    level_stops,
-)
-from safety_systems.config.scenario import ControllerConfig, robot_model_of
+from safety_systems.config.configuration import joint_path
+from safety_systems.config.resolved_cell import ResolvedCell
 from safety_systems.ssm.formulas import SPEED_LEVELS, level_at_or_above
 from verification.proof.robot_bounds import (
     robot_acceleration_bound,
@@ -25,15 +19,24 @@ from verification.proof.robot_bounds import (
 from verification.spaces.box import ScenarioSpace
 
 
-def least_level_separation(config: ControllerConfig, space: ScenarioSpace) -> float:
+def check_cell(cell: ResolvedCell, space: ScenarioSpace) -> None:
+    """Raises ValueError unless ``cell`` was resolved for the space's robot station (its
+    braking table, stops and capsules are that robot's: ``spaces.space.space_cell``): a
+    proof never takes another robot's stops."""
+    if cell.robot != space.robot:
+        raise ValueError("the resolved cell is of another robot station than the space's; "
+                         "resolve it with spaces.space.space_cell(config, space)")
+
+
+def least_level_separation(cell: ResolvedCell, space: ScenarioSpace) -> float:
     """The least the monitor's S can be at any speed level g = 1..G (m): its human term
     at the least human speed, its robot term at the least it can be there
     (:func:`robot_speed_low`), B(g) + C + Z_d + Z_r (Z_d at its base)."""
-    f = config.safety
-    lv = speed_levels(config, space)
+    f = cell.config.safety
+    lv = speed_levels(cell, space)
     v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
          "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
-    s = (v * (lv.t_s + f.reaction_time) + robot_speed_low(config, lv) * f.reaction_time
+    s = (v * (lv.t_s + f.reaction_time) + robot_speed_low(cell, lv) * f.reaction_time
          + lv.b + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty)
     return float(s.min())
 
@@ -67,7 +70,7 @@ class Levels:
     ``safety.stopping: full_speed`` one row, the stop from full speed with the
     configuration's T_s and B; under ``by_speed`` one per speed level g = 1..G (the level
     g' = max(g_now, g_k) whose S the override checked whenever k > 0, see the module
-    docstring), the monitor's T_s(sigma_g) and B(sigma_g) (``configuration.level_stops``)
+    docstring), the monitor's T_s(sigma_g) and B(sigma_g) (``ResolvedCell.level_stops``)
     and the robot bounds of a stop commanded at ``rate`` (:func:`level_rate`)."""
 
     level: np.ndarray  # g of each row (full_speed: G alone)
@@ -107,28 +110,27 @@ def level_rate(g: int, levels: int = SPEED_LEVELS) -> float:
     return min(1.0, max(lo, rate_index(lo) / TRUTH_RATES))
 
 
-def speed_levels(config: ControllerConfig, space: ScenarioSpace) -> Levels:
-    """The :class:`Levels` of ``config`` on ``space``'s robot, the stops at the space's
-    largest braking time scale (they grow with it). The rate over the tick before a
-    decision exceeds the rate at it by at most one braking step, the table's fastest
-    deceleration over the space's shortest braking time scale times the period."""
-    f, p = config.safety, space.parameters
+def speed_levels(cell: ResolvedCell, space: ScenarioSpace) -> Levels:
+    """The :class:`Levels` of the cell's configuration on ``space``'s robot (the cell is
+    resolved for it: ``spaces.space.space_cell``), the stops at the space's largest
+    braking time scale (they grow with it). The rate over the tick before a decision
+    exceeds the rate at it by at most one braking step, the table's fastest deceleration
+    over the space's shortest braking time scale times the period."""
+    check_cell(cell, space)
+    f, p = cell.config.safety, space.parameters
     h = 1.0 / space.robot.control_rate_hz
-    model = robot_model_of(space.robot)
     if f.stopping == "by_speed":
         level = np.arange(1, SPEED_LEVELS + 1)
         rate = np.array([level_rate(int(g)) for g in level])
-        drop = float(np.max(braking_table(config, model).deceleration)) \
-            / p.braking_time_scale.min * h
+        drop = float(np.max(cell.braking.deceleration)) / p.braking_time_scale.min * h
         previous = np.minimum(1.0, rate + drop)
-        t_all, b_all = level_stops(config, model)
+        t_all, b_all = cell.level_stops
         t_s, b = np.asarray(t_all[1:], dtype=float), np.asarray(b_all[1:], dtype=float)
     else:
         level, rate, previous = np.array([SPEED_LEVELS]), np.ones(1), np.ones(1)
-        t_s, b = (np.array([float(x)]) for x in assumed_stopping(config, model))
-    bounds = robot_bounds_by_rate(joint_path(space.robot), config, period=h,
-                                  braking_time_scale=p.braking_time_scale.max, rates=rate,
-                                  model=model)
+        t_s, b = (np.array([float(x)]) for x in cell.stopping)
+    bounds = robot_bounds_by_rate(joint_path(space.robot), cell, period=h,
+                                  braking_time_scale=p.braking_time_scale.max, rates=rate)
     return Levels(level, rate, previous, t_s, b, np.array([x.stop_time for x in bounds]),
                   np.array([x.stop_travel for x in bounds]), bounds[0].tool_speed,
                   f.stopping == "by_speed")
@@ -168,23 +170,23 @@ class Margin:
         return self.rows_at(v_max).min(axis=-1)
 
 
-def margin(config: ControllerConfig, space: ScenarioSpace, prop: str = "contact") -> Margin:
+def margin(cell: ResolvedCell, space: ScenarioSpace, prop: str = "contact") -> Margin:
     """The margin of the ``prop`` theorem (``contact`` or ``separation``, see the
-    module docstring) for ``config`` on ``space``'s robot and sensor bounds, whether or
-    not its premises hold (without them it bounds nothing; it still orders scenarios by
-    how close their body speed comes to breaking it)."""
-    return margin_of_levels(config, space, prop, speed_levels(config, space))
+    module docstring) for the cell's configuration on ``space``'s robot and sensor
+    bounds, whether or not its premises hold (without them it bounds nothing; it still
+    orders scenarios by how close their body speed comes to breaking it)."""
+    return margin_of_levels(cell, space, prop, speed_levels(cell, space))
 
 
-def margin_of_levels(config: ControllerConfig, space: ScenarioSpace, prop: str, lv: Levels
+def margin_of_levels(cell: ResolvedCell, space: ScenarioSpace, prop: str, lv: Levels
                      ) -> Margin:
-    f = config.safety
+    f = cell.config.safety
     h = 1.0 / space.robot.control_rate_hz
-    tau = frame_timeout(config)
+    tau = cell.frame_timeout
     if prop == "contact":
         v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
              "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
-        fixed = (v * (lv.t_s + f.reaction_time) + robot_speed_low(config, lv) * f.reaction_time
+        fixed = (v * (lv.t_s + f.reaction_time) + robot_speed_low(cell, lv) * f.reaction_time
                  + lv.b + f.intrusion_distance + f.human_uncertainty + f.robot_uncertainty
                  - lv.tool_speed * lv.rate * h - lv.stop_travel - space.contact_distance)
         return Margin(fixed, tau + lv.stop_time + h, np.zeros(lv.level.size),
@@ -194,23 +196,23 @@ def margin_of_levels(config: ControllerConfig, space: ScenarioSpace, prop: str, 
     floor = f.human_speed == "estimated_with_floor"
     v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
     fixed = (v_lo * (lv.t_s + f.reaction_time)
-             + robot_speed_gap(config, space, lv) * f.reaction_time
+             + robot_speed_gap(cell, space, lv) * f.reaction_time
              + lv.b - lv.stop_travel + f.human_uncertainty + f.robot_uncertainty)
     v_true = f.iso_human_speed if floor else max(f.iso_human_speed, f.iso_reduced_human_speed)
     return Margin(fixed, np.full(lv.level.size, tau), lv.stop_time + f.reaction_time, v_true,
                   floor, lv.level)
 
 
-def robot_speed_low(config: ControllerConfig, lv: Levels) -> np.ndarray:
+def robot_speed_low(cell: ResolvedCell, lv: Levels) -> np.ndarray:
     """The least the monitor's robot speed term can be at each level, m/s: -V_R times the
     fastest rate over the tick its capsule velocities are differenced over for Eq. 7's
     directed speed (a robot moving away lowers S), 0 for ``fastest_point`` (a speed)."""
-    if config.safety.robot_speed == "fastest_point":
+    if cell.config.safety.robot_speed == "fastest_point":
         return np.zeros(lv.level.size)
     return -lv.tool_speed * lv.previous_rate
 
 
-def robot_speed_gap(config: ControllerConfig, space: ScenarioSpace, lv: Levels) -> np.ndarray:
+def robot_speed_gap(cell: ResolvedCell, space: ScenarioSpace, lv: Levels) -> np.ndarray:
     """How far (m/s, negative) the monitor's robot speed term can fall short of S_true's
     at each level: directed, V_R (rho_g + the tick before's rate) (the monitor's capsule
     point may move away from the estimate while S_true's moves towards the body);
@@ -218,10 +220,10 @@ def robot_speed_gap(config: ControllerConfig, space: ScenarioSpace, lv: Levels) 
     ends differenced over the last tick, at most a h short of the instant's, a:
     :func:`robot_acceleration_bound` at the tick's fastest rate; no axis point moves
     faster)."""
-    if config.safety.robot_speed == "fastest_point":
+    if cell.config.safety.robot_speed == "fastest_point":
         h = 1.0 / space.robot.control_rate_hz
         path = joint_path(space.robot)
-        return np.array([-robot_acceleration_bound(path, config, space, lv.tool_speed,
+        return np.array([-robot_acceleration_bound(path, cell, space, lv.tool_speed,
                                                    rate=float(r)) * h
                          for r in lv.previous_rate])
     return -lv.tool_speed * (lv.rate + lv.previous_rate)

@@ -12,17 +12,12 @@ from safety_systems.cell import human_body
 from safety_systems.cell.placeholder_stops import PLACEHOLDER_STOPS
 from safety_systems.cell.robot_log import peak_joint_speeds
 from safety_systems.cell.robot_model import KIND_UR, is_ur5e, placeholder_name
-from safety_systems.config.configuration import (
-    body_dimensions,
-    contact_capsules,
-    frame_timeout,
-    joint_path,
-    monitor_capsules,
-    placeholder_braking,
-)
+from safety_systems.config.configuration import contact_capsules, joint_path
+from safety_systems.config.resolved_cell import ResolvedCell
 from safety_systems.config.scenario import ControllerConfig, robot_log_of, robot_model_of
 from safety_systems.ssm.formulas import SPEED_LEVELS
 from verification.proof.margins import (
+    check_cell,
     least_level_separation,
 )
 from verification.proof.robot_bounds import (
@@ -62,12 +57,12 @@ def operators_reach(space: ScenarioSpace) -> float:
             + posture_reach(space))
 
 
-def body_model_holds(config: ControllerConfig, space: ScenarioSpace) -> list[str]:
+def body_model_holds(cell: ResolvedCell, space: ScenarioSpace) -> list[str]:
     """Why the space's operators are not bodies the monitor's model allows (empty when
     they are): each posture's edges, head-shoulder distance and leans against the
-    configuration's dimensions (``human_body.posture_violations``), and the segments'
-    radii the properties measure (the table's) against the monitor's."""
-    dims, table = body_dimensions(config.body), human_body.DEFAULT_DIMENSIONS
+    configuration's dimensions (the cell's ``body``; ``human_body.posture_violations``),
+    and the segments' radii the properties measure (the table's) against the monitor's."""
+    dims, table = cell.body, human_body.DEFAULT_DIMENSIONS
     out = [f"posture {k}: {x}" for k, points in enumerate(space_postures(space))
            for x in human_body.posture_violations(points, dims)]
     out += [f"{name} {dims[name]:g} m < {table[name]:g} m (the segments measured)"
@@ -89,24 +84,28 @@ def tracks_never_end(config: ControllerConfig, space: ScenarioSpace) -> bool:
     return bool(walls_far and not any(inside_ball(box) for box in t.exits))
 
 
-def monitor_covers_contact(config: ControllerConfig, space: ScenarioSpace) -> bool:
-    """The monitor's robot contains the property's: capsules against capsules (same axes,
-    radii and tool at least as large), capsules against the tool point (the flange lies on
-    the tool capsule's axis), or the tool point against the tool point."""
-    f, robot = config.safety, space.robot
+def monitor_covers_contact(cell: ResolvedCell, space: ScenarioSpace) -> bool:
+    """The monitor's robot (the cell's ``capsules``) contains the property's: capsules
+    against capsules (same axes, radii and tool at least as large), capsules against the
+    tool point (the flange lies on the tool capsule's axis), or the tool point against
+    the tool point."""
+    f, robot = cell.config.safety, space.robot
     if space.contact_geometry == "tool_point":
         return True
     if f.robot_geometry == "tool_point":
         return False
-    mine = monitor_capsules(config, robot_model_of(robot))
+    mine = cell.capsules
     real = contact_capsules(robot, space.contact_geometry)
     return bool(np.all(mine.radius >= real.radius) and mine.tool_length >= real.tool_length)
 
 
-def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
+def setting(cell: ResolvedCell, space: ScenarioSpace, prop: str):
     """What both theorems share: the box's extremes, the tracker's error coefficients and
     the premises, checked and trusted (``prop``: ``contact`` or ``separation``, which
-    needs no ordering of braking speeds and no contact distance)."""
+    needs no ordering of braking speeds and no contact distance), for the cell resolved
+    for the space's robot (``spaces.space.space_cell``)."""
+    check_cell(cell, space)
+    config = cell.config
     f, t, p = config.safety, config.tracker, space.parameters
     h = 1.0 / space.robot.control_rate_hz
     period = 1.0 / config.sensor.rate_hz
@@ -115,13 +114,13 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     alpha, beta, converged = estimate_error_coefficients(config)
     e_worst = math.sqrt(3.0) * (alpha * noise + beta * v_max)  # m, Euclidean
     allowance = config.body.tracking_allowance
-    misfits = body_model_holds(config, space)
+    misfits = body_model_holds(cell, space)
     outliers = p.outlier_frames.max >= 1
     gate_widest = ((t.gate_speed + v_max) * p.outlier_frames.max * period + t.gate_width
                    + f.human_uncertainty + e_worst + math.sqrt(3.0) * noise)
-    placeholder = placeholder_braking(config)
-    model = robot_model_of(space.robot)
-    checked = model_premises(config, space) + [
+    placeholder = cell.braking_source == "placeholder"
+    model = cell.model
+    checked = model_premises(cell, space) + [
         ("the space's operators are bodies the monitor's model allows (every posture's "
          "segments within the configuration's body dimensions and lean limits, the "
          "measured segments' radii within the monitor's)"
@@ -149,17 +148,17 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
          if outliers else "the space has no outlier frames",
          not outliers or (t.gate and p.outlier_offset.min > gate_widest)),
         ("every body is seen before its onset (settle time > frame timeout)",
-         space.settle_time > frame_timeout(config)),
+         space.settle_time > cell.frame_timeout),
     ]
-    checked += log_premises(config, space, placeholder)[0]
+    checked += log_premises(cell, space, placeholder)[0]
     by_speed = f.stopping == "by_speed"
     if prop == "contact" or by_speed:
         checked.append(("a braking step preserves the order of speeds"
                         + (" (so a stop from a lower speed level takes no longer and travels "
                            "no farther)" if by_speed else ""),
-                        braking_is_monotone(config, h, scale, model)))
+                        braking_is_monotone(cell.braking, h, scale)))
     if by_speed:
-        least = least_level_separation(config, space)
+        least = least_level_separation(cell, space)
         checked.append((f"d >= dS S_max(g) gives d >= S_max(g) at every speed level: dS = 1 "
                         f"or the monitor's S is never negative (dS {f.delta_s:g}; the least S "
                         f"at any level {least:.4f} m)", f.delta_s == 1.0 or least >= 0.0))
@@ -200,7 +199,7 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
         "bodies come into the cell only through its exits and are tracked before they "
         "come near the robot (the space's operators stand still for the settle time)",
     ]
-    trusted += log_premises(config, space, placeholder)[1]
+    trusted += log_premises(cell, space, placeholder)[1]
     premises = ([Premise(x, bool(ok), "checked") for x, ok in checked]
                 + [Premise(x, True, "trusted") for x in trusted])
     box = {"peak_speed": [p.peak_speed.min, p.peak_speed.max],
@@ -214,7 +213,7 @@ def setting(config: ControllerConfig, space: ScenarioSpace, prop: str):
     return premises, box, placeholder, (alpha, beta), scale
 
 
-def log_premises(config: ControllerConfig, space: ScenarioSpace, placeholder: bool
+def log_premises(cell: ResolvedCell, space: ScenarioSpace, placeholder: bool
                  ) -> tuple[list[tuple], list[str]]:
     """(checked, trusted) premises of a robot log path (none for another path): the log
     named with its SHA-256 and its fastest joint at path rate 1 (the bounds V_R and D are
@@ -224,7 +223,7 @@ def log_premises(config: ControllerConfig, space: ScenarioSpace, placeholder: bo
     g = space.robot.path.log
     if g is None:
         return [], []
-    model = robot_model_of(space.robot)
+    model = cell.model
     log = robot_log_of(space.robot)
     peak = peak_joint_speeds(joint_path(space.robot))
     j = int(np.argmax(peak))
@@ -240,9 +239,10 @@ def log_premises(config: ControllerConfig, space: ScenarioSpace, placeholder: bo
                           f"log's speed or faster (its fastest joint {fastest})"]
 
 
-def model_premises(config: ControllerConfig, space: ScenarioSpace) -> list[tuple]:
+def model_premises(cell: ResolvedCell, space: ScenarioSpace) -> list[tuple]:
     """The premises on the controller and the robot that both theorems share, as
     (statement, holds) pairs."""
+    config, model = cell.config, cell.model
     f = config.safety
     return [
         ("the controller is the SSM speed override (seed 000, Eq. 12)"
@@ -257,9 +257,9 @@ def model_premises(config: ControllerConfig, space: ScenarioSpace) -> list[tuple
          f.human_speed in ("iso", "estimated_with_floor")),
         ("the monitor's robot contains the one contact is measured against "
          f"({f.robot_geometry} against {space.contact_geometry})",
-         monitor_covers_contact(config, space)),
-    ] + ([] if robot_model_of(space.robot).kind == KIND_UR else [
+         monitor_covers_contact(cell, space)),
+    ] + ([] if model.kind == KIND_UR else [
         # (a UR's closed form is six revolute joints by construction: nothing to check)
-        (f"every joint of the {robot_model_of(space.robot).name} turns (the bound on a "
+        (f"every joint of the {model.name} turns (the bound on a "
          "capsule point's acceleration is a revolute chain's)",
-         revolute_only(robot_model_of(space.robot)))])
+         revolute_only(model))])

@@ -6,7 +6,7 @@ Theorem 1 (what ``prove`` checks). Take the kinematic workcell (``robot.mode: ki
 a checked premise: the theorem covers no other mode, ``Proof.robot_mode`` says which)
 with the SSM speed override, a configuration whose human-speed term is a constant floor
 v (``iso`` or ``estimated_with_floor``), whose monitor measures capsules containing the
-property's (``configuration.monitor_capsules`` against ``contact_capsules``), whose
+property's (``ResolvedCell.capsules`` against ``contact_capsules``), whose
 tracker keeps hidden bodies as balls growing at ``occlusion_speed`` >= v_max until they
 are seen leaving (``hidden_bodies: hazard``, ``safety_systems.sensing.tracks``), whose
 monitor measures every segment of every operator by its envelope
@@ -93,7 +93,7 @@ the true directed speed: r* - r <= -g. So clearance_ij(t) - S_true_ij(t) > M_S >
 Speed levels (``safety.stopping: by_speed``, ISO/TS 15066's S_s from the robot's
 current speed). The override commands one of the levels sigma_g = g / G (G =
 ``ssm.SPEED_LEVELS``) by ``ssm.by_speed_command``; the monitor computes each body's S at
-every level with T_s(sigma_g) and B(sigma_g) (``configuration.level_stops``), and
+every level with T_s(sigma_g) and B(sigma_g) (``ResolvedCell.level_stops``), and
 S_true takes T* and B* from the simulated robot's stop from its true rate at the tick
 (``cell.stopping.stops_by_rate``: the grid rate at or above it). Both theorems then
 hold with one margin per level g = 1..G, each checked over the box (one z3 query, the
@@ -218,19 +218,13 @@ import numpy as np
 
 from safety_systems.cell.braking import path_rate_step
 from safety_systems.cell.human_body import SEGMENT_NAMES
-from safety_systems.config.configuration import (
-    braking_table,
-    frame_timeout,
-    pfl_terms,
-    placeholder_braking,
-)
-from safety_systems.config.scenario import robot_model_of
+from safety_systems.config.resolved_cell import ResolvedCell
 from safety_systems.pfl.segment_regions import SEGMENT_FORBIDDEN
-from safety_systems.config.scenario import ControllerConfig
 from safety_systems.ssm.formulas import SPEED_LEVELS
 from verification.proof.margins import (
     Levels,
     Margin,
+    check_cell,
     margin_of_levels,
     robot_speed_gap,
     speed_levels,
@@ -269,7 +263,7 @@ class Proof:
     robot_mode: str = COVERED_MODE  # the robot mode the theorem covers
 
 
-def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method: str
+def _declined(cell: ResolvedCell, space: ScenarioSpace, prop: str, method: str
               ) -> Proof:
     """A recording space's proof, declined: the theorems' margins are checked over the
     box of a scripted space's parameters, where the peak speed bounds every body's
@@ -278,10 +272,12 @@ def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method:
     speed bound, every body seen from the start, no exit reached) are measured from the
     recording and listed, but no margin is checked over it, so the verdict over a
     recording space is ``passed`` or ``falsified``, never ``proved``."""
+    check_cell(cell, space)
+    config = cell.config
     f, t = config.safety, config.tracker
     p = space.recording.parameters
     v_max = recorded_speed(space.recording) * p.time_scale.max
-    checked = model_premises(config, space) + [
+    checked = model_premises(cell, space) + [
         (f"hidden bodies stay hazards (hidden_bodies: {t.hidden_bodies}) and a hidden "
          f"body's ball grows at least as fast as the recorded bodies move (occlusion_speed "
          f"{f.occlusion_speed:g} >= {v_max:.3f} m/s: the fastest segment of the part of the "
@@ -309,7 +305,8 @@ def _declined(config: ControllerConfig, space: ScenarioSpace, prop: str, method:
     premises = ([Premise(x, bool(ok), "checked") for x, ok in checked]
                 + [Premise(x, True, "trusted") for x in trusted])
     box = {name: [r.min, r.max] for name, r in parameter_ranges(space).items()}
-    return Proof(False, method, box, premises, None, {}, placeholder_braking(config), prop)
+    return Proof(False, method, box, premises, None, {},
+                 cell.braking_source == "placeholder", prop)
 
 
 def _worst(m: Margin, space: ScenarioSpace) -> tuple[float, int]:
@@ -350,22 +347,24 @@ def _method(theorem: str, stopping: str) -> str:
             + "; robot bounds by Lipschitz covering; tracker error by gain recursion")
 
 
-def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
-    """Tries to prove "stopped before contact" for ``config`` over ``space`` (under
-    ``safety.stopping: by_speed`` at every speed level)."""
+def prove(cell: ResolvedCell, space: ScenarioSpace) -> Proof:
+    """Tries to prove "stopped before contact" for the cell's configuration over ``space``
+    (under ``safety.stopping: by_speed`` at every speed level); ``cell`` is resolved for
+    the space's robot (``spaces.space.space_cell``)."""
+    config = cell.config
     f = config.safety
     h = 1.0 / space.robot.control_rate_hz
     v = {"iso": min(f.iso_human_speed, f.iso_reduced_human_speed),
          "estimated_with_floor": f.iso_human_speed}.get(f.human_speed, 0.0)
     method = _method("stopping", f.stopping)
     if space.recording is not None:
-        return _declined(config, space, "contact", method)
-    premises, box, placeholder, (alpha, beta), _ = setting(config, space, "contact")
+        return _declined(cell, space, "contact", method)
+    premises, box, placeholder, (alpha, beta), _ = setting(cell, space, "contact")
     if not all(x.holds for x in premises):
         return Proof(False, method, box, premises, None, {}, placeholder)
-    lv = speed_levels(config, space)
-    tau = frame_timeout(config)
-    m = margin_of_levels(config, space, "contact", lv)
+    lv = speed_levels(cell, space)
+    tau = cell.frame_timeout
+    m = margin_of_levels(cell, space, "contact", lv)
     holds = unsat_below_zero(m, space)
     worst, i = _worst(m, space)
     terms = {"v": v, "T_s": float(lv.t_s[i]), "T_r": f.reaction_time, "B": float(lv.b[i]),
@@ -379,24 +378,26 @@ def prove(config: ControllerConfig, space: ScenarioSpace) -> Proof:
     return Proof(holds, method, box, premises, worst, terms, placeholder)
 
 
-def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
-    """Tries to prove the separation invariant for ``config`` over ``space`` (the second
-    theorem of the module docstring; under ``safety.stopping: by_speed`` at every speed
-    level); when the margin falls short, says by how much Z_d + Z_r would have to grow
-    (``Proof.needed_allowance``: every level's margin gains what Z_d + Z_r gains)."""
+def prove_separation(cell: ResolvedCell, space: ScenarioSpace) -> Proof:
+    """Tries to prove the separation invariant for the cell's configuration over ``space``
+    (the second theorem of the module docstring; under ``safety.stopping: by_speed`` at
+    every speed level); when the margin falls short, says by how much Z_d + Z_r would have
+    to grow (``Proof.needed_allowance``: every level's margin gains what Z_d + Z_r gains).
+    ``cell`` is resolved for the space's robot (``spaces.space.space_cell``)."""
+    config = cell.config
     f = config.safety
     p = space.parameters
     floor = f.human_speed == "estimated_with_floor"
     v_lo = f.iso_human_speed if floor else min(f.iso_human_speed, f.iso_reduced_human_speed)
     method = _method("separation", f.stopping)
     if space.recording is not None:
-        return _declined(config, space, "separation", method)
-    premises, box, placeholder, (alpha, beta), _ = setting(config, space, "separation")
+        return _declined(cell, space, "separation", method)
+    premises, box, placeholder, (alpha, beta), _ = setting(cell, space, "separation")
     if not all(x.holds for x in premises):
         return Proof(False, method, box, premises, None, {}, placeholder, "separation")
-    lv = speed_levels(config, space)
-    tau = frame_timeout(config)
-    m = margin_of_levels(config, space, "separation", lv)
+    lv = speed_levels(cell, space)
+    tau = cell.frame_timeout
+    m = margin_of_levels(cell, space, "separation", lv)
     holds = unsat_below_zero(m, space)
     worst, i = _worst(m, space)
     v_hi = float(m.human_speed(p.peak_speed.max))  # S_true's human speed, at most
@@ -408,7 +409,7 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
              "Z_d+Z_r": f.human_uncertainty + f.robot_uncertainty,
              "human_speed_term": v_lo * (t_s + f.reaction_time) - v_hi * t_true,
              "robot_speed": f.robot_speed,
-             "robot_speed_term": float(robot_speed_gap(config, space, lv)[i])
+             "robot_speed_term": float(robot_speed_gap(cell, space, lv)[i])
              * f.reaction_time,
              "stopping_distance_term": float(lv.b[i] - lv.stop_travel[i]),
              "sensing_term": -float(m.k_speed[i] * p.peak_speed.max),
@@ -419,15 +420,16 @@ def prove_separation(config: ControllerConfig, space: ScenarioSpace) -> Proof:
                  0.0 if holds else max(-worst, 0.0))
 
 
-def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> Proof:
-    """Tries to prove "permitted contact" for ``config`` over ``space`` (Theorem 3 of the
+def prove_permitted_contact(cell: ResolvedCell, space: ScenarioSpace) -> Proof:
+    """Tries to prove "permitted contact" for the cell's configuration over ``space``
+    (resolved for the space's robot: ``spaces.space.space_cell``; Theorem 3 of the
     module docstring). Under ``safety.mode: ssm`` stopped before contact implies it, and
     its proof is Theorem 1's; under ``ssm_pfl`` Theorem 1's margin with the power and
     force limiting premises (caps within the limits, the rate following commands by the
     stop's steps, the clamping margin) checked, and Annex A's limits, the payload, the
     fixed surfaces and the meaning of relative speed trusted."""
-    base = prove(config, space)
-    f = config.safety
+    base = prove(cell, space)
+    f = cell.config.safety
     if f.mode != "ssm_pfl":
         return dataclasses.replace(base, property="permitted_contact", premises=base.premises + [
             Premise("safety.mode is ssm: stopped before contact (proved here) leaves no "
@@ -437,12 +439,12 @@ def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> P
               + base.method)
     if space.recording is not None:
         return dataclasses.replace(base, property="permitted_contact", method=method)
-    pfl = pfl_terms(space.robot, config)
+    pfl = cell.pfl
     h = 1.0 / space.robot.control_rate_hz
     v_max = space.parameters.peak_speed.max
-    lv = speed_levels(config, space)
+    lv = speed_levels(cell, space)
     t_stop = float(np.max(lv.stop_time))
-    window = frame_timeout(config) + t_stop + h
+    window = cell.frame_timeout + t_stop + h
     surface_needed = v_max * window
     # between two links the robot's capsules move too: at most V_R h + D after the last
     # tick the cap was checked (the braking's own travel)
@@ -466,8 +468,8 @@ def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> P
         ("a command below the path rate brings the rate down by the stop's own steps and "
          "never below the command, and one at or above it never takes the rate past it "
          "(braking.rate_step_one on a grid of rates and commands)",
-         follows_commands(config, h, space.parameters.braking_time_scale.max,
-                          robot_model_of(space.robot), space.robot.acceleration_limit)),
+         follows_commands(cell, h, space.parameters.braking_time_scale.max,
+                          space.robot.acceleration_limit)),
     ]
     checked.append((f"clamping: a segment's envelope loses its cap within clamp_margin "
                     f"{f.clamp_margin:g} m + CLAMP_GAP of the robot's mounting surface, a "
@@ -521,13 +523,13 @@ def prove_permitted_contact(config: ControllerConfig, space: ScenarioSpace) -> P
                                terms=terms, property="permitted_contact")
 
 
-def follows_commands(config: ControllerConfig, period: float, scale: float, model=None,
+def follows_commands(cell: ResolvedCell, period: float, scale: float,
                      acceleration_limit: float = 2.0) -> bool:
-    """Whether one tick of the path rate (``braking.rate_step_one``, the configured
-    braking table at time scale ``scale``) towards a command c from a rate r is max(c,
-    the stop's step from r) at most when c < r, and at most c when c >= r (to 1e-12: the
-    step's rounding), on a grid of rates and commands in [0, 1]."""
-    table = braking_table(config, model)
+    """Whether one tick of the path rate (``braking.rate_step_one``, the cell's braking
+    table at time scale ``scale``) towards a command c from a rate r is max(c, the stop's
+    step from r) at most when c < r, and at most c when c >= r (to 1e-12: the step's
+    rounding), on a grid of rates and commands in [0, 1]."""
+    table = cell.braking
     rates = np.linspace(0.0, 1.0, 401)
     r, c = np.meshgrid(rates, rates, indexing="ij")
     step = path_rate_step(r.ravel(), c.ravel(), period, table=table,

@@ -78,7 +78,13 @@ from verification.search.evaluate_batch import (
 )
 from safety_systems.ssm.true_measures import is_moving, true_margin
 from verification.spaces.box import NAMES, WHOLE, ScenarioSpace
-from verification.spaces.space import free_parameters, lower_upper, make_scenario, to_point
+from verification.spaces.space import (
+    free_parameters,
+    lower_upper,
+    make_scenario,
+    space_cell,
+    to_point,
+)
 
 ESTIMATE_LAG = 0.05  # s by which the score lets an estimated hand speed lag the truth
 
@@ -130,7 +136,8 @@ def bound_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndar
     if tally is not None:
         tally.add("margins", len(points))
     v = hand_speeds(space, points)
-    scores = np.stack([margin(config, space, prop).at(v) for prop in SCORES], axis=1)
+    cell = space_cell(config, space)
+    scores = np.stack([margin(cell, space, prop).at(v) for prop in SCORES], axis=1)
     return scores - hidden_shortfall(space, config, points, v)[:, None]
 
 

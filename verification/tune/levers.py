@@ -196,7 +196,7 @@ def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
     cell = space_cell(config, space)
     out = sensed(stopped(cell, lever), lever, h, cell.frame_timeout)
     box = lever_space(space, lever)
-    proofs = proofs_of(out, box)
+    proofs = proofs_of(space_cell(out, box), box)
     run = len(proofs)
     margins = [p.margin_at_worst_corner for p in proofs.values()
                if p.margin_at_worst_corner is not None and p.property != "permitted_contact"]
@@ -205,7 +205,7 @@ def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
             z_r = max(0.0, out.safety.robot_uncertainty - min(margins) + pad)
             trial = dataclasses.replace(out, safety=dataclasses.replace(
                 out.safety, robot_uncertainty=z_r))
-            trial_proofs = proofs_of(trial, box)
+            trial_proofs = proofs_of(space_cell(trial, box), box)
             run += len(trial_proofs)
             if all(p.proved for p in trial_proofs.values()):
                 out, proofs = trial, trial_proofs  # (else the sensed one stands)

@@ -10,7 +10,13 @@ import numpy as np
 from safety_systems.config.scenario import load_controller_config
 from verification.proof.theorems import prove
 from verification.search.evaluate_batch import evaluate_many
-from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
+from verification.spaces.space import (
+    free_parameters,
+    load_space,
+    make_scenario,
+    space_cell,
+    to_point,
+)
 
 MODELS = Path(__file__).parents[3] / "models"
 SPACE = load_space(MODELS / "spaces" / "default.yaml")  # (peak speeds up to 2.0 m/s)
@@ -43,9 +49,10 @@ def test_a_three_metre_per_second_space_is_proved_with_a_configuration_that_cove
         tmp_path):
     space = _fast_space(3.0, tmp_path)
     assert space.parameters.peak_speed.max == 3.0
-    proof = prove(_fast_config(3.0), space)
+    proof = prove(space_cell(_fast_config(3.0), space), space)
     assert proof.proved and proof.box["peak_speed"] == [SPACE.parameters.peak_speed.min, 3.0]
-    refused = prove(ISO, space)  # ISO 13855's 2.0 m/s: its premises fail, and say so
+    # ISO 13855's 2.0 m/s: its premises fail, and say so
+    refused = prove(space_cell(ISO, space), space)
     assert not refused.proved
     failing = " ".join(x.statement for x in refused.premises if not x.holds)
     assert "v_max 3 m/s" in failing

@@ -11,19 +11,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from safety_systems.cell.braking import BrakingTable, path_rate_step
-from safety_systems.config.configuration import monitor_capsules, tracker_rules
 from safety_systems.cell.joint_path import joint_path_state
 from safety_systems.sensing.kalman import axis_predict, process_noise, transition_matrix
 from safety_systems.cell.robot_geometry import capsule_ends
 from safety_systems.cell.stopping import TRUTH_RATES, rate_index
 from safety_systems.config.scenario import Box, BrakingConfig, load_controller_config
 from safety_systems.sensing.tracks import TRACK_SLOT, frame_update
-from safety_systems.config.configuration import (
-    braking_table,
-    frame_timeout,
-    joint_path,
-    level_stops,
-)
+from safety_systems.config.configuration import joint_path
+from safety_systems.config.resolved_cell import resolve
 from safety_systems.ssm.formulas import SPEED_LEVELS, level_at_or_above
 from verification.proof.tracking_error import ERROR_HORIZON, estimate_error_coefficients
 from verification.proof.robot_bounds import (
@@ -38,7 +33,7 @@ from verification.proof.margins import level_rate, margin, speed_levels
 from verification.proof.premises import operators_reach
 from verification.proof.theorems import prove, prove_separation
 from verification.spaces.box import Range
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 
 ROOT = Path(__file__).resolve().parents[3]
 ISO = load_controller_config(ROOT / "models/configs/iso.yaml")
@@ -65,13 +60,18 @@ def _space(space=SPACE, **ranges):
     return dc.replace(space, parameters=dc.replace(space.parameters, **ranges))
 
 
+def _cell(config, space=SPACE):
+    """What ``config`` means on the space's robot: the cell the proofs take."""
+    return space_cell(config, space)
+
+
 def _failed(proof):
     return [x.statement for x in proof.premises if not x.holds]
 
 
 @pytest.fixture(scope="module")
 def iso_proof():
-    return prove(ISO, SPACE)
+    return prove(_cell(ISO), SPACE)
 
 
 def test_iso_config_is_proved_over_the_whole_cell_space(iso_proof):
@@ -88,13 +88,13 @@ def test_iso_config_is_proved_over_the_whole_cell_space(iso_proof):
     assert iso_proof.placeholder_braking
     assert any("PLACEHOLDER" in x.statement for x in iso_proof.premises if x.basis == "trusted")
     # Over the previous envelope (the flange only) it is proved too.
-    assert prove(ISO, FLANGE).proved
+    assert prove(_cell(ISO, FLANGE), FLANGE).proved
 
 
 def test_margin_is_the_theorem_s_m_at_the_worst_corner(iso_proof):
     t, f, p = iso_proof.terms, ISO.safety, SPACE.parameters
     assert (t["T_s"], t["B"], t["T_r"]) == (0.54, 0.26, 0.20)
-    assert t["tau"] == frame_timeout(ISO) and t["h"] == H
+    assert t["tau"] == _cell(ISO).frame_timeout and t["h"] == H
     v_max = p.peak_speed.max
     m = (t["v"] * (t["T_s"] + t["T_r"]) - t["V_R"] * t["T_r"] + t["B"] + f.intrusion_distance
          + f.human_uncertainty + f.robot_uncertainty
@@ -110,12 +110,12 @@ def test_margin_is_the_theorem_s_m_at_the_worst_corner(iso_proof):
 
 
 def test_seed_and_previous_configs_fail_on_their_premises():
-    failed = _failed(prove(SEED, SPACE))
+    failed = _failed(prove(_cell(SEED), SPACE))
     assert any("human-speed" in s for s in failed)
     assert any("tool_point against capsules" in s for s in failed)
     assert any("hidden bodies stay hazards" in s for s in failed)
-    failed = _failed(prove(PREVIOUS, SPACE))
-    assert len(failed) == 3 and prove(PREVIOUS, SPACE).margin_at_worst_corner is None
+    failed = _failed(prove(_cell(PREVIOUS), SPACE))
+    assert len(failed) == 3 and prove(_cell(PREVIOUS), SPACE).margin_at_worst_corner is None
     assert any("tool_point against capsules" in s for s in failed)
     assert any("hidden_bodies: expire" in s for s in failed)
     assert any("outlier frames all fall outside the gate" in s for s in failed)
@@ -158,7 +158,7 @@ NOT_PROVED = {  # name: (config, space, words of the failing premise or None: th
 @pytest.mark.parametrize("name", NOT_PROVED)
 def test_broken_configs_are_not_proved(name):
     config, space, words = NOT_PROVED[name]
-    proof = prove(config, space)
+    proof = prove(_cell(config, space), space)
     assert not proof.proved
     if words is None:  # every premise but z3's holds; the margin is negative
         assert _failed(proof) == ["z3: M >= 0 for every v_max in the box"]
@@ -171,11 +171,12 @@ def test_broken_configs_are_not_proved(name):
 def test_what_is_not_a_fault_is_proved():
     # The tool point measured against the tool point (the previous envelope), exits and
     # walls far from every approach, no outliers without a gate.
-    assert prove(_safety(robot_geometry="tool_point"), FLANGE).proved
+    assert prove(_cell(_safety(robot_geometry="tool_point"), FLANGE), FLANGE).proved
     far = _tracker(exits=[Box([8.0, -1.0, -1.0], [9.0, 1.0, 2.0])],
                    cell=Box([-9.0, -9.0, -9.0], [9.0, 9.0, 9.0]))
-    assert operators_reach(SPACE) < 8.0 and prove(far, SPACE).proved
-    assert prove(_tracker(gate=False), _space(outlier_frames=Range(0.0, 0.0))).proved
+    assert operators_reach(SPACE) < 8.0 and prove(_cell(far), SPACE).proved
+    clean = _space(outlier_frames=Range(0.0, 0.0))
+    assert prove(_cell(_tracker(gate=False), clean), clean).proved
 
 
 def _longest_stop_travel(capsules, table, rate):
@@ -197,8 +198,9 @@ def _longest_stop_travel(capsules, table, rate):
 
 @pytest.mark.parametrize("scale", [1.0, 2.0])
 def test_robot_bounds_cover_every_capsule_point(scale):
-    rb = robot_bounds(PATH, ISO, period=H, braking_time_scale=scale)
-    capsules = monitor_capsules(ISO)
+    cell = resolve(ISO)
+    rb = robot_bounds(PATH, cell, period=H, braking_time_scale=scale)
+    capsules = cell.capsules
     # V_R: above every capsule end's speed sampled 10x more densely than the covering grid
     # (every axis point moves slower than the faster of its capsule's ends).
     s = np.linspace(0.0, PATH.cycle_time, 200_001)
@@ -206,7 +208,7 @@ def test_robot_bounds_cover_every_capsule_point(scale):
     speed = np.linalg.norm(capsule_ends(q, capsules, dq)[1], axis=-1).max(axis=(1, 2))
     assert speed.max() <= rb.tool_speed <= 1.05 * speed.max()
     # D: above the longest travel of any capsule end in a stop under brakes slowed by scale.
-    table = braking_table(ISO)
+    table = cell.braking
     slowed = BrakingTable(table.speed_fraction, table.stopping_time * scale,
                           table.stopping_distance)
     travelled = _longest_stop_travel(capsules, slowed, 1.0)
@@ -223,14 +225,15 @@ def test_robot_bounds_cover_every_capsule_point(scale):
 
 def test_a_longer_tool_moves_faster_and_farther():
     long_tool = _safety(tool_length=0.3)
-    short = robot_bounds(PATH, ISO, period=H, braking_time_scale=1.0)
-    longer = robot_bounds(PATH, long_tool, period=H, braking_time_scale=1.0)
+    iso, long_cell = resolve(ISO), resolve(long_tool)
+    short = robot_bounds(PATH, iso, period=H, braking_time_scale=1.0)
+    longer = robot_bounds(PATH, long_cell, period=H, braking_time_scale=1.0)
     assert longer.tool_speed > short.tool_speed and longer.stop_travel > short.stop_travel
-    assert capsule_reach(monitor_capsules(long_tool)) > capsule_reach(monitor_capsules(ISO))
+    assert capsule_reach(long_cell.capsules) > capsule_reach(iso.capsules)
 
 
 def test_acceleration_bound_covers_finite_differences_of_every_capsule_end():
-    capsules = monitor_capsules(_safety(tool_length=0.3))
+    capsules = resolve(_safety(tool_length=0.3)).capsules
     bound = tool_acceleration_bound(PATH, capsule_reach(capsules))
     step = 1e-4  # s of path parameter
     s = np.arange(0.0, PATH.cycle_time, step)
@@ -248,7 +251,7 @@ def test_acceleration_bound_covers_a_spline_path():
     # The e-waste cell's planned task path (a SplinePath, there and back): the bound
     # covers every capsule end too, and each piece's joint rate sums cover their samples.
     path = joint_path(EWASTE.robot)
-    capsules = monitor_capsules(ISO)
+    capsules = resolve(ISO).capsules
     bound = tool_acceleration_bound(path, capsule_reach(capsules))
     step = 1e-4
     s = np.arange(0.0, path.cycle_time, step)
@@ -264,19 +267,19 @@ def test_acceleration_bound_covers_a_spline_path():
 
 
 def test_a_spline_path_cell_can_be_proved():
-    assert prove(ISO, EWASTE).proved
+    assert prove(_cell(ISO, EWASTE), EWASTE).proved
 
 
 def test_braking_is_monotone_for_the_default_table():
     assert ISO.braking.speed_fraction == []  # the default (UR5 placeholder) table
     for scale in (0.5, 1.0, 2.0):
-        assert braking_is_monotone(ISO, H, scale)
+        assert braking_is_monotone(resolve(ISO).braking, H, scale)
     # A table whose deceleration jumps within one tick's worth of speed is not.
     jumpy = dc.replace(ISO, braking=BrakingConfig(speed_fraction=[0.5, 1.0],
                                                   stopping_time=[10.0, 0.001],
                                                   stopping_distance=[0.1, 0.2]))
-    assert not braking_is_monotone(jumpy, H, 1.0)
-    assert not prove(dc.replace(jumpy), SPACE).proved
+    assert not braking_is_monotone(resolve(jumpy).braking, H, 1.0)
+    assert not prove(_cell(dc.replace(jumpy)), SPACE).proved
 
 
 def _motions(rng, rows, frames, settle, period, v_max, a_max, substeps=10):
@@ -355,7 +358,7 @@ def test_tracker_error_stays_within_the_bound(coefficients, gaps, seed):
         hidden[start:start + int(rng.integers(1, 60))] = True  # up to 3 s
     elif gaps == "many":
         hidden[settle:] = rng.random((frames - settle, rows)) < 0.2
-    rules = tracker_rules(_tracker(config, gate=False))
+    rules = resolve(_tracker(config, gate=False)).tracker_rules
     tracks, worst, updates, t_good = np.zeros((rows, TRACK_SLOT)), 0.0, 0, -np.inf
     for k in range(frames):
         if dropped[k]:
@@ -379,7 +382,7 @@ def test_error_recursion_converges_and_an_unconverged_one_is_not_proved():
 
 
 def test_speed_alteration_controllers_are_not_proved():
-    proof = prove(dc.replace(ISO, type="erga"), SPACE)
+    proof = prove(_cell(dc.replace(ISO, type="erga")), SPACE)
     assert not proof.proved and not proof.premises[0].holds
     assert "speed override" in proof.premises[0].statement
 
@@ -387,7 +390,7 @@ def test_speed_alteration_controllers_are_not_proved():
 # --- the separation theorem -----------------------------------------------------------
 
 def test_separation_margin_is_the_theorem_s_at_the_worst_corner():
-    proof = prove_separation(ISO, SPACE)
+    proof = prove_separation(_cell(ISO), SPACE)
     t, f, p = proof.terms, ISO.safety, SPACE.parameters
     assert proof.proved and proof.property == "separation"
     v_max = p.peak_speed.max
@@ -396,7 +399,7 @@ def test_separation_margin_is_the_theorem_s_at_the_worst_corner():
          + f.human_uncertainty + f.robot_uncertainty - v_max * t["tau"])
     assert proof.margin_at_worst_corner == pytest.approx(m, abs=1e-12)
     # C is on both sides (the monitor's S and S_true): it cannot buy the invariant.
-    more_c = prove_separation(_safety(ISO, intrusion_distance=0.5), SPACE)
+    more_c = prove_separation(_cell(_safety(ISO, intrusion_distance=0.5)), SPACE)
     assert more_c.margin_at_worst_corner == pytest.approx(proof.margin_at_worst_corner,
                                                           abs=1e-12)
 
@@ -404,8 +407,8 @@ def test_separation_margin_is_the_theorem_s_at_the_worst_corner():
 def test_a_floor_below_the_hands_speed_costs_the_difference():
     # estimated_with_floor at 1.0 m/s: the monitor may use 1.0, S_true the true 2.0 m/s.
     floor = _safety(ISO, human_speed="estimated_with_floor", iso_human_speed=1.0)
-    proof = prove_separation(floor, SPACE)
-    base = prove_separation(ISO, SPACE)
+    proof = prove_separation(_cell(floor), SPACE)
+    base = prove_separation(_cell(ISO), SPACE)
     t = proof.terms
     assert (t["v_lo"], t["v_hi"]) == (1.0, SPACE.parameters.peak_speed.max)
     assert not proof.proved
@@ -422,7 +425,7 @@ def test_a_floor_below_the_hands_speed_costs_the_difference():
     (_tracker(ISO, gate=False), SPACE, "outside the gate"),
 ], ids=["seed", "tool point", "expire", "no gate"])
 def test_the_separation_proof_names_the_missing_premise(config, space, words):
-    proof = prove_separation(config, space)
+    proof = prove_separation(_cell(config, space), space)
     assert not proof.proved and proof.needed_allowance is None
     assert any(words in s for s in _failed(proof))
 
@@ -433,7 +436,7 @@ def test_the_separation_proof_names_the_missing_premise(config, space, words):
     (ISO, _space(braking_time_scale=Range(1.0, 1.5))),
 ], ids=["short stopping time", "short stopping distance", "slow brakes"])
 def test_the_separation_proof_fails_on_the_margin_when_a_term_is_short(config, space):
-    proof = prove_separation(config, space)
+    proof = prove_separation(_cell(config, space), space)
     assert _failed(proof) == ["z3: M_S >= 0 for every v_max in the box"]
     assert proof.margin_at_worst_corner < 0.0 < proof.needed_allowance
 
@@ -446,9 +449,9 @@ def test_the_tightest_proved_configuration_breaks_the_invariant_in_no_simulation
     from verification.search.strategies import sweep_points
     from verification.spaces.space import free_parameters, make_scenario, to_point
 
-    needed = prove_separation(ISO_CONTACT, SPACE).needed_allowance
+    needed = prove_separation(_cell(ISO_CONTACT), SPACE).needed_allowance
     tight = _safety(ISO_CONTACT, robot_uncertainty=needed + 1e-6)
-    assert prove_separation(tight, SPACE).proved
+    assert prove_separation(_cell(tight), SPACE).proved
     points = sweep_points("sobol", 1024, len(free_parameters(SPACE)), seed=5)
     result = evaluate_many([make_scenario(SPACE, tight, to_point(SPACE, u)) for u in points])
     assert np.isfinite(result.separation).sum() > 20  # the robot was let move near someone
@@ -459,16 +462,17 @@ def test_the_fastest_point_robot_speed_needs_a_small_allowance():
     # S from the capsule's fastest point never credits a robot moving away: the robot
     # term of M_S shrinks from -2 V_R T_r to -a h T_r, and contact gains V_R T_r.
     fast = _safety(ISO_CONTACT, robot_speed="fastest_point")
-    directed_sep, fast_sep = prove_separation(ISO_CONTACT, SPACE), prove_separation(fast, SPACE)
+    directed_sep = prove_separation(_cell(ISO_CONTACT), SPACE)
+    fast_sep = prove_separation(_cell(fast), SPACE)
     t = fast_sep.terms
     assert fast_sep.terms["robot_speed_term"] == pytest.approx(
-        -robot_acceleration_bound(PATH, fast, SPACE, t["V_R"]) * H * t["T_r"], abs=1e-15)
+        -robot_acceleration_bound(PATH, _cell(fast), SPACE, t["V_R"]) * H * t["T_r"], abs=1e-15)
     assert 0.0 < fast_sep.needed_allowance < directed_sep.needed_allowance - 2 * t["V_R"] * t[
         "T_r"] + 0.05
-    assert prove(fast, SPACE).margin_at_worst_corner == pytest.approx(
-        prove(ISO_CONTACT, SPACE).margin_at_worst_corner + t["V_R"] * t["T_r"], abs=1e-12)
+    assert prove(_cell(fast), SPACE).margin_at_worst_corner == pytest.approx(
+        prove(_cell(ISO_CONTACT), SPACE).margin_at_worst_corner + t["V_R"] * t["T_r"], abs=1e-12)
     tight = _safety(fast, robot_uncertainty=fast_sep.needed_allowance + 1e-6)
-    assert prove_separation(tight, SPACE).proved and prove(tight, SPACE).proved
+    assert prove_separation(_cell(tight), SPACE).proved and prove(_cell(tight), SPACE).proved
     # Soundness against the closed loop, over 1024 Sobol scenarios of the default space.
     from verification.search.evaluate_batch import evaluate_many
     from verification.search.strategies import sweep_points
@@ -498,7 +502,7 @@ def _worst_corner(space=SPACE):
 
 
 def test_by_speed_proves_both_theorems_and_names_the_least_level():
-    for proof in (prove(BY_SPEED, SPACE), prove_separation(BY_SPEED, SPACE)):
+    for proof in (prove(_cell(BY_SPEED), SPACE), prove_separation(_cell(BY_SPEED), SPACE)):
         assert proof.proved and all(x.holds for x in proof.premises)
         t = proof.terms
         assert t["stopping"] == "by_speed" and len(t["level_margins"]) == SPEED_LEVELS
@@ -506,13 +510,13 @@ def test_by_speed_proves_both_theorems_and_names_the_least_level():
         assert t["level_margins"][str(t["speed_level"])] == proof.margin_at_worst_corner
         assert f"least at level {t['speed_level']}," in proof.premises[-1].statement
         assert any("S by speed" in x.statement for x in proof.premises)
-    sep = prove_separation(BY_SPEED, SPACE)
+    sep = prove_separation(_cell(BY_SPEED), SPACE)
     assert sep.needed_allowance == 0.0 and sep.margin_at_worst_corner < 0.01
     assert 1 < sep.terms["speed_level"] < SPEED_LEVELS  # neither end is the tightest here
 
 
 def test_by_speed_fails_at_a_named_level_when_z_r_or_t_s_is_short():
-    short = prove_separation(_safety(BY_SPEED, robot_uncertainty=0.15), SPACE)
+    short = prove_separation(_cell(_safety(BY_SPEED, robot_uncertainty=0.15)), SPACE)
     assert not short.proved and len(_failed(short)) == 1
     level = short.terms["speed_level"]
     assert short.terms["level_margins"][str(level)] == min(short.terms["level_margins"].values())
@@ -522,29 +526,25 @@ def test_by_speed_fails_at_a_named_level_when_z_r_or_t_s_is_short():
     assert short.needed_allowance == pytest.approx(-short.margin_at_worst_corner, abs=1e-15)
     # needed_allowance is what makes the least level prove, and no less.
     z = 0.15 + short.needed_allowance
-    assert prove_separation(_safety(BY_SPEED, robot_uncertainty=z + 1e-9), SPACE).proved
-    assert not prove_separation(_safety(BY_SPEED, robot_uncertainty=z - 1e-6), SPACE).proved
+    assert prove_separation(_cell(_safety(BY_SPEED, robot_uncertainty=z + 1e-9)), SPACE).proved
+    assert not prove_separation(_cell(_safety(BY_SPEED, robot_uncertainty=z - 1e-6)), SPACE).proved
     # A short T_s costs most where the robot is fastest: contact fails at full speed.
-    fast = prove(_safety(BY_SPEED, stopping_time=0.3), SPACE)
+    fast = prove(_cell(_safety(BY_SPEED, stopping_time=0.3)), SPACE)
     assert not fast.proved and fast.terms["speed_level"] == SPEED_LEVELS
     assert fast.terms["level_margins"]["1"] > 0.0 > fast.margin_at_worst_corner
     assert f"least at level {SPEED_LEVELS}," in _failed(fast)[0]
 
 
-def test_low_levels_can_fail_where_the_full_speed_stop_proves(monkeypatch):
+def test_low_levels_can_fail_where_the_full_speed_stop_proves():
     # The levels below full speed are checked, not only the full-speed one: with the
-    # monitor's T_s at level 1 a little short (here by patching the rule that sets it),
-    # the full-speed S still proves, S by speed fails at level 1 only, and says so.
-    import verification.proof.margins as proof_module
-
-    def short_at_level_1(config, model=None):
-        t_s, b = level_stops(config, model)
-        t_s = t_s.copy()
-        t_s[1] -= 0.02
-        return t_s, b
-
-    monkeypatch.setattr(proof_module, "level_stops", short_at_level_1)
-    proof = prove_separation(BY_SPEED, SPACE)
+    # monitor's T_s at level 1 a little short (here in a cell whose stops by level are
+    # changed there), the full-speed S still proves, S by speed fails at level 1 only,
+    # and says so.
+    cell = _cell(BY_SPEED)
+    t_s, b = cell.level_stops
+    t_s = t_s.copy()
+    t_s[1] -= 0.02
+    proof = prove_separation(dc.replace(cell, level_stops=(t_s, b)), SPACE)
     rows = proof.terms["level_margins"]
     assert not proof.proved and rows["1"] < 0.0 < min(v for g, v in rows.items() if g != "1")
     assert proof.terms["speed_level"] == 1 and "least at level 1," in _failed(proof)[0]
@@ -554,10 +554,10 @@ def test_low_levels_can_fail_where_the_full_speed_stop_proves(monkeypatch):
 def test_the_top_level_is_the_full_speed_margin(config):
     full = _safety(config, stopping="full_speed")
     for prover in (prove, prove_separation):
-        by_level, at_full = prover(config, SPACE), prover(full, SPACE)
+        by_level, at_full = prover(_cell(config), SPACE), prover(_cell(full), SPACE)
         assert by_level.terms["level_margins"][str(SPEED_LEVELS)] == pytest.approx(
             at_full.margin_at_worst_corner, abs=1e-12)
-    lv, one = speed_levels(config, SPACE), speed_levels(full, SPACE)
+    lv, one = speed_levels(_cell(config), SPACE), speed_levels(_cell(full), SPACE)
     assert (lv.rate[-1], lv.previous_rate[-1], lv.t_s[-1], lv.b[-1]) == (1.0, 1.0, 0.54, 0.26)
     assert (lv.stop_time[-1], lv.stop_travel[-1]) == (one.stop_time[0], one.stop_travel[0])
     assert one.level.size == 1 and not one.by_speed
@@ -569,12 +569,13 @@ def test_each_level_s_margin_is_the_theorem_s(config):
     # the stop commanded at rho_g (its ticks counted here), the robot's speed scaled by
     # the level's rate (and by the tick before's where the monitor differences it).
     f, p = config.safety, SPACE.parameters
-    lv = speed_levels(config, SPACE)
-    t_s, b = level_stops(config)
+    cell = _cell(config)
+    lv = speed_levels(cell, SPACE)
+    t_s, b = cell.level_stops
     np.testing.assert_array_equal(lv.t_s, t_s[1:])
     np.testing.assert_array_equal(lv.b, b[1:])
     assert np.all(np.diff(lv.rate) > 0.0) and lv.rate[0] < 0.1
-    table = braking_table(config)
+    table = cell.braking
     for rate, stop_time in zip(lv.rate, lv.stop_time):
         sigma, ticks = rate, 0
         while sigma > 0.0:
@@ -586,18 +587,18 @@ def test_each_level_s_margin_is_the_theorem_s(config):
     previous = np.minimum(1.0, lv.rate + drop)
     np.testing.assert_allclose(lv.previous_rate, previous, rtol=0, atol=1e-15)
     v_max = _worst_corner()[0]
-    v_r, tau = lv.tool_speed, frame_timeout(config)
+    v_r, tau = lv.tool_speed, cell.frame_timeout
     fastest = f.robot_speed == "fastest_point"
     low = 0.0 if fastest else -v_r * previous
     contact = (2.0 * (lv.t_s + f.reaction_time) + low * f.reaction_time + lv.b
                + f.human_uncertainty + f.robot_uncertainty
                - v_max * (tau + lv.stop_time + H) - v_r * lv.rate * H - lv.stop_travel)
-    np.testing.assert_allclose(margin(config, SPACE, "contact").rows_at(v_max), contact,
+    np.testing.assert_allclose(margin(cell, SPACE, "contact").rows_at(v_max), contact,
                                rtol=0, atol=1e-12)
     if fastest:
-        gap = -np.array([robot_acceleration_bound(PATH, config, SPACE, v_r, rate=r)
+        gap = -np.array([robot_acceleration_bound(PATH, cell, SPACE, v_r, rate=r)
                          for r in previous]) * H
-        a = tool_acceleration_bound(PATH, capsule_reach(monitor_capsules(config)))
+        a = tool_acceleration_bound(PATH, capsule_reach(cell.capsules))
         np.testing.assert_allclose(gap, -(a * previous**2 + v_r * max(
             SPACE.robot.acceleration_limit, float(np.max(table.deceleration)))) * H,
             rtol=1e-12)
@@ -606,15 +607,16 @@ def test_each_level_s_margin_is_the_theorem_s(config):
     separation = (2.0 * (lv.t_s + f.reaction_time) - 2.0 * (lv.stop_time + f.reaction_time)
                   + gap * f.reaction_time + lv.b - lv.stop_travel + f.human_uncertainty
                   + f.robot_uncertainty - v_max * tau)
-    np.testing.assert_allclose(margin(config, SPACE, "separation").rows_at(v_max),
+    np.testing.assert_allclose(margin(cell, SPACE, "separation").rows_at(v_max),
                                separation, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("rate", [0.3, 0.0625 + 1e-11])
 def test_robot_bounds_cover_a_stop_from_below_full_speed(rate):
-    rb = robot_bounds(PATH, ISO, period=H, braking_time_scale=1.0, rate=rate)
-    full = robot_bounds(PATH, ISO, period=H, braking_time_scale=1.0)
-    travelled = _longest_stop_travel(monitor_capsules(ISO), braking_table(ISO), rate)
+    cell = resolve(ISO)
+    rb = robot_bounds(PATH, cell, period=H, braking_time_scale=1.0, rate=rate)
+    full = robot_bounds(PATH, cell, period=H, braking_time_scale=1.0)
+    travelled = _longest_stop_travel(cell.capsules, cell.braking, rate)
     assert rb.stop_travel >= travelled > 0.3 * rb.stop_travel
     assert rb.stop_travel < full.stop_travel and rb.stop_time < full.stop_time
     assert rb.tool_speed == full.tool_speed
@@ -647,10 +649,10 @@ def test_the_tightest_by_speed_configuration_breaks_neither_property_in_simulati
     from verification.spaces.space import free_parameters, make_scenario, to_point
 
     bare = _safety(BY_SPEED, robot_uncertainty=0.0)
-    needed = prove_separation(bare, SPACE).needed_allowance
+    needed = prove_separation(_cell(bare), SPACE).needed_allowance
     assert 0.17 < needed < 0.18
     tight = _safety(bare, robot_uncertainty=needed + 1e-6)
-    assert prove_separation(tight, SPACE).proved and prove(tight, SPACE).proved
+    assert prove_separation(_cell(tight), SPACE).proved and prove(_cell(tight), SPACE).proved
     points = sweep_points("sobol", 1024, len(free_parameters(SPACE)), seed=6)
     result = evaluate_many([make_scenario(SPACE, tight, to_point(SPACE, u)) for u in points])
     assert np.isfinite(result.separation).sum() > 500  # let move near someone, often
@@ -660,7 +662,7 @@ def test_the_tightest_by_speed_configuration_breaks_neither_property_in_simulati
 def test_the_stopping_data_premise_says_what_the_spaces_time_scale_means():
     """A space that does not scale the stops says so, not "times within 1 to 1 of it"."""
     def premise(space):
-        (found,) = [p.statement for p in prove(ISO, space).premises
+        (found,) = [p.statement for p in prove(_cell(ISO, space), space).premises
                     if p.statement.startswith("the stopping data describes")]
         return found
 

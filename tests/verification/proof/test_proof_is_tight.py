@@ -12,7 +12,7 @@ from safety_systems.cell.human_body import POINTS
 from safety_systems.config.scenario import load_controller_config
 from verification.proof.theorems import prove_separation
 from verification.search.evaluate_batch import evaluate_many
-from verification.spaces.space import load_space, make_scenario
+from verification.spaces.space import load_space, make_scenario, space_cell
 
 MODELS = Path(__file__).parents[3] / "models"
 # A straight approach at 2.0 m/s to the upper arm's outer end (found by refining a grid of
@@ -32,7 +32,7 @@ def test_without_its_allowance_the_loop_violates_nearly_what_the_proof_says():
     tuned = load_controller_config(MODELS / "configs" / "tuned.yaml")
     bare = dataclasses.replace(tuned, safety=dataclasses.replace(tuned.safety,
                                                                  robot_uncertainty=0.0))
-    proof = prove_separation(bare, space)
+    proof = prove_separation(space_cell(bare, space), space)
     assert not proof.proved
     lacks = -proof.margin_at_worst_corner
     assert 0.1 < lacks < 0.2  # its sensing term: 2.0 m/s x the 0.074 s frame timeout
@@ -40,4 +40,4 @@ def test_without_its_allowance_the_loop_violates_nearly_what_the_proof_says():
                             make_scenario(space, tuned, APPROACH, name="tuned")])
     realized, kept = float(result.separation[0]), float(result.separation[1])
     assert -lacks <= realized < -0.5 * lacks  # a real violation, no deeper than the proof's
-    assert prove_separation(tuned, space).proved and kept >= 0.0
+    assert prove_separation(space_cell(tuned, space), space).proved and kept >= 0.0

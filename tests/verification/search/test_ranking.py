@@ -17,7 +17,13 @@ from verification.proof.theorems import prove, prove_separation
 from verification.search.ranking import bound_scores, danger_scores, hand_speeds
 from verification.search.runner import Runner
 from verification.search.strategies import sweep_points
-from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
+from verification.spaces.space import (
+    free_parameters,
+    load_space,
+    make_scenario,
+    space_cell,
+    to_point,
+)
 
 SPACE = load_space("models/spaces/default.yaml")
 SUITED = dataclasses.replace(SPACE, tracked=list(BODY_POINTS))  # every body point tracked
@@ -128,7 +134,7 @@ def test_bound_scores_are_the_least_speed_level_s_margins():
         worst[names.index(name)] = 1.0
     scores = bound_scores(SPACE, config, worst[None, :])
     for column, prover in enumerate((prove, prove_separation)):
-        proof = prover(config, SPACE)
+        proof = prover(space_cell(config, SPACE), SPACE)
         assert scores[0, column] == pytest.approx(proof.margin_at_worst_corner, abs=1e-12)
         assert scores[0, column] == pytest.approx(min(proof.terms["level_margins"].values()),
                                                   abs=1e-12)
@@ -144,6 +150,7 @@ def test_danger_scores_split_over_workers_are_the_same():
 KNOWN = json.loads((Path(__file__).parents[1] / "data" / "known_counterexamples.json")
                    .read_text())
 ISO = load_controller_config("models/configs/iso.yaml")
+ISO_CELL = space_cell(ISO, SPACE)
 
 
 def _variant(safety: dict):
@@ -172,11 +179,11 @@ def test_bound_scores_are_the_proofs_margins_at_each_point():
     assert tally.margins == 2 and tally.total == 2
     for column, (prover, prop) in enumerate(((prove, "contact"),
                                               (prove_separation, "separation"))):
-        assert scores[0, column] == pytest.approx(prover(ISO, SPACE).margin_at_worst_corner,
+        assert scores[0, column] == pytest.approx(prover(ISO_CELL, SPACE).margin_at_worst_corner,
                                                   abs=1e-12)
         values = to_point(SPACE, mild)
         assert scores[1, column] == pytest.approx(
-            margin(ISO, SPACE, prop).at(values["peak_speed"]), abs=1e-12)
+            margin(ISO_CELL, SPACE, prop).at(values["peak_speed"]), abs=1e-12)
         assert scores[1, column] > scores[0, column]
 
 

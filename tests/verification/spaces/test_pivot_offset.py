@@ -13,7 +13,13 @@ from verification.proof.theorems import prove_separation
 from verification.search.evaluate_batch import evaluate_many
 from verification.search.evaluate_drake import evaluate_drake
 from verification.spaces.box import Range
-from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
+from verification.spaces.space import (
+    free_parameters,
+    load_space,
+    make_scenario,
+    space_cell,
+    to_point,
+)
 
 SPACE = load_space("models/spaces/default.yaml")
 HELMET = dataclasses.replace(SPACE, parameters=dataclasses.replace(
@@ -42,14 +48,14 @@ def test_the_sensor_reports_each_body_its_pivot_away_from_the_robot():
 
 def test_the_proof_asks_the_allowance_to_cover_the_pivot():
     config = load_controller_config("models/configs/iso.yaml")
-    assert prove_separation(config, SPACE).proved
-    proof = prove_separation(config, HELMET)
+    assert prove_separation(space_cell(config, SPACE), SPACE).proved
+    proof = prove_separation(space_cell(config, HELMET), HELMET)
     assert not proof.proved
     (premise,) = [p for p in proof.premises if "pivot offset 0.12" in p.statement]
     assert not premise.holds and premise.basis == "checked"
     roomy = dataclasses.replace(config, body=dataclasses.replace(config.body,
                                                                  tracking_allowance=0.14))
-    assert all(p.holds for p in prove_separation(roomy, HELMET).premises
+    assert all(p.holds for p in prove_separation(space_cell(roomy, HELMET), HELMET).premises
                if "pivot offset" in p.statement)
 
 

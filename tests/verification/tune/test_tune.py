@@ -12,7 +12,7 @@ from safety_systems.outputs.metrics import task_time
 from safety_systems.config.configuration import frame_timeout, with_controller
 from safety_systems.config.scenario import load_controller_config, load_scenario
 from safety_systems.diagrams.simulation import simulate
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.verify import verify
 
 MODELS = Path(__file__).parents[3] / "models"
@@ -261,18 +261,19 @@ def test_refining_lowers_the_proxy_and_keeps_both_proofs(tmp_path):
     assert set(start) == {p.name for p in block}
     c = Candidate(1, start, with_values(config, start))
     c.proxy = proxy_distance(c.config)
-    assert prove(c.config, space).proved and prove_separation(c.config, space).proved
+    cell = space_cell(c.config, space)
+    assert prove(cell, space).proved and prove_separation(cell, space).proved
     refined = tuner.refine(c, 2)
     assert refined is not None and refined.proxy < c.proxy - 0.1
     assert refined.proxy == pytest.approx(proxy_distance(refined.config))
-    assert prove(refined.config, space).proved
-    assert prove_separation(refined.config, space).proved
+    assert prove(space_cell(refined.config, space), space).proved
+    assert prove_separation(space_cell(refined.config, space), space).proved
     # It went as far as the proofs let it: a little less Z_r no longer proves.
     z_r = refined.config.safety.robot_uncertainty
     assert z_r < 0.25
     tighter = dataclasses.replace(refined.config, safety=dataclasses.replace(
         refined.config.safety, robot_uncertainty=z_r - 0.01))
-    assert not prove_separation(tighter, space).proved
+    assert not prove_separation(space_cell(tighter, space), space).proved
     # The frame timeout, on which the proxy does not depend, went to the end where the
     # proofs have more room, and T_r followed it down to the loop's own reaction time.
     assert refined.values["tracker.frame_timeout"] == 0.074
