@@ -52,7 +52,7 @@ from safety_systems.config.scenario import (
     load_scenario,
 )
 from safety_systems.diagrams.simulation import simulate
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.tune.levers import (
     Lever,
     check_levers,
@@ -120,7 +120,7 @@ def what_remains(config, tasks: list, iso_lost: float, space) -> dict:
     no_zr = dataclasses.replace(config, safety=dataclasses.replace(config.safety,
                                                                    robot_uncertainty=0.0))
     proofs = {name: {"proved": p.proved, "needed_allowance": p.needed_allowance}
-              for name, p in proofs_of(no_zr, space).items()}
+              for name, p in proofs_of(space_cell(no_zr, space), space).items()}
     out = {"z_r_0": {"lost": total_lost(tasks, no_zr), "proofs": proofs}}
     with uncapped_permitted_segments():
         out["uncapped"] = {"lost": total_lost(tasks, config)}

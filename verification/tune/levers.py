@@ -187,12 +187,13 @@ class Fitted:
 def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
     """``config`` as the lever's sensing allows it (the module's three rules), proved or
     not on ``space`` with the lever's points and latency."""
+    from verification.spaces.space import space_cell
     from verification.verify import proofs_of
 
     h = 1.0 / space.robot.control_rate_hz
     out = sensed(stopped(config, lever, robot_model_of(space.robot)), lever, h)
     box = lever_space(space, lever)
-    proofs = proofs_of(out, box)
+    proofs = proofs_of(space_cell(out, box), box)
     run = len(proofs)
     margins = [p.margin_at_worst_corner for p in proofs.values()
                if p.margin_at_worst_corner is not None and p.property != "permitted_contact"]
@@ -201,7 +202,7 @@ def fit(config: ControllerConfig, lever: Lever, space: ScenarioSpace) -> Fitted:
             z_r = max(0.0, out.safety.robot_uncertainty - min(margins) + pad)
             trial = dataclasses.replace(out, safety=dataclasses.replace(
                 out.safety, robot_uncertainty=z_r))
-            trial_proofs = proofs_of(trial, box)
+            trial_proofs = proofs_of(space_cell(trial, box), box)
             run += len(trial_proofs)
             if all(p.proved for p in trial_proofs.values()):
                 out, proofs = trial, trial_proofs  # (else the sensed one stands)

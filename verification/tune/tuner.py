@@ -66,6 +66,7 @@ from verification.properties import mode_properties
 from verification.search.runner import Runner
 from verification.search.strategies import sweep_points
 from verification.spaces.box import ScenarioSpace
+from verification.spaces.space import space_cell
 from verification.tune.levers import price, record
 from verification.tune.tasks import TaskRun, lost_time, run_task, total
 from verification.verify import CONFIRM, CROSS_CHECK, proofs_of
@@ -257,7 +258,7 @@ class Tuner:
             c.checked = len(self.kept)
 
     def prove(self, c: Candidate) -> None:
-        proofs = proofs_of(c.config, self.space)
+        proofs = proofs_of(space_cell(c.config, self.space), self.space)
         self.counts["proofs"] += len(proofs)
         c.proved = {name: p.proved for name, p in proofs.items()}
         if self.allow == "proved" and not all(c.proved.values()):
@@ -324,7 +325,7 @@ class Tuner:
                 config = self.build(trial)
             except InputError:
                 return None
-            proofs = list(proofs_of(config, self.space).values())
+            proofs = list(proofs_of(space_cell(config, self.space), self.space).values())
             self.counts["proofs"] += len(proofs)
             return (all(x.proved for x in proofs), round(proxy_distance(config, self.model), 12),
                     min(x.margin_at_worst_corner for x in proofs))

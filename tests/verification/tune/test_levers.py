@@ -18,7 +18,7 @@ from safety_systems.config.scenario import (
     operator_posture,
 )
 from safety_systems.files.input_error import InputError
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 from verification.tune.levers import (
     Lever,
     check_levers,
@@ -84,7 +84,7 @@ def test_the_fitted_allowance_is_the_least_the_proofs_allow():
     assert box.parameters.latency.max == 0.02
     less = dataclasses.replace(fitted.config, safety=dataclasses.replace(
         fitted.config.safety, robot_uncertainty=z_r - 1e-4))
-    proofs = proofs_of(less, box)
+    proofs = proofs_of(space_cell(less, box), box)
     assert not proofs["separation"].proved  # 0.1 mm less and the invariant's proof fails
 
 
