@@ -351,8 +351,8 @@ def ours(space, config, seed: int, budget: int, objectives) -> dict:
     before it and the simulations up to and including it), all evaluations made by
     then, CPU seconds by then; with none found, ``found`` False and the whole run's CPU."""
     with Runner(workers=1) as runner:
-        log = falsify(space, config, runner, budget=budget, seed=seed, stop_at_first=True,
-                      objectives=objectives)
+        log = falsify(space, space_cell(config, space), runner, budget=budget, seed=seed,
+                      stop_at_first=True, objectives=objectives)
     first = _first(log, objectives)
     if first is None:
         return {"found": False, "cpu": runner.tally.cpu_seconds(),
@@ -421,7 +421,8 @@ def first_counterexamples(seeds: int, budgets: list[int], which: list[str],
                "contact": (CONTACT, "contact mutant (contact_unsafe.yaml)")}
     objectives = [0, 2]  # contact and separation, as verify's default
     with Runner(workers=1) as runner:  # loads the compiled code (not timed)
-        falsify(SPACE, ISO, runner, budget=16, seed=99, objectives=objectives)
+        falsify(SPACE, space_cell(ISO, SPACE), runner, budget=16, seed=99,
+                objectives=objectives)
     warm = make_scenario(SPACE, ISO, to_point(SPACE, np.full(20, 0.5)))
     evaluate_many([warm])
     evaluate_drake(warm)  # (the diagram's first build loads the robot model: not timed)
@@ -584,11 +585,12 @@ def costs(n: int = 512) -> None:
 
     for label, config in (("iso", ISO), ("subtle", SUBTLE)):
         evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u)) for u in points[:8]])
-        danger_scores(SPACE, config, points[:8])
+        cell = space_cell(config, SPACE)
+        danger_scores(SPACE, cell, points[:8])
         sim = cpu(lambda: evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u))
                                          for u in points])) / n
-        margin = cpu(lambda: bound_scores(SPACE, config, np.tile(points, (8, 1)))) / (8 * n)
-        danger = cpu(lambda: danger_scores(SPACE, config, points)) / n
+        margin = cpu(lambda: bound_scores(SPACE, cell, np.tile(points, (8, 1)))) / (8 * n)
+        danger = cpu(lambda: danger_scores(SPACE, cell, points)) / n
         drake = cpu(lambda: evaluate_drake(make_scenario(SPACE, config,
                                                          to_point(SPACE, points[0]))))
         _row(f"{label}: a simulation, its scenario built included, CPU ms", f"{sim * 1e3:.2f}",

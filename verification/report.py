@@ -160,6 +160,8 @@ def report_dict(o: Outcome, *, config_path: str, space_path: str,
         "seed": o.seed,
         "budget": o.budget,
         "braking_data": "placeholder" if o.proof.placeholder_braking else "configured",
+        # the placeholder's warning for the space's robot (the resolved cell's)
+        **({"braking_data_warning": o.braking_warning} if o.braking_warning else {}),
         "provenance": origin,
     })
 
@@ -395,16 +397,11 @@ def markdown(report: dict) -> str:
 
 
 def placeholder_words(report: dict) -> str:
-    """The built-in stopping data's warning for the report's robot (the UR5e's where the
-    report names none)."""
-    if not report.get("robot"):
-        return PLACEHOLDER_WARNING
-    from safety_systems.cell.robot_model import robot_model
-    from safety_systems.config.configuration import braking_warning
-
-    # (only a shipped robot has a placeholder: a robot from another URDF must configure
-    # its stopping data, so its report never says placeholder)
-    return braking_warning(robot_model(report["robot"]["model"]))
+    """The built-in stopping data's warning for the report's robot, as the verification's
+    resolved cell gave it (``braking_data_warning``; the UR5e's where the report has
+    none). Only a shipped robot has a placeholder: a robot from another URDF must
+    configure its stopping data, so its report never says placeholder."""
+    return report.get("braking_data_warning") or PLACEHOLDER_WARNING
 
 
 def write_report(o: Outcome, out: Path, *, config_path: str, space_path: str,

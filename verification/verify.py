@@ -36,6 +36,7 @@ import numpy as np
 
 from safety_systems.files.output_files import write_text
 from safety_systems.cell.robot_model import is_ur5e
+from safety_systems.config.resolved_cell import ResolvedCell
 from safety_systems.config.scenario import ControllerConfig, dump_scenario, robot_model_of
 from verification.search.counts import Tally
 from verification.search.evaluate_drake import cut_short, evaluate_drake
@@ -55,6 +56,7 @@ from verification.spaces.space import (
     describe,
     free_parameters,
     make_scenario,
+    space_cell,
     to_point,
 )
 from verification.verdicts import VERDICT_ORDER
@@ -68,9 +70,15 @@ PROVERS = {"contact": prove, "separation": prove_separation,
            "permitted_contact": prove_permitted_contact}
 
 
-def proofs_of(config: ControllerConfig, space: ScenarioSpace) -> dict:
-    """The proof of each property ``config`` is verified for (:data:`PROVERS`)."""
-    return {name: PROVERS[name](config, space) for name in mode_properties(config.safety.mode)}
+def proofs_of(cell: ResolvedCell, space: ScenarioSpace) -> dict:
+    """The proof of each property the configuration resolved in ``cell``
+    (``spaces.space.space_cell``) is verified for (:data:`PROVERS`)."""
+    return _prove(cell, space, mode_properties(cell.config.safety.mode))
+
+
+def _prove(cell: ResolvedCell, space: ScenarioSpace, names) -> dict:
+    """The proof of each property in ``names`` (:data:`PROVERS`)."""
+    return {name: PROVERS[name](cell, space) for name in names}
 
 
 def selected_properties(choice: str, mode: str = "ssm") -> tuple[str, ...]:
@@ -133,6 +141,9 @@ class Outcome:
     # SHA-256: ``deploy.certificate.robot_identity``); None: the UR5e
     robot: dict | None = None
     safety_mode: str = "ssm"  # the configuration's safety.mode
+    # the placeholder stopping data's warning for the space's robot ("" where the
+    # configuration gives its own data: ``ResolvedCell.braking_warning``)
+    braking_warning: str = ""
 
     def _all(self, field: str) -> list:
         return [x for p in self.properties.values() for x in getattr(p, field)]
@@ -160,7 +171,8 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
            method: str = "falsify", workers: int | None = None, scheduler: str | None = None,
            seed: int = 0, progress: bool = False, config_text: str = "",
            stop_at_first: bool = False, candidates: int = 8192,
-           properties: str = "both", phases: Phases | None = None) -> Outcome:
+           properties: str = "both", phases: Phases | None = None,
+           cell: ResolvedCell | None = None) -> Outcome:
     """Runs proofs and search for ``config`` over ``space``, for the ``properties``
     chosen (``contact``, ``separation``, ``permitted_contact`` or ``both``: the two of
     the configuration's ``safety.mode``, :func:`selected_properties`); writes scenario files of confirmed
@@ -170,11 +182,17 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     (the other properties are then left unchecked, and no cross-check replays are
     made); ``candidates``: how many the falsifier's reduced model ranks. Every
     evaluation of a model of the loop is counted (``Outcome.evaluations``). ``phases``
-    names the first three of ``PHASES`` as they start (the caller the report's)."""
+    names the first three of ``PHASES`` as they start (the caller the report's).
+    ``cell``: ``config`` resolved on the space (``spaces.space.space_cell``; None: resolved
+    here, once): the proofs, the search and the Drake replays all take it."""
     if method not in METHODS:
         raise ValueError(f"method: got {method!r}; allowed: {' | '.join(METHODS)}")
     names = selected_properties(properties, config.safety.mode)
     tally = Tally()  # the clocks start here: proofs, search and replays all count
+    if cell is None:
+        cell = space_cell(config, space)
+    else:
+        cell.check_config(config, "verify")
     out.mkdir(parents=True, exist_ok=True)
     phases = Phases("verify", PHASES, on=False) if phases is None else phases
     cores = workers or os.cpu_count() or 1
@@ -182,7 +200,7 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     most = len(names) * (CONFIRM + CROSS_CHECK)  # Drake replays at most
     phases.start(f"proving {len(names)} properties over the whole box",
                  left=verify_seconds(budget, most, cores, in_drake))
-    proofs = {name: PROVERS[name](config, space) for name in names}
+    proofs = _prove(cell, space, names)
     phases.start(f"searching ({method}): a budget of {budget} simulation-equivalents",
                  left=verify_seconds(budget, most, cores, in_drake))
     drake_runs: dict = {}  # Drake's figures by simulation index, shared by the properties
@@ -192,7 +210,7 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     def confirm(log: SearchLog, j: int, i: int) -> bool:
         """Replays simulation i, a violation of the property in column j, in Drake."""
         name = next(n for n in names if column(n) == j)
-        entry = _replay(space, config, log, out, i, "violation", name, drake_runs, tally,
+        entry = _replay(space, cell, log, out, i, "violation", name, drake_runs, tally,
                         confirmations.setdefault(name, []))
         if entry["drake_robustness"] < 0.0:
             first_confirmed.setdefault(name, tally.snapshot())
@@ -202,12 +220,12 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
     with Runner(workers=workers, scheduler=scheduler, cache_path=out / "evaluations.jsonl",
                 progress=progress, total=budget, tally=tally) as runner:
         if method == "falsify":
-            log = falsify(space, config, runner, budget=budget, seed=seed,
+            log = falsify(space, cell, runner, budget=budget, seed=seed,
                           stop_at_first=stop_at_first, candidates=candidates,
                           objectives=[column(name) for name in names],
                           confirm=confirm if stop_at_first else None)
         else:
-            log = sweep(space, config, runner, method=method, budget=budget, seed=seed)
+            log = sweep(space, cell, runner, method=method, budget=budget, seed=seed)
     stopped = next((n for n in names if n in first_confirmed), None)
     replays = 0 if stopped is not None else len({i for name in names for i, _ in
                                                  replay_choice(log, seed, column(name))})
@@ -220,7 +238,7 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
                 continue
             replays = confirmations[name]
         else:
-            replays = replay_in_drake(space, config, log, out, seed=seed, name=name,
+            replays = replay_in_drake(space, cell, log, out, seed=seed, name=name,
                                       drake_runs=drake_runs, tally=tally,
                                       first_confirmed=first_confirmed)
         confirmed = [r for r in replays if r["drake_robustness"] < 0.0]
@@ -247,7 +265,7 @@ def verify(config: ControllerConfig, space: ScenarioSpace, out: Path, *, budget:
                    hashlib.sha256(config_text.encode()).hexdigest(), space.contact_geometry,
                    space.robot.mode, tally.snapshot(), stopped,
                    [n for n in names if n not in results], _robot(space),
-                   config.safety.mode)
+                   config.safety.mode, cell.braking_warning)
 
 
 def _robot(space: ScenarioSpace) -> dict | None:
@@ -299,11 +317,13 @@ def replay_choice(log: SearchLog, seed: int, j: int = 0) -> list[tuple[int, str]
     return chosen
 
 
-def replay_in_drake(space, config, log, out: Path, *, seed: int = 0, name: str = "contact",
-                    drake_runs: dict | None = None, tally: Tally | None = None,
-                    first_confirmed: dict | None = None) -> list[dict]:
+def replay_in_drake(space, cell: ResolvedCell, log, out: Path, *, seed: int = 0,
+                    name: str = "contact", drake_runs: dict | None = None,
+                    tally: Tally | None = None, first_confirmed: dict | None = None
+                    ) -> list[dict]:
     """Replays :func:`replay_choice` for property ``name`` in the Drake diagram (the
-    space's robot mode): per replay the search's figure beside Drake's (and Drake's
+    space's robot mode; the configuration resolved in ``cell``,
+    ``spaces.space.space_cell``): per replay the search's figure beside Drake's (and Drake's
     figures of every property, ``drake``). Scenario files are written for Drake
     violations (``counterexamples/``) and for search violations Drake does not
     reproduce (``disagreements/``). ``drake_runs`` keeps Drake's figures by simulation
@@ -312,15 +332,15 @@ def replay_in_drake(space, config, log, out: Path, *, seed: int = 0, name: str =
     drake_runs = {} if drake_runs is None else drake_runs
     replays: list = []
     for i, why in replay_choice(log, seed, column(name)):
-        entry = _replay(space, config, log, out, i, why, name, drake_runs, tally, replays)
+        entry = _replay(space, cell, log, out, i, why, name, drake_runs, tally, replays)
         if (entry["drake_robustness"] < 0.0 and first_confirmed is not None
                 and tally is not None):
             first_confirmed.setdefault(name, tally.snapshot())
     return replays
 
 
-def _replay(space, config, log, out: Path, i: int, why: str, name: str, drake_runs: dict,
-            tally: Tally | None, replays: list) -> dict:
+def _replay(space, cell: ResolvedCell, log, out: Path, i: int, why: str, name: str,
+            drake_runs: dict, tally: Tally | None, replays: list) -> dict:
     """Simulation i of the log replayed in the Drake diagram for property ``name``, as
     an entry appended to ``replays`` (see :func:`replay_in_drake`). A violation's replay
     stops a quarter second after Drake shows it (``evaluate_drake``'s ``stop_on``); a
@@ -329,11 +349,11 @@ def _replay(space, config, log, out: Path, i: int, why: str, name: str, drake_ru
     field = PROPERTIES[name]
     rho = log.column(column(name))[i]
     values = to_point(space, np.array(log.points[i]))
-    scenario = make_scenario(space, config, values)
+    scenario = make_scenario(space, cell.config, values)
     known = drake_runs.get(i)
     if known is None or (known[1] is not None and getattr(known[0], field) >= 0.0):
-        drake, run = (evaluate_drake(scenario, stop_on=name) if why == "violation"
-                      else evaluate_drake(scenario))
+        drake, run = (evaluate_drake(scenario, stop_on=name, cell=cell) if why == "violation"
+                      else evaluate_drake(scenario, cell=cell))
         known = drake_runs[i] = (drake, float(run.time[-1]) if cut_short(run) else None)
         if tally is not None:
             tally.add("drake")

@@ -286,11 +286,11 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None,
     Every output port is logged at the control period unless ``logged`` names the
     signals to keep (``"q"``, ``"v"`` and ``"system.port"`` keys).
     """
-    robot, config = scenario.robot, scenario.controller
+    robot = scenario.robot
     if cell is None:
         cell = resolve_scenario(scenario)
     else:
-        cell.check_config(config, "MakeWorkcell")
+        cell.check_scenario(scenario, "MakeWorkcell")
     dt = 1.0 / robot.control_rate_hz
     path = joint_path(robot)
     names = body_names(scenario)

@@ -135,7 +135,7 @@ def scenario_cell(scenario: Scenario, cell: ResolvedCell | None) -> ResolvedCell
     resolved cell when None (``resolve_scenario``)."""
     if cell is None:
         return resolve_scenario(scenario)
-    cell.check_config(scenario.controller, "scenario")
+    cell.check_scenario(scenario, "scenario")
     return cell
 
 

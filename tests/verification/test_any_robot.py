@@ -90,6 +90,8 @@ def test_verify_proves_both_properties_on_the_robot_s_path(robot_run):
     assert any(f"PLACEHOLDER FOR THE {robot.upper()}" in x for x in premises)
     markdown = (root / "verify" / "report.md").read_text()
     assert f"- robot: {robot} (" in markdown and f"placeholder for the {robot}" in markdown
+    # (the words the verification's resolved cell gave, kept in the report)
+    assert f"placeholder for the {robot}" in report["braking_data_warning"]
 
 
 def test_tune_chooses_a_proved_configuration_timed_on_the_robot_s_task(robot_run):

@@ -128,8 +128,8 @@ def batch_invents_a_violation(monkeypatch):
     is reported as a violation of ``PLANTED`` m (the Drake diagram is left alone)."""
     real = runner_module._evaluate_chunk
 
-    def perturbed(chunk):
-        figures = real(chunk)
+    def perturbed(chunk, cell=None):
+        figures = real(chunk, cell)
         figures[0, 0] = PLANTED
         return figures
 
@@ -172,8 +172,8 @@ def test_a_drake_violation_the_search_missed_is_inconclusive(tmp_path, monkeypat
     # batched evaluator (and the proof) find every scenario safe.
     real = verify_module.evaluate_drake
 
-    def violating(scenario):
-        rho, run = real(scenario)
+    def violating(scenario, **kw):
+        rho, run = real(scenario, **kw)
         return dataclasses.replace(rho, stopped_before_contact=-0.1), run
 
     monkeypatch.setattr(verify_module, "evaluate_drake", violating)
@@ -197,8 +197,8 @@ def test_an_unconfirmed_violation_beside_confirmed_ones_is_still_inconclusive(
     real = runner_module._evaluate_chunk
     planted = []
 
-    def perturbed(chunk):
-        figures = real(chunk)
+    def perturbed(chunk, cell=None):
+        figures = real(chunk, cell)
         if not planted:
             figures[0, int(np.argmax(figures[0]))] = -5.0
             planted.append(True)

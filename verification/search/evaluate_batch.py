@@ -34,11 +34,8 @@ from safety_systems.cell.braking import path_follower_step
 from safety_systems.cell.human_body import KIND_DIRECT, NUM_POINTS, envelope_batch
 from safety_systems.config.configuration import (
     contact_capsules,
-    monitor_capsules,
     operator_postures,
-    scenario_monitor_recipe,
-    tracker_regions,
-    tracker_rules,
+    tracked_points,
     truth_recipe,
 )
 from safety_systems.config.configuration import sensor_faults as scenario_faults
@@ -63,7 +60,6 @@ from safety_systems.config.scenario import (
     Scenario,
     actual_sensor,
     operator_points,
-    robot_model_of,
 )
 from safety_systems.sensing.sensor_faults import FAULT_COLUMNS, apply_faults
 from safety_systems.ssm.separation import (
@@ -107,15 +103,8 @@ from safety_systems.sensing.tracks import (
     tracker_stop,
     usable,
 )
-from safety_systems.config.configuration import (
-    braking_table,
-    frame_timeout,
-    is_recorded,
-    joint_path,
-    level_terms,
-    monitor_terms,
-    pfl_terms,
-)
+from safety_systems.config.configuration import is_recorded, joint_path
+from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
 
@@ -184,13 +173,15 @@ def delivered_frames(u: float | np.ndarray, latency: np.ndarray, period: float,
 
 
 class _Cells:
-    """The fixed data of a batch: truth, sensor conditions, configuration."""
+    """The fixed data of a batch: truth, sensor conditions, configuration (its resolved
+    ``cell``)."""
 
-    def __init__(self, scenarios: list[Scenario]):
+    def __init__(self, scenarios: list[Scenario], cell: ResolvedCell):
         self.B = len(scenarios)
         self.config = _common(scenarios, lambda s: s.controller, "controller configuration")
         robot = _common(scenarios, lambda s: dataclasses.replace(
             s.robot, cycles=1, braking_time_scale=1.0), "robot")
+        cell.check_scenario(scenarios[0], "evaluate_batch")
         self.dt = 1.0 / robot.control_rate_hz
         self.accel = robot.acceleration_limit
         cycles = max(s.robot.cycles for s in scenarios)
@@ -200,8 +191,8 @@ class _Cells:
         self.end = np.array([self.path.cycle_time * min(s.robot.cycles, self.path.cycles)
                              for s in scenarios])
         self.brake_scale = np.array([s.robot.braking_time_scale for s in scenarios])
-        self.model = robot_model_of(robot)
-        self.table = braking_table(self.config, self.model)
+        self.model = cell.model
+        self.table = cell.braking
         self.ticks = np.array([math.floor(s.duration / self.dt + 1e-9) for s in scenarios])
         sensors = [actual_sensor(s) for s in scenarios]
         self.period = _common(scenarios, lambda s: 1.0 / actual_sensor(s).rate_hz, "sensor rate")
@@ -1239,9 +1230,12 @@ def _advance(k0, k1, dt, last, path, stack, postures, enter, leave, h_ends, h_ve
                                                dt, fractions, deceleration, acceleration, 1.0)
 
 
-def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
+def evaluate_batch(scenarios: list[Scenario], cell: ResolvedCell | None = None
+                   ) -> BatchResult:
     """Closed-loop figures of every scenario (kinematic robot only: the dynamic mode's
-    plant and its tracking error are not modelled here)."""
+    plant and its tracking error are not modelled here), under their configuration's
+    resolved ``cell`` (None: resolved here, ``resolved_cell.resolve_scenario`` of the
+    first; given, it must be of their configuration and robot, ``ResolvedCell.check_scenario``)."""
     if any(s.controller.type != "ssm_override" for s in scenarios):
         raise ValueError("evaluate_batch models the ssm_override controller only; "
                          "use evaluate_many")
@@ -1251,25 +1245,26 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     if any(is_recorded(s) for s in scenarios):
         raise ValueError("evaluate_batch models scripted operators only; use evaluate_many "
                          "(it runs recorded operators in the Drake diagram)")
-    c = _Cells(scenarios)
+    cell = resolve_scenario(scenarios[0]) if cell is None else cell
+    c = _Cells(scenarios, cell)
     B, N, dt = c.B, c.N, c.dt
     cfg = c.config
     f, tr = cfg.safety, cfg.tracker
     model = c.model
-    monitor = monitor_terms(cfg, model)
-    timeout = frame_timeout(cfg)
+    monitor = cell.monitor_terms
+    timeout = cell.frame_timeout
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
     truth_t, truth_b = true_stopping_terms(scenarios, f)
     by_speed = f.stopping == "by_speed"
-    levels = level_terms(cfg, model) if by_speed else (np.empty(0), np.empty(0))
+    levels = cell.level_terms if by_speed else (np.empty(0), np.empty(0))
     truth_rates = true_stopping_by_rate(scenarios, f) if by_speed else (np.empty((B, 1)),
                                                                           np.empty((B, 1)))
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     path = path_arrays(c.path)
-    z_d_terms = (float(f.human_uncertainty), float(f.human_uncertainty_sigmas))
-    rules, regions = tracker_rules(cfg), tracker_regions(cfg)
+    z_d_terms = cell.z_d_terms
+    rules, regions = cell.tracker_rules, cell.tracker_regions
 
-    caps = monitor_capsules(cfg, model)
+    caps = cell.capsules
     contact = _common(scenarios, lambda s: (s.contact_geometry, s.robot.payload_radius,
                                             s.robot.tool_length), "contact geometry")
     truth_caps = contact_capsules(scenarios[0].robot, contact[0])
@@ -1280,7 +1275,8 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     # points, batch_key) and the true segments (a scripted operator's: each the capsule
     # between two of its true points).
     _common(scenarios, lambda s: [operator_points(o) for o in s.operators], "tracked points")
-    recipe = scenario_monitor_recipe(scenarios[0])
+    recipe = cell.recipe_for(tracked_points(scenarios[0]),
+                             [o.name for o in scenarios[0].operators])
     truth_segments = _truth_segments(scenarios)
     postures = np.array([operator_postures(sc) for sc in scenarios], dtype=float).reshape(
         B, c.K, NUM_POINTS, 3)
@@ -1342,7 +1338,7 @@ def evaluate_batch(scenarios: list[Scenario]) -> BatchResult:
     # Power and force limiting (safety.mode: ssm_pfl): each monitor segment's cap, in
     # force by the envelopes at the last update (none yet: 0, as a NaN envelope gives);
     # the permitted contact property's terms (computed under either mode).
-    pfl = pfl_terms(scenarios[0].robot, cfg)
+    pfl = cell.pfl
     segments_per_operator = truth_segments[2].size
     if M != c.K * segments_per_operator or pfl.limits.size != segments_per_operator:
         raise ValueError("evaluate_batch: the monitor's segments are not the true ones")
@@ -1445,9 +1441,12 @@ def _true_terms(scenarios: list[Scenario], safety, stops_of) -> tuple[np.ndarray
             np.array([x.distance for x in stops_true]) + safety.intrusion_distance)
 
 
-def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> BatchResult:
+def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024,
+                  cell: ResolvedCell | None = None) -> BatchResult:
     """``evaluate_batch`` over scenarios of any shapes: grouped by ``batch_key`` and cut
-    into batches of at most ``batch_size``; results in the input order. Scenarios the
+    into batches of at most ``batch_size``; results in the input order. ``cell``: the
+    scenarios' configuration resolved (``resolved_cell``), for every batch (a verification's
+    scenarios share it); None: each group of scenarios resolves its own once. Scenarios the
     batched evaluator does not model (the seed-004 speed alteration controllers, and
     every scenario whose robot is in ``dynamic`` mode, and every scenario whose operators
     are played from recordings) run one by one in the Drake diagram, so each is
@@ -1460,13 +1459,14 @@ def evaluate_many(scenarios: list[Scenario], *, batch_size: int = 1024) -> Batch
     for i, s in enumerate(scenarios):
         if s.controller.type != "ssm_override" or s.robot.mode != "kinematic" \
                 or is_recorded(s):
-            r, _ = evaluate_drake(s)
+            r, _ = evaluate_drake(s, cell=cell)
             out[:, i] = dataclasses.astuple(r)
             continue
         groups.setdefault(batch_key(s, memo), []).append(i)
     for members in groups.values():
+        group_cell = resolve_scenario(scenarios[members[0]]) if cell is None else cell
         for start in range(0, len(members), batch_size):
             rows = members[start:start + batch_size]
-            r = evaluate_batch([scenarios[i] for i in rows])
+            r = evaluate_batch([scenarios[i] for i in rows], group_cell)
             out[:, rows] = np.stack(dataclasses.astuple(r))
     return BatchResult(*out)

@@ -4,7 +4,8 @@ import gc
 
 import numpy as np
 
-from safety_systems.config.configuration import contact_capsules, pfl_terms
+from safety_systems.config.configuration import contact_capsules
+from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario
 from safety_systems.outputs.metrics import (
     command_signal,
     commanded,
@@ -34,11 +35,13 @@ LOGGED = ("q", "v", "operators.points_true", "operators.point_velocities_true",
           "operators.operators_present", "follower.path_state", "tracker.rejected_frames")
 
 
-def robustness_of_run(run: Run) -> Robustness:
+def robustness_of_run(run: Run, cell: ResolvedCell | None = None) -> Robustness:
     """Every property from a run's logs (``properties``; under ``safety.mode: ssm_pfl``
     the separation invariant over the ticks each segment's cap in force, logged as
-    ``override.segment_caps``, is exceeded)."""
+    ``override.segment_caps``, is exceeded); ``cell``: the run's configuration resolved
+    (power and force limiting's terms; None: resolved here)."""
     scenario = run.scenario
+    cell = resolve_scenario(scenario) if cell is None else cell
     speed = robot_speed(robot_contact_state(run)[1])
     clearance, v_h, v_r = true_pairs(run)
     dt = 1.0 / scenario.robot.control_rate_hz
@@ -47,8 +50,9 @@ def robustness_of_run(run: Run) -> Robustness:
     if _capped(scenario):
         allowed = ssm_permitted(commanded(run), run[CAPS_SIGNAL])
     separation, time = separation_invariant(
-        clearance, true_protective_distances(scenario, v_h, v_r, true_rate(run)), allowed, dt)
-    pfl = pfl_terms(scenario.robot, scenario.controller)
+        clearance, true_protective_distances(scenario, v_h, v_r, true_rate(run), cell=cell),
+        allowed, dt)
+    pfl = cell.pfl
     m = clearance.shape[1]
     per = max(m // pfl.limits.size, 1)
     limits = np.tile(pfl.limits, per) if m else np.zeros(0)
@@ -79,17 +83,25 @@ def _capped(scenario: Scenario) -> bool:
 
 
 def evaluate_drake(scenario: Scenario, *, stop_on: str | None = None,
-                   margin: float = 0.25) -> tuple[Robustness, Run]:
+                   margin: float = 0.25, cell: ResolvedCell | None = None
+                   ) -> tuple[Robustness, Run]:
     """Simulates ``scenario`` in the diagram (only the signals the properties need are
-    logged) and returns its robustness and the run.
+    logged) and returns its robustness and the run. ``cell``: the scenario's
+    configuration resolved (a verification's, ``spaces.space.space_cell``; None: resolved
+    here, once, ``resolved_cell.resolve_scenario``); it must be the scenario's
+    configuration's and robot's (``ResolvedCell.check_scenario``).
 
     ``stop_on``: a property's name (``properties.PROPERTIES``): the run stops ``margin``
     seconds after the logs first show it violated (checked every quarter second), as a
     confirmation needs no more; the figures are then those of the run so far (the
     violated property's can only fall further; another property's, not yet violated,
     says nothing of the whole run: ``cut_short`` tells)."""
+    if cell is None:
+        cell = resolve_scenario(scenario)
+    else:
+        cell.check_scenario(scenario, "evaluate_drake")
     try:
-        return _evaluate(scenario, stop_on, margin)
+        return _evaluate(scenario, stop_on, margin, cell)
     finally:
         collect_diagram_garbage()
 
@@ -104,7 +116,7 @@ def collect_diagram_garbage() -> None:
     gc.collect()
 
 
-def _evaluate(scenario: Scenario, stop_on: str | None, margin: float
+def _evaluate(scenario: Scenario, stop_on: str | None, margin: float, cell: ResolvedCell
               ) -> tuple[Robustness, Run]:
     logged = LOGGED + (command_signal(scenario.controller.type),) + (
         (CAPS_SIGNAL,) if _capped(scenario) else ())
@@ -113,11 +125,11 @@ def _evaluate(scenario: Scenario, stop_on: str | None, margin: float
         field = PROPERTIES[stop_on]
 
         def until(run: Run) -> bool:
-            return getattr(robustness_of_run(run), field) < 0.0
+            return getattr(robustness_of_run(run, cell), field) < 0.0
 
-    run = simulate_workcell(MakeWorkcell(scenario, logged=logged), until=until,
-                            margin=margin)
-    return robustness_of_run(run), run
+    diagram = MakeWorkcell(scenario, logged=logged, cell=cell)
+    run = simulate_workcell(diagram, until=until, margin=margin)
+    return robustness_of_run(run, cell), run
 
 
 def cut_short(run: Run) -> bool:

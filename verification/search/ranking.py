@@ -39,8 +39,6 @@ from safety_systems.cell.human_body import NUM_POINTS as BODY_POINTS
 from safety_systems.cell.human_body import envelope_batch
 from safety_systems.config.configuration import (
     contact_capsules,
-    monitor_capsules,
-    monitor_recipe,
     operator_postures,
     tracked_points,
 )
@@ -51,7 +49,8 @@ from safety_systems.cell.robot_geometry import (
     capsule_ends_one,
     segments_pair,
 )
-from safety_systems.config.scenario import ControllerConfig, actual_sensor, robot_model_of
+from safety_systems.config.resolved_cell import ResolvedCell
+from safety_systems.config.scenario import ControllerConfig, actual_sensor
 from safety_systems.sensing.tracks import TRACK_HIDDEN, TRACK_NONE, TRACK_TRACKING, usable
 from safety_systems.ssm.separation import (
     capsule_axis,
@@ -60,14 +59,7 @@ from safety_systems.ssm.separation import (
     segment_separation,
 )
 from safety_systems.ssm.formulas import speed_scale_eq12, by_speed_command, level_at_or_above
-from safety_systems.config.configuration import (
-    braking_table,
-    frame_timeout,
-    joint_path,
-    level_terms,
-    monitor_terms,
-    scripted_operators,
-)
+from safety_systems.config.configuration import joint_path, scripted_operators
 from verification.search.counts import Tally
 from verification.search.evaluate_batch import (
     _truth_segments,
@@ -82,7 +74,6 @@ from verification.spaces.space import (
     free_parameters,
     lower_upper,
     make_scenario,
-    space_cell,
     to_point,
 )
 
@@ -123,22 +114,22 @@ def last_leg(space: ScenarioSpace, points: np.ndarray) -> np.ndarray:
                                                        "overshoot"))
 
 
-def bound_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray, *,
+def bound_scores(space: ScenarioSpace, cell: ResolvedCell, points: np.ndarray, *,
                  tally: Tally | None = None) -> np.ndarray:
     """(n, 2) the proofs' margins (columns ``SCORES``; ``proof.margins.margin``) at each
     candidate's own v_max (:func:`hand_speeds`; the margins no longer depend on the noise,
     which the envelopes' allowance covers): our reading of "the proof's margin evaluated
-    pointwise". It orders candidates; it proves nothing (where a
-    premise fails it bounds nothing). Counted in ``tally``."""
+    pointwise", for the configuration resolved in ``cell`` (``spaces.space.space_cell``).
+    It orders candidates; it proves nothing (where a premise fails it bounds nothing).
+    Counted in ``tally``."""
     from verification.proof.margins import margin  # (z3 and the proofs' bounds, on first use)
 
     points = np.asarray(points, dtype=float).reshape(len(points), -1)
     if tally is not None:
         tally.add("margins", len(points))
     v = hand_speeds(space, points)
-    cell = space_cell(config, space)
     scores = np.stack([margin(cell, space, prop).at(v) for prop in SCORES], axis=1)
-    return scores - hidden_shortfall(space, config, points, v)[:, None]
+    return scores - hidden_shortfall(space, cell.config, points, v)[:, None]
 
 
 def hidden_shortfall(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
@@ -165,7 +156,7 @@ def hidden_shortfall(space: ScenarioSpace, config: ControllerConfig, points: np.
     return gain * np.clip(hidden - retreat / speed, 0.0, last_leg(space, points) / speed)
 
 
-def margin_corner(space: ScenarioSpace, config: ControllerConfig, columns, *,
+def margin_corner(space: ScenarioSpace, cell: ResolvedCell, columns, *,
                   sweeps: int = 3, tally: Tally | None = None) -> dict:
     """Where the proofs' margins are least, found by coordinate search on
     :func:`bound_scores` (every candidate scored is counted in ``tally``): from the
@@ -188,7 +179,7 @@ def margin_corner(space: ScenarioSpace, config: ControllerConfig, columns, *,
                     probes.append(p)
         unique, back = np.unique(np.array(probes).reshape(-1, d), axis=0,
                                  return_inverse=True)
-        scores = bound_scores(space, config, unique, tally=tally)[back.ravel()]
+        scores = bound_scores(space, cell, unique, tally=tally)[back.ravel()]
         moved = False
         for n, c in enumerate(columns):
             base, moves = found[c]
@@ -203,28 +194,31 @@ def margin_corner(space: ScenarioSpace, config: ControllerConfig, columns, *,
     return found
 
 
-def danger_scores(space: ScenarioSpace, config: ControllerConfig, points: np.ndarray,
+def danger_scores(space: ScenarioSpace, cell: ResolvedCell, points: np.ndarray,
                   *, step: float = 0.02, runner=None, tally: Tally | None = None
                   ) -> np.ndarray:
-    """(n, 2) ``_danger_scores`` of the n points (columns ``SCORES``), split over the
+    """(n, 2) ``_danger_scores`` of the n points (columns ``SCORES``) for the
+    configuration resolved in ``cell`` (``spaces.space.space_cell``), split over the
     runner's workers if given (the same scores: every part runs to the horizon of the
-    whole set, and no candidate's score depends on another's). Every candidate scored
-    is counted in ``tally`` (default: the runner's, if any)."""
+    whole set, and no candidate's score depends on another's; each part takes the cell
+    with its scenarios). Every candidate scored is counted in ``tally`` (default: the
+    runner's, if any)."""
     tally = runner.tally if tally is None and runner is not None else tally
     robot_path = joint_path(space.robot)
-    scenarios = [make_scenario(space, config, to_point(space, u), path=robot_path,
+    scenarios = [make_scenario(space, cell.config, to_point(space, u), path=robot_path,
                                validate=False) for u in points]
     if not scenarios:
         return np.zeros((0, len(SCORES)))
+    cell.check_scenario(scenarios[0], "danger_scores")
     if tally is not None:
         tally.add("dangers", len(scenarios))
     horizon = (max(s.duration for s in scenarios), max(s.robot.cycles for s in scenarios))
     parts = 1 if runner is None else max(1, min(runner.workers, len(points) // 256))
     if parts == 1:
-        return _danger_scores(space, config, scenarios, step, horizon)
+        return _danger_scores(space, cell, scenarios, step, horizon)
     cuts = np.array_split(np.arange(len(scenarios)), parts)
     return np.concatenate(runner.map(_danger_scores, [
-        (space, config, scenarios[c[0]:c[-1] + 1], step, horizon) for c in cuts]))
+        (space, cell, scenarios[c[0]:c[-1] + 1], step, horizon) for c in cuts]))
 
 
 @numba.njit(cache=True)
@@ -252,7 +246,7 @@ def _score_rows(q, v_joint, mine, real, h_ends, h_vel, h_radius, h_status, truth
     ``free`` (no fault, no lost track, within the candidate's time; the row's k, if it
     is its command (``free`` of 2), > 0); inf elsewhere.
 
-    ``safety.stopping: by_speed`` (``levels`` = ``configuration.level_terms``, empty
+    ``safety.stopping: by_speed`` (``levels`` = the cell's ``level_terms``, empty
     otherwise): k by ``ssm.by_speed_command`` from every tracked body's S at each level
     (``separation.segment_levels``) and the path rate now ``rate`` (n,), and S_true's stop
     from the grid rate at or above it, ``truth_rates`` ((n, G_true + 1) times and
@@ -343,10 +337,10 @@ def _follow(s, rate, command, stale, end, scale, dt, fractions, deceleration, ac
                                           acceleration, 1.0)
 
 
-def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: list,
+def _danger_scores(space: ScenarioSpace, cell: ResolvedCell, scenarios: list,
                    step: float, horizon: tuple[float, int]) -> np.ndarray:
-    """(n, 2) danger scores of the candidate scenarios, m (lower is more dangerous; the
-    columns ``SCORES``).
+    """(n, 2) danger scores of the candidate scenarios of the configuration resolved in
+    ``cell``, m (lower is more dangerous; the columns ``SCORES``).
 
     A reduced model of the loop, every ``step`` seconds: the configured monitor (its
     capsules, or the tool point) is fed every body as the sensor would show it (one
@@ -378,8 +372,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     end = path.end  # its cycles, or one for a one-way path
     dt = 1.0 / space.robot.control_rate_hz
     ticks = max(1, round(step / dt))
-    model = robot_model_of(space.robot)
-    table = braking_table(config, model)
+    config, model, table = cell.config, cell.model, cell.braking
     t = np.arange(0.0, duration + step, ticks * dt)
     f, tr = config.safety, config.tracker
     # Every candidate's operators (padded to the most by repeating its first, absent) and
@@ -410,14 +403,14 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     delay = (1.0 / config.sensor.rate_hz + latency)[:, None]
     lag = 0.0 if f.human_speed == "iso" else ESTIMATE_LAG
     drops = dropout_table(sensors)
-    mine = monitor_capsules(config, model)
+    mine = cell.capsules
     real = contact_capsules(space.robot, space.contact_geometry)
     # The monitor's envelopes, by the candidates' tracked points (a recipe per kind), and
     # each operator's true segments (the same for every candidate: 12 per operator).
     groups: dict = {}
     for c, sc in enumerate(scenarios):
         groups.setdefault(tuple(map(tuple, tracked_points(sc))), []).append(c)
-    recipes = {key: monitor_recipe(config, [list(x) for x in key]) for key in groups}
+    recipes = {key: cell.recipe_for(key) for key in groups}
     M = max(r.radius.size for r in recipes.values())
     seg_a, seg_b, r_segment = _truth_segments(scenarios[:1])
     per = seg_a.size  # true segments per operator
@@ -432,7 +425,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     # (captured at i P, delivered latency later, unless dropped) is processed.
     period = 1.0 / config.sensor.rate_hz
     offset = config.sensor.latency + tr.processing_time
-    timeout = frame_timeout(config)
+    timeout = cell.frame_timeout
     scale = np.array([sc.robot.braking_time_scale for sc in scenarios])
     expire = tr.hidden_bodies == "expire"
 
@@ -477,7 +470,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
                          | rejected[None, :])
         return out
 
-    monitor = monitor_terms(config, model)
+    monitor = cell.monitor_terms
     robot_arrays = model_arrays(model)
     work = (*model_work(model), np.empty((model.num_points, 3)),
             np.empty((model.num_points, 3)))  # (memo, poses, twists, points, velocities)
@@ -485,7 +478,7 @@ def _danger_scores(space: ScenarioSpace, config: ControllerConfig, scenarios: li
     real_arrays = (real.a, real.b, real.t0, real.t1, real.radius, real.tool_length)
     truth_t, truth_b = true_stopping_terms(scenarios, f)
     by_speed = f.stopping == "by_speed"
-    levels = level_terms(config, model) if by_speed else (np.empty(0), np.empty(0))
+    levels = cell.level_terms if by_speed else (np.empty(0), np.empty(0))
     truth_rates = true_stopping_by_rate(scenarios, f) if by_speed \
         else (np.empty((n, 1)), np.empty((n, 1)))
     ends = np.array([sc.duration for sc in scenarios])

@@ -1,10 +1,12 @@
 """Where scenarios are evaluated: in this process, on local cores, or on a Dask cluster.
 
-Drake objects never cross process boundaries: workers receive scenario dataclasses and
-build what they need. Every evaluation goes through an :class:`EvaluationCache` kept in
-a JSON-lines file, so an interrupted run, started again with the same output folder,
-does not repeat finished work: a run killed at any point leaves at worst its last line
-cut short, which the next run drops (and evaluates again).
+Drake objects never cross process boundaries: workers receive scenario dataclasses, with
+their configuration's resolved cell where the caller has one (``config.resolved_cell``:
+arrays and dataclasses, some 15 KB pickled), and build what they need. Every evaluation
+goes through an :class:`EvaluationCache` kept in a JSON-lines file, so an interrupted
+run, started again with the same output folder, does not repeat finished work: a run
+killed at any point leaves at worst its last line cut short, which the next run drops
+(and evaluates again).
 """
 
 import dataclasses
@@ -24,6 +26,7 @@ import numpy as np
 from tqdm import tqdm
 
 from safety_systems import interrupts, third_party_noise
+from safety_systems.config.resolved_cell import ResolvedCell
 from safety_systems.files.input_error import InputError
 from safety_systems.config.scenario import Scenario
 from verification.search.counts import Tally
@@ -38,9 +41,11 @@ FIGURES_VERSION = ("3: contact, min separation, separation invariant (SSM's part
 SCHEDULER_TIMEOUT = 5.0  # s to reach a Dask scheduler before giving up
 
 
-def _evaluate_chunk(scenarios: list[Scenario]) -> np.ndarray:
-    """(len(FIELDS), B) figures of a chunk (runs in a worker)."""
-    r = evaluate_many(scenarios)
+def _evaluate_chunk(scenarios: list[Scenario], cell: ResolvedCell | None = None
+                    ) -> np.ndarray:
+    """(len(FIELDS), B) figures of a chunk under their configuration's resolved ``cell``
+    (None: ``evaluate_many`` resolves it; runs in a worker)."""
+    r = evaluate_many(scenarios, cell=cell)
     return np.stack([getattr(r, f) for f in FIELDS])
 
 
@@ -145,8 +150,11 @@ class Runner:
             self._client.close()
             self._client = None
 
-    def evaluate(self, scenarios: list[Scenario]) -> np.ndarray:
-        """(len(scenarios), 4) figures (see ``FIELDS``) in input order."""
+    def evaluate(self, scenarios: list[Scenario], cell: ResolvedCell | None = None
+                 ) -> np.ndarray:
+        """(len(scenarios), len(FIELDS)) figures (see ``FIELDS``) in input order; ``cell``:
+        their configuration resolved (``config.resolved_cell``), shipped to the workers
+        with each chunk (None: each chunk's evaluator resolves its own)."""
         keys = [scenario_key(s) for s in scenarios]
         todo, queued = [], set()
         for i, k in enumerate(keys):  # each new scenario once
@@ -157,7 +165,8 @@ class Runner:
         size = max(1, min(self.chunk, -(-len(todo) // max(1, self.workers))))
         chunks = [todo[i:i + size] for i in range(0, len(todo), size)]
         self.tally.add("simulations", len(todo))
-        for rows, figures in zip(chunks, self._map([[scenarios[i] for i in c] for c in chunks])):
+        for rows, figures in zip(chunks, self._map([[scenarios[i] for i in c] for c in chunks],
+                                                   cell)):
             for i, column in zip(rows, figures.T):
                 if keys[i] not in self.cache.values:
                     self.cache.add(keys[i], column)
@@ -169,8 +178,8 @@ class Runner:
         function, its arguments picklable (no Drake objects)."""
         return list(self._run(_apply, [(fn, a) for a in arguments]))
 
-    def _map(self, chunks):
-        return self._run(_evaluate_chunk, chunks)
+    def _map(self, chunks, cell: ResolvedCell | None = None):
+        return self._run(_apply, [(_evaluate_chunk, (c, cell)) for c in chunks])
 
     def _run(self, fn, items):
         """fn of every item, in order; elsewhere than in this process, timed there (the

@@ -33,7 +33,7 @@ import cma
 import numpy as np
 from scipy.stats import qmc
 
-from safety_systems.config.scenario import ControllerConfig
+from safety_systems.config.resolved_cell import ResolvedCell
 from verification.search.counts import COST
 from verification.search.ranking import bound_scores, danger_scores, margin_corner
 from verification.search.runner import Runner
@@ -106,13 +106,14 @@ class SearchLog:
         return int(bad[0]) + 1 if bad.size else None
 
 
-def evaluate_points(space: ScenarioSpace, config: ControllerConfig, runner: Runner,
+def evaluate_points(space: ScenarioSpace, cell: ResolvedCell, runner: Runner,
                     points: np.ndarray, log: SearchLog, objective: int = 0) -> np.ndarray:
-    """Simulates the scenarios of ``points`` as one batch; appends to ``log`` (and
+    """Simulates the scenarios of ``points`` (under ``cell``'s configuration, the space's
+    resolved cell: ``spaces.space.space_cell``) as one batch; appends to ``log`` (and
     records the first violation of each column it watches); returns the figure in
     column ``objective`` (0: "stopped before contact")."""
-    scenarios = [make_scenario(space, config, to_point(space, u)) for u in points]
-    figures = runner.evaluate(scenarios)
+    scenarios = [make_scenario(space, cell.config, to_point(space, u)) for u in points]
+    figures = runner.evaluate(scenarios, cell)
     before = len(log.points)
     log.points.extend(np.asarray(points, dtype=float).tolist())
     log.figures.extend(figures.tolist())
@@ -123,12 +124,13 @@ def evaluate_points(space: ScenarioSpace, config: ControllerConfig, runner: Runn
     return figures[:, objective] if len(figures) else np.zeros(0)
 
 
-def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, budget: int,
+def falsify(space: ScenarioSpace, cell: ResolvedCell, runner: Runner, *, budget: int,
             seed: int = 0, candidates: int = 8192, pool: int = 16384, opening: int = 1,
             quick: int | None = None, focus: int | None = None, explore: int = 10,
             round_size: int = 16, max_round: int = 256, stop_at_first: bool = False,
             objectives: tuple | list = (0,), confirm=None) -> SearchLog:
-    """Searches for the smallest robustness of each property in ``objectives`` (columns
+    """Searches the configuration resolved in ``cell`` (``spaces.space.space_cell``) for
+    the smallest robustness of each property in ``objectives`` (columns
     of the runner's figures; every simulation measures them all) with evaluations that
     cost at most ``budget`` simulation-equivalents in all (``counts.COST``: a simulation
     one, a margin scoring 0.004, a reduced-model score 3.5), cheapest routes first:
@@ -172,9 +174,9 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
     d = len(free_parameters(space))
     log = SearchLog(watch=tuple(objectives))
     if d == 0:
-        evaluate_points(space, config, runner, np.zeros((1, 0)), log)
+        evaluate_points(space, cell, runner, np.zeros((1, 0)), log)
         return log
-    search = _Search(space, config, runner, log, budget, stop_at_first, confirm)
+    search = _Search(space, cell, runner, log, budget, stop_at_first, confirm)
     # sweep_points("sobol", max(pool, candidates), d, seed=seed), drawn in two parts so
     # that the opening batch is simulated before the rest is drawn (the same points)
     engine = qmc.Sobol(d, scramble=True, seed=seed)
@@ -198,7 +200,7 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
     if search.wanted(objectives) and quick_left > 0:
         if ranked:
             scored = min(len(rest), _affordable(budget * MARGIN_SHARE, "margins"))
-            scores = bound_scores(space, config, rest[:scored], tally=runner.tally)
+            scores = bound_scores(space, cell, rest[:scored], tally=runner.tally)
             queues = {j: list(np.argsort(scores[:, SCORE_OF[j]], kind="stable"))
                       for j in objectives}
         else:
@@ -227,7 +229,7 @@ def falsify(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, b
         if ranked and n_danger >= MIN_DANGER:
             scored = np.vstack([corners(space) if with_corners else np.zeros((0, d)),
                                 sobol[:candidates]])[:n_danger]
-            danger = danger_scores(space, config, scored, runner=runner)
+            danger = danger_scores(space, cell, scored, runner=runner)
             orders = [np.argsort(danger[:, SCORE_OF[j]], kind="stable")
                       for j in search.wanted(objectives)]  # each property's, in turn
             queue = _interleave(scored[[i for row in zip(*orders) for i in row]],
@@ -288,7 +290,7 @@ def _focus(search: "_Search", objectives, allowance: int, seed: int, round_size:
     space, runner = search.space, search.runner
     d = len(free_parameters(space))
     columns = sorted({SCORE_OF[j] for j in search.wanted(objectives)})
-    aims = margin_corner(space, search.config, columns, tally=runner.tally)
+    aims = margin_corner(space, search.cell, columns, tally=runner.tally)
     engine = qmc.Sobol(d, scramble=True, seed=seed + 1)
     units = engine.random_base2(max(0, math.ceil(math.log2(max(allowance, 1)))))
     stop, used, size = search.spent() + allowance, 0, round_size
@@ -324,8 +326,8 @@ def _interleave(ranked: np.ndarray, plain: np.ndarray, ratio: int) -> list:
 class _Search:
     """What a falsification has found so far, and the rule for when it may stop."""
 
-    def __init__(self, space, config, runner, log, budget, stop_at_first, confirm):
-        self.space, self.config, self.runner, self.log = space, config, runner, log
+    def __init__(self, space, cell, runner, log, budget, stop_at_first, confirm):
+        self.space, self.cell, self.runner, self.log = space, cell, runner, log
         self.budget, self.stop_at_first, self.confirm = budget, stop_at_first, confirm
         self.confirmed: dict[int, int] = {}  # column -> simulation index confirmed
         self.rejected: set = set()  # (column, index) the confirmation did not accept
@@ -347,7 +349,7 @@ class _Search:
         if not len(points):
             return np.zeros(0)
         before = len(self.log.points)
-        values = evaluate_points(self.space, self.config, self.runner, points, self.log,
+        values = evaluate_points(self.space, self.cell, self.runner, points, self.log,
                                  objective)
         if self.stop_at_first and self.confirm is not None:
             for j in self.log.watch:  # confirm the new violations, worst first
@@ -396,15 +398,16 @@ def _cma(search: _Search, start, until: float, seed, objective=0) -> bool:
     return True
 
 
-def sweep(space: ScenarioSpace, config: ControllerConfig, runner: Runner, *, method: str,
+def sweep(space: ScenarioSpace, cell: ResolvedCell, runner: Runner, *, method: str,
           budget: int, seed: int = 0) -> SearchLog:
-    """Evaluates a sweep of at most ``budget`` points (corners in danger order, but a
-    recording space's in their plain order)."""
+    """Evaluates a sweep of at most ``budget`` points of the configuration resolved in
+    ``cell`` (``spaces.space.space_cell``; corners in danger order, but a recording
+    space's in their plain order)."""
     d = len(free_parameters(space))
     points = sweep_points(method, budget, d, seed=seed)
     if method == "corners" and len(points) > 1 and space.recording is None:
-        points = points[np.argsort(danger_scores(space, config, points, runner=runner)[:, 0],
+        points = points[np.argsort(danger_scores(space, cell, points, runner=runner)[:, 0],
                                    kind="stable")]
     log = SearchLog()
-    evaluate_points(space, config, runner, points[:budget], log)
+    evaluate_points(space, cell, runner, points[:budget], log)
     return log

@@ -12,7 +12,7 @@ from safety_systems.config.scenario import load_controller_config
 from verification.search.counts import COST
 from verification.search.runner import Runner
 from verification.search.strategies import DANGER_SHARE, MARGIN_SHARE, MIN_DANGER, falsify
-from verification.spaces.space import load_space
+from verification.spaces.space import load_space, space_cell
 
 ROOT = Path(__file__).parents[3]
 SPACE = load_space(ROOT / "models" / "spaces" / "default.yaml")
@@ -26,7 +26,8 @@ def test_a_search_spends_its_budget_and_no_more(budget):
     its evaluations, priced, never exceed the budget, and leave less than one
     simulation of it unspent."""
     with Runner(workers=1) as runner:
-        log = falsify(SPACE, ISO, runner, budget=budget, seed=5, objectives=(0, 2))
+        log = falsify(SPACE, space_cell(ISO, SPACE), runner, budget=budget, seed=5,
+                      objectives=(0, 2))
     tally = runner.tally
     cost = tally.search_cost()
     assert budget - 1.0 < cost <= budget + 1e-9
@@ -47,8 +48,8 @@ def test_the_subtle_file_still_falls_at_a_budget_of_64(seed):
     (the margins' ranking knows a hidden hand outruns its envelope where occlusion_speed
     is slower than the hand: ``ranking.hidden_shortfall``)."""
     with Runner(workers=1) as runner:
-        log = falsify(SPACE, SUBTLE, runner, budget=64, seed=seed, stop_at_first=True,
-                      objectives=(0, 2))
+        log = falsify(SPACE, space_cell(SUBTLE, SPACE), runner, budget=64, seed=seed,
+                      stop_at_first=True, objectives=(0, 2))
     assert 2 in log.first and log.first[2]["evaluations"]["search_cost"] <= 64
     assert runner.tally.search_cost() <= 64
 

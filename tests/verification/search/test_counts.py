@@ -32,8 +32,8 @@ class Counting:
         chunk, bound = runner_module._evaluate_chunk, search_module.bound_scores
         danger, drake = search_module.danger_scores, verify_module.evaluate_drake
 
-        def counted_chunk(scenarios):
-            figures = chunk(scenarios)
+        def counted_chunk(scenarios, cell=None):
+            figures = chunk(scenarios, cell)
             self.counts["simulations"] += len(scenarios)
             self.batches.append((dict(self.counts), bool((figures[0] < 0).any()),
                                  bool((figures[2] < 0).any())))

@@ -10,7 +10,13 @@ from safety_systems.config.scenario import Box, SensorFault, load_controller_con
 from verification.search.evaluate_batch import evaluate_batch, evaluate_many
 from verification.search.evaluate_drake import evaluate_drake
 from verification.spaces.box import Range
-from verification.spaces.space import free_parameters, load_space, make_scenario, to_point
+from verification.spaces.space import (
+    free_parameters,
+    load_space,
+    make_scenario,
+    space_cell,
+    to_point,
+)
 
 TOLERANCE = 1e-9  # m: the two evaluators run the same maths in the same order
 SPACE = load_space("models/spaces/default.yaml")
@@ -211,6 +217,24 @@ def test_batch_order_and_grouping_do_not_change_results():
     np.testing.assert_array_equal(together, alone[..., 0])
     reversed_ = np.stack(dataclasses.astuple(evaluate_many(scenarios[::-1])))[:, ::-1]
     np.testing.assert_array_equal(together, reversed_)
+    # The space's resolved cell, given for every batch (as verify gives it), is each
+    # batch's own resolved: the same figures bit for bit.
+    given = np.stack(dataclasses.astuple(evaluate_many(scenarios,
+                                                       cell=space_cell(config, SPACE))))
+    np.testing.assert_array_equal(together, given)
+
+
+def test_a_cell_of_another_configuration_or_robot_is_refused():
+    config = _config("seed_estimated")
+    scenario = make_scenario(SPACE, config, to_point(SPACE, np.full(14, 0.5)))
+    with pytest.raises(ValueError, match="another configuration"):
+        evaluate_batch([scenario], space_cell(_config("iso"), SPACE))
+    other = dataclasses.replace(SPACE, robot=dataclasses.replace(SPACE.robot,
+                                                                 payload_radius=0.12))
+    with pytest.raises(ValueError, match="another robot"):
+        evaluate_batch([scenario], space_cell(config, other))
+    with pytest.raises(ValueError, match="another configuration"):
+        evaluate_drake(scenario, cell=space_cell(_config("iso"), SPACE))
 
 
 def test_batch_rejects_mixed_shapes():

@@ -49,7 +49,7 @@ def test_danger_scores_order_a_slow_walk_and_a_fast_approach_as_the_closed_loop_
     fast[names.index("peak_speed")] = fast[names.index("overshoot")] = 1.0
     orders = []
     for config in (SEED_CONFIG, load_controller_config("models/configs/iso.yaml")):
-        scores = danger_scores(SPACE, config, np.array([slow, fast]))
+        scores = danger_scores(SPACE, space_cell(config, SPACE), np.array([slow, fast]))
         assert scores.shape == (2, 2)
         loop = evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u))
                               for u in (slow, fast)])
@@ -78,7 +78,7 @@ def test_danger_scores_order_candidates_as_the_closed_loop_does(name):
     points = sweep_points("sobol", 256, D, seed=7)
     result = evaluate_many([make_scenario(SPACE, config, to_point(SPACE, u)) for u in points])
     tally = Tally()
-    scores = danger_scores(SPACE, config, points, tally=tally)
+    scores = danger_scores(SPACE, space_cell(config, SPACE), points, tally=tally)
     assert tally.dangers == len(points) and tally.simulations == 0
     for column, rho in ((0, result.robustness), (1, result.separation)):
         finite = np.isfinite(rho) & np.isfinite(scores[:, column])
@@ -112,7 +112,7 @@ def test_danger_scores_model_the_by_speed_override():
     points = sweep_points("sobol", 256, D, seed=7)
     result = evaluate_many([make_scenario(SUITED, config, to_point(SUITED, u))
                             for u in points])
-    scores = danger_scores(SUITED, config, points)
+    scores = danger_scores(SUITED, space_cell(config, SUITED), points)
     for column, rho in ((0, result.robustness), (1, result.separation)):
         finite = np.isfinite(rho) & np.isfinite(scores[:, column])
         assert finite.sum() > 200, column
@@ -132,7 +132,7 @@ def test_bound_scores_are_the_least_speed_level_s_margins():
     worst = np.full(D, 0.5)
     for name in ("peak_speed", "acceleration", "start_distance", "noise_std"):
         worst[names.index(name)] = 1.0
-    scores = bound_scores(SPACE, config, worst[None, :])
+    scores = bound_scores(SPACE, space_cell(config, SPACE), worst[None, :])
     for column, prover in enumerate((prove, prove_separation)):
         proof = prover(space_cell(config, SPACE), SPACE)
         assert scores[0, column] == pytest.approx(proof.margin_at_worst_corner, abs=1e-12)
@@ -143,8 +143,9 @@ def test_bound_scores_are_the_least_speed_level_s_margins():
 def test_danger_scores_split_over_workers_are_the_same():
     points = sweep_points("sobol", 512, D, seed=3)
     with Runner(workers=2) as runner:  # two parts of 256, each run to the common horizon
-        split = danger_scores(SPACE, SEED_CONFIG, points, runner=runner)
-    np.testing.assert_array_equal(split, danger_scores(SPACE, SEED_CONFIG, points))
+        split = danger_scores(SPACE, space_cell(SEED_CONFIG, SPACE), points, runner=runner)
+    np.testing.assert_array_equal(split, danger_scores(SPACE, space_cell(SEED_CONFIG, SPACE),
+                                                       points))
 
 
 KNOWN = json.loads((Path(__file__).parents[1] / "data" / "known_counterexamples.json")
@@ -175,7 +176,7 @@ def test_bound_scores_are_the_proofs_margins_at_each_point():
     mild = worst.copy()
     mild[names.index("peak_speed")], mild[names.index("noise_std")] = 0.2, 0.0
     tally = Tally()
-    scores = bound_scores(SPACE, ISO, np.array([worst, mild]), tally=tally)
+    scores = bound_scores(SPACE, space_cell(ISO, SPACE), np.array([worst, mild]), tally=tally)
     assert tally.margins == 2 and tally.total == 2
     for column, (prover, prop) in enumerate(((prove, "contact"),
                                               (prove_separation, "separation"))):
@@ -201,7 +202,7 @@ def test_ranking_never_pushes_known_counterexamples_below_the_budget(known):
     assert np.all(figures < 0.0)
     pool = sweep_points("sobol", 16384, D, seed=11)
     np.testing.assert_allclose(pool[known["sobol_index"]], points, atol=1e-12)
-    scores = bound_scores(space, config, pool)[:, column]
+    scores = bound_scores(space, space_cell(config, space), pool)[:, column]
     order = np.argsort(scores, kind="stable")
     rank = np.argsort(order)[known["sobol_index"]]
     assert rank.max() < 4096 // 2, rank

@@ -6,10 +6,11 @@ import verification.search.runner as runner_module
 from safety_systems.config.scenario import load_controller_config
 from verification.search.runner import Runner
 from verification.search.strategies import SWEEPS, falsify, sweep, sweep_points
-from verification.spaces.space import free_parameters, load_space
+from verification.spaces.space import free_parameters, load_space, space_cell
 
 SPACE = load_space("models/spaces/default.yaml")
 SEED_CONFIG = load_controller_config("models/configs/seed_estimated.yaml")
+SEED_CELL = space_cell(SEED_CONFIG, SPACE)
 D = len(free_parameters(SPACE))
 
 
@@ -35,7 +36,7 @@ def test_grid_is_at_least_two_per_axis_and_bad_method_rejected():
 @pytest.fixture(scope="module")
 def seed_search():
     with Runner(workers=1) as runner:
-        return falsify(SPACE, SEED_CONFIG, runner, budget=40, seed=1, stop_at_first=True)
+        return falsify(SPACE, SEED_CELL, runner, budget=40, seed=1, stop_at_first=True)
 
 
 def test_falsifies_the_seed_configuration(seed_search):
@@ -46,7 +47,7 @@ def test_falsifies_the_seed_configuration(seed_search):
 
 def test_search_is_deterministic_for_a_seed(seed_search):
     with Runner(workers=2) as runner:  # other processes, same answers
-        again = falsify(SPACE, SEED_CONFIG, runner, budget=40, seed=1, stop_at_first=True)
+        again = falsify(SPACE, SEED_CELL, runner, budget=40, seed=1, stop_at_first=True)
     np.testing.assert_array_equal(np.array(again.points), np.array(seed_search.points))
     np.testing.assert_array_equal(again.robustness, seed_search.robustness)
 
@@ -56,36 +57,36 @@ def test_interrupted_sweep_resumes_without_repeating_work(tmp_path, monkeypatch)
     calls = []
     real = runner_module._evaluate_chunk
 
-    def counting(chunk):
+    def counting(chunk, cell=None):
         calls.append(len(chunk))
         if len(calls) == 2:
             raise KeyboardInterrupt  # the machine goes down during the second chunk
-        return real(chunk)
+        return real(chunk, cell)
 
     monkeypatch.setattr(runner_module, "_evaluate_chunk", counting)
     with pytest.raises(KeyboardInterrupt):
         with Runner(workers=1, chunk=4, cache_path=cache) as runner:
-            sweep(SPACE, SEED_CONFIG, runner, method="sobol", budget=8, seed=0)
+            sweep(SPACE, SEED_CELL, runner, method="sobol", budget=8, seed=0)
     assert len(cache.read_text().splitlines()) == 4
     calls.clear()
     with Runner(workers=1, chunk=4, cache_path=cache) as runner:
-        resumed = sweep(SPACE, SEED_CONFIG, runner, method="sobol", budget=8, seed=0)
+        resumed = sweep(SPACE, SEED_CELL, runner, method="sobol", budget=8, seed=0)
     assert calls == [4]  # only the unfinished chunk ran
     calls.clear()
     with Runner(workers=1, chunk=4, cache_path=cache) as runner:
-        again = sweep(SPACE, SEED_CONFIG, runner, method="sobol", budget=8, seed=0)
+        again = sweep(SPACE, SEED_CELL, runner, method="sobol", budget=8, seed=0)
     assert calls == []
     np.testing.assert_array_equal(again.robustness, resumed.robustness)
     monkeypatch.setattr(runner_module, "_evaluate_chunk", real)
     with Runner(workers=1) as runner:
-        fresh = sweep(SPACE, SEED_CONFIG, runner, method="sobol", budget=8, seed=0)
+        fresh = sweep(SPACE, SEED_CELL, runner, method="sobol", budget=8, seed=0)
     np.testing.assert_array_equal(fresh.robustness, resumed.robustness)
 
 
 def test_the_opening_batch_is_the_first_sobol_points_simulated_unranked():
     # The opening batch is drawn before the rest of the Sobol set, and is its start.
     with Runner(workers=1) as runner:
-        log = falsify(SPACE, SEED_CONFIG, runner, budget=16, seed=4, opening=2, quick=0,
+        log = falsify(SPACE, SEED_CELL, runner, budget=16, seed=4, opening=2, quick=0,
                       explore=0)
     np.testing.assert_array_equal(np.array(log.points[:2]),
                                   sweep_points("sobol", 16384, D, seed=4)[:2])
@@ -103,7 +104,7 @@ def test_margin_corner_finds_the_parameters_that_move_the_proofs_margins():
     from verification.search.counts import Tally
     from verification.search.ranking import bound_scores, margin_corner
 
-    iso = load_controller_config("models/configs/iso.yaml")
+    iso = space_cell(load_controller_config("models/configs/iso.yaml"), SPACE)
     tally = Tally()
     found = margin_corner(SPACE, iso, [0, 1], tally=tally)
     names = free_parameters(SPACE)
@@ -118,7 +119,7 @@ def test_margin_corner_finds_the_parameters_that_move_the_proofs_margins():
     assert 0 < tally.margins <= 3 * 2 * 2 * D  # counted: at most 3 sweeps, 2 ends
     # The seed's hidden bodies fall behind a fast hand: how long and how many are hidden
     # move its margins too (ranking.hidden_shortfall), at their top ends.
-    for corner, moves in margin_corner(SPACE, SEED_CONFIG, [0, 1]).values():
+    for corner, moves in margin_corner(SPACE, SEED_CELL, [0, 1]).values():
         for name in ("occlusion", "occluded_bodies", "peak_speed"):
             assert moves[names.index(name)] and corner[names.index(name)] == 1.0
 
@@ -130,7 +131,7 @@ def test_the_focus_phase_simulates_the_margins_corner_first():
 
     names = free_parameters(SPACE)
     with Runner(workers=1) as runner:
-        log = falsify(SPACE, SEED_CONFIG, runner, budget=64, seed=3, quick=32, explore=0,
+        log = falsify(SPACE, SEED_CELL, runner, budget=64, seed=3, quick=32, explore=0,
                       objectives=(0,))
     focused = np.array(log.points[1:17])
     for name in ("peak_speed", "acceleration"):
