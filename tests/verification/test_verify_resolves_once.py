@@ -123,11 +123,6 @@ def test_the_search_path_calls_no_derivation(verified):
     assert bad == []
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="the proofs (verification/proof/) and the Drake builders and "
-                          "outputs (safety_systems/diagrams/, outputs/metrics.py) take the "
-                          "cell on their own branches of issue 52; drop this mark when "
-                          "they are merged")
 def test_only_resolve_calls_the_derivations(verified):
     derived = verified.of(resolved_cell.MEANING)
     assert sorted({c for c in derived if c[1] != "safety_systems/config/resolved_cell.py"}) \

@@ -1254,10 +1254,10 @@ def evaluate_batch(scenarios: list[Scenario], cell: ResolvedCell | None = None
     monitor = cell.monitor_terms
     timeout = cell.frame_timeout
     update_period, update_offset = 1.0 / cfg.sensor.rate_hz, cfg.sensor.latency + tr.processing_time
-    truth_t, truth_b = true_stopping_terms(scenarios, f)
+    truth_t, truth_b = true_stopping_terms(scenarios, cell)
     by_speed = f.stopping == "by_speed"
     levels = cell.level_terms if by_speed else (np.empty(0), np.empty(0))
-    truth_rates = true_stopping_by_rate(scenarios, f) if by_speed else (np.empty((B, 1)),
+    truth_rates = true_stopping_by_rate(scenarios, cell) if by_speed else (np.empty((B, 1)),
                                                                           np.empty((B, 1)))
     brakes = (c.table.speed_fraction, c.table.deceleration, c.accel)
     path = path_arrays(c.path)
@@ -1415,27 +1415,31 @@ def batch_key(s: Scenario, memo: dict | None = None) -> tuple:
             tuple((tuple(operator_points(o)), len(o.waypoints)) for o in s.operators))
 
 
-def true_stopping_terms(scenarios: list[Scenario], safety) -> tuple[np.ndarray, np.ndarray]:
+def true_stopping_terms(scenarios: list[Scenario], cell: ResolvedCell
+                        ) -> tuple[np.ndarray, np.ndarray]:
     """S_true's time and distance terms of each scenario (the separation invariant's):
     the simulated robot's own stop from full speed (``metrics.robot_stopping``, once per
     braking time scale: the scenarios of a batch differ in their brakes' scale only)
-    plus T_r, and its distance plus C."""
-    return _true_terms(scenarios, safety, robot_stopping)
+    plus T_r, and its distance plus C; ``cell``: the scenarios' configuration resolved."""
+    return _true_terms(scenarios, cell, robot_stopping)
 
 
-def true_stopping_by_rate(scenarios: list[Scenario], safety) -> tuple[np.ndarray, np.ndarray]:
+def true_stopping_by_rate(scenarios: list[Scenario], cell: ResolvedCell
+                          ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`true_stopping_terms` from every grid rate j / TRUTH_RATES ((B, TRUTH_RATES +
     1) each; ``metrics.robot_stops_by_rate``), for S_true by speed."""
-    return _true_terms(scenarios, safety, robot_stops_by_rate)
+    return _true_terms(scenarios, cell, robot_stops_by_rate)
 
 
-def _true_terms(scenarios: list[Scenario], safety, stops_of) -> tuple[np.ndarray, np.ndarray]:
-    """``stops_of(scenario)``'s time plus T_r and distance plus C for each scenario, taken
-    once per braking time scale."""
+def _true_terms(scenarios: list[Scenario], cell: ResolvedCell, stops_of
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``stops_of(scenario, cell)``'s time plus T_r and distance plus C for each scenario,
+    taken once per braking time scale."""
+    safety = cell.config.safety
     by_scale: dict = {}
     for sc in scenarios:
         if sc.robot.braking_time_scale not in by_scale:
-            by_scale[sc.robot.braking_time_scale] = stops_of(sc)
+            by_scale[sc.robot.braking_time_scale] = stops_of(sc, cell)
     stops_true = [by_scale[sc.robot.braking_time_scale] for sc in scenarios]
     return (np.array([x.time for x in stops_true]) + safety.reaction_time,
             np.array([x.distance for x in stops_true]) + safety.intrusion_distance)

@@ -476,10 +476,10 @@ def _danger_scores(space: ScenarioSpace, cell: ResolvedCell, scenarios: list,
             np.empty((model.num_points, 3)))  # (memo, poses, twists, points, velocities)
     mine_arrays = (mine.a, mine.b, mine.t0, mine.t1, mine.radius, mine.tool_length)
     real_arrays = (real.a, real.b, real.t0, real.t1, real.radius, real.tool_length)
-    truth_t, truth_b = true_stopping_terms(scenarios, f)
+    truth_t, truth_b = true_stopping_terms(scenarios, cell)
     by_speed = f.stopping == "by_speed"
     levels = cell.level_terms if by_speed else (np.empty(0), np.empty(0))
-    truth_rates = true_stopping_by_rate(scenarios, f) if by_speed \
+    truth_rates = true_stopping_by_rate(scenarios, cell) if by_speed \
         else (np.empty((n, 1)), np.empty((n, 1)))
     ends = np.array([sc.duration for sc in scenarios])
     k_ssm, gap, margin = np.empty(n), np.empty(n), np.empty(n)
