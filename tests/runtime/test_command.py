@@ -28,6 +28,13 @@ def children(pid: int) -> list[int]:
         return [int(x) for x in f.read().split()]
 
 
+def _as_a_terminals_job() -> None:
+    """Ctrl-C's disposition as a terminal's foreground job has it: a suite started in the
+    background of a non-interactive shell (``cmd &``) inherits SIGINT ignored, and the
+    command would then never see the Ctrl-C these tests send."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 class _Run:
     """The command in its own session, its stderr read as it comes."""
 
@@ -37,7 +44,8 @@ class _Run:
             [sys.executable, "-m", "safety_systems.cli", "run", str(params), "--mocap", mocap,
              "--robot", robot, "--mapping", str(_far_mapping(tmp_path)), "--log",
              str(self.log), "--max-overrun", str(SLACK), *extra],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
+            preexec_fn=_as_a_terminals_job)
         self.err = b""
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
