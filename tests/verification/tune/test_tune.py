@@ -139,7 +139,8 @@ def test_a_kept_counterexample_rejects_a_candidate_that_fails_it(tuned):
                   tuned / "unused", space_path=str(SMALL_SPACE), workers=1)
     tuner.kept = [Kept(scenario, "seed", k["property"], k["robustness"], k["file"])]
     seed = load_controller_config(MODELS / "configs" / "seed_estimated.yaml")
-    candidates = [Candidate(1, {}, seed), Candidate(2, {}, load_controller_config(ISO))]
+    candidates = [Candidate(1, {}, tuner.cell_of(seed)),
+                  Candidate(2, {}, tuner.cell_of(load_controller_config(ISO)))]
     with Runner(workers=1) as runner:
         tuner.recheck(runner, candidates)
     assert candidates[0].status == "counterexample" and k["file"] in candidates[0].reason
@@ -259,13 +260,13 @@ def test_refining_lowers_the_proxy_and_keeps_both_proofs(tmp_path):
              "safety.robot_uncertainty": 0.3, "safety.delta_s": 1.2, "safety.d_min": 0.2,
              "tracker.velocity_process_noise": 0.1}
     assert set(start) == {p.name for p in block}
-    c = Candidate(1, start, with_values(config, start))
-    c.proxy = proxy_distance(c.config)
-    cell = space_cell(c.config, space)
+    c = Candidate(1, start, space_cell(with_values(config, start), space))
+    c.proxy = proxy_distance(c.cell)
+    cell = c.cell
     assert prove(cell, space).proved and prove_separation(cell, space).proved
     refined = tuner.refine(c, 2)
     assert refined is not None and refined.proxy < c.proxy - 0.1
-    assert refined.proxy == pytest.approx(proxy_distance(refined.config))
+    assert refined.proxy == pytest.approx(proxy_distance(refined.cell))
     assert prove(space_cell(refined.config, space), space).proved
     assert prove_separation(space_cell(refined.config, space), space).proved
     # It went as far as the proofs let it: a little less Z_r no longer proves.
