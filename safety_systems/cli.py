@@ -407,13 +407,9 @@ def _export(args: argparse.Namespace) -> int:
     written = write_export(params, certificate, space, report, Path(args.report).parent,
                            args.config, out)
     if written["braking_data"]["origin"] == "placeholder":
-        from safety_systems.config.params_file import robot_config
-        from safety_systems.config.resolved_cell import resolve
-        from safety_systems.config.scenario import RobotConfig
+        from verification.deploy.certificate import params_cell
 
-        # the certified robot, its files relative to params.yaml (as params_model reads it)
-        robot = robot_config(params.robot, RobotConfig(), Path(args.out))
-        _warn(resolve(params.controller, robot).braking_warning)
+        _warn(params_cell(params, Path(args.out)).braking_warning)
     if written["verdict"] not in ("proved", "passed"):
         _warn(f"the verdict is {written['verdict']}: check refuses these parameters")
     if not args.quiet:

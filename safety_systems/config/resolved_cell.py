@@ -109,6 +109,10 @@ class ResolvedCell:
                                                 None if names is None else list(names))
         return self._recipes[key]
 
+    def scenario_recipe(self, scenario: Scenario) -> human_body.Recipe:
+        """:meth:`recipe_for` the scenario's operators: their tracked points and names."""
+        return self.recipe_for(tracked_points(scenario), [o.name for o in scenario.operators])
+
     def check_config(self, config: ControllerConfig, what: str) -> None:
         """Raises ValueError unless ``config`` is the configuration this cell was resolved
         from (``what`` names the caller's input): a cell never stands for another
@@ -169,3 +173,13 @@ def resolve_scenario(scenario: Scenario) -> ResolvedCell:
     """:func:`resolve` of a scenario's controller, robot and operators."""
     return resolve(scenario.controller, scenario.robot, points=tracked_points(scenario),
                    names=[o.name for o in scenario.operators])
+
+
+def scenario_cell(scenario: Scenario, cell: ResolvedCell | None, what: str) -> ResolvedCell:
+    """The cell a caller of ``scenario`` was given, checked to stand for it
+    (:meth:`ResolvedCell.check_scenario`; ``what`` names the caller), or the scenario's own
+    when None (:func:`resolve_scenario`)."""
+    if cell is None:
+        return resolve_scenario(scenario)
+    cell.check_scenario(scenario, what)
+    return cell

@@ -32,7 +32,7 @@ from safety_systems.config.configuration import (
     sensor_faults,
 )
 from safety_systems.cell.joint_path import JointPath
-from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario
+from safety_systems.config.resolved_cell import ResolvedCell, scenario_cell
 from safety_systems.config.scenario import (
     RobotConfig,
     Scenario,
@@ -287,10 +287,7 @@ def MakeWorkcell(scenario: Scenario, *, logged: Iterable[str] | None = None,
     signals to keep (``"q"``, ``"v"`` and ``"system.port"`` keys).
     """
     robot = scenario.robot
-    if cell is None:
-        cell = resolve_scenario(scenario)
-    else:
-        cell.check_scenario(scenario, "MakeWorkcell")
+    cell = scenario_cell(scenario, cell, "MakeWorkcell")
     dt = 1.0 / robot.control_rate_hz
     path = joint_path(robot)
     names = body_names(scenario)

@@ -38,7 +38,7 @@ import numpy as np
 from safety_systems.config.configuration import contact_capsules, robot_model_of, truth_recipe
 from safety_systems.cell.robot_geometry import capsule_ends, robot_points
 from safety_systems.cell.robot_model import is_ur5e
-from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario
+from safety_systems.config.resolved_cell import ResolvedCell, scenario_cell
 from safety_systems.config.scenario import Scenario
 from safety_systems.ssm.separation import pair_figures
 from safety_systems.diagrams.simulation import Run
@@ -130,15 +130,6 @@ def commanded(run: Run) -> np.ndarray:
     return run[command_signal(run.scenario.controller.type)][:, 0]
 
 
-def scenario_cell(scenario: Scenario, cell: ResolvedCell | None) -> ResolvedCell:
-    """``cell`` (checked to be of the scenario's configuration), or the scenario's own
-    resolved cell when None (``resolve_scenario``)."""
-    if cell is None:
-        return resolve_scenario(scenario)
-    cell.check_scenario(scenario, "scenario")
-    return cell
-
-
 def robot_stopping(scenario: Scenario, cell: ResolvedCell | None = None) -> StoppingData:
     """The simulated robot's own stopping data on the scenario's path, for the real
     robot's capsules (``safety_systems.cell.stopping``), under the stopping data of the
@@ -147,7 +138,7 @@ def robot_stopping(scenario: Scenario, cell: ResolvedCell | None = None) -> Stop
 
     robot = scenario.robot
     return true_stopping(joint_path(robot), contact_capsules(robot, scenario.contact_geometry),
-                         scenario_cell(scenario, cell).braking,
+                         scenario_cell(scenario, cell, "scenario").braking,
                          robot.braking_time_scale, 1.0 / robot.control_rate_hz)
 
 
@@ -171,7 +162,7 @@ def robot_stops_by_rate(scenario: Scenario, cell: ResolvedCell | None = None
 
     robot = scenario.robot
     return stops_by_rate(joint_path(robot), contact_capsules(robot, scenario.contact_geometry),
-                         scenario_cell(scenario, cell).braking,
+                         scenario_cell(scenario, cell, "scenario").braking,
                          robot.braking_time_scale, 1.0 / robot.control_rate_hz)
 
 
@@ -184,7 +175,7 @@ def true_protective_distances(scenario: Scenario, v_human_directed: np.ndarray,
     the first axis's; the grid rate at or above it, ``StoppingByRate.at``), as ISO/TS
     15066's S_s from the current speed; else the stop from full speed. ``cell``: the
     scenario's resolved cell (None: resolved here)."""
-    cell = scenario_cell(scenario, cell)
+    cell = scenario_cell(scenario, cell, "scenario")
     args = true_protective_args(scenario, cell)
     if scenario.controller.safety.stopping != "by_speed":
         return monitor_protective_distances(v_human_directed, v_robot_directed, **args)

@@ -5,7 +5,7 @@ nearest segment of each, the S the override used, and its bodies; shared by what
 import numpy as np
 
 from safety_systems.cell.human_body import SEGMENT_NAMES, Recipe
-from safety_systems.config.configuration import tracked_points, truth_recipe
+from safety_systems.config.configuration import truth_recipe
 from safety_systems.diagrams.simulation import Run
 from safety_systems.outputs.metrics import tool_state, true_separations
 from safety_systems.ssm.formulas import held_level, separation_distances
@@ -21,8 +21,7 @@ def commanded_speed(run: Run) -> np.ndarray:
 def run_monitor_recipe(run: Run) -> Recipe:
     """The SSM monitor's envelope recipe of the run's operators, as the run's resolved
     cell gives it (the recipe its OperatorEnvelopes took)."""
-    scenario = run.scenario
-    return run.cell.recipe_for(tracked_points(scenario), [o.name for o in scenario.operators])
+    return run.cell.scenario_recipe(run.scenario)
 
 
 def body_measured_distances(run: Run) -> np.ndarray:

@@ -35,7 +35,6 @@ from safety_systems.cell.human_body import KIND_DIRECT, NUM_POINTS, envelope_bat
 from safety_systems.config.configuration import (
     contact_capsules,
     operator_postures,
-    tracked_points,
     truth_recipe,
 )
 from safety_systems.config.configuration import sensor_faults as scenario_faults
@@ -104,7 +103,7 @@ from safety_systems.sensing.tracks import (
     usable,
 )
 from safety_systems.config.configuration import is_recorded, joint_path
-from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario
+from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario, scenario_cell
 
 _EVENT_TOL = 1e-9  # s: events this close to a tick count as simultaneous with it
 
@@ -174,14 +173,13 @@ def delivered_frames(u: float | np.ndarray, latency: np.ndarray, period: float,
 
 class _Cells:
     """The fixed data of a batch: truth, sensor conditions, configuration (its resolved
-    ``cell``)."""
+    ``cell``, which stands for the batch: ``evaluate_batch`` checked it)."""
 
     def __init__(self, scenarios: list[Scenario], cell: ResolvedCell):
         self.B = len(scenarios)
         self.config = _common(scenarios, lambda s: s.controller, "controller configuration")
         robot = _common(scenarios, lambda s: dataclasses.replace(
             s.robot, cycles=1, braking_time_scale=1.0), "robot")
-        cell.check_scenario(scenarios[0], "evaluate_batch")
         self.dt = 1.0 / robot.control_rate_hz
         self.accel = robot.acceleration_limit
         cycles = max(s.robot.cycles for s in scenarios)
@@ -1245,7 +1243,7 @@ def evaluate_batch(scenarios: list[Scenario], cell: ResolvedCell | None = None
     if any(is_recorded(s) for s in scenarios):
         raise ValueError("evaluate_batch models scripted operators only; use evaluate_many "
                          "(it runs recorded operators in the Drake diagram)")
-    cell = resolve_scenario(scenarios[0]) if cell is None else cell
+    cell = scenario_cell(scenarios[0], cell, "evaluate_batch")
     c = _Cells(scenarios, cell)
     B, N, dt = c.B, c.N, c.dt
     cfg = c.config
@@ -1275,8 +1273,7 @@ def evaluate_batch(scenarios: list[Scenario], cell: ResolvedCell | None = None
     # points, batch_key) and the true segments (a scripted operator's: each the capsule
     # between two of its true points).
     _common(scenarios, lambda s: [operator_points(o) for o in s.operators], "tracked points")
-    recipe = cell.recipe_for(tracked_points(scenarios[0]),
-                             [o.name for o in scenarios[0].operators])
+    recipe = cell.scenario_recipe(scenarios[0])
     truth_segments = _truth_segments(scenarios)
     postures = np.array([operator_postures(sc) for sc in scenarios], dtype=float).reshape(
         B, c.K, NUM_POINTS, 3)

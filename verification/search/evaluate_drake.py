@@ -5,7 +5,7 @@ import gc
 import numpy as np
 
 from safety_systems.config.configuration import contact_capsules
-from safety_systems.config.resolved_cell import ResolvedCell, resolve_scenario
+from safety_systems.config.resolved_cell import ResolvedCell, scenario_cell
 from safety_systems.outputs.metrics import (
     command_signal,
     commanded,
@@ -35,13 +35,12 @@ LOGGED = ("q", "v", "operators.points_true", "operators.point_velocities_true",
           "operators.operators_present", "follower.path_state", "tracker.rejected_frames")
 
 
-def robustness_of_run(run: Run, cell: ResolvedCell | None = None) -> Robustness:
+def robustness_of_run(run: Run) -> Robustness:
     """Every property from a run's logs (``properties``; under ``safety.mode: ssm_pfl``
     the separation invariant over the ticks each segment's cap in force, logged as
-    ``override.segment_caps``, is exceeded); ``cell``: the run's configuration resolved
-    (power and force limiting's terms; None: resolved here)."""
-    scenario = run.scenario
-    cell = resolve_scenario(scenario) if cell is None else cell
+    ``override.segment_caps``, is exceeded), under the cell the run was simulated with
+    (``Run.cell``: the robot's own stops, power and force limiting's terms)."""
+    scenario, cell = run.scenario, run.cell
     speed = robot_speed(robot_contact_state(run)[1])
     clearance, v_h, v_r = true_pairs(run)
     dt = 1.0 / scenario.robot.control_rate_hz
@@ -96,10 +95,7 @@ def evaluate_drake(scenario: Scenario, *, stop_on: str | None = None,
     confirmation needs no more; the figures are then those of the run so far (the
     violated property's can only fall further; another property's, not yet violated,
     says nothing of the whole run: ``cut_short`` tells)."""
-    if cell is None:
-        cell = resolve_scenario(scenario)
-    else:
-        cell.check_scenario(scenario, "evaluate_drake")
+    cell = scenario_cell(scenario, cell, "evaluate_drake")
     try:
         return _evaluate(scenario, stop_on, margin, cell)
     finally:
@@ -125,11 +121,11 @@ def _evaluate(scenario: Scenario, stop_on: str | None, margin: float, cell: Reso
         field = PROPERTIES[stop_on]
 
         def until(run: Run) -> bool:
-            return getattr(robustness_of_run(run, cell), field) < 0.0
+            return getattr(robustness_of_run(run), field) < 0.0
 
     diagram = MakeWorkcell(scenario, logged=logged, cell=cell)
     run = simulate_workcell(diagram, until=until, margin=margin)
-    return robustness_of_run(run, cell), run
+    return robustness_of_run(run), run
 
 
 def cut_short(run: Run) -> bool:

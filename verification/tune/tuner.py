@@ -209,18 +209,19 @@ class Tuner:
 
     # ------------------------------------------------------------------ the pieces
 
-    def verify(self, config: ControllerConfig, text: str, config_path: str, folder: Path,
+    def verify(self, cell: ResolvedCell, text: str, config_path: str, folder: Path,
                label: str) -> dict:
-        """verify's report of ``config`` (whose file text is ``text``), written to
-        ``folder``; its confirmed counterexamples are kept."""
+        """verify's report of the configuration resolved in ``cell`` (:meth:`cell_of`;
+        its file text is ``text``), written to ``folder``; its confirmed counterexamples
+        are kept."""
         from verification.report import write_report
         from verification.verify import verify
 
         folder.mkdir(parents=True, exist_ok=True)
         start = time.perf_counter()
-        outcome = verify(config, self.space, folder, budget=self.budget,
+        outcome = verify(cell.config, self.space, folder, budget=self.budget,
                          workers=self.workers, scheduler=self.scheduler, seed=self.seed,
-                         config_text=text, properties="both")
+                         config_text=text, properties="both", cell=cell)
         report = write_report(outcome, folder, config_path=config_path,
                               space_path=self.space_path, replay=False, origin=self.origin)
         self.counts["verifications"] += 1
@@ -504,7 +505,7 @@ class Tuner:
 
     def reference(self, runner: Runner, label: str, path: Path) -> dict:
         config = load_controller_config(path)
-        report = self.verify(config, read_text(path), str(path),
+        report = self.verify(self.cell_of(config), read_text(path), str(path),
                              self.out / "references" / Path(label).stem, label)
         self.say(f"{label}: {report['verdict']}")
         return self.row(runner, label, config, report, None)
@@ -549,7 +550,7 @@ class Tuner:
         text = config_text(c.config, [f"candidate {c.index} of safety-systems tune: "
                                       + ", ".join(f"{k}={v}" for k, v in c.values.items())])
         write_text(folder / "config.yaml", text)
-        report = self.verify(c.config, text, str(folder / "config.yaml"), folder,
+        report = self.verify(c.cell, text, str(folder / "config.yaml"), folder,
                              f"candidate {c.index}")
         c.verdict, c.report = report["verdict"], str(folder / "report.json")
         c.report_dict = report
